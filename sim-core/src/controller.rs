@@ -1,0 +1,1 @@
+//! Controller trees (in progress).

@@ -1,0 +1,1 @@
+//! CTRNN (in progress).

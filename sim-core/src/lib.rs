@@ -1,0 +1,10 @@
+//! hevo's simulation core: a pure, deterministic e-puck world (rapier2d scene, measured IR and
+//! light sensor models), CTRNN behaviour primitives and arbitrators composed into trees of any
+//! depth, the paper's tasks with their fitness functions, and the evaluation of one genome on
+//! one seeded sample. It does no IO: no threads, no clock, no files, no global random state.
+
+pub mod controller;
+pub mod ctrnn;
+pub mod frame;
+pub mod rng;
+pub mod sensors;
