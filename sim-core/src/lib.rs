@@ -8,3 +8,12 @@ pub mod ctrnn;
 pub mod frame;
 pub mod rng;
 pub mod sensors;
+
+pub mod scene;
+pub mod env;
+pub mod evaluate;
+pub mod robot;
+pub mod task;
+
+pub use evaluate::{Ending, Evaluator, Outcome, Policy, Sample, Trace, TraceCycle};
+pub use task::{TaskConfig, TaskKind};

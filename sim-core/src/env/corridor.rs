@@ -1,0 +1,105 @@
+//! Corridors for the maze primitives, built from the maze's own cells (0.30 m, 0.20 m clear
+//! width) so a primitive sees exactly the walls it will meet in the maze: straight corridors of
+//! several lengths for "follow wall", and corridors with one left or one right turn for the
+//! turning primitives. A turn is either an L-bend or, in a share of samples, a T-junction whose
+//! other arm is a wrong branch: in the maze every turn is taken at a T-junction, so a turning
+//! primitive that only ever saw L-bends would meet an unfamiliar corner there.
+
+use super::cells::{Cell, CellMap, Side};
+use super::maze::{MAZE_CELL_SIZE, MAZE_WALL_THICKNESS};
+use serde::{Deserialize, Serialize};
+
+/// Which way a corridor turns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Turn {
+    /// No turn: a straight corridor.
+    Straight,
+    /// One left turn.
+    Left,
+    /// One right turn.
+    Right,
+}
+
+/// A generated corridor: cells, the correct path through them (start first, goal last).
+#[derive(Debug, Clone)]
+pub struct Corridor {
+    /// The cells.
+    pub map: CellMap,
+    /// Cell indices from the start to the goal.
+    pub path: Vec<usize>,
+}
+
+/// Builds a corridor that starts at cell (0, 0) heading +y, runs `before` cells, then (for a
+/// turn) continues `after` cells to the turn's side. With `junction`, the turn cell is a T and
+/// the opposite arm (`after` cells long) is a dead end that counts as a wrong branch.
+pub fn build(turn: Turn, before: u32, after: u32, junction: bool) -> Corridor {
+    // Grid walk: the cells of the path, then the wrong arm if any; walls are derived from which
+    // neighbours exist, so every generated shape is closed by construction.
+    let mut path_at: Vec<[i32; 2]> = (0..before.max(1) as i32).map(|y| [0, y]).collect();
+    let mut wrong_at: Vec<[i32; 2]> = Vec::new();
+    let top = before.max(1) as i32 - 1;
+    let dx = match turn {
+        Turn::Straight => 0,
+        Turn::Left => -1,
+        Turn::Right => 1,
+    };
+    if dx != 0 {
+        path_at.extend((1..=after.max(1) as i32).map(|i| [dx * i, top]));
+        if junction {
+            wrong_at.extend((1..=after.max(1) as i32).map(|i| [-dx * i, top]));
+        }
+    }
+    let all: Vec<[i32; 2]> = path_at.iter().chain(&wrong_at).copied().collect();
+    let connected = |a: [i32; 2], b: [i32; 2]| {
+        // Consecutive path cells, and the junction cell with the first wrong-arm cell, and
+        // consecutive wrong-arm cells are joined; nothing else.
+        let along = |list: &[[i32; 2]]| list.windows(2).any(|w| (w[0] == a && w[1] == b) || (w[0] == b && w[1] == a));
+        let junction_cell = [0, top];
+        let wrong_link = wrong_at.first().is_some_and(|&first| {
+            (a == junction_cell && b == first) || (b == junction_cell && a == first)
+        });
+        along(&path_at) || along(&wrong_at) || wrong_link
+    };
+    let cells = all
+        .iter()
+        .map(|&at| {
+            let walls = Side::ALL.map(|side| {
+                let [ox, oy] = side.offset();
+                !connected(at, [at[0] + ox, at[1] + oy])
+            });
+            Cell { at, walls }
+        })
+        .collect();
+    let map = CellMap::new(cells, MAZE_CELL_SIZE, MAZE_WALL_THICKNESS);
+    Corridor { map, path: (0..path_at.len()).collect() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_corridor_is_a_closed_tube() {
+        let corridor = build(Turn::Straight, 4, 0, false);
+        assert_eq!(corridor.path, vec![0, 1, 2, 3]);
+        // 4 cells: two long sides of 4 walls and two ends.
+        assert_eq!(corridor.map.wall_rects(&[]).len(), 10);
+        let table = corridor.map.distances_to(3);
+        assert_eq!(table[0], 0.9);
+    }
+
+    #[test]
+    fn turns_go_the_right_way() {
+        let left = build(Turn::Left, 2, 2, false);
+        let goal = *left.path.last().unwrap();
+        assert!(left.map.center(goal)[0] < 0.0);
+        let right = build(Turn::Right, 3, 1, true);
+        let goal = *right.path.last().unwrap();
+        assert!(right.map.center(goal)[0] > 0.0);
+        // The junction has three open sides; the wrong arm is reachable but off the path.
+        let junction = right.path[2];
+        assert_eq!(right.map.neighbours(junction).count(), 3);
+        assert_eq!(right.map.cells.len(), 5);
+    }
+}

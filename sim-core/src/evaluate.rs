@@ -1,0 +1,561 @@
+//! Evaluation of one policy on one seeded sample: the control loop (sense, decide, move, judge)
+//! and the task's fitness. `Evaluator` is built once per task and shared by reference between
+//! threads; each call owns its own world and random streams, so results depend only on
+//! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
+
+use crate::env::{self, Environment, Ground, Statics};
+use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
+use crate::rng::{SimRng, Stream, stream_rng};
+use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
+use crate::scene::Rect;
+use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
+use crate::task::{TaskConfig, TaskKind};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Anything that drives the robot: an evolved controller tree or a scripted reference policy.
+pub trait Policy {
+    /// Clears all internal state; called at the start of every sample.
+    fn reset(&mut self);
+    /// One control cycle: the wheel outputs (left, right), each in [0, 1].
+    fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2];
+    /// The root arbitrator's chosen child in the last step, for the derived fitness.
+    fn root_choice(&self) -> Option<usize> {
+        None
+    }
+    /// Node indices active in the last step, root first.
+    fn active_path(&self) -> &[u16] {
+        &[0]
+    }
+    /// Number of nodes, for counting active cycles per node.
+    fn n_nodes(&self) -> usize {
+        1
+    }
+}
+
+/// One sample: its seed, and optionally a fixed variant (light configuration or start branch)
+/// instead of one drawn from the seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Sample {
+    /// The sample's seed: every random choice of the sample derives from it.
+    pub seed: u64,
+    /// Light configuration (maze, rescue) or branch (return to room); drawn when `None`.
+    pub variant: Option<u32>,
+}
+
+impl Sample {
+    /// A sample whose variant is drawn from its seed.
+    pub fn seeded(seed: u64) -> Sample {
+        Sample { seed, variant: None }
+    }
+}
+
+/// Why a sample ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ending {
+    /// The task's goal was reached.
+    Solved,
+    /// The robot touched a wall or obstacle and the task ends on collisions.
+    Collision,
+    /// The robot entered a branch off the correct path.
+    WrongBranch,
+    /// The cycle limit ran out.
+    Timeout,
+}
+
+/// The result of one sample.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Outcome {
+    /// The task's fitness.
+    pub fitness: f32,
+    /// Whether the goal was reached (for rescue: the teammate brought back into the room).
+    pub solved: bool,
+    /// Whether the robot touched a wall or obstacle at any time.
+    pub collided: bool,
+    /// Why the sample ended.
+    pub ending: Ending,
+    /// Cycles run.
+    pub cycles: u32,
+    /// Furthest stage reached: rescue 0 none, 1 left the room, 2 found the teammate, 3 brought
+    /// it back; other tasks 1 when solved, else 0.
+    pub stage: u8,
+    /// The variant the sample ran (light configuration or start branch; 0 for other tasks,
+    /// except corridors: 1 for a T-junction turn, 0 for an L-bend).
+    pub variant: u32,
+    /// Cycles each controller node was active, indexed like the policy's nodes.
+    pub active_cycles: Vec<u32>,
+}
+
+/// One cycle of a trace.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TraceCycle {
+    /// Robot pose at the start of the cycle (when the sensors were read).
+    pub robot: Pose,
+    /// Teammate pose, if the task has one.
+    pub teammate: Option<Pose>,
+    /// The inputs the controller read.
+    pub frame: SensorFrame,
+    /// The controller's wheel outputs, in [0, 1].
+    pub wheels: [f32; 2],
+    /// Active node indices, root first.
+    pub active_path: Vec<u16>,
+    /// Whether the move of this cycle was undone by a collision.
+    pub collided: bool,
+    /// Bit i set when light i was lit this cycle.
+    pub lit_lights: u32,
+    /// The rescue sub-task in force (0 exit room, 1 solve maze, 2 return), else 0.
+    pub sub_task: u8,
+}
+
+/// What a replay needs to draw a sample: the world and every cycle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Trace {
+    /// The task.
+    pub task: TaskKind,
+    /// The sample.
+    pub sample: Sample,
+    /// Walls and obstacles.
+    pub rects: Vec<Rect>,
+    /// Stem lights: position and whether they flash in this sample.
+    pub lights: Vec<([f32; 2], bool)>,
+    /// Centre of the goal cell, for cell tasks and rescue (the teammate's branch end).
+    pub goal: Option<[f32; 2]>,
+    /// Exit of the room: centre on the inner face, outward unit vector.
+    pub exit: Option<([f32; 2], [f32; 2])>,
+    /// The cycles, in order.
+    pub cycles: Vec<TraceCycle>,
+    /// The final pose of the robot.
+    pub final_robot: Pose,
+    /// The outcome.
+    pub outcome: Outcome,
+}
+
+/// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
+trait Recorder {
+    fn record(&mut self, make: impl FnOnce() -> TraceCycle);
+}
+
+impl Recorder for () {
+    #[inline(always)]
+    fn record(&mut self, _make: impl FnOnce() -> TraceCycle) {}
+}
+
+impl Recorder for Vec<TraceCycle> {
+    fn record(&mut self, make: impl FnOnce() -> TraceCycle) {
+        self.push(make());
+    }
+}
+
+/// Errors in a task configuration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid task configuration: {0}")]
+pub struct TaskError(pub String);
+
+/// Evaluates policies on samples of one task. Cheap to share between threads (`&Evaluator` is
+/// all a thread needs).
+#[derive(Debug)]
+pub struct Evaluator {
+    task: TaskConfig,
+    statics: Statics,
+    /// Unit ray directions in the robot frame, `rays_per_sensor` per IR sensor.
+    ray_dirs: Vec<[f32; 2]>,
+    rays_per_sensor: usize,
+}
+
+/// The follower's keep-away distance, centre to centre: it stops this close behind the robot.
+const TEAMMATE_GAP: f32 = 0.10;
+
+impl Evaluator {
+    /// Validates the task and builds what all its samples share.
+    pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
+        task.validate().map_err(TaskError)?;
+        let rays_per_sensor = task.ir_rays_per_sensor as usize;
+        let half_cone = 0.5 * task.ir.cone_deg.to_radians();
+        let ray_dirs = IR_ANGLES
+            .iter()
+            .flat_map(|&angle| {
+                (0..rays_per_sensor).map(move |k| {
+                    let t = if rays_per_sensor == 1 { 0.5 } else { k as f32 / (rays_per_sensor - 1) as f32 };
+                    let a = angle - half_cone + 2.0 * half_cone * t;
+                    [a.cos(), a.sin()]
+                })
+            })
+            .collect();
+        Ok(Evaluator { statics: Statics::new(&task), task, ray_dirs, rays_per_sensor })
+    }
+
+    /// The task.
+    pub fn task(&self) -> &TaskConfig {
+        &self.task
+    }
+
+    /// Runs one sample.
+    pub fn evaluate(&self, policy: &mut impl Policy, sample: Sample) -> Outcome {
+        self.run(policy, sample, &mut ()).0
+    }
+
+    /// Runs one sample and records every cycle.
+    pub fn evaluate_traced(&self, policy: &mut impl Policy, sample: Sample) -> Trace {
+        let mut cycles = Vec::new();
+        let (outcome, env, final_robot) = self.run(policy, sample, &mut cycles);
+        let (goal, exit) = match &env.ground {
+            Ground::Room(room) => (None, Some((room.exit_center, room.exit_outward))),
+            Ground::Cells(goal) => (Some(goal.map.center(goal.goal)), None),
+            Ground::Rescue { room, maze } => {
+                (Some(maze.map.center(maze.goal)), Some((room.exit_center, room.exit_outward)))
+            }
+        };
+        Trace {
+            task: self.task.kind,
+            sample,
+            rects: env.scene.rects().to_vec(),
+            lights: env.lights.iter().map(|l| (l.position, l.flashes)).collect(),
+            goal,
+            exit,
+            cycles,
+            final_robot,
+            outcome,
+        }
+    }
+
+    /// The IR sensors' cones at a pose: for each sensor its position and the directions of its
+    /// outermost rays, and the range; for drawing.
+    pub fn ir_cones(&self, pose: &Pose) -> Vec<([f32; 2], [f32; 2], [f32; 2], f32)> {
+        let (sin_h, cos_h) = pose.heading.sin_cos();
+        let rotate = |d: [f32; 2]| [cos_h * d[0] - sin_h * d[1], sin_h * d[0] + cos_h * d[1]];
+        (0..N_IR)
+            .map(|sensor| {
+                let origin = self.sensor_position(pose, sensor);
+                let rays = &self.ray_dirs[sensor * self.rays_per_sensor..(sensor + 1) * self.rays_per_sensor];
+                (origin, rotate(rays[0]), rotate(rays[rays.len() - 1]), self.task.ir.range_m)
+            })
+            .collect()
+    }
+
+    fn sensor_position(&self, pose: &Pose, sensor: usize) -> [f32; 2] {
+        let a = pose.heading + IR_ANGLES[sensor];
+        let r = self.task.robot.radius;
+        [pose.x + r * a.cos(), pose.y + r * a.sin()]
+    }
+
+    fn run<R: Recorder>(&self, policy: &mut impl Policy, sample: Sample, recorder: &mut R) -> (Outcome, Environment, Pose) {
+        let task = &self.task;
+        let robot_config = &task.robot;
+        let dt = robot_config.cycle_seconds;
+        let max_cycles = task.max_cycles();
+        let mut env_rng = stream_rng(sample.seed, Stream::Environment);
+        let env = env::build(task, &self.statics, sample.variant, &mut env_rng);
+        let ir_setup: IrSensorSetup = task.ir.draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
+        let mut noise: SimRng = stream_rng(sample.seed, Stream::Noise);
+        let ir_model = IrModel::builtin();
+        let light_model = LightModel::builtin();
+        let mut flash = FlashDetector::from_config(&task.light);
+        policy.reset();
+
+        let mut robot = env.start;
+        let mut teammate = env.teammate.map(|(pose, following)| Teammate::new(pose, following, max_cycles));
+        let mut lights: Vec<LiveLight> = env
+            .lights
+            .iter()
+            .map(|spec| LiveLight { position: spec.position, flashes: spec.flashes, triggered: false, lit_cycles_left: 0 })
+            .collect();
+        let mut judge = Judge::new(&env.ground, robot);
+        let mut active_cycles = vec![0u32; policy.n_nodes()];
+        let mut collided_ever = false;
+        let mut ending = Ending::Timeout;
+        let mut cycles_run = 0;
+        let (mut stage_total, mut stage_correct) = ([0u32; 3], [0u32; 3]);
+        let mut rotated = [[0.0f32; 2]; 64];
+
+        for cycle in 0..max_cycles {
+            cycles_run = cycle + 1;
+            // Sense.
+            let (sin_h, cos_h) = robot.heading.sin_cos();
+            let mut ir_distances = [None; N_IR];
+            for (sensor, distance) in ir_distances.iter_mut().enumerate() {
+                let local = &self.ray_dirs[sensor * self.rays_per_sensor..(sensor + 1) * self.rays_per_sensor];
+                for (out, d) in rotated.iter_mut().zip(local) {
+                    *out = [cos_h * d[0] - sin_h * d[1], sin_h * d[0] + cos_h * d[1]];
+                }
+                let origin = self.sensor_position(&robot, sensor);
+                *distance = env.scene.cone_distance(
+                    robot.position(),
+                    origin,
+                    &rotated[..self.rays_per_sensor],
+                    task.ir.range_m,
+                );
+            }
+            let ir = ir_model.read_all(&ir_setup, &ir_distances, &mut noise);
+            let mut lit_mask = 0u32;
+            let light = if lights.is_empty() {
+                [0.0; N_LIGHT]
+            } else {
+                // The lateral sensors (IR inputs 1 and 2) see a lit light on their own side only:
+                // the body hides a light behind the sensor.
+                let mut nearest = [None::<f32>; N_LIGHT];
+                for (light_idx, light) in lights.iter().enumerate() {
+                    if light.lit_cycles_left == 0 {
+                        continue;
+                    }
+                    lit_mask |= 1 << light_idx;
+                    for (side, sensor) in [1usize, 2].into_iter().enumerate() {
+                        let p = self.sensor_position(&robot, sensor);
+                        let facing = [p[0] - robot.x, p[1] - robot.y];
+                        let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
+                        if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
+                            let d = to_light[0].hypot(to_light[1]);
+                            nearest[side] = Some(nearest[side].map_or(d, |n: f32| n.min(d)));
+                        }
+                    }
+                }
+                for light in &mut lights {
+                    light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
+                }
+                flash.update(light_model.read_raw_both(nearest, &mut noise))
+            };
+            let near_robot = teammate
+                .as_ref()
+                .is_some_and(|mate| mate.pose.distance_to(robot.position()) < robot_config.near_robot_range);
+            let frame = SensorFrame { ir, light, near_robot: if near_robot { 1.0 } else { 0.0 } };
+
+            // Decide.
+            let sub_task = judge.sub_task(&robot, teammate.as_ref());
+            let wheels = policy.step(&frame, dt);
+            for &node in policy.active_path() {
+                if let Some(count) = active_cycles.get_mut(node as usize) {
+                    *count += 1;
+                }
+            }
+            if let Some(sub_task) = sub_task {
+                stage_total[sub_task as usize] += 1;
+                if policy.root_choice() == Some(sub_task as usize) {
+                    stage_correct[sub_task as usize] += 1;
+                }
+            }
+
+            // Move.
+            let left = noisy_speed(wheel_speed(wheels[0], robot_config.v_max), robot_config, &mut noise);
+            let right = noisy_speed(wheel_speed(wheels[1], robot_config.v_max), robot_config, &mut noise);
+            let before = robot;
+            let next = kinematic_step(robot, left, right, robot_config);
+            let collided = move_or_collide(&mut robot, next, robot_config.radius, &env.scene);
+            collided_ever |= collided;
+            recorder.record(|| TraceCycle {
+                robot: before,
+                teammate: teammate.as_ref().map(|m| m.pose),
+                frame,
+                wheels,
+                active_path: policy.active_path().to_vec(),
+                collided,
+                lit_lights: lit_mask,
+                sub_task: sub_task.unwrap_or(0),
+            });
+            trigger_lights(&mut lights, &before, &robot, task.light.flash_cycles);
+            if let Some(mate) = teammate.as_mut() {
+                mate.update(&robot, robot_config.v_max * dt, robot_config.near_robot_range);
+            }
+
+            // Judge.
+            if collided && task.end_on_collision {
+                ending = Ending::Collision;
+                break;
+            }
+            if let Some(end) = judge.check(&robot, teammate.as_ref(), task) {
+                ending = end;
+                break;
+            }
+        }
+
+        let fitness = judge.fitness(task, ending, cycles_run, &robot, stage_total, stage_correct);
+        let stage = judge.stage(ending);
+        let outcome = Outcome {
+            fitness,
+            solved: ending == Ending::Solved,
+            collided: collided_ever,
+            ending,
+            cycles: cycles_run,
+            stage,
+            variant: env.variant,
+            active_cycles,
+        };
+        (outcome, env, robot)
+    }
+}
+
+/// A light's state during a sample: each row flashes once, when the robot first drives past it.
+#[derive(Debug)]
+struct LiveLight {
+    position: [f32; 2],
+    flashes: bool,
+    triggered: bool,
+    lit_cycles_left: u32,
+}
+
+/// A light row is passed when the robot's centre crosses the light's y going up the stem,
+/// within the stem (|x| below the light's x). Only lights of the sample's configuration light.
+fn trigger_lights(lights: &mut [LiveLight], before: &Pose, after: &Pose, flash_cycles: u32) {
+    for light in lights.iter_mut().filter(|l| !l.triggered) {
+        let row = light.position[1];
+        if before.y < row && after.y >= row && after.x.abs() < light.position[0].abs() {
+            light.triggered = true;
+            if light.flashes {
+                light.lit_cycles_left = flash_cycles;
+            }
+        }
+    }
+}
+
+/// The preprogrammed teammate: waits until the robot comes within the near-robot range, then
+/// follows the robot's own trail (so it never cuts a corner into a wall), keeping a gap.
+#[derive(Debug)]
+struct Teammate {
+    pose: Pose,
+    following: bool,
+    trail: VecDeque<[f32; 2]>,
+}
+
+impl Teammate {
+    fn new(pose: Pose, following: bool, max_cycles: u32) -> Teammate {
+        Teammate { pose, following, trail: VecDeque::with_capacity(max_cycles as usize + 1) }
+    }
+
+    fn update(&mut self, robot: &Pose, step: f32, near_range: f32) {
+        if !self.following {
+            if self.pose.distance_to(robot.position()) < near_range {
+                self.following = true;
+            } else {
+                return;
+            }
+        }
+        self.trail.push_back(robot.position());
+        let mut budget = step;
+        while budget > 0.0 && self.pose.distance_to(robot.position()) > TEAMMATE_GAP {
+            let Some(&target) = self.trail.front() else { break };
+            let (dx, dy) = (target[0] - self.pose.x, target[1] - self.pose.y);
+            let d = dx.hypot(dy);
+            if d <= budget {
+                self.pose.x = target[0];
+                self.pose.y = target[1];
+                budget -= d;
+                self.trail.pop_front();
+            } else {
+                self.pose.x += dx / d * budget;
+                self.pose.y += dy / d * budget;
+                budget = 0.0;
+            }
+            if d > 1e-6 {
+                self.pose.heading = dy.atan2(dx);
+            }
+        }
+    }
+}
+
+/// The task-specific bookkeeping of a sample.
+#[derive(Debug)]
+enum Judge<'a> {
+    Room { room: &'a env::room::Room, closest: f32 },
+    Cells { goal: &'a env::CellGoal },
+    Rescue { room: &'a env::room::Room, maze: &'a env::CellGoal, exited: bool, found: bool },
+}
+
+impl<'a> Judge<'a> {
+    fn new(ground: &'a Ground, start: Pose) -> Judge<'a> {
+        match ground {
+            Ground::Room(room) => Judge::Room { room, closest: start.distance_to(room.exit_center) },
+            Ground::Cells(goal) => Judge::Cells { goal },
+            Ground::Rescue { room, maze } => Judge::Rescue { room, maze, exited: false, found: false },
+        }
+    }
+
+    /// The rescue sub-task in force: 0 in the room before the teammate is found, 1 in the maze
+    /// before, 2 once the teammate follows.
+    fn sub_task(&self, robot: &Pose, teammate: Option<&Teammate>) -> Option<u8> {
+        let Judge::Rescue { maze, .. } = self else { return None };
+        if teammate.is_some_and(|m| m.following) {
+            Some(2)
+        } else if maze.map.cell_at(robot.position()).is_some() {
+            Some(1)
+        } else {
+            Some(0)
+        }
+    }
+
+    fn check(&mut self, robot: &Pose, teammate: Option<&Teammate>, task: &TaskConfig) -> Option<Ending> {
+        match self {
+            Judge::Room { room, closest } => {
+                *closest = closest.min(robot.distance_to(room.exit_center));
+                let out = room.depth_beyond_exit(robot.position());
+                (out > task.room.wall_thickness + task.robot.radius).then_some(Ending::Solved)
+            }
+            Judge::Cells { goal } => {
+                let cell = goal.map.cell_at(robot.position())?;
+                if cell == goal.goal {
+                    Some(Ending::Solved)
+                } else if !goal.on_path[cell] {
+                    Some(Ending::WrongBranch)
+                } else {
+                    None
+                }
+            }
+            Judge::Rescue { room, maze, exited, found } => {
+                *exited |= maze.map.cell_at(robot.position()).is_some();
+                let mate = teammate?;
+                *found |= mate.following;
+                (*found && room.depth_beyond_exit(mate.pose.position()) < -task.robot.radius)
+                    .then_some(Ending::Solved)
+            }
+        }
+    }
+
+    fn fitness(&self, task: &TaskConfig, ending: Ending, cycles: u32, robot: &Pose, stage_total: [u32; 3], stage_correct: [u32; 3]) -> f32 {
+        let max_cycles = task.max_cycles() as f32;
+        let time_bonus = (max_cycles - cycles as f32) / max_cycles;
+        match self {
+            // f1 (SPEC 5).
+            Judge::Room { room, closest } => {
+                if ending == Ending::Solved {
+                    5.0 + time_bonus
+                } else {
+                    let to_exit = (room.center[0] - room.exit_center[0]).hypot(room.center[1] - room.exit_center[1]);
+                    ((to_exit - closest) / to_exit).clamp(0.0, 1.0)
+                }
+            }
+            // f3, derived: the share of correct sub-controller choices in each sub-task.
+            Judge::Rescue { .. } => (0..3)
+                .filter(|&s| stage_total[s] > 0)
+                .map(|s| stage_correct[s] as f32 / stage_total[s] as f32)
+                .sum(),
+            Judge::Cells { goal } => {
+                if ending == Ending::Solved {
+                    return 1.0 + time_bonus;
+                }
+                let current = goal.distance_from(robot.position()).unwrap_or(goal.total_distance);
+                let progress = ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0);
+                let maze_task = matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom);
+                match (ending, maze_task) {
+                    // f2: a wrong branch or collision scores the distance covered, a timeout 0.
+                    (Ending::Timeout, true) => 0.0,
+                    (_, true) => progress / 3.0,
+                    // Corridor progress: as f2 but a timeout still scores half the progress so
+                    // that evolution of a primitive bootstraps from slow drivers.
+                    (Ending::Timeout, false) => progress / 2.0,
+                    (_, false) => progress / 3.0,
+                }
+            }
+        }
+    }
+
+    fn stage(&self, ending: Ending) -> u8 {
+        match self {
+            Judge::Rescue { exited, found, .. } => {
+                if ending == Ending::Solved {
+                    3
+                } else {
+                    u8::from(*exited) + u8::from(*found)
+                }
+            }
+            _ => u8::from(ending == Ending::Solved),
+        }
+    }
+}

@@ -1,0 +1,185 @@
+//! The e-puck body: its configuration, pose and differential-drive kinematics with wheel noise,
+//! and the move-or-undo rule that keeps a robot out of walls.
+
+use crate::rng::{SimRng, standard_normal};
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+
+/// Physical constants of the robot and the control cycle (SPEC section 1).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotConfig {
+    /// Body radius, metres (e-puck diameter 0.075 m).
+    pub radius: f32,
+    /// Distance between the wheels, metres.
+    pub wheel_base: f32,
+    /// Top wheel speed, metres per second (the hardware allows 0.13).
+    pub v_max: f32,
+    /// Standard deviation of the multiplicative wheel noise, drawn per wheel per cycle.
+    pub wheel_noise: f32,
+    /// Control cycle, seconds.
+    pub cycle_seconds: f32,
+    /// Range of the near-robot sensor (range & bearing board), metres, centre to centre.
+    pub near_robot_range: f32,
+}
+
+impl Default for RobotConfig {
+    fn default() -> Self {
+        RobotConfig {
+            radius: 0.0375,
+            wheel_base: 0.053,
+            v_max: 0.1,
+            wheel_noise: 0.05,
+            cycle_seconds: 0.1,
+            near_robot_range: 0.15,
+        }
+    }
+}
+
+impl RobotConfig {
+    /// Checks the values are physically meaningful; names the offending key.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("radius", self.radius),
+            ("wheel_base", self.wheel_base),
+            ("v_max", self.v_max),
+            ("cycle_seconds", self.cycle_seconds),
+            ("near_robot_range", self.near_robot_range),
+        ];
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("robot.{name} must be a positive number, got {value}"));
+            }
+        }
+        if !(self.wheel_noise.is_finite() && (0.0..1.0).contains(&self.wheel_noise)) {
+            return Err(format!("robot.wheel_noise must be in [0, 1), got {}", self.wheel_noise));
+        }
+        // One cycle's travel must stay well below the thinnest solid (5 cm obstacles) so a
+        // move can never jump through a wall between two collision tests.
+        if self.v_max * self.cycle_seconds > 0.025 {
+            return Err(format!(
+                "robot.v_max * robot.cycle_seconds = {} m per cycle exceeds 0.025 m",
+                self.v_max * self.cycle_seconds
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Position (metres) and heading (radians, counter-clockwise from +x).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// x, metres.
+    pub x: f32,
+    /// y, metres.
+    pub y: f32,
+    /// Heading, radians.
+    pub heading: f32,
+}
+
+impl Pose {
+    /// The position as an array.
+    pub fn position(&self) -> [f32; 2] {
+        [self.x, self.y]
+    }
+
+    /// Euclidean distance between two poses' positions.
+    pub fn distance_to(&self, other: [f32; 2]) -> f32 {
+        (self.x - other[0]).hypot(self.y - other[1])
+    }
+}
+
+/// Maps a network output in [0, 1] to a wheel speed in [-v_max, v_max].
+#[inline]
+pub fn wheel_speed(output: f32, v_max: f32) -> f32 {
+    (2.0 * output - 1.0) * v_max
+}
+
+/// Applies the multiplicative wheel noise and the speed limit to one commanded speed.
+#[inline]
+pub fn noisy_speed(speed: f32, config: &RobotConfig, rng: &mut SimRng) -> f32 {
+    let noisy = speed * (1.0 + config.wheel_noise * standard_normal(rng));
+    noisy.clamp(-config.v_max, config.v_max)
+}
+
+/// The pose after one control cycle at wheel speeds `left`, `right` (metres per second), with
+/// exact arc integration so that spinning in place does not drift.
+#[inline]
+pub fn kinematic_step(pose: Pose, left: f32, right: f32, config: &RobotConfig) -> Pose {
+    let dt = config.cycle_seconds;
+    let linear = 0.5 * (left + right);
+    let angular = (right - left) / config.wheel_base;
+    let dtheta = angular * dt;
+    // The chord of the arc: its length is 2 v/w sin(w dt / 2), along the mid-arc heading.
+    let chord = if dtheta.abs() < 1e-6 {
+        linear * dt
+    } else {
+        2.0 * linear / angular * (0.5 * dtheta).sin()
+    };
+    let mid = pose.heading + 0.5 * dtheta;
+    let (sin_mid, cos_mid) = mid.sin_cos();
+    let mut heading = pose.heading + dtheta;
+    // Keep the heading in (-pi, pi] so traces stay readable over long runs.
+    if heading > std::f32::consts::PI {
+        heading -= std::f32::consts::TAU;
+    } else if heading <= -std::f32::consts::PI {
+        heading += std::f32::consts::TAU;
+    }
+    Pose { x: pose.x + chord * cos_mid, y: pose.y + chord * sin_mid, heading }
+}
+
+/// Moves the robot unless the new pose would touch a solid; returns whether it collided.
+/// A collision undoes the whole move (position and heading), as the SPEC requires.
+#[inline]
+pub fn move_or_collide(pose: &mut Pose, next: Pose, radius: f32, scene: &Scene) -> bool {
+    if scene.disc_hits([next.x, next.y], radius) {
+        true
+    } else {
+        *pose = next;
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_and_spin_kinematics() {
+        let config = RobotConfig::default();
+        let start = Pose { x: 0.0, y: 0.0, heading: 0.0 };
+        let straight = kinematic_step(start, 0.1, 0.1, &config);
+        assert!((straight.x - 0.01).abs() < 1e-7 && straight.y.abs() < 1e-9);
+        let spin = kinematic_step(start, -0.05, 0.05, &config);
+        assert!(spin.x.abs() < 1e-7 && spin.y.abs() < 1e-7);
+        assert!((spin.heading - 0.1 / 0.053 * 0.1).abs() < 1e-5);
+    }
+
+    #[test]
+    fn arc_integration_closes_a_circle() {
+        // Constant wheel speeds trace a circle: after a full turn the robot is back.
+        let config = RobotConfig::default();
+        let (left, right) = (0.05, 0.1);
+        let angular = (right - left) / config.wheel_base;
+        let cycles = (std::f32::consts::TAU / (angular * config.cycle_seconds)).round() as usize;
+        let mut pose = Pose { x: 0.0, y: 0.0, heading: 0.0 };
+        for _ in 0..cycles {
+            pose = kinematic_step(pose, left, right, &config);
+        }
+        assert!(pose.x.hypot(pose.y) < 0.01, "{pose:?}");
+    }
+
+    #[test]
+    fn wheel_speed_maps_outputs() {
+        assert_eq!(wheel_speed(1.0, 0.1), 0.1);
+        assert_eq!(wheel_speed(0.0, 0.1), -0.1);
+        assert_eq!(wheel_speed(0.5, 0.1), 0.0);
+    }
+
+    #[test]
+    fn config_validation_names_the_key() {
+        let bad = RobotConfig { v_max: -1.0, ..RobotConfig::default() };
+        assert!(bad.validate().unwrap_err().contains("robot.v_max"));
+        assert!(RobotConfig::default().validate().is_ok());
+    }
+}

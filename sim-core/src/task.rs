@@ -1,0 +1,267 @@
+//! Tasks: which environment a sample runs in, how long it may take, and every number of the
+//! robot, sensors and environment generators, as one serialisable configuration. The paper's
+//! values are the defaults; everything the paper leaves open is a documented config value here.
+
+use crate::env::room::RoomConfig;
+use crate::robot::RobotConfig;
+use crate::sensors::ir::IrConfig;
+use crate::sensors::light::LightConfig;
+use serde::{Deserialize, Serialize};
+
+/// The tasks of the paper (SPEC section 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    /// Leave a room with obstacles through its narrow exit (f1).
+    ExitRoom,
+    /// Drive to the end of a straight corridor (corridor progress fitness).
+    FollowWall,
+    /// Drive through a corridor with one left turn.
+    TurnLeft,
+    /// Drive through a corridor with one right turn.
+    TurnRight,
+    /// Reach the teammate's branch of the double T-maze, told by the lights (f2). The
+    /// single-network baseline (`maze_single`) runs this same task.
+    #[serde(alias = "maze_single")]
+    SolveMaze,
+    /// From a branch end back to the maze entrance (f2 on the distance to the entrance).
+    ReturnRoom,
+    /// The whole rescue, scored by the derived fitness f3.
+    Rescue,
+}
+
+impl TaskKind {
+    /// Every task.
+    pub const ALL: [TaskKind; 7] = [
+        TaskKind::ExitRoom,
+        TaskKind::FollowWall,
+        TaskKind::TurnLeft,
+        TaskKind::TurnRight,
+        TaskKind::SolveMaze,
+        TaskKind::ReturnRoom,
+        TaskKind::Rescue,
+    ];
+
+    /// The snake_case name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            TaskKind::ExitRoom => "exit_room",
+            TaskKind::FollowWall => "follow_wall",
+            TaskKind::TurnLeft => "turn_left",
+            TaskKind::TurnRight => "turn_right",
+            TaskKind::SolveMaze => "solve_maze",
+            TaskKind::ReturnRoom => "return_room",
+            TaskKind::Rescue => "rescue",
+        }
+    }
+
+    /// Parses a task name (also accepts `maze_single`).
+    pub fn from_name(name: &str) -> Option<TaskKind> {
+        if name == "maze_single" {
+            return Some(TaskKind::SolveMaze);
+        }
+        TaskKind::ALL.into_iter().find(|kind| kind.name() == name)
+    }
+
+    /// The paper's cycle limit, or hevo's choice for the corridor primitives (three times
+    /// the time the longest corridor needs at full speed).
+    pub fn default_max_cycles(self) -> u32 {
+        match self {
+            TaskKind::ExitRoom | TaskKind::SolveMaze | TaskKind::ReturnRoom => 1000,
+            TaskKind::Rescue => 2000,
+            TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => 400,
+        }
+    }
+
+    /// Whether the task has light configurations (post-evaluation reports per configuration).
+    pub fn has_light_configurations(self) -> bool {
+        matches!(self, TaskKind::SolveMaze | TaskKind::Rescue)
+    }
+}
+
+impl std::fmt::Display for TaskKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Corridor shapes for the maze primitives.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CorridorConfig {
+    /// Straight corridor length range, in 0.30 m cells, inclusive.
+    pub straight_cells: [u32; 2],
+    /// Cells before the turn, inclusive range (the turn cell included).
+    pub cells_before_turn: [u32; 2],
+    /// Cells after the turn, inclusive range.
+    pub cells_after_turn: [u32; 2],
+    /// Share of turn samples whose turn is a T-junction with a wrong arm, not an L-bend.
+    pub junction_share: f32,
+}
+
+impl Default for CorridorConfig {
+    fn default() -> Self {
+        CorridorConfig {
+            straight_cells: [3, 8],
+            cells_before_turn: [2, 4],
+            cells_after_turn: [2, 4],
+            junction_share: 0.5,
+        }
+    }
+}
+
+/// How a robot is placed at a corridor or maze start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StartConfig {
+    /// Uniform sideways offset from the corridor's centre line, metres, up to this much.
+    pub lateral_offset: f32,
+    /// Uniform heading jitter, degrees, up to this much either way.
+    pub heading_jitter_deg: f32,
+}
+
+impl Default for StartConfig {
+    fn default() -> Self {
+        StartConfig { lateral_offset: 0.02, heading_jitter_deg: 10.0 }
+    }
+}
+
+/// Everything that defines a task's samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskConfig {
+    /// Which task.
+    pub kind: TaskKind,
+    /// Cycle limit; the task's default when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_cycles: Option<u32>,
+    /// Whether touching a wall ends the sample (SPEC: most tasks do).
+    #[serde(default = "default_true")]
+    pub end_on_collision: bool,
+    /// Robot body and motors.
+    #[serde(default)]
+    pub robot: RobotConfig,
+    /// IR proximity sensors.
+    #[serde(default)]
+    pub ir: IrConfig,
+    /// Number of rays that sample each IR sensor's cone.
+    #[serde(default = "default_rays")]
+    pub ir_rays_per_sensor: u32,
+    /// Light-flash sensing.
+    #[serde(default)]
+    pub light: LightConfig,
+    /// The room generator.
+    #[serde(default)]
+    pub room: RoomConfig,
+    /// The corridor generator.
+    #[serde(default)]
+    pub corridor: CorridorConfig,
+    /// Start placement in corridors and the maze.
+    #[serde(default)]
+    pub start: StartConfig,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+fn default_rays() -> u32 {
+    7
+}
+
+impl TaskConfig {
+    /// The paper's settings for a task.
+    pub fn new(kind: TaskKind) -> TaskConfig {
+        TaskConfig {
+            kind,
+            max_cycles: None,
+            end_on_collision: true,
+            robot: RobotConfig::default(),
+            ir: IrConfig::default(),
+            ir_rays_per_sensor: default_rays(),
+            light: LightConfig::default(),
+            room: RoomConfig::default(),
+            corridor: CorridorConfig::default(),
+            start: StartConfig::default(),
+        }
+    }
+
+    /// The cycle limit in force.
+    pub fn max_cycles(&self) -> u32 {
+        self.max_cycles.unwrap_or_else(|| self.kind.default_max_cycles())
+    }
+
+    /// How far around a grid cell the scene must list solids: the body, the IR range and a
+    /// cycle of movement.
+    pub fn query_margin(&self) -> f32 {
+        self.robot.radius + self.ir.range_m + self.robot.v_max * self.robot.cycle_seconds + 0.02
+    }
+
+    /// Checks every value; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        self.robot.validate()?;
+        self.room.validate()?;
+        if self.max_cycles() == 0 {
+            return Err("max_cycles must be at least 1".into());
+        }
+        if !(1..=64).contains(&self.ir_rays_per_sensor) {
+            return Err(format!("ir_rays_per_sensor must be in 1..=64, got {}", self.ir_rays_per_sensor));
+        }
+        if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
+            return Err(format!("ir.range_m must be in (0, 0.5], got {}", self.ir.range_m));
+        }
+        if !(self.ir.cone_deg >= 0.0 && self.ir.cone_deg < 180.0) {
+            return Err(format!("ir.cone_deg must be in [0, 180), got {}", self.ir.cone_deg));
+        }
+        let c = &self.corridor;
+        for (name, range, min) in [
+            ("corridor.straight_cells", c.straight_cells, 1),
+            ("corridor.cells_before_turn", c.cells_before_turn, 1),
+            ("corridor.cells_after_turn", c.cells_after_turn, 1),
+        ] {
+            if range[0] < min || range[0] > range[1] || range[1] > 50 {
+                return Err(format!("{name} must be [low, high] with {min} <= low <= high <= 50, got {range:?}"));
+            }
+        }
+        if !(0.0..=1.0).contains(&c.junction_share) {
+            return Err(format!("corridor.junction_share must be in [0, 1], got {}", c.junction_share));
+        }
+        if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {
+            return Err(format!("start.lateral_offset must be in [0, 0.05], got {}", self.start.lateral_offset));
+        }
+        if !(self.start.heading_jitter_deg >= 0.0 && self.start.heading_jitter_deg <= 180.0) {
+            return Err(format!("start.heading_jitter_deg must be in [0, 180], got {}", self.start.heading_jitter_deg));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_alias_works() {
+        for kind in TaskKind::ALL {
+            assert_eq!(TaskKind::from_name(kind.name()), Some(kind));
+        }
+        assert_eq!(TaskKind::from_name("maze_single"), Some(TaskKind::SolveMaze));
+        let parsed: TaskConfig = serde_json::from_str(r#"{"kind":"maze_single"}"#).unwrap();
+        assert_eq!(parsed.kind, TaskKind::SolveMaze);
+    }
+
+    #[test]
+    fn unknown_keys_are_rejected() {
+        let err = serde_json::from_str::<TaskConfig>(r#"{"kind":"rescue","robot":{"radiuss":1}}"#).unwrap_err();
+        assert!(err.to_string().contains("radiuss"), "{err}");
+    }
+
+    #[test]
+    fn defaults_are_the_papers() {
+        assert_eq!(TaskConfig::new(TaskKind::Rescue).max_cycles(), 2000);
+        assert_eq!(TaskConfig::new(TaskKind::ExitRoom).max_cycles(), 1000);
+        for kind in TaskKind::ALL {
+            assert_eq!(TaskConfig::new(kind).validate(), Ok(()));
+        }
+    }
+}
