@@ -1,0 +1,2 @@
+//! The `hevo` command (in progress).
+fn main() {}
