@@ -1,1 +1,68 @@
-fn main(){}
+//! Simulator throughput: control cycles per second on one core for solve_maze with the paper's
+//! 6-10-3 arbitrator over three 4-3-2 primitives and the full sensor model (28 IR rays, light
+//! flashes, wheel noise). Collisions do not end the sample here, so every sample runs its full
+//! 1000 cycles and the figure measures the simulator, not how soon a random genome crashes.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use rand::{RngExt, SeedableRng};
+use sim_core::batch::BatchEvaluator;
+use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use sim_core::frame::InputGroup;
+use sim_core::rng::SimRng;
+use sim_core::{Sample, TaskConfig, TaskKind};
+
+fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
+    (0..n).map(|_| rng.random_range(-3.0..3.0)).collect()
+}
+
+fn primitive(name: &str, rng: &mut SimRng) -> NodeSpec {
+    NodeSpec {
+        name: name.into(),
+        kind: NodeKind::Primitive,
+        inputs: vec![InputGroup::Ir],
+        hidden: 3,
+        genome: Some(random_genes(rng, 35)),
+        children: vec![],
+    }
+}
+
+fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
+    let mut rng = SimRng::seed_from_u64(7);
+    let root = NodeSpec {
+        name: "solve_maze".into(),
+        kind: NodeKind::Arbitrator,
+        inputs: vec![InputGroup::Ir, InputGroup::Light],
+        hidden: 10,
+        genome: None,
+        children: vec![
+            primitive("follow_wall", &mut rng),
+            primitive("turn_left", &mut rng),
+            primitive("turn_right", &mut rng),
+        ],
+    };
+    let genes = random_genes(&mut rng, 213);
+    (ControllerFile::new(root), genes)
+}
+
+fn bench_cycles(c: &mut Criterion) {
+    let (file, genes) = maze_arbitrator();
+    let mut task = TaskConfig::new(TaskKind::SolveMaze);
+    task.end_on_collision = false;
+    let batch = BatchEvaluator::new(file, task).expect("valid benchmark setup");
+    let samples: Vec<Sample> = (0..4).map(|k| Sample { seed: 100 + k, variant: Some(k as u32) }).collect();
+    let cycles: u64 = batch
+        .evaluate_genome(Some(&genes), &samples)
+        .expect("genome fits")
+        .iter()
+        .map(|o| u64::from(o.cycles))
+        .sum();
+    let mut group = c.benchmark_group("simulator");
+    group.throughput(Throughput::Elements(cycles));
+    group.bench_function("solve_maze_6-10-3_over_3x4-3-2", |b| {
+        b.iter(|| batch.evaluate_genome(Some(&genes), &samples).expect("genome fits"))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_cycles);
+criterion_main!(benches);

@@ -7,7 +7,7 @@ use crate::env::{self, Environment, Ground, Statics};
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
-use crate::scene::Rect;
+use crate::scene::{Cone, Rect};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
 use crate::task::{TaskConfig, TaskKind};
 use serde::{Deserialize, Serialize};
@@ -24,7 +24,7 @@ pub trait Policy {
         None
     }
     /// Node indices active in the last step, root first.
-    fn active_path(&self) -> &[u16] {
+    fn active_path(&self) -> &[usize] {
         &[0]
     }
     /// Number of nodes, for counting active cycles per node.
@@ -158,9 +158,10 @@ pub struct TaskError(pub String);
 pub struct Evaluator {
     task: TaskConfig,
     statics: Statics,
-    /// Unit ray directions in the robot frame, `rays_per_sensor` per IR sensor.
-    ray_dirs: Vec<[f32; 2]>,
-    rays_per_sensor: usize,
+    /// Each IR sensor's cone in the robot frame.
+    cones: [Cone; N_IR],
+    /// Each IR sensor's position on the body, in the robot frame.
+    sensor_offsets: [[f32; 2]; N_IR],
 }
 
 /// The follower's keep-away distance, centre to centre: it stops this close behind the robot.
@@ -170,19 +171,11 @@ impl Evaluator {
     /// Validates the task and builds what all its samples share.
     pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
         task.validate().map_err(TaskError)?;
-        let rays_per_sensor = task.ir_rays_per_sensor as usize;
-        let half_cone = 0.5 * task.ir.cone_deg.to_radians();
-        let ray_dirs = IR_ANGLES
-            .iter()
-            .flat_map(|&angle| {
-                (0..rays_per_sensor).map(move |k| {
-                    let t = if rays_per_sensor == 1 { 0.5 } else { k as f32 / (rays_per_sensor - 1) as f32 };
-                    let a = angle - half_cone + 2.0 * half_cone * t;
-                    [a.cos(), a.sin()]
-                })
-            })
-            .collect();
-        Ok(Evaluator { statics: Statics::new(&task), task, ray_dirs, rays_per_sensor })
+        let opening = task.ir.cone_deg.to_radians();
+        let cones = IR_ANGLES.map(|angle| Cone::new(angle, opening));
+        let radius = task.robot.radius;
+        let sensor_offsets = IR_ANGLES.map(|a| [radius * a.cos(), radius * a.sin()]);
+        Ok(Evaluator { statics: Statics::new(&task), task, cones, sensor_offsets })
     }
 
     /// The task.
@@ -219,24 +212,29 @@ impl Evaluator {
         }
     }
 
-    /// The IR sensors' cones at a pose: for each sensor its position and the directions of its
-    /// outermost rays, and the range; for drawing.
+    /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
+    /// boundary rays, and the range; for drawing.
     pub fn ir_cones(&self, pose: &Pose) -> Vec<([f32; 2], [f32; 2], [f32; 2], f32)> {
         let (sin_h, cos_h) = pose.heading.sin_cos();
-        let rotate = |d: [f32; 2]| [cos_h * d[0] - sin_h * d[1], sin_h * d[0] + cos_h * d[1]];
         (0..N_IR)
             .map(|sensor| {
                 let origin = self.sensor_position(pose, sensor);
-                let rays = &self.ray_dirs[sensor * self.rays_per_sensor..(sensor + 1) * self.rays_per_sensor];
-                (origin, rotate(rays[0]), rotate(rays[rays.len() - 1]), self.task.ir.range_m)
+                let cone = self.cones[sensor].rotated(sin_h, cos_h);
+                (origin, cone.boundaries[0], cone.boundaries[1], self.task.ir.range_m)
             })
             .collect()
     }
 
     fn sensor_position(&self, pose: &Pose, sensor: usize) -> [f32; 2] {
-        let a = pose.heading + IR_ANGLES[sensor];
-        let r = self.task.robot.radius;
-        [pose.x + r * a.cos(), pose.y + r * a.sin()]
+        let (sin_h, cos_h) = pose.heading.sin_cos();
+        self.sensor_position_rotated(pose, sin_h, cos_h, sensor)
+    }
+
+    /// The sensor's position given the heading's sine and cosine, computed once per cycle.
+    #[inline(always)]
+    fn sensor_position_rotated(&self, pose: &Pose, sin_h: f32, cos_h: f32, sensor: usize) -> [f32; 2] {
+        let [ox, oy] = self.sensor_offsets[sensor];
+        [pose.x + cos_h * ox - sin_h * oy, pose.y + sin_h * ox + cos_h * oy]
     }
 
     fn run<R: Recorder>(&self, policy: &mut impl Policy, sample: Sample, recorder: &mut R) -> (Outcome, Environment, Pose) {
@@ -266,7 +264,6 @@ impl Evaluator {
         let mut ending = Ending::Timeout;
         let mut cycles_run = 0;
         let (mut stage_total, mut stage_correct) = ([0u32; 3], [0u32; 3]);
-        let mut rotated = [[0.0f32; 2]; 64];
 
         for cycle in 0..max_cycles {
             cycles_run = cycle + 1;
@@ -274,17 +271,9 @@ impl Evaluator {
             let (sin_h, cos_h) = robot.heading.sin_cos();
             let mut ir_distances = [None; N_IR];
             for (sensor, distance) in ir_distances.iter_mut().enumerate() {
-                let local = &self.ray_dirs[sensor * self.rays_per_sensor..(sensor + 1) * self.rays_per_sensor];
-                for (out, d) in rotated.iter_mut().zip(local) {
-                    *out = [cos_h * d[0] - sin_h * d[1], sin_h * d[0] + cos_h * d[1]];
-                }
-                let origin = self.sensor_position(&robot, sensor);
-                *distance = env.scene.cone_distance(
-                    robot.position(),
-                    origin,
-                    &rotated[..self.rays_per_sensor],
-                    task.ir.range_m,
-                );
+                let cone = self.cones[sensor].rotated(sin_h, cos_h);
+                let origin = self.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
+                *distance = env.scene.cone_distance(robot.position(), origin, &cone, task.ir.range_m);
             }
             let ir = ir_model.read_all(&ir_setup, &ir_distances, &mut noise);
             let mut lit_mask = 0u32;
@@ -300,7 +289,7 @@ impl Evaluator {
                     }
                     lit_mask |= 1 << light_idx;
                     for (side, sensor) in [1usize, 2].into_iter().enumerate() {
-                        let p = self.sensor_position(&robot, sensor);
+                        let p = self.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
                         let facing = [p[0] - robot.x, p[1] - robot.y];
                         let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
                         if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
@@ -323,7 +312,7 @@ impl Evaluator {
             let sub_task = judge.sub_task(&robot, teammate.as_ref());
             let wheels = policy.step(&frame, dt);
             for &node in policy.active_path() {
-                if let Some(count) = active_cycles.get_mut(node as usize) {
+                if let Some(count) = active_cycles.get_mut(node) {
                     *count += 1;
                 }
             }
@@ -346,7 +335,7 @@ impl Evaluator {
                 teammate: teammate.as_ref().map(|m| m.pose),
                 frame,
                 wheels,
-                active_path: policy.active_path().to_vec(),
+                active_path: policy.active_path().iter().map(|&n| n as u16).collect(),
                 collided,
                 lit_lights: lit_mask,
                 sub_task: sub_task.unwrap_or(0),

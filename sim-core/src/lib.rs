@@ -3,6 +3,7 @@
 //! depth, the paper's tasks with their fitness functions, and the evaluation of one genome on
 //! one seeded sample. It does no IO: no threads, no clock, no files, no global random state.
 
+pub mod batch;
 pub mod controller;
 pub mod ctrnn;
 pub mod frame;
@@ -10,6 +11,7 @@ pub mod rng;
 pub mod sensors;
 
 pub mod scene;
+pub mod scripted;
 pub mod env;
 pub mod evaluate;
 pub mod robot;

@@ -144,9 +144,6 @@ pub struct TaskConfig {
     /// IR proximity sensors.
     #[serde(default)]
     pub ir: IrConfig,
-    /// Number of rays that sample each IR sensor's cone.
-    #[serde(default = "default_rays")]
-    pub ir_rays_per_sensor: u32,
     /// Light-flash sensing.
     #[serde(default)]
     pub light: LightConfig,
@@ -165,9 +162,6 @@ fn default_true() -> bool {
     true
 }
 
-fn default_rays() -> u32 {
-    7
-}
 
 impl TaskConfig {
     /// The paper's settings for a task.
@@ -178,7 +172,6 @@ impl TaskConfig {
             end_on_collision: true,
             robot: RobotConfig::default(),
             ir: IrConfig::default(),
-            ir_rays_per_sensor: default_rays(),
             light: LightConfig::default(),
             room: RoomConfig::default(),
             corridor: CorridorConfig::default(),
@@ -203,9 +196,6 @@ impl TaskConfig {
         self.room.validate()?;
         if self.max_cycles() == 0 {
             return Err("max_cycles must be at least 1".into());
-        }
-        if !(1..=64).contains(&self.ir_rays_per_sensor) {
-            return Err(format!("ir_rays_per_sensor must be in 1..=64, got {}", self.ir_rays_per_sensor));
         }
         if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
             return Err(format!("ir.range_m must be in (0, 0.5], got {}", self.ir.range_m));

@@ -1,0 +1,83 @@
+//! Batch evaluation: the one function every worker (in-process or remote) calls. A batch is a
+//! controller template (a controller file whose free node gets each genome's genes), a task and
+//! a list of samples shared by all genomes; the result is one outcome per (genome, sample).
+//! Built once per batch and shared by reference between the worker's threads.
+
+use crate::controller::{Controller, ControllerError, ControllerFile};
+use crate::evaluate::{Evaluator, Outcome, Policy, Sample, TaskError};
+use crate::frame::SensorFrame;
+use crate::task::TaskConfig;
+
+impl Policy for Controller {
+    fn reset(&mut self) {
+        Controller::reset(self);
+    }
+
+    #[inline]
+    fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2] {
+        let wheels = Controller::step(self, frame, dt);
+        [wheels.left, wheels.right]
+    }
+
+    fn root_choice(&self) -> Option<usize> {
+        Controller::root_choice(self)
+    }
+
+    fn active_path(&self) -> &[usize] {
+        Controller::active_path(self)
+    }
+
+    fn n_nodes(&self) -> usize {
+        Controller::n_nodes(self)
+    }
+}
+
+/// Why a batch cannot be evaluated.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// The task configuration is invalid.
+    #[error(transparent)]
+    Task(#[from] TaskError),
+    /// The controller template or a genome does not fit.
+    #[error(transparent)]
+    Controller(#[from] ControllerError),
+}
+
+/// A validated (controller template, task) pair ready to evaluate genomes.
+#[derive(Debug)]
+pub struct BatchEvaluator {
+    template: ControllerFile,
+    evaluator: Evaluator,
+    /// Number of genes the free node takes (0 when the template has no free node).
+    n_free_genes: usize,
+}
+
+impl BatchEvaluator {
+    /// Validates the template and the task once.
+    pub fn new(template: ControllerFile, task: TaskConfig) -> Result<BatchEvaluator, BatchError> {
+        template.validate()?;
+        let n_free_genes = template.free_node_topology().map_or(0, |(_, topology)| topology.n_genes());
+        Ok(BatchEvaluator { template, evaluator: Evaluator::new(task)?, n_free_genes })
+    }
+
+    /// The evaluator (task and shared geometry).
+    pub fn evaluator(&self) -> &Evaluator {
+        &self.evaluator
+    }
+
+    /// Genes the free node takes.
+    pub fn n_free_genes(&self) -> usize {
+        self.n_free_genes
+    }
+
+    /// Builds the controller for one genome (`None` for a template without a free node).
+    pub fn controller(&self, genes: Option<&[f32]>) -> Result<Controller, ControllerError> {
+        Controller::new(&self.template, genes)
+    }
+
+    /// Evaluates one genome on every sample, in order.
+    pub fn evaluate_genome(&self, genes: Option<&[f32]>, samples: &[Sample]) -> Result<Vec<Outcome>, ControllerError> {
+        let mut controller = self.controller(genes)?;
+        Ok(samples.iter().map(|&sample| self.evaluator.evaluate(&mut controller, sample)).collect())
+    }
+}
