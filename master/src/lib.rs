@@ -2,4 +2,14 @@
 //! batches of genome evaluations to workers (in-process threads or remote gRPC workers), the
 //! resumable run driver, the service, and the library behind every `hevo` subcommand.
 
+pub mod bench;
+pub mod cli;
+pub mod dispatch;
+pub mod ea;
+pub mod evaluation;
+pub mod experiment;
+pub mod local;
+pub mod progress;
+pub mod runner;
+pub mod store;
 pub mod viz;

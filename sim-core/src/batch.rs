@@ -81,3 +81,50 @@ impl BatchEvaluator {
         Ok(samples.iter().map(|&sample| self.evaluator.evaluate(&mut controller, sample)).collect())
     }
 }
+
+/// The part of an [`Outcome`] that evolution and post-evaluation need, small enough to send
+/// for every (genome, sample) pair.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SampleSummary {
+    /// The task's fitness.
+    pub fitness: f32,
+    /// Whether the goal was reached.
+    pub solved: bool,
+    /// Whether the robot touched a wall at any time.
+    pub collided: bool,
+    /// Furthest stage (rescue 0..3, else 1 when solved).
+    pub stage: u8,
+    /// Light configuration or start branch.
+    pub variant: u32,
+    /// Cycles run.
+    pub cycles: u32,
+}
+
+impl From<&Outcome> for SampleSummary {
+    fn from(outcome: &Outcome) -> SampleSummary {
+        SampleSummary {
+            fitness: outcome.fitness,
+            solved: outcome.solved,
+            collided: outcome.collided,
+            stage: outcome.stage,
+            variant: outcome.variant,
+            cycles: outcome.cycles,
+        }
+    }
+}
+
+impl BatchEvaluator {
+    /// Evaluates one genome on every sample and keeps the summaries.
+    pub fn evaluate_summaries(&self, genes: Option<&[f32]>, samples: &[Sample]) -> Result<Vec<SampleSummary>, ControllerError> {
+        let mut controller = self.controller(genes)?;
+        Ok(samples.iter().map(|&sample| SampleSummary::from(&self.evaluator.evaluate(&mut controller, sample))).collect())
+    }
+}
+
+/// A stable content hash of a task configuration (FNV-1a over its canonical JSON), so workers
+/// can cache evaluators by (template hash, task hash).
+pub fn task_content_hash(task: &TaskConfig) -> String {
+    let json = serde_json::to_string(task).unwrap_or_default();
+    let hash = json.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    format!("{hash:016x}")
+}

@@ -1,0 +1,349 @@
+//! The `hevo` command line: argument parsing and the glue from each subcommand to the library.
+//! Every subcommand returns an error with a clear message instead of panicking; `main` prints
+//! it and exits non-zero.
+
+use crate::bench;
+use crate::dispatch::{DispatchConfig, Dispatcher};
+use crate::evaluation;
+use crate::experiment::Experiment;
+use crate::local::LocalPool;
+use crate::runner::{self, RunSettings};
+use crate::viz;
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use sim_core::controller::{Controller, ControllerFile};
+use sim_core::{Evaluator, Sample, TaskConfig, TaskKind};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// hevo: hierarchical evolution of robot controllers.
+#[derive(Debug, Parser)]
+#[command(name = "hevo", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Evolve an experiment's controller tree bottom-up, locally (resumable).
+    Run(RunArgs),
+    /// Post-evaluate a controller file: solve rate, per light configuration, per stage.
+    Eval(EvalArgs),
+    /// Measure simulator throughput on this machine.
+    Bench(BenchArgs),
+    /// Draw one sample of a controller as an SVG picture (or animation).
+    Replay(ReplayArgs),
+    /// Plot the fitness curves of a node's runs as SVG.
+    Plot(PlotArgs),
+}
+
+/// `hevo run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The experiment file (TOML), e.g. experiments/rescue.toml.
+    pub file: PathBuf,
+    /// Evolve only this node (after its children, which are reused when already finished).
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Override every node's number of runs.
+    #[arg(long)]
+    pub runs: Option<u32>,
+    /// Override every node's number of generations.
+    #[arg(long)]
+    pub generations: Option<u32>,
+    /// Output directory (checkpoints, controllers, logs).
+    #[arg(long, default_value = "runs")]
+    pub out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Override the experiment's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+/// `hevo eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The controller file (JSON).
+    pub controller: PathBuf,
+    /// The task.
+    #[arg(long)]
+    pub task: String,
+    /// Samples (per light configuration / start branch for tasks that have them).
+    #[arg(long, default_value_t = 100)]
+    pub samples: u32,
+    /// Seed of the samples.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// `hevo bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// The task.
+    #[arg(long, default_value = "solve_maze")]
+    pub task: String,
+    /// Seconds to measure.
+    #[arg(long, default_value_t = 5.0)]
+    pub seconds: f64,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Measure the `hevo run` path (dispatcher and worker pool, evaluations per second)
+    /// instead of the raw simulator.
+    #[arg(long)]
+    pub pipeline: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `hevo replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The controller file (JSON).
+    pub controller: PathBuf,
+    /// The task.
+    #[arg(long)]
+    pub task: String,
+    /// The sample's seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Fix the light configuration (or start branch) instead of drawing it from the seed.
+    #[arg(long)]
+    pub light_config: Option<u32>,
+    /// Where to write the SVG.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Draw the IR cones at these cycles (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub rays: Vec<u32>,
+    /// Write an animated SVG.
+    #[arg(long)]
+    pub animate: bool,
+}
+
+/// `hevo plot`.
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// A run output directory (as given to `hevo run --out`), or one node's directory.
+    pub runs_dir: PathBuf,
+    /// The node to plot.
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Where to write the SVG.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Parses the command line and runs it; the exit code of `hevo`.
+pub fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_tracing();
+    match execute(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// Logs go to stderr; `RUST_LOG` filters them (default: info).
+pub fn init_tracing() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    use std::io::IsTerminal;
+    let ansi = std::io::stderr().is_terminal();
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_ansi(ansi).with_writer(std::io::stderr).try_init();
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build().context("cannot start the async runtime")
+}
+
+/// Threads to use: the flag, else every core.
+pub fn default_threads(flag: Option<usize>) -> usize {
+    flag.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1)
+}
+
+/// Runs one parsed command.
+pub fn execute(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Run(args) => run(args),
+        Command::Eval(args) => eval(args),
+        Command::Bench(args) => bench_command(args),
+        Command::Replay(args) => replay(args),
+        Command::Plot(args) => plot(args),
+    }
+}
+
+fn parse_task(name: &str) -> Result<TaskKind> {
+    TaskKind::from_name(name).with_context(|| {
+        let names: Vec<&str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
+        format!("unknown task '{name}'; expected one of {} (or maze_single)", names.join(", "))
+    })
+}
+
+fn load_controller(path: &Path) -> Result<ControllerFile> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read controller file {}", path.display()))?;
+    let file = ControllerFile::from_json_str(&text).with_context(|| format!("{}: invalid controller file", path.display()))?;
+    if let Some((node, _)) = file.free_node_topology() {
+        bail!("{}: node '{node}' has no genome; a controller to evaluate must be complete", path.display());
+    }
+    Ok(file)
+}
+
+fn run(args: RunArgs) -> Result<()> {
+    let experiment = Experiment::load(&args.file)?;
+    let threads = default_threads(args.threads);
+    let settings = RunSettings {
+        out_dir: args.out.clone(),
+        node: args.node.clone(),
+        runs: args.runs,
+        generations: args.generations,
+        seed: args.seed,
+        job: "local".into(),
+    };
+    let progress = crate::progress::for_stderr();
+    let summaries = runtime()?.block_on(async {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: threads, ..DispatchConfig::default() }));
+        let pool = LocalPool::start(dispatcher.clone(), threads);
+        let result = runner::run_experiment(&experiment, &settings, &dispatcher, progress.as_ref()).await;
+        pool.stop().await;
+        result
+    })?;
+    println!("results in {}", args.out.display());
+    for summary in &summaries {
+        println!(
+            "  {:<14} {:<12} runs {:>2}  best run {:>2}: {:>5.1}% solved   mean over runs {:>5.1}%   -> {}",
+            summary.node,
+            summary.task,
+            summary.runs.len(),
+            summary.best_run,
+            100.0 * summary.best_solve_rate,
+            100.0 * summary.mean_solve_rate,
+            args.out.join(&summary.node).join("best.json").display()
+        );
+    }
+    Ok(())
+}
+
+fn eval(args: EvalArgs) -> Result<()> {
+    let kind = parse_task(&args.task)?;
+    let controller = load_controller(&args.controller)?;
+    if args.samples == 0 {
+        bail!("--samples must be at least 1");
+    }
+    let threads = default_threads(args.threads);
+    let task = TaskConfig::new(kind);
+    Evaluator::new(task.clone())?;
+    let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
+    let report = runtime()?.block_on(async {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: threads, ..DispatchConfig::default() }));
+        let pool = LocalPool::start(dispatcher.clone(), threads);
+        let report = evaluation::evaluate_controller(&dispatcher, "eval", controller, task, samples).await;
+        pool.stop().await;
+        report
+    })?;
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", evaluation::describe(&report));
+    }
+    Ok(())
+}
+
+fn bench_command(args: BenchArgs) -> Result<()> {
+    let kind = parse_task(&args.task)?;
+    let threads = default_threads(args.threads);
+    if !(args.seconds > 0.0 && args.seconds.is_finite()) {
+        bail!("--seconds must be a positive number");
+    }
+    let report = if args.pipeline {
+        runtime()?.block_on(bench::pipeline(kind, threads, args.seconds, 10)).map_err(anyhow::Error::msg)?
+    } else {
+        bench::simulator(kind, threads, args.seconds).map_err(anyhow::Error::msg)?
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!(
+            "{} ({}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
+            report.task, report.mode, report.threads, report.cycles_per_second, report.cycles_per_second_per_thread, report.evaluations_per_second
+        );
+    }
+    Ok(())
+}
+
+fn replay(args: ReplayArgs) -> Result<()> {
+    let kind = parse_task(&args.task)?;
+    let file = load_controller(&args.controller)?;
+    let mut controller = Controller::new(&file, None)?;
+    let evaluator = Evaluator::new(TaskConfig::new(kind))?;
+    if let Some(k) = args.light_config {
+        let n = sim_core::env::n_variants(kind);
+        if k >= n {
+            bail!("--light-config {k} is out of range: task {} has {n} configuration(s) (0..{})", kind.name(), n - 1);
+        }
+    }
+    let trace = evaluator.evaluate_traced(&mut controller, Sample { seed: args.seed, variant: args.light_config });
+    let options = viz::ReplayOptions {
+        node_names: (0..controller.n_nodes()).map(|i| controller.node_path(i).unwrap_or("?").to_string()).collect(),
+        rays_at_cycles: args.rays.clone(),
+        animate: args.animate,
+        title: None,
+        robot_radius: evaluator.task().robot.radius,
+    };
+    let svg = viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
+    crate::store::write_atomic(&args.out, svg.as_bytes()).with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "{}: {:?} after {} cycles, fitness {:.3} -> {}",
+        kind.name(),
+        trace.outcome.ending,
+        trace.outcome.cycles,
+        trace.outcome.fitness,
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn plot(args: PlotArgs) -> Result<()> {
+    let node_dir = match &args.node {
+        Some(node) => args.runs_dir.join(node),
+        None => args.runs_dir.clone(),
+    };
+    let mut runs = Vec::new();
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(&node_dir)
+        .with_context(|| format!("cannot read {}", node_dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("run-")))
+        .collect();
+    entries.sort_by_key(|p| p.file_name().and_then(|n| n.to_string_lossy().trim_start_matches("run-").parse::<u32>().ok()));
+    for run_dir in entries {
+        let csv = run_dir.join("fitness.csv");
+        if let Ok(text) = std::fs::read_to_string(&csv) {
+            let rows = viz::parse_fitness_csv(&text).with_context(|| format!("{}", csv.display()))?;
+            let label = run_dir.file_name().map(|n| n.to_string_lossy().replace('-', " ")).unwrap_or_default();
+            runs.push(viz::RunLog { label, rows });
+        }
+    }
+    if runs.is_empty() {
+        let hint = if args.node.is_none() { " (pass --node NAME to plot a node of a run directory)" } else { "" };
+        bail!("no run-*/fitness.csv under {}{hint}", node_dir.display());
+    }
+    let title = format!("{}: fitness per generation", node_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+    let svg = viz::fitness_plot_svg(&title, &runs);
+    crate::store::write_atomic(&args.out, svg.as_bytes()).with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!("{} runs plotted -> {}", runs.len(), args.out.display());
+    Ok(())
+}

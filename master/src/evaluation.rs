@@ -1,0 +1,181 @@
+//! Post-evaluation: a controller's solve rate over many fresh samples, per light configuration
+//! (or start branch) where the task has them, per stage for rescue, with mean fitness and
+//! collisions. Used after each evolutionary run and by `hevo eval`. Evaluations go through the
+//! dispatcher, so they spread over every worker like a generation does.
+
+use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
+use serde::{Deserialize, Serialize};
+use sim_core::batch::{SampleSummary, task_content_hash};
+use sim_core::controller::ControllerFile;
+use sim_core::rng::derive_seed;
+use sim_core::{Sample, TaskConfig, TaskKind};
+use std::sync::Arc;
+
+/// Solve rate of one variant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VariantReport {
+    /// Light configuration or start branch.
+    pub variant: u32,
+    /// Samples run.
+    pub samples: u32,
+    /// Share solved.
+    pub solve_rate: f64,
+}
+
+/// The result of evaluating one controller on many samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    /// The task.
+    pub task: String,
+    /// Samples run.
+    pub samples: u32,
+    /// Share solved.
+    pub solve_rate: f64,
+    /// Mean fitness.
+    pub mean_fitness: f64,
+    /// Share of samples with a collision.
+    pub collision_rate: f64,
+    /// Mean cycles per sample.
+    pub mean_cycles: f64,
+    /// Per light configuration / start branch, when the task has several.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_variant: Vec<VariantReport>,
+    /// Rescue only: shares that left the room, reached the teammate, brought it back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stages: Option<StageReport>,
+}
+
+/// The rescue's stage rates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageReport {
+    /// Left the room (entered the maze).
+    pub exited_room: f64,
+    /// Reached the teammate.
+    pub reached_teammate: f64,
+    /// Brought it back into the room.
+    pub returned: f64,
+}
+
+/// The samples of a post-evaluation: `per_variant` samples of each variant of the task (one
+/// variant for tasks without), seeds derived from `seed` alone.
+pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> Vec<Sample> {
+    let n_variants = sim_core::env::n_variants(kind);
+    let variant_fixed = n_variants > 1;
+    (0..per_variant)
+        .flat_map(|i| {
+            (0..n_variants).map(move |v| Sample {
+                seed: derive_seed(seed, &[u64::from(i), u64::from(v)]),
+                variant: variant_fixed.then_some(v),
+            })
+        })
+        .collect()
+}
+
+/// Summarises sample outcomes.
+pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
+    let n = summaries.len().max(1) as f64;
+    let share = |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
+    let n_variants = sim_core::env::n_variants(kind);
+    let per_variant = if n_variants > 1 {
+        (0..n_variants)
+            .map(|variant| {
+                let of: Vec<&SampleSummary> = summaries.iter().filter(|s| s.variant == variant).collect();
+                VariantReport {
+                    variant,
+                    samples: of.len() as u32,
+                    solve_rate: of.iter().filter(|s| s.solved).count() as f64 / of.len().max(1) as f64,
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    EvalReport {
+        task: kind.name().to_string(),
+        samples: summaries.len() as u32,
+        solve_rate: share(&|s| s.solved),
+        mean_fitness: summaries.iter().map(|s| f64::from(s.fitness)).sum::<f64>() / n,
+        collision_rate: share(&|s| s.collided),
+        mean_cycles: summaries.iter().map(|s| f64::from(s.cycles)).sum::<f64>() / n,
+        per_variant,
+        stages: (kind == TaskKind::Rescue).then(|| StageReport {
+            exited_room: share(&|s| s.stage >= 1),
+            reached_teammate: share(&|s| s.stage >= 2),
+            returned: share(&|s| s.stage >= 3),
+        }),
+    }
+}
+
+/// Evaluates a complete controller (no free node) on the given samples through the dispatcher.
+pub async fn evaluate_controller(
+    dispatcher: &Dispatcher,
+    job: &str,
+    controller: ControllerFile,
+    task: TaskConfig,
+    samples: Vec<Sample>,
+) -> Result<EvalReport, DispatchError> {
+    let kind = task.kind;
+    let shared = Arc::new(RequestShared {
+        template_hash: controller.content_hash(),
+        task_hash: task_content_hash(&task),
+        template: controller,
+        task,
+    });
+    let request = EvaluationRequest { job: job.to_string(), shared, genomes: vec![Arc::from(Vec::new())], samples: samples.into() };
+    let results = dispatcher.evaluate(request).await?;
+    Ok(report(kind, &results[0]))
+}
+
+/// A one-line human summary of a report.
+pub fn describe(report: &EvalReport) -> String {
+    let mut text = format!(
+        "{}: solved {:.1}% of {} samples, mean fitness {:.3}, collisions {:.1}%, mean cycles {:.0}",
+        report.task,
+        100.0 * report.solve_rate,
+        report.samples,
+        report.mean_fitness,
+        100.0 * report.collision_rate,
+        report.mean_cycles
+    );
+    if !report.per_variant.is_empty() {
+        let parts: Vec<String> = report.per_variant.iter().map(|v| format!("{}: {:.1}%", v.variant, 100.0 * v.solve_rate)).collect();
+        text.push_str(&format!("\n  per light configuration / branch: {}", parts.join(", ")));
+    }
+    if let Some(stages) = &report.stages {
+        text.push_str(&format!(
+            "\n  stages: exited room {:.1}%, reached teammate {:.1}%, brought back {:.1}%",
+            100.0 * stages.exited_room,
+            100.0 * stages.reached_teammate,
+            100.0 * stages.returned
+        ));
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn maze_post_evaluation_balances_light_configurations() {
+        let samples = post_evaluation_samples(TaskKind::SolveMaze, 100, 1);
+        assert_eq!(samples.len(), 400);
+        for v in 0..4 {
+            assert_eq!(samples.iter().filter(|s| s.variant == Some(v)).count(), 100);
+        }
+        let room = post_evaluation_samples(TaskKind::ExitRoom, 100, 1);
+        assert_eq!(room.len(), 100);
+        assert!(room.iter().all(|s| s.variant.is_none()));
+    }
+
+    #[test]
+    fn reports_count_stages_and_variants() {
+        let s = |solved, stage, variant| SampleSummary { fitness: 1.0, solved, collided: false, stage, variant, cycles: 10 };
+        let summaries = [s(true, 3, 0), s(false, 2, 1), s(false, 1, 0), s(false, 0, 1)];
+        let r = report(TaskKind::Rescue, &summaries);
+        assert_eq!(r.solve_rate, 0.25);
+        let stages = r.stages.unwrap();
+        assert_eq!((stages.exited_room, stages.reached_teammate, stages.returned), (0.75, 0.5, 0.25));
+        assert_eq!(r.per_variant[0].solve_rate, 0.5);
+    }
+}

@@ -1,0 +1,493 @@
+//! The run driver behind `hevo run` and every service job: evolves an experiment's controller
+//! tree bottom-up. For each node: its independent runs, each checkpointed after every
+//! generation; post-evaluation of each run's best controller; then the best run's controller
+//! becomes the fixed child of the parent nodes. Rerunning the same command resumes where it
+//! stopped and gives exactly the result an uninterrupted run would, because every random draw
+//! derives from (experiment seed, node, run, generation, genome, sample) and checkpoints store
+//! the whole population exactly.
+//!
+//! Output layout under the output directory:
+//! `<node>/run-<k>/{checkpoint.json, fitness.csv, best.json, summary.json}` and
+//! `<node>/{best.json, summary.json}` (the node's chosen controller and its runs' results).
+
+use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
+use crate::ea;
+use crate::evaluation::{self, EvalReport};
+use crate::experiment::{Experiment, NodePlan};
+use crate::store::{read_json, write_atomic, write_json_atomic};
+use serde::{Deserialize, Serialize};
+use sim_core::Sample;
+use sim_core::batch::task_content_hash;
+use sim_core::controller::{ControllerFile, NodeSpec};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// What to run, and where.
+#[derive(Debug, Clone)]
+pub struct RunSettings {
+    /// Output directory.
+    pub out_dir: PathBuf,
+    /// Only this node (after its children).
+    pub node: Option<String>,
+    /// Override every node's number of runs.
+    pub runs: Option<u32>,
+    /// Override every node's number of generations.
+    pub generations: Option<u32>,
+    /// Override the experiment's seed.
+    pub seed: Option<u64>,
+    /// The dispatcher's job key (fair sharing between concurrent jobs).
+    pub job: String,
+}
+
+/// What the driver reports as it goes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum ProgressEvent {
+    /// A node starts (or is found finished).
+    NodeStarted {
+        /// Node.
+        node: String,
+        /// Runs.
+        runs: u32,
+        /// Generations per run.
+        generations: u32,
+    },
+    /// A generation was evaluated.
+    Generation {
+        /// Node.
+        node: String,
+        /// Run.
+        run: u32,
+        /// Generation just evaluated (0-based).
+        generation: u32,
+        /// Generations per run.
+        generations: u32,
+        /// Best fitness of the generation.
+        best: f64,
+        /// Mean fitness of the generation.
+        mean: f64,
+        /// Control cycles simulated for this generation.
+        cycles: u64,
+    },
+    /// A run finished post-evaluation.
+    RunFinished {
+        /// Node.
+        node: String,
+        /// Run.
+        run: u32,
+        /// Post-evaluation solve rate.
+        solve_rate: f64,
+    },
+    /// A node finished.
+    NodeFinished {
+        /// Node.
+        node: String,
+        /// Best run.
+        best_run: u32,
+        /// Its solve rate.
+        best_solve_rate: f64,
+        /// Mean solve rate over runs.
+        mean_solve_rate: f64,
+    },
+    /// A log line for the user.
+    Note {
+        /// Text.
+        message: String,
+    },
+}
+
+/// Receives progress events.
+pub trait Progress: Send + Sync {
+    /// Called for each event, in order.
+    fn event(&self, event: &ProgressEvent);
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Reading or writing an output failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The output directory holds results of a different experiment.
+    #[error(
+        "{path} was produced by a different experiment setup (fingerprint {found}, this one is {expected}): \
+         the node's settings, seed, overrides or children changed. Use another --out directory, or delete {path} to start it again."
+    )]
+    Fingerprint {
+        /// The file.
+        path: PathBuf,
+        /// Found.
+        found: String,
+        /// Expected.
+        expected: String,
+    },
+    /// The dispatcher could not evaluate.
+    #[error(transparent)]
+    Dispatch(#[from] DispatchError),
+    /// Inconsistent experiment (a node named with --node does not exist, a child has no result).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// One row of a run's fitness log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogRow {
+    /// Generation.
+    pub generation: u32,
+    /// Best fitness.
+    pub best: f64,
+    /// Mean fitness.
+    pub mean: f64,
+    /// Lowest fitness.
+    pub min: f64,
+    /// Highest fitness (= best).
+    pub max: f64,
+    /// Standard deviation.
+    pub std: f64,
+}
+
+/// A run's checkpoint: everything needed to continue it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// Format tag.
+    pub format: String,
+    /// The node's fingerprint when it was written.
+    pub fingerprint: String,
+    /// The next generation to evaluate (= generations when evolution is done).
+    pub generation: u32,
+    /// The population to evaluate next (the final one when done).
+    pub population: Vec<Vec<f32>>,
+    /// The run's best genome, set once the last generation has been evaluated.
+    pub best: Option<Vec<f32>>,
+    /// The fitness log so far.
+    pub log: Vec<LogRow>,
+}
+
+/// A finished run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// Node.
+    pub node: String,
+    /// Run index.
+    pub run: u32,
+    /// Fingerprint of the node setup.
+    pub fingerprint: String,
+    /// The run's seed.
+    pub run_seed: u64,
+    /// Generations evolved.
+    pub generations: u32,
+    /// Training fitness of the best genome in the final generation.
+    pub final_best_fitness: f64,
+    /// Post-evaluation of that genome.
+    pub post_evaluation: EvalReport,
+}
+
+/// A finished node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodeSummary {
+    /// Node.
+    pub node: String,
+    /// Task.
+    pub task: String,
+    /// Fingerprint.
+    pub fingerprint: String,
+    /// Every run.
+    pub runs: Vec<RunSummary>,
+    /// The run whose controller the node keeps.
+    pub best_run: u32,
+    /// Mean post-evaluation solve rate over runs (the paper's "avg").
+    pub mean_solve_rate: f64,
+    /// The best run's solve rate (the paper's "best").
+    pub best_solve_rate: f64,
+}
+
+const CHECKPOINT_FORMAT: &str = "hevo.checkpoint/1";
+
+/// Runs an experiment (or one node of it, after its children) to completion.
+pub async fn run_experiment(
+    experiment: &Experiment,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<Vec<NodeSummary>, RunError> {
+    let names: Vec<String> = match &settings.node {
+        Some(node) => {
+            if experiment.node(node).is_none() {
+                let known: Vec<&str> = experiment.nodes.iter().map(|n| n.decl.name.as_str()).collect();
+                return Err(RunError::Invalid(format!("no node named '{node}' in {}; nodes: {}", experiment.file.display(), known.join(", "))));
+            }
+            experiment.subtree(node)
+        }
+        None => experiment.nodes.iter().map(|n| n.decl.name.clone()).collect(),
+    };
+    let mut summaries = Vec::new();
+    for name in names {
+        let plan = experiment.node(&name).expect("names come from the experiment");
+        summaries.push(run_node(experiment, plan, settings, dispatcher, progress).await?);
+    }
+    Ok(summaries)
+}
+
+fn io_error(path: &Path, error: impl std::fmt::Display) -> RunError {
+    RunError::Io { path: path.to_path_buf(), message: error.to_string() }
+}
+
+/// The controller template of a node: the node itself free, its children the fixed best
+/// controllers of their nodes.
+pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, RunError> {
+    let mut children = Vec::new();
+    for child in &plan.decl.children {
+        let path = out_dir.join(child).join("best.json");
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            RunError::Invalid(format!("{}: the child '{child}' of '{}' has no result yet ({e}); run it first", path.display(), plan.decl.name))
+        })?;
+        let file = ControllerFile::from_json_str(&text).map_err(|e| io_error(&path, e))?;
+        children.push(file.root);
+    }
+    Ok(ControllerFile::new(NodeSpec {
+        name: plan.decl.name.clone(),
+        kind: plan.decl.kind,
+        inputs: plan.decl.inputs.clone(),
+        hidden: plan.decl.hidden,
+        genome: None,
+        children,
+    }))
+}
+
+/// Everything that determines a node's results, hashed: changing any of it under existing
+/// checkpoints is refused.
+fn fingerprint(plan: &NodePlan, template: &ControllerFile, seed: u64, generations: u32) -> String {
+    let material = serde_json::json!({
+        "format": 1,
+        "seed": seed,
+        "generations": generations,
+        "samples": plan.decl.samples,
+        "evolution": plan.evolution,
+        "task": task_content_hash(&plan.task),
+        "template": template.content_hash(),
+    });
+    let text = material.to_string();
+    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    format!("{hash:016x}")
+}
+
+async fn run_node(
+    experiment: &Experiment,
+    plan: &NodePlan,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<NodeSummary, RunError> {
+    let name = &plan.decl.name;
+    let node_dir = settings.out_dir.join(name);
+    let seed = settings.seed.unwrap_or(experiment.header.seed);
+    let runs = settings.runs.unwrap_or(plan.decl.runs);
+    let generations = settings.generations.unwrap_or(plan.decl.generations);
+    let template = node_template(plan, &settings.out_dir)?;
+    let fingerprint = fingerprint(plan, &template, seed, generations);
+
+    let summary_path = node_dir.join("summary.json");
+    if let Some(summary) = read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+        && summary.fingerprint == fingerprint
+        && summary.runs.len() == runs as usize
+    {
+        progress.event(&ProgressEvent::Note { message: format!("{name}: already finished, {} runs (skipped)", runs) });
+        return Ok(summary);
+    }
+    progress.event(&ProgressEvent::NodeStarted { node: name.clone(), runs, generations });
+
+    let mut run_summaries = Vec::new();
+    for run in 0..runs {
+        let run_dir = node_dir.join(format!("run-{run}"));
+        run_summaries.push(run_one(plan, &template, &fingerprint, seed, run, generations, &run_dir, settings, dispatcher, progress).await?);
+    }
+
+    let best = run_summaries
+        .iter()
+        .enumerate()
+        .max_by(|(ia, a), (ib, b)| {
+            a.post_evaluation
+                .solve_rate
+                .total_cmp(&b.post_evaluation.solve_rate)
+                .then(a.post_evaluation.mean_fitness.total_cmp(&b.post_evaluation.mean_fitness))
+                .then(ib.cmp(ia))
+        })
+        .map(|(i, _)| i)
+        .expect("at least one run");
+    let best_controller_path = node_dir.join(format!("run-{best}")).join("best.json");
+    let best_controller = std::fs::read(&best_controller_path).map_err(|e| io_error(&best_controller_path, e))?;
+    write_atomic(&node_dir.join("best.json"), &best_controller).map_err(|e| io_error(&node_dir.join("best.json"), e))?;
+    let mean_solve_rate = run_summaries.iter().map(|r| r.post_evaluation.solve_rate).sum::<f64>() / run_summaries.len() as f64;
+    let summary = NodeSummary {
+        node: name.clone(),
+        task: plan.task.kind.name().to_string(),
+        fingerprint,
+        best_run: best as u32,
+        best_solve_rate: run_summaries[best].post_evaluation.solve_rate,
+        mean_solve_rate,
+        runs: run_summaries,
+    };
+    write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
+    progress.event(&ProgressEvent::NodeFinished {
+        node: name.clone(),
+        best_run: summary.best_run,
+        best_solve_rate: summary.best_solve_rate,
+        mean_solve_rate,
+    });
+    Ok(summary)
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn run_one(
+    plan: &NodePlan,
+    template: &ControllerFile,
+    fingerprint: &str,
+    seed: u64,
+    run: u32,
+    generations: u32,
+    run_dir: &Path,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<RunSummary, RunError> {
+    let name = &plan.decl.name;
+    let summary_path = run_dir.join("summary.json");
+    let checkpoint_path = run_dir.join("checkpoint.json");
+    let check = |path: &Path, found: &str| {
+        if found == fingerprint {
+            Ok(())
+        } else {
+            Err(RunError::Fingerprint { path: path.to_path_buf(), found: found.to_string(), expected: fingerprint.to_string() })
+        }
+    };
+    if let Some(summary) = read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))? {
+        check(&summary_path, &summary.fingerprint)?;
+        return Ok(summary);
+    }
+    let run_seed = ea::run_seed(seed, name, run);
+    let n_genes = template.free_node_topology().map(|(_, t)| t.n_genes()).unwrap_or(0);
+    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path).map_err(|e| io_error(&checkpoint_path, e))? {
+        Some(found) => {
+            check(&checkpoint_path, &found.fingerprint)?;
+            if found.format != CHECKPOINT_FORMAT || found.population.iter().any(|g| g.len() != n_genes) {
+                return Err(io_error(&checkpoint_path, "checkpoint is not in the expected format; delete it to restart the run"));
+            }
+            progress.event(&ProgressEvent::Note { message: format!("{name} run {run}: resuming at generation {}", found.generation) });
+            found
+        }
+        None => Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            fingerprint: fingerprint.to_string(),
+            generation: 0,
+            population: ea::initial_population(n_genes, &plan.evolution, run_seed),
+            best: None,
+            log: Vec::new(),
+        },
+    };
+    std::fs::create_dir_all(run_dir).map_err(|e| io_error(run_dir, e))?;
+
+    let shared = Arc::new(RequestShared {
+        template_hash: template.content_hash(),
+        task_hash: task_content_hash(&plan.task),
+        template: template.clone(),
+        task: plan.task.clone(),
+    });
+    let n_variants = sim_core::env::n_variants(plan.task.kind);
+    while checkpoint.generation < generations {
+        let generation = checkpoint.generation;
+        // Every genome of a generation meets the same samples; tasks with light
+        // configurations get them in equal shares.
+        let samples: Arc<[Sample]> = ea::generation_seeds(run_seed, generation, plan.decl.samples)
+            .into_iter()
+            .enumerate()
+            .map(|(i, seed)| Sample { seed, variant: (n_variants > 1).then_some(i as u32 % n_variants) })
+            .collect();
+        let request = EvaluationRequest {
+            job: settings.job.clone(),
+            shared: shared.clone(),
+            genomes: checkpoint.population.iter().map(|g| Arc::from(g.as_slice())).collect(),
+            samples,
+        };
+        let results = dispatcher.evaluate(request).await?;
+        let fitness: Vec<f64> = results
+            .iter()
+            .map(|genome| genome.iter().map(|s| f64::from(s.fitness)).sum::<f64>() / genome.len().max(1) as f64)
+            .collect();
+        let cycles: u64 = results.iter().flatten().map(|s| u64::from(s.cycles)).sum();
+        let row = log_row(generation, &fitness);
+        progress.event(&ProgressEvent::Generation {
+            node: name.clone(),
+            run,
+            generation,
+            generations,
+            best: row.best,
+            mean: row.mean,
+            cycles,
+        });
+        checkpoint.log.push(row);
+        if generation + 1 == generations {
+            let best_idx = ea::ranking(&fitness)[0];
+            checkpoint.best = Some(checkpoint.population[best_idx].clone());
+        } else {
+            checkpoint.population = ea::next_generation(&checkpoint.population, &fitness, &plan.evolution, run_seed, generation);
+        }
+        checkpoint.generation = generation + 1;
+        write_fitness_csv(&run_dir.join("fitness.csv"), &checkpoint.log)?;
+        write_json_atomic(&checkpoint_path, &checkpoint).map_err(|e| io_error(&checkpoint_path, e))?;
+    }
+
+    let best_genes = checkpoint.best.clone().ok_or_else(|| io_error(&checkpoint_path, "finished checkpoint without a best genome"))?;
+    let controller = template.with_free_genome(&best_genes).map_err(|e| io_error(&checkpoint_path, e))?;
+    let best_path = run_dir.join("best.json");
+    let json = controller.to_json_pretty().map_err(|e| io_error(&best_path, e))?;
+    write_atomic(&best_path, json.as_bytes()).map_err(|e| io_error(&best_path, e))?;
+    let samples = evaluation::post_evaluation_samples(
+        plan.task.kind,
+        plan.evolution.post_evaluation_samples,
+        ea::post_evaluation_seeds(run_seed, 1)[0],
+    );
+    let post_evaluation = evaluation::evaluate_controller(dispatcher, &settings.job, controller, plan.task.clone(), samples).await?;
+    let summary = RunSummary {
+        node: name.clone(),
+        run,
+        fingerprint: fingerprint.to_string(),
+        run_seed,
+        generations,
+        final_best_fitness: checkpoint.log.last().map_or(0.0, |r| r.best),
+        post_evaluation,
+    };
+    write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
+    progress.event(&ProgressEvent::RunFinished { node: name.clone(), run, solve_rate: summary.post_evaluation.solve_rate });
+    Ok(summary)
+}
+
+fn log_row(generation: u32, fitness: &[f64]) -> LogRow {
+    let n = fitness.len().max(1) as f64;
+    let mean = fitness.iter().sum::<f64>() / n;
+    let var = fitness.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / n;
+    LogRow {
+        generation,
+        best: fitness.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        mean,
+        min: fitness.iter().copied().fold(f64::INFINITY, f64::min),
+        max: fitness.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        std: var.sqrt(),
+    }
+}
+
+/// The header of every fitness log.
+pub const FITNESS_CSV_HEADER: &str = "generation,best,mean,min,max,std";
+
+fn write_fitness_csv(path: &Path, log: &[LogRow]) -> Result<(), RunError> {
+    let mut text = String::from(FITNESS_CSV_HEADER);
+    text.push('\n');
+    for row in log {
+        text.push_str(&format!("{},{},{},{},{},{}\n", row.generation, row.best, row.mean, row.min, row.max, row.std));
+    }
+    write_atomic(path, text.as_bytes()).map_err(|e| io_error(path, e))
+}
