@@ -1,0 +1,188 @@
+//! End-to-end tests of `hevo run` as a user runs it: the real binary on a small experiment.
+//! They prove the properties a long evolution depends on: a run killed at any moment resumes
+//! to exactly the result an uninterrupted run gives, the thread count never changes results,
+//! a changed experiment under existing checkpoints is refused, and bad files get clear errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
+
+/// A small but real experiment: an exit-room primitive (1000-cycle samples make each
+/// generation take long enough to kill the process in the middle of a run).
+const SMALL: &str = r#"
+[experiment]
+name = "small"
+seed = 7
+
+[evolution]
+population = 12
+elites = 3
+post_evaluation_samples = 6
+
+[[node]]
+name = "exit_room"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 4
+task = "exit_room"
+samples = 6
+generations = 10
+runs = 2
+"#;
+
+fn write_experiment(dir: &Path, text: &str) -> PathBuf {
+    let path = dir.join("small.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn hevo(args: &[&str]) -> std::process::Output {
+    Command::new(HEVO).args(args).env("RUST_LOG", "warn").output().expect("hevo runs")
+}
+
+/// Every file under `dir`, relative path -> bytes.
+fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(current) = stack.pop() {
+        for entry in std::fs::read_dir(&current).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let relative = path.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+                files.push((relative, std::fs::read(&path).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+fn assert_same_tree(a: &Path, b: &Path) {
+    let (ta, tb) = (tree(a), tree(b));
+    let names = |t: &[(String, Vec<u8>)]| t.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&ta), names(&tb), "same files");
+    for ((name, bytes_a), (_, bytes_b)) in ta.iter().zip(&tb) {
+        assert!(bytes_a == bytes_b, "{name} differs between {} and {}", a.display(), b.display());
+    }
+}
+
+#[test]
+fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
+    let dir = tempfile::tempdir().unwrap();
+    let experiment = write_experiment(dir.path(), SMALL);
+    let experiment = experiment.to_str().unwrap();
+
+    let straight = dir.path().join("straight");
+    let out = hevo(&["run", experiment, "--out", straight.to_str().unwrap(), "--threads", "2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary = std::fs::read_to_string(straight.join("exit_room/summary.json")).unwrap();
+    assert!(summary.contains("\"best_run\""));
+
+    // One thread: the same bytes.
+    let single = dir.path().join("single");
+    let out = hevo(&["run", experiment, "--out", single.to_str().unwrap(), "--threads", "1"]);
+    assert!(out.status.success());
+    assert_same_tree(&straight, &single);
+
+    // Kill -9 in the middle of the first run, then run the same command again.
+    let killed = dir.path().join("killed");
+    let mut child = Command::new(HEVO)
+        .args(["run", experiment, "--out", killed.to_str().unwrap(), "--threads", "2"])
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let checkpoint = killed.join("exit_room/run-0/checkpoint.json");
+    let started = Instant::now();
+    loop {
+        let generation = std::fs::read_to_string(&checkpoint)
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .and_then(|v| v["generation"].as_u64());
+        if generation.is_some_and(|g| g >= 3) {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
+        assert!(child.try_wait().unwrap().is_none(), "the run finished before it could be killed; make SMALL slower");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!killed.join("exit_room/summary.json").exists(), "killed before the end");
+    let out = hevo(&["run", experiment, "--out", killed.to_str().unwrap(), "--threads", "2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_same_tree(&straight, &killed);
+
+    // A rerun of a finished experiment does nothing and changes nothing.
+    let out = hevo(&["run", experiment, "--out", straight.to_str().unwrap()]);
+    assert!(out.status.success());
+    assert_same_tree(&straight, &single);
+
+    // Changing the experiment under existing results is refused.
+    let changed = write_experiment(dir.path(), &SMALL.replace("hidden = 4", "hidden = 5"));
+    let out = hevo(&["run", changed.to_str().unwrap(), "--out", killed.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(message.contains("different experiment setup") && message.contains("exit_room"), "{message}");
+}
+
+#[test]
+fn bad_experiment_files_are_rejected_with_the_key_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (SMALL.replace("hidden = 4", "hiden = 4"), "node[0]"),
+        (SMALL.replace("task = \"exit_room\"", "task = \"exit_rom\""), "node[0].task"),
+        (SMALL.replace("samples = 6\n", "samples = 0\n"), "node[0].samples"),
+        (SMALL.replace("[evolution]", "[evolution]\nmutation_rate = 0.2"), "evolution"),
+    ];
+    for (text, key) in cases {
+        let path = write_experiment(dir.path(), &text);
+        let out = hevo(&["run", path.to_str().unwrap(), "--out", dir.path().join("o").to_str().unwrap()]);
+        assert!(!out.status.success());
+        let message = String::from_utf8_lossy(&out.stderr);
+        assert!(message.contains("small.toml") && message.contains(key), "expected {key} in: {message}");
+        assert!(!message.contains("panicked"), "{message}");
+    }
+    let out = hevo(&["run", dir.path().join("missing.toml").to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
+}
+
+#[test]
+fn eval_and_bench_report_what_they_measured() {
+    let dir = tempfile::tempdir().unwrap();
+    // A controller file from a tiny run.
+    let experiment = write_experiment(dir.path(), &SMALL.replace("generations = 10", "generations = 1").replace("runs = 2", "runs = 1"));
+    let out_dir = dir.path().join("o");
+    let out = hevo(&["run", experiment.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let controller = out_dir.join("exit_room/best.json");
+    let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "exit_room", "--samples", "5", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["samples"], 5);
+    assert!(report["solve_rate"].as_f64().unwrap() <= 1.0);
+
+    let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "solve_maze", "--samples", "2", "--json"]);
+    // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
+    assert!(out.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["samples"], 8);
+    assert_eq!(report["per_variant"].as_array().unwrap().len(), 4);
+
+    let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "teleport"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown task 'teleport'"));
+
+    let out = hevo(&["bench", "--task", "follow_wall", "--seconds", "0.3", "--threads", "1", "--json"]);
+    assert!(out.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["task"], "follow_wall");
+    assert_eq!(report["threads"], 1);
+    assert!(report["cycles_per_second"].as_f64().unwrap() > 0.0);
+}
