@@ -43,8 +43,9 @@ pub enum Command {
 /// `hevo run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// The experiment file (TOML), e.g. experiments/rescue.toml.
-    pub file: PathBuf,
+    /// The experiment file (TOML). Without one, the paper's rescue experiment built into hevo
+    /// (a copy of experiments/rescue.toml) is used.
+    pub file: Option<PathBuf>,
     /// Evolve only this node (after its children, which are reused when already finished).
     #[arg(long)]
     pub node: Option<String>,
@@ -203,8 +204,14 @@ fn load_controller(path: &Path) -> Result<ControllerFile> {
     Ok(file)
 }
 
+/// The paper's rescue experiment, built in so `hevo run` works without any file.
+pub const EMBEDDED_EXPERIMENT: &str = include_str!("../../experiments/rescue.toml");
+
 fn run(args: RunArgs) -> Result<()> {
-    let experiment = Experiment::load(&args.file)?;
+    let experiment = match &args.file {
+        Some(file) => Experiment::load(file)?,
+        None => Experiment::parse(EMBEDDED_EXPERIMENT, Path::new("<built-in experiments/rescue.toml>"))?,
+    };
     let threads = default_threads(args.threads);
     let settings = RunSettings {
         out_dir: args.out.clone(),

@@ -264,6 +264,7 @@ pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, 
 fn fingerprint(plan: &NodePlan, template: &ControllerFile, seed: u64, generations: u32) -> String {
     let material = serde_json::json!({
         "format": 1,
+        "model": sim_core::MODEL_VERSION,
         "seed": seed,
         "generations": generations,
         "samples": plan.decl.samples,
