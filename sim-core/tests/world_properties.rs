@@ -1,0 +1,290 @@
+//! Properties of the simulated world that must hold whatever drives the robot: the robot never
+//! overlaps a wall or obstacle (checked with our own geometry, not the simulator's), a
+//! collision undoes the whole move, one (policy, task, sample) always gives the same outcome
+//! and trace while different seeds give different samples, every start pose is free, and a
+//! sample's environment depends on its seed only, never on the policy. The policies are random
+//! piecewise-constant wheel commands drawn by proptest, plus the scripted reference policies.
+//! Case counts keep the file well under half a minute in release.
+
+use proptest::prelude::*;
+use sim_core::frame::SensorFrame;
+use sim_core::robot::Pose;
+use sim_core::scene::Rect;
+use sim_core::scripted::{
+    CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
+};
+use sim_core::{Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
+
+/// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
+#[derive(Debug, Clone)]
+struct Wander {
+    segments: Vec<(u32, [f32; 2])>,
+    segment: usize,
+    cycles_left: u32,
+}
+
+impl Wander {
+    fn new(segments: Vec<(u32, [f32; 2])>) -> Wander {
+        Wander {
+            segments,
+            segment: 0,
+            cycles_left: 0,
+        }
+    }
+}
+
+impl Policy for Wander {
+    fn reset(&mut self) {
+        self.segment = 0;
+        self.cycles_left = self.segments.first().map_or(0, |s| s.0);
+    }
+
+    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+        if self.segments.is_empty() {
+            return [0.5, 0.5];
+        }
+        while self.cycles_left == 0 {
+            self.segment = (self.segment + 1) % self.segments.len();
+            self.cycles_left = self.segments[self.segment].0;
+        }
+        self.cycles_left -= 1;
+        self.segments[self.segment].1
+    }
+}
+
+/// Segments that mix any wheel commands with long pushes forward, so the robot spends much of
+/// its time pressed against walls and obstacles.
+fn segments() -> impl Strategy<Value = Vec<(u32, [f32; 2])>> {
+    let any = (1u32..40, 0.0f32..=1.0, 0.0f32..=1.0).prop_map(|(n, l, r)| (n, [l, r]));
+    let push = (20u32..120, 0.8f32..=1.0, 0.8f32..=1.0).prop_map(|(n, l, r)| (n, [l, r]));
+    prop::collection::vec(prop_oneof![any, push], 1..24)
+}
+
+fn task_kind() -> impl Strategy<Value = TaskKind> {
+    prop::sample::select(TaskKind::ALL.to_vec())
+}
+
+fn evaluator(kind: TaskKind, max_cycles: Option<u32>, end_on_collision: bool) -> Evaluator {
+    let task = TaskConfig {
+        max_cycles,
+        end_on_collision,
+        ..TaskConfig::new(kind)
+    };
+    Evaluator::new(task).expect("the paper's task configurations are valid")
+}
+
+/// Signed distance from a point to a possibly rotated rectangle: negative inside.
+fn signed_distance(point: [f32; 2], rect: &Rect) -> f32 {
+    let (sin, cos) = rect.angle.sin_cos();
+    let (dx, dy) = (point[0] - rect.center[0], point[1] - rect.center[1]);
+    // Into the rectangle's own frame (rotation by -angle).
+    let local = [cos * dx + sin * dy, -sin * dx + cos * dy];
+    let q = [
+        local[0].abs() - rect.half_extents[0],
+        local[1].abs() - rect.half_extents[1],
+    ];
+    let outside = q[0].max(0.0).hypot(q[1].max(0.0));
+    let inside = q[0].max(q[1]).min(0.0);
+    outside + inside
+}
+
+/// The nearest rectangle's distance from the robot's centre, and which rectangle it is.
+fn clearance(pose: &Pose, rects: &[Rect]) -> (f32, usize) {
+    rects
+        .iter()
+        .enumerate()
+        .map(|(index, rect)| (signed_distance(pose.position(), rect), index))
+        .fold((f32::INFINITY, usize::MAX), |best, next| {
+            if next.0 < best.0 { next } else { best }
+        })
+}
+
+/// Every pose of the trace keeps the robot's disc out of every rectangle, and a cycle whose
+/// move collided leaves the robot where it was.
+fn assert_never_inside(trace: &Trace, radius: f32) {
+    let context = |cycle: usize| format!("{} {:?} cycle {cycle}", trace.task, trace.sample);
+    let poses = trace
+        .cycles
+        .iter()
+        .map(|c| c.robot)
+        .chain(std::iter::once(trace.final_robot));
+    for (cycle, pose) in poses.enumerate() {
+        let (distance, rect) = clearance(&pose, &trace.rects);
+        assert!(
+            distance >= radius - 1e-4,
+            "{}: robot at {pose:?} is {distance} from rect {:?}",
+            context(cycle),
+            trace.rects.get(rect)
+        );
+    }
+    for (cycle, pair) in trace.cycles.windows(2).enumerate() {
+        if pair[0].collided {
+            assert_eq!(
+                pair[0].robot,
+                pair[1].robot,
+                "{}: a collided move was not undone",
+                context(cycle)
+            );
+        }
+    }
+    if let Some(last) = trace.cycles.last().filter(|c| c.collided) {
+        assert_eq!(
+            last.robot,
+            trace.final_robot,
+            "{}: the last collided move was not undone",
+            context(trace.cycles.len())
+        );
+    }
+}
+
+/// A scripted policy for any task: used where a second, very different driver is needed.
+fn scripted_trace(evaluator: &Evaluator, kind: TaskKind, sample: Sample) -> Trace {
+    match kind {
+        TaskKind::ExitRoom => evaluator.evaluate_traced(&mut RoomExiter::new(), sample),
+        TaskKind::FollowWall => evaluator.evaluate_traced(&mut CorridorFollower::new(), sample),
+        TaskKind::TurnLeft => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Left), sample),
+        TaskKind::TurnRight => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Right), sample),
+        TaskKind::SolveMaze => evaluator.evaluate_traced(&mut MazeSolver::new(), sample),
+        TaskKind::ReturnRoom => evaluator.evaluate_traced(&mut Returner::new(), sample),
+        TaskKind::Rescue => evaluator.evaluate_traced(&mut Rescuer::new(), sample),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn robots_never_enter_walls_or_obstacles(kind in task_kind(), seed in any::<u64>(), segments in segments()) {
+        let radius = TaskConfig::new(kind).robot.radius;
+        let evaluator = evaluator(kind, Some(1500), false);
+        let trace = evaluator.evaluate_traced(&mut Wander::new(segments), Sample::seeded(seed));
+        assert_never_inside(&trace, radius);
+    }
+
+    #[test]
+    fn the_same_sample_replays_identically(kind in task_kind(), seed in any::<u64>(), segments in segments()) {
+        let evaluator = evaluator(kind, Some(600), true);
+        let sample = Sample::seeded(seed);
+        let mut reused = Wander::new(segments.clone());
+        let first = evaluator.evaluate_traced(&mut reused, sample);
+        // The same policy object again (reset by the evaluator), and a fresh one.
+        let again = evaluator.evaluate_traced(&mut reused, sample);
+        let fresh = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
+        prop_assert_eq!(&first, &again);
+        prop_assert_eq!(&first, &fresh);
+        // The untraced evaluation gives the traced one's outcome.
+        prop_assert_eq!(&evaluator.evaluate(&mut reused, sample), &first.outcome);
+        // Another seed gives another sample.
+        let other = evaluator.evaluate_traced(&mut reused, Sample::seeded(seed ^ 0x9E37_79B9));
+        prop_assert_ne!(&first, &other);
+    }
+
+    #[test]
+    fn the_environment_depends_on_the_seed_only(kind in task_kind(), seed in any::<u64>(), segments in segments()) {
+        let evaluator = evaluator(kind, Some(400), true);
+        let sample = Sample::seeded(seed);
+        let wandering = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
+        let scripted = scripted_trace(&evaluator, kind, sample);
+        prop_assert_eq!(&wandering.rects, &scripted.rects);
+        prop_assert_eq!(&wandering.lights, &scripted.lights);
+        prop_assert_eq!(wandering.goal, scripted.goal);
+        prop_assert_eq!(wandering.exit, scripted.exit);
+        prop_assert_eq!(wandering.outcome.variant, scripted.outcome.variant);
+        // The start, and what is sensed before the policy has done anything.
+        prop_assert_eq!(&wandering.cycles[0].robot, &scripted.cycles[0].robot);
+        prop_assert_eq!(&wandering.cycles[0].teammate, &scripted.cycles[0].teammate);
+        prop_assert_eq!(&wandering.cycles[0].frame, &scripted.cycles[0].frame);
+    }
+}
+
+#[test]
+fn wandering_does_press_against_walls() {
+    // The property above is only worth something if the random drivers do touch walls: turn
+    // about 100 degrees, then push straight on for 30 s.
+    for kind in TaskKind::ALL {
+        let evaluator = evaluator(kind, Some(400), false);
+        let mut pusher = Wander::new(vec![(5, [0.0, 1.0]), (300, [1.0, 1.0])]);
+        let touching = (0..8)
+            .map(|seed| evaluator.evaluate_traced(&mut pusher, Sample::seeded(seed)))
+            .filter(|trace| trace.cycles.iter().filter(|c| c.collided).count() > 10)
+            .count();
+        assert!(
+            touching >= 4,
+            "{kind}: only {touching} of 8 pushes reached a wall"
+        );
+    }
+}
+
+#[test]
+fn the_scripted_policies_never_enter_walls_either() {
+    // They drive close to walls on purpose (the room exiter at about 2 cm).
+    for kind in TaskKind::ALL {
+        let radius = TaskConfig::new(kind).robot.radius;
+        let evaluator = evaluator(kind, None, false);
+        for seed in 0..12 {
+            assert_never_inside(
+                &scripted_trace(&evaluator, kind, Sample::seeded(seed)),
+                radius,
+            );
+        }
+    }
+}
+
+#[test]
+fn every_start_pose_is_free() {
+    for kind in TaskKind::ALL {
+        let task = TaskConfig::new(kind);
+        let radius = task.robot.radius;
+        let evaluator = evaluator(kind, Some(1), true);
+        let seeds = if matches!(kind, TaskKind::ExitRoom | TaskKind::Rescue) {
+            0..1500
+        } else {
+            0..200
+        };
+        for seed in seeds {
+            let trace =
+                evaluator.evaluate_traced(&mut Wander::new(Vec::new()), Sample::seeded(seed));
+            let start = trace.cycles[0].robot;
+            let (distance, rect) = clearance(&start, &trace.rects);
+            assert!(
+                distance >= radius,
+                "{kind} seed {seed}: start {start:?} is {distance} from {:?}",
+                trace.rects.get(rect)
+            );
+            assert!(
+                !trace.cycles[0].collided,
+                "{kind} seed {seed}: standing still collided"
+            );
+        }
+    }
+}
+
+#[test]
+fn light_configurations_and_branches_can_be_fixed_or_drawn() {
+    // A fixed variant is used as given; a drawn one covers every variant and is the same for
+    // the same seed whatever the policy.
+    for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom, TaskKind::Rescue] {
+        let evaluator = evaluator(kind, Some(5), true);
+        for variant in 0..4 {
+            let o = evaluator.evaluate(
+                &mut Wander::new(Vec::new()),
+                Sample {
+                    seed: 7,
+                    variant: Some(variant),
+                },
+            );
+            assert_eq!(o.variant, variant, "{kind}");
+        }
+        let mut seen = [false; 4];
+        for seed in 0..64 {
+            let still = evaluator.evaluate(&mut Wander::new(Vec::new()), Sample::seeded(seed));
+            let spinning = evaluator.evaluate(
+                &mut Wander::new(vec![(3, [0.0, 1.0])]),
+                Sample::seeded(seed),
+            );
+            assert_eq!(still.variant, spinning.variant, "{kind} seed {seed}");
+            seen[still.variant as usize] = true;
+        }
+        assert_eq!(seen, [true; 4], "{kind}: drawn variants");
+    }
+}
