@@ -38,6 +38,19 @@ pub enum Command {
     Replay(ReplayArgs),
     /// Plot the fitness curves of a node's runs as SVG.
     Plot(PlotArgs),
+    /// Write REPRODUCTION.md (paper versus hevo) from run output directories.
+    Report(ReportArgs),
+}
+
+/// `hevo report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Run output directories (as given to `hevo run --out`).
+    #[arg(required = true)]
+    pub runs_dirs: Vec<PathBuf>,
+    /// The Markdown file to write; pictures go to `reproduction/` beside it.
+    #[arg(long, default_value = "REPRODUCTION.md")]
+    pub out: PathBuf,
 }
 
 /// `hevo run`.
@@ -185,6 +198,11 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Bench(args) => bench_command(args),
         Command::Replay(args) => replay(args),
         Command::Plot(args) => plot(args),
+        Command::Report(args) => {
+            let n = crate::report::write_report(&args.runs_dirs, &args.out).map_err(anyhow::Error::msg)?;
+            println!("{n} node(s) reported -> {}", args.out.display());
+            Ok(())
+        }
     }
 }
 

@@ -10,6 +10,7 @@ pub mod evaluation;
 pub mod experiment;
 pub mod local;
 pub mod progress;
+pub mod report;
 pub mod runner;
 pub mod store;
 pub mod viz;

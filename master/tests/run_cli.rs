@@ -179,6 +179,16 @@ fn eval_and_bench_report_what_they_measured() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown task 'teleport'"));
 
+    // The reproduction report is generated from the outputs, with the paper's figures beside.
+    let report_file = dir.path().join("doc/REPRODUCTION.md");
+    let out = hevo(&["report", out_dir.to_str().unwrap(), "--out", report_file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let markdown = std::fs::read_to_string(&report_file).unwrap();
+    assert!(markdown.contains("| exit_room | exit_room | 52.0% / 96.0% |"), "{markdown}");
+    assert!(markdown.contains("| solve_maze | solve_maze | 93.0% / 99.5% | not run yet"), "{markdown}");
+    assert!(markdown.contains("reproduction/exit_room-fitness.svg"));
+    assert!(dir.path().join("doc/reproduction/exit_room-fitness.svg").exists());
+
     let out = hevo(&["bench", "--task", "follow_wall", "--seconds", "0.3", "--threads", "1", "--json"]);
     assert!(out.status.success());
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
