@@ -479,6 +479,12 @@ impl ResampledCurve {
     pub fn max_distance_m(&self) -> f32 {
         self.last_position / self.inv_step
     }
+
+    /// The mean at every grid point, nearest first, and the grid step in metres.
+    pub fn grid_means(&self) -> (Vec<f32>, f32) {
+        let n_points = self.points.len() - 1;
+        (self.points[..n_points].iter().map(|p| p.mean).collect(), 1.0 / self.inv_step)
+    }
 }
 
 #[cfg(test)]

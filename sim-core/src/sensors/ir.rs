@@ -64,6 +64,22 @@ pub enum CurveChoice {
     Mean,
 }
 
+/// How a raw reading becomes a network input in [0, 1] (1 at contact, 0 at 12 cm or beyond).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IrMapping {
+    /// The raw reading is turned back into a distance through the average measured curve (what
+    /// a robot calibrated once with the average table does), and the input is linear in that
+    /// distance: `1 - d / 12 cm`. A sensor whose own curve differs from the average reads
+    /// systematically off, as a real one would. This is the default: with the linear-raw
+    /// mapping a wall 6 cm away reads 0.008 and the sensor is close to a contact switch,
+    /// which left the turning primitives unable to bootstrap.
+    #[default]
+    LinearDistance,
+    /// Linear in the raw value between the curve's mean at 12 cm (0) and at contact (1).
+    LinearRaw,
+}
+
 /// IR sensor configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -78,6 +94,8 @@ pub struct IrConfig {
     pub offset_fraction: f32,
     /// How each sample picks the measured curves.
     pub curve_choice: CurveChoice,
+    /// How a raw reading maps to the input.
+    pub mapping: IrMapping,
 }
 
 impl Default for IrConfig {
@@ -87,6 +105,7 @@ impl Default for IrConfig {
             cone_deg: 70.0,
             offset_fraction: 0.05,
             curve_choice: CurveChoice::Any,
+            mapping: IrMapping::LinearDistance,
         }
     }
 }
@@ -94,7 +113,7 @@ impl Default for IrConfig {
 impl IrConfig {
     /// Draws one sample's sensor setup with this configuration.
     pub fn draw_setup(&self, rng: &mut SimRng) -> IrSensorSetup {
-        IrSensorSetup::draw(rng, self.curve_choice, self.offset_fraction)
+        IrSensorSetup { mapping: self.mapping, ..IrSensorSetup::draw(rng, self.curve_choice, self.offset_fraction) }
     }
 }
 
@@ -106,6 +125,9 @@ pub struct IrSensorSetup {
     pub curve: [u8; N_IR],
     /// Fixed offset noise of each sensor: the input is multiplied by `1 + offset`.
     pub offset: [f32; N_IR],
+    /// How raw readings map to inputs.
+    #[serde(default)]
+    pub mapping: IrMapping,
 }
 
 impl Default for IrSensorSetup {
@@ -114,6 +136,7 @@ impl Default for IrSensorSetup {
         IrSensorSetup {
             curve: [MEAN_IR_CURVE; N_IR],
             offset: [0.0; N_IR],
+            mapping: IrMapping::default(),
         }
     }
 }
@@ -143,7 +166,7 @@ impl IrSensorSetup {
         // Drawing u in [0, 1) and scaling, rather than sampling a range, keeps a fraction of 0
         // valid (an empty range would be an error) and always consumes the same draws.
         let offset = std::array::from_fn(|_| (2.0 * rng.random::<f32>() - 1.0) * fraction);
-        IrSensorSetup { curve, offset }
+        IrSensorSetup { curve, offset, mapping: IrMapping::default() }
     }
 }
 
@@ -180,6 +203,10 @@ impl IrCurve {
 #[derive(Debug, Clone, PartialEq)]
 pub struct IrModel {
     curves: [IrCurve; N_IR_CURVES],
+    /// The average curve's means on the 1 mm grid, made non-increasing with distance (the
+    /// measured tail is not monotonic), for turning a raw reading back into a distance.
+    inverse_means: Vec<f32>,
+    inverse_step: f32,
 }
 
 impl IrModel {
@@ -212,7 +239,30 @@ impl IrModel {
                 .map_err(|_| CalibrationError::MissingCurve {
                     curve: "mean".to_string(),
                 })?;
-        Ok(IrModel { curves })
+        let (mut inverse_means, inverse_step) = curves[N_IR_CURVES - 1].table.grid_means();
+        for i in 1..inverse_means.len() {
+            inverse_means[i] = inverse_means[i].min(inverse_means[i - 1]);
+        }
+        Ok(IrModel { curves, inverse_means, inverse_step })
+    }
+
+    /// The distance (metres) at which the average curve's mean equals `raw`: 0 above the
+    /// contact mean, the table's last distance below the farthest mean; linear between grid
+    /// points; plateaus resolve to their nearest end.
+    pub fn raw_to_distance(&self, raw: f32) -> f32 {
+        let means = &self.inverse_means;
+        let last = means.len() - 1;
+        if !(raw < means[0]) {
+            return 0.0;
+        }
+        if raw <= means[last] {
+            return last as f32 * self.inverse_step;
+        }
+        // First grid point whose mean is at or below `raw`: the means are non-increasing.
+        let above = means.partition_point(|&m| m > raw);
+        let (near, far) = (means[above - 1], means[above]);
+        let fraction = if near > far { (near - raw) / (near - far) } else { 0.0 };
+        ((above - 1) as f32 + fraction) * self.inverse_step
     }
 
     /// The curve for index `curve`; indices past the measured ones select the average curve.
@@ -258,7 +308,14 @@ impl IrModel {
             return 0.0;
         };
         let raw = self.read_raw(curve, distance_m, rng);
-        (self.raw_to_input(curve, raw) * (1.0 + offset)).clamp(0.0, 1.0)
+        let input = match setup.mapping {
+            IrMapping::LinearDistance => {
+                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
+                1.0 - self.raw_to_distance(raw) / max_distance
+            }
+            IrMapping::LinearRaw => self.raw_to_input(curve, raw),
+        };
+        (input * (1.0 + offset)).clamp(0.0, 1.0)
     }
 
     /// One cycle's inputs of all four IR sensors, in IR input order (draws in that order).
@@ -350,6 +407,7 @@ mod tests {
         let mut rng = stream_rng(12, Stream::Noise);
         for curve in 0..=MEAN_IR_CURVE {
             let setup = IrSensorSetup {
+                mapping: IrMapping::LinearRaw,
                 curve: [curve; N_IR],
                 offset: [0.0; N_IR],
             };
@@ -392,6 +450,7 @@ mod tests {
         // offset +4% is 1.04 times that of the same curve without offset.
         let model = IrModel::builtin();
         let with_offset = IrSensorSetup {
+            mapping: IrMapping::LinearRaw,
             curve: [0; N_IR],
             offset: [0.04; N_IR],
         };
@@ -525,5 +584,30 @@ mod tests {
             rising,
             Err(CalibrationError::CurveNotDecreasing { ref curve, .. }) if curve == "r2s2"
         ));
+    }
+
+    #[test]
+    fn linear_distance_mapping_recovers_the_distance_on_the_average_curve() {
+        let model = IrModel::builtin();
+        let setup = IrSensorSetup { curve: [MEAN_IR_CURVE; N_IR], offset: [0.0; N_IR], mapping: IrMapping::LinearDistance };
+        let mut rng = crate::rng::stream_rng(3, crate::rng::Stream::Noise);
+        for distance_cm in [0.5f32, 1.0, 2.0, 3.0, 5.0, 8.0] {
+            let d = distance_cm / 100.0;
+            let n = 2000;
+            let mean: f32 = (0..n).map(|_| model.read(&setup, 0, Some(d), &mut rng)).sum::<f32>() / n as f32;
+            let expected = 1.0 - d / 0.12;
+            assert!((mean - expected).abs() < 0.03, "at {distance_cm} cm: {mean} vs {expected}");
+        }
+        // Contact reads 1, nothing in range reads (nearly) 0.
+        assert!(model.read(&setup, 0, Some(0.0), &mut rng) > 0.99);
+        let far: f32 = (0..1000).map(|_| model.read(&setup, 0, None, &mut rng)).sum::<f32>() / 1000.0;
+        assert!(far < 0.1, "{far}");
+        // The inverse is monotone in the raw value.
+        let mut last = 0.0;
+        for raw in (5..4000).rev().step_by(7) {
+            let d = model.raw_to_distance(raw as f32);
+            assert!(d >= last, "raw {raw}: {d} < {last}");
+            last = d;
+        }
     }
 }

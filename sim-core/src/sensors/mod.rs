@@ -9,5 +9,5 @@ pub mod ir;
 pub mod light;
 
 pub use calibration::{CalibrationError, CalibrationTable, MeanStd, MeasuredCurve, ResampledCurve};
-pub use ir::{CurveChoice, IrConfig, IrModel, IrSensorSetup};
+pub use ir::{CurveChoice, IrConfig, IrMapping, IrModel, IrSensorSetup};
 pub use light::{FlashDetector, LightConfig, LightModel};
