@@ -18,15 +18,15 @@ usage: one-box.sh [options] EXPERIMENT
 Starts a hevo master and N workers on 127.0.0.1, runs EXPERIMENT on them and fetches the results.
 
 options:
-  --workers N        worker processes to start (default 3)
-  --threads T        evaluation threads per worker (default 1)
-  --out DIR          where the results are fetched to (default results)
-  --bin-dir DIR      where hevo and hevo-worker are (default: target/release of this
+  --workers <N>      worker processes to start (default 3)
+  --threads <T>      evaluation threads per worker (default 1)
+  --out <DIR>        where the results are fetched to (default results)
+  --bin-dir <DIR>    where hevo and hevo-worker are (default: target/release of this
                      repository when built, else PATH)
-  --work-dir DIR     keep the master's state, the token and the logs in DIR (default: a
+  --work-dir <DIR>   keep the master's state, the token and the logs in DIR (default: a
                      temporary directory, removed after a successful run)
-  --grace S          seconds a worker gets to hand back its batch when stopped (default 90)
-  --node N, --runs R, --generations G, --seed S
+  --grace <S>        seconds a worker gets to hand back its batch when stopped (default 90)
+  --node <N>, --runs <R>, --generations <G>, --seed <S>
                      passed to `hevo submit`
   -h, --help         this text
 EOF
