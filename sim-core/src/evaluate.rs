@@ -87,6 +87,9 @@ pub struct Outcome {
     pub active_cycles: Vec<u32>,
 }
 
+/// A sensor cone for drawing: sensor position, the two boundary ray directions, the range.
+pub type IrCone = ([f32; 2], [f32; 2], [f32; 2], f32);
+
 /// One cycle of a trace.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TraceCycle {
@@ -214,7 +217,7 @@ impl Evaluator {
 
     /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
     /// boundary rays, and the range; for drawing.
-    pub fn ir_cones(&self, pose: &Pose) -> Vec<([f32; 2], [f32; 2], [f32; 2], f32)> {
+    pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
         let (sin_h, cos_h) = pose.heading.sin_cos();
         (0..N_IR)
             .map(|sensor| {

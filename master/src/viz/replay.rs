@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 /// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
 /// directions of its first and last ray (unit vectors, world frame) and the range, metres.
-pub type IrCone = ([f32; 2], [f32; 2], [f32; 2], f32);
+pub use sim_core::evaluate::IrCone;
 
 /// What to draw besides the trace itself.
 #[derive(Debug, Clone, PartialEq)]

@@ -252,7 +252,7 @@ impl IrModel {
     pub fn raw_to_distance(&self, raw: f32) -> f32 {
         let means = &self.inverse_means;
         let last = means.len() - 1;
-        if !(raw < means[0]) {
+        if raw.is_nan() || raw >= means[0] {
             return 0.0;
         }
         if raw <= means[last] {
