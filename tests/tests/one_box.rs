@@ -1,0 +1,340 @@
+//! deploy/local/one-box.sh run for real: a `hevo serve` master and three `hevo-worker`
+//! processes on loopback finish a small job and its results are fetched; and a SIGTERM in the
+//! middle of a job stops every process the script started. This is the cluster path (gRPC,
+//! token, leases, submit/watch/fetch) end to end, on one machine.
+//!
+//! The binaries come from `cargo build --release -p hevo-master -p hevo-worker`, or from the
+//! directory in `HEVO_TEST_BIN_DIR` when it is set.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::OnceLock;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
+}
+
+/// The directory holding `hevo` and `hevo-worker`, built once per test process.
+fn bin_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        if let Some(dir) = std::env::var_os("HEVO_TEST_BIN_DIR") {
+            return PathBuf::from(dir);
+        }
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let output = Command::new(cargo)
+            .current_dir(repo_root())
+            .args([
+                "build",
+                "--release",
+                "-p",
+                "hevo-master",
+                "-p",
+                "hevo-worker",
+                "--message-format=json",
+            ])
+            .stderr(Stdio::inherit())
+            .output()
+            .expect("cannot run cargo");
+        assert!(
+            output.status.success(),
+            "cargo build --release -p hevo-master -p hevo-worker failed"
+        );
+        let mut dirs = Vec::new();
+        for line in String::from_utf8_lossy(&output.stdout).lines() {
+            let Ok(message) = serde_json::from_str::<serde_json::Value>(line) else {
+                continue;
+            };
+            if let Some(executable) = message.get("executable").and_then(|e| e.as_str()) {
+                let path = PathBuf::from(executable);
+                if path
+                    .file_name()
+                    .is_some_and(|n| n == "hevo" || n == "hevo-worker")
+                {
+                    dirs.push(path.parent().unwrap().to_path_buf());
+                }
+            }
+        }
+        assert_eq!(dirs.len(), 2, "cargo did not report both binaries");
+        assert_eq!(
+            dirs[0], dirs[1],
+            "hevo and hevo-worker built into different directories"
+        );
+        dirs.remove(0)
+    })
+}
+
+/// A fresh scratch directory under the system's temporary directory.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hevo-one-box-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The script, running in its own process group so that a timeout can kill everything.
+struct Script {
+    child: Child,
+    stderr: mpsc::Receiver<String>,
+    log: Vec<String>,
+    /// The scratch directory, which every process the script starts has on its command line.
+    work: String,
+}
+
+impl Script {
+    fn start(work: &Path, args: &[&str]) -> Script {
+        use std::os::unix::process::CommandExt;
+        let mut child = Command::new("bash")
+            .arg(repo_root().join("deploy/local/one-box.sh"))
+            .args(["--work-dir", work.to_str().unwrap()])
+            .args(args)
+            .current_dir(repo_root())
+            .env_remove("HEVO_TOKEN")
+            .env_remove("HEVO_MASTER")
+            .stdin(Stdio::null())
+            .stdout(Stdio::inherit())
+            .stderr(Stdio::piped())
+            .process_group(0)
+            .spawn()
+            .expect("start one-box.sh");
+        let (sender, stderr) = mpsc::channel();
+        let pipe = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(pipe).lines().map_while(Result::ok) {
+                eprintln!("| {line}");
+                if sender.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Script {
+            child,
+            stderr,
+            log: Vec::new(),
+            work: work.to_string_lossy().into_owned(),
+        }
+    }
+
+    /// Waits until a stderr line contains `needle`.
+    fn wait_for_line(&mut self, needle: &str, timeout: Duration) {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if let Ok(line) = self.stderr.recv_timeout(Duration::from_millis(200)) {
+                let found = line.contains(needle);
+                self.log.push(line);
+                if found {
+                    return;
+                }
+            }
+            if let Some(status) = self.child.try_wait().unwrap() {
+                panic!(
+                    "one-box.sh exited with {status} before printing {needle:?}:\n{}",
+                    self.log.join("\n")
+                );
+            }
+        }
+        self.kill();
+        panic!(
+            "one-box.sh printed no {needle:?} within {timeout:?}:\n{}",
+            self.log.join("\n")
+        );
+    }
+
+    /// Waits for the script to end; kills its whole process group after `timeout`.
+    fn wait(&mut self, timeout: Duration) -> ExitStatus {
+        let deadline = Instant::now() + timeout;
+        loop {
+            while let Ok(line) = self.stderr.try_recv() {
+                self.log.push(line);
+            }
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            if Instant::now() > deadline {
+                self.kill();
+                panic!(
+                    "one-box.sh did not finish within {timeout:?}:\n{}",
+                    self.log.join("\n")
+                );
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    fn signal(&self, signal: &str) {
+        let status = Command::new("kill")
+            .args([signal, &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
+
+    /// Kills the script and, since it puts its children in process groups of their own,
+    /// every process that has the scratch directory on its command line.
+    fn kill(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-KILL", &format!("-{}", self.child.id())])
+            .status();
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        kill_leftovers(&self.work);
+    }
+}
+
+impl Drop for Script {
+    fn drop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            self.kill();
+        }
+    }
+}
+
+/// Processes whose command line mentions `needle` (the scratch directory of one test).
+fn processes_mentioning(needle: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        if !entry
+            .file_name()
+            .to_string_lossy()
+            .chars()
+            .all(|c| c.is_ascii_digit())
+        {
+            continue;
+        }
+        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        let cmdline = String::from_utf8_lossy(&cmdline).replace('\0', " ");
+        if cmdline.contains(needle) {
+            found.push(format!(
+                "{}: {cmdline}",
+                entry.file_name().to_string_lossy()
+            ));
+        }
+    }
+    found
+}
+
+fn kill_leftovers(needle: &str) {
+    for line in processes_mentioning(needle) {
+        let pid = line.split(':').next().unwrap();
+        let _ = Command::new("kill").args(["-KILL", pid]).status();
+    }
+}
+
+#[test]
+fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
+    let dir = scratch("job");
+    let work = dir.join("work");
+    let results = dir.join("results");
+    let mut script = Script::start(
+        &work,
+        &[
+            "--workers",
+            "3",
+            "--bin-dir",
+            bin_dir().to_str().unwrap(),
+            "--out",
+            results.to_str().unwrap(),
+            "deploy/local/tiny.toml",
+        ],
+    );
+    let status = script.wait(Duration::from_secs(180));
+    let leftovers = processes_mentioning(work.to_str().unwrap());
+    kill_leftovers(work.to_str().unwrap());
+    assert!(
+        status.success(),
+        "one-box.sh failed with {status}:\n{}",
+        script.log.join("\n")
+    );
+    assert!(
+        leftovers.is_empty(),
+        "processes outlived one-box.sh:\n{}",
+        leftovers.join("\n")
+    );
+
+    // deploy/local/tiny.toml: one node, follow_wall, 2 runs of 3 generations.
+    for run in 0..2 {
+        let run_dir = results.join("follow_wall").join(format!("run-{run}"));
+        for file in ["fitness.csv", "best.json", "summary.json"] {
+            let path = run_dir.join(file);
+            let text = std::fs::read_to_string(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(!text.trim().is_empty(), "{} is empty", path.display());
+            if file.ends_with(".json") {
+                serde_json::from_str::<serde_json::Value>(&text)
+                    .unwrap_or_else(|e| panic!("{}: not JSON: {e}", path.display()));
+            } else {
+                assert!(
+                    text.lines().count() >= 2,
+                    "{} has no generation rows:\n{text}",
+                    path.display()
+                );
+            }
+        }
+    }
+    // The three workers ran and were stopped by the script.
+    for worker in 1..=3 {
+        let log = work.join(format!("worker-{worker}.log"));
+        assert!(log.exists(), "{} is missing", log.display());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn one_box_stops_every_process_on_sigterm() {
+    let dir = scratch("stop");
+    let work = dir.join("work");
+    // Long enough that the job is still running when the signal comes.
+    let mut script = Script::start(
+        &work,
+        &[
+            "--workers",
+            "3",
+            "--bin-dir",
+            bin_dir().to_str().unwrap(),
+            "--out",
+            dir.join("results").to_str().unwrap(),
+            "--generations",
+            "100000",
+            "--grace",
+            "60",
+            "deploy/local/tiny.toml",
+        ],
+    );
+    script.wait_for_line("submitted", Duration::from_secs(60));
+    std::thread::sleep(Duration::from_secs(2));
+    let running = processes_mentioning(work.to_str().unwrap());
+    assert!(
+        running.len() >= 4,
+        "expected a master and 3 workers running:\n{}",
+        running.join("\n")
+    );
+    script.signal("-TERM");
+    let status = script.wait(Duration::from_secs(120));
+    let leftovers = processes_mentioning(work.to_str().unwrap());
+    kill_leftovers(work.to_str().unwrap());
+    assert!(
+        leftovers.is_empty(),
+        "processes outlived one-box.sh:\n{}",
+        leftovers.join("\n")
+    );
+    assert_eq!(
+        status.code(),
+        Some(143),
+        "one-box.sh should exit 143 after SIGTERM:\n{}",
+        script.log.join("\n")
+    );
+    assert!(
+        script.log.iter().any(|l| l.contains("stopping 3 workers")),
+        "the script did not stop the workers:\n{}",
+        script.log.join("\n")
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
