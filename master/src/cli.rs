@@ -8,6 +8,7 @@ use crate::evaluation;
 use crate::experiment::Experiment;
 use crate::local::LocalPool;
 use crate::runner::{self, RunSettings};
+use crate::service;
 use crate::viz;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
@@ -38,6 +39,18 @@ pub enum Command {
     Replay(ReplayArgs),
     /// Plot the fitness curves of a node's runs as SVG.
     Plot(PlotArgs),
+    /// Run the master: job and worker services (gRPC), jobs kept in a durable store.
+    Serve(service::commands::ServeArgs),
+    /// Submit an experiment file to a master; prints the job id.
+    Submit(service::commands::SubmitArgs),
+    /// Follow a job's progress until it ends (exit status 0 when it succeeded).
+    Watch(service::commands::JobArgs),
+    /// List a master's jobs.
+    Jobs(service::commands::MasterArgs),
+    /// Download a job's results (controllers, fitness logs, summaries) into a directory.
+    Fetch(service::commands::FetchArgs),
+    /// Cancel a job.
+    Cancel(service::commands::JobArgs),
     /// Write REPRODUCTION.md (paper versus hevo) from run output directories.
     Report(ReportArgs),
 }
@@ -120,6 +133,13 @@ pub struct BenchArgs {
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Measure the master's dispatch capacity instead: this many fake workers (fixed-cost
+    /// evaluations) against a real worker service on 127.0.0.1, for --seconds.
+    #[arg(long, value_name = "WORKERS")]
+    pub dispatch_load: Option<usize>,
+    /// With --dispatch-load: what one batch costs a fake worker, milliseconds.
+    #[arg(long, default_value_t = 20.0)]
+    pub batch_cost_ms: f64,
 }
 
 /// `hevo replay`.
@@ -198,6 +218,12 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Bench(args) => bench_command(args),
         Command::Replay(args) => replay(args),
         Command::Plot(args) => plot(args),
+        Command::Serve(args) => service::commands::serve(args),
+        Command::Submit(args) => service::commands::submit(args),
+        Command::Watch(args) => service::commands::watch(args),
+        Command::Jobs(args) => service::commands::jobs(args),
+        Command::Fetch(args) => service::commands::fetch(args),
+        Command::Cancel(args) => service::commands::cancel(args),
         Command::Report(args) => {
             let n = crate::report::write_report(&args.runs_dirs, &args.out).map_err(anyhow::Error::msg)?;
             println!("{n} node(s) reported -> {}", args.out.display());
@@ -293,6 +319,9 @@ fn bench_command(args: BenchArgs) -> Result<()> {
     let threads = default_threads(args.threads);
     if !(args.seconds > 0.0 && args.seconds.is_finite()) {
         bail!("--seconds must be a positive number");
+    }
+    if let Some(workers) = args.dispatch_load {
+        return service::commands::dispatch_load(workers, args.seconds, args.batch_cost_ms, args.json);
     }
     let report = if args.pipeline {
         runtime()?.block_on(bench::pipeline(kind, threads, args.seconds, 10)).map_err(anyhow::Error::msg)?

@@ -131,6 +131,8 @@ impl Default for DispatchConfig {
 pub struct DispatchStats {
     /// Workers seen within the window.
     pub active_workers: usize,
+    /// Their threads, added up (what batches are sized for).
+    pub active_threads: usize,
     /// Batches waiting for a worker.
     pub queued_batches: usize,
     /// Batches out on lease.
@@ -185,7 +187,8 @@ struct State {
     batches: HashMap<u64, BatchEntry>,
     requests: HashMap<u64, RequestState>,
     leases: HashMap<u64, LeaseEntry>,
-    workers: HashMap<String, Instant>,
+    /// Worker name -> (last seen, threads).
+    workers: HashMap<String, (Instant, usize)>,
     next_id: u64,
     stats: DispatchStats,
     shutting_down: bool,
@@ -225,7 +228,7 @@ impl Dispatcher {
             if n_genomes == 0 || n_samples == 0 {
                 return Ok(vec![Vec::new(); n_genomes]);
             }
-            let active = self.active_workers(&state).max(self.config.expected_workers).max(1);
+            let active = self.active_threads(&state).max(self.config.expected_workers).max(1);
             let target = active * self.config.batches_per_worker.max(1);
             let pieces = split(n_genomes, n_samples, target);
             let request_id = state.next_id;
@@ -258,13 +261,24 @@ impl Dispatcher {
         wait.await.unwrap_or(Err(DispatchError::ShuttingDown))
     }
 
-    fn active_workers(&self, state: &State) -> usize {
+    fn active(&self, state: &State) -> impl Iterator<Item = usize> {
         let now = Instant::now();
-        state.workers.values().filter(|&&seen| now.duration_since(seen) < self.config.worker_window).count()
+        let window = self.config.worker_window;
+        state.workers.values().filter(move |(seen, _)| now.duration_since(*seen) < window).map(|&(_, threads)| threads).collect::<Vec<_>>().into_iter()
+    }
+
+    fn active_threads(&self, state: &State) -> usize {
+        self.active(state).sum()
     }
 
     /// Gives the worker a batch, waiting up to `wait` for one. Also expires overdue leases.
     pub async fn lease(&self, worker: &str, wait: Duration) -> Option<Batch> {
+        self.lease_with_threads(worker, 1, wait).await
+    }
+
+    /// [`Dispatcher::lease`] for a worker that evaluates a batch on `threads` threads: it
+    /// counts as that many workers when requests are split into batches.
+    pub async fn lease_with_threads(&self, worker: &str, threads: usize, wait: Duration) -> Option<Batch> {
         let until = Instant::now() + wait;
         loop {
             // Register interest before looking, so a notification between the look and the
@@ -272,11 +286,12 @@ impl Dispatcher {
             let notified = self.work_available.notified();
             tokio::pin!(notified);
             notified.as_mut().enable();
-            if let Some(batch) = self.try_lease(worker) {
+            if let Some(batch) = self.try_lease_with_threads(worker, threads) {
                 return Some(batch);
             }
             let now = Instant::now();
-            if now >= until {
+            // A shutting-down dispatcher answers long polls at once, so servers can stop.
+            if now >= until || self.lock().shutting_down {
                 return None;
             }
             // Wake at least every half second to expire leases even when nobody returns work.
@@ -287,9 +302,14 @@ impl Dispatcher {
 
     /// One non-blocking attempt to lease a batch.
     pub fn try_lease(&self, worker: &str) -> Option<Batch> {
+        self.try_lease_with_threads(worker, 1)
+    }
+
+    /// [`Dispatcher::try_lease`] for a worker with `threads` threads.
+    pub fn try_lease_with_threads(&self, worker: &str, threads: usize) -> Option<Batch> {
         let mut state = self.lock();
         let now = Instant::now();
-        state.workers.insert(worker.to_string(), now);
+        state.workers.insert(worker.to_string(), (now, threads.max(1)));
         self.expire_leases(&mut state, now);
         if state.shutting_down {
             return None;
@@ -344,13 +364,28 @@ impl Dispatcher {
     pub fn extend(&self, lease_id: u64) -> bool {
         let mut state = self.lock();
         let timeout = self.config.lease_timeout;
+        let now = Instant::now();
         match state.leases.get_mut(&lease_id) {
             Some(lease) => {
-                lease.deadline = Instant::now() + timeout;
+                lease.deadline = now + timeout;
+                // A worker busy with a long batch is still an active worker.
+                let worker = lease.worker.clone();
+                if let Some(seen) = state.workers.get_mut(&worker) {
+                    seen.0 = now;
+                }
                 true
             }
             None => false,
         }
+    }
+
+    /// The template and task of the batch out on this lease (to check a worker's claim that
+    /// they cannot be evaluated).
+    pub fn leased_request(&self, lease_id: u64) -> Option<Arc<RequestShared>> {
+        let state = self.lock();
+        let batch_id = state.leases.get(&lease_id)?.batch_id;
+        let request_id = state.batches.get(&batch_id)?.request_id;
+        Some(state.requests.get(&request_id)?.request.shared.clone())
     }
 
     /// A worker hands a batch back unfinished (for example on SIGTERM): it is queued again at
@@ -497,7 +532,7 @@ impl Dispatcher {
     /// A snapshot of the counters.
     pub fn stats(&self) -> DispatchStats {
         let state = self.lock();
-        DispatchStats { active_workers: self.active_workers(&state), ..state.stats.clone() }
+        DispatchStats { active_workers: self.active(&state).count(), active_threads: self.active_threads(&state), ..state.stats.clone() }
     }
 }
 
@@ -711,6 +746,38 @@ mod tests {
         assert!(order.windows(2).take(8).all(|w| w[0] != w[1]), "{order:?}");
         job_a.await.unwrap().unwrap();
         job_b.await.unwrap().unwrap();
+    }
+
+    #[tokio::test]
+    async fn batches_are_sized_by_the_workers_threads() {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        // One worker with 4 threads: 4 x 3 batches for 24 genomes.
+        assert!(dispatcher.try_lease_with_threads("big", 4).is_none());
+        let d = dispatcher.clone();
+        let waiting = tokio::spawn(async move { d.evaluate(request("j", 24, 1)).await });
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        let mut sizes = Vec::new();
+        while let Some(batch) = dispatcher.try_lease_with_threads("big", 4) {
+            sizes.push(batch.genomes.len());
+            assert!(dispatcher.extend(batch.lease_id));
+            assert!(dispatcher.leased_request(batch.lease_id).is_some());
+            dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)).unwrap();
+        }
+        assert_eq!(sizes, vec![2; 12]);
+        waiting.await.unwrap().unwrap();
+        let stats = dispatcher.stats();
+        assert_eq!((stats.active_workers, stats.active_threads), (1, 4));
+    }
+
+    #[tokio::test]
+    async fn shutting_down_answers_long_polls_at_once() {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let d = dispatcher.clone();
+        let poll = tokio::spawn(async move { d.lease("w", Duration::from_secs(30)).await });
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        dispatcher.shut_down();
+        let answered = tokio::time::timeout(Duration::from_secs(2), poll).await;
+        assert!(matches!(answered, Ok(Ok(None))));
     }
 
     #[tokio::test]

@@ -1,6 +1,7 @@
 //! hevo's master: the experiment files, the evolutionary algorithm, the scheduler that hands
 //! batches of genome evaluations to workers (in-process threads or remote gRPC workers), the
-//! resumable run driver, the service, and the library behind every `hevo` subcommand.
+//! resumable run driver, the distributed evaluation service (`hevo serve` and its client
+//! commands), and the library behind every `hevo` subcommand.
 
 pub mod bench;
 pub mod cli;
@@ -12,5 +13,6 @@ pub mod local;
 pub mod progress;
 pub mod report;
 pub mod runner;
+pub mod service;
 pub mod store;
 pub mod viz;

@@ -1,56 +1,31 @@
 //! Local mode's workers: in-process tasks that lease batches from the dispatcher exactly as
 //! remote workers do, evaluate them on a blocking thread with sim-core, and return the results.
 //! One worker per thread, each evaluating one batch at a time, so `--threads N` keeps N cores
-//! busy. Evaluators are cached by (template hash, task hash): building one validates the tree
-//! and prepares the task's shared geometry, which a generation's batches all reuse.
+//! busy. The evaluation itself is `hevo_worker::exec`, the same code remote workers run, with
+//! evaluators cached by (template hash, task hash): building one validates the tree and
+//! prepares the task's shared geometry, which a generation's batches all reuse.
 
 use crate::dispatch::{Batch, Dispatcher};
+use hevo_worker::exec::{EvaluatorCache, ExecError, evaluate_genomes};
 use sim_core::batch::{BatchEvaluator, SampleSummary};
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
 
-/// Evaluators shared by the workers of one process, by (template hash, task hash).
-#[derive(Debug, Default)]
-pub struct EvaluatorCache {
-    entries: Mutex<HashMap<(String, String), Arc<BatchEvaluator>>>,
-}
-
-/// Most evaluators kept; a run needs one for its generations and one per post-evaluation
-/// template, so a handful covers several concurrent jobs.
-const CACHE_CAPACITY: usize = 32;
-
-impl EvaluatorCache {
-    /// The evaluator for a batch, built on first use.
-    pub fn get(&self, batch: &Batch) -> Result<Arc<BatchEvaluator>, String> {
-        let key = (batch.shared.template_hash.clone(), batch.shared.task_hash.clone());
-        if let Some(found) = self.entries.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
-            return Ok(found.clone());
-        }
-        let evaluator = Arc::new(
-            BatchEvaluator::new(batch.shared.template.clone(), batch.shared.task.clone()).map_err(|e| e.to_string())?,
-        );
-        let mut entries = self.entries.lock().unwrap_or_else(|p| p.into_inner());
-        if entries.len() >= CACHE_CAPACITY {
-            entries.clear();
-        }
-        entries.insert(key, evaluator.clone());
-        Ok(evaluator)
-    }
+/// The evaluator for a batch, from the process's cache (built from the batch's template and
+/// task on first use).
+pub fn evaluator_for(cache: &EvaluatorCache, batch: &Batch) -> Result<Arc<BatchEvaluator>, String> {
+    let shared = &batch.shared;
+    cache
+        .get_or_build(&shared.template_hash, &shared.task_hash, || Ok((shared.template.clone(), shared.task.clone())))
+        .map_err(|e| e.to_string())
 }
 
 /// Evaluates a whole batch on the calling thread.
 pub fn evaluate_batch(evaluator: &BatchEvaluator, batch: &Batch) -> Result<Vec<Vec<SampleSummary>>, String> {
-    batch
-        .genomes
-        .iter()
-        .map(|(_, genes)| {
-            let genes = (evaluator.n_free_genes() > 0).then_some(&genes[..]);
-            evaluator.evaluate_summaries(genes, &batch.samples).map_err(|e| e.to_string())
-        })
-        .collect()
+    let genomes: Vec<&[f32]> = batch.genomes.iter().map(|(_, genes)| &genes[..]).collect();
+    evaluate_genomes(evaluator, &genomes, &batch.samples, 1, None).map_err(|e: ExecError| e.to_string())
 }
 
 /// A running pool of in-process workers.
@@ -84,7 +59,7 @@ impl LocalPool {
                         let cache = cache.clone();
                         let work = batch.clone();
                         let result = tokio::task::spawn_blocking(move || {
-                            let evaluator = cache.get(&work)?;
+                            let evaluator = evaluator_for(&cache, &work)?;
                             evaluate_batch(&evaluator, &work)
                         })
                         .await

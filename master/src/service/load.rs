@@ -1,0 +1,210 @@
+//! `hevo bench --dispatch-load N`: the master's dispatch capacity under many workers. A real
+//! worker service (the one `hevo serve` runs, with token checks and message limits) listens on
+//! 127.0.0.1; N lightweight fake workers, each with its own connection, lease batches, "evaluate"
+//! them by sleeping a fixed time, and return results of the right shape; a few synthetic jobs
+//! keep the queue full. Measured: batches and evaluations per second through the master, and
+//! the latency of lease calls that returned a batch (percentiles). Everything runs in this one
+//! process on loopback and stops by itself after the given time.
+
+use super::grpc::WorkerApi;
+use super::{MAX_LEASE_WAIT, incoming, worker_service};
+use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
+use hevo_proto::auth::ServerAuth;
+use hevo_proto::client::{ClientOptions, worker_client};
+use hevo_proto::v1;
+use serde::Serialize;
+use sim_core::batch::task_content_hash;
+use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use sim_core::frame::InputGroup;
+use sim_core::{Sample, TaskConfig, TaskKind};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct LoadConfig {
+    /// Concurrent fake workers.
+    pub workers: usize,
+    /// Measurement time (after a one-second warm-up).
+    pub seconds: f64,
+    /// What one batch "costs" a fake worker.
+    pub batch_cost: Duration,
+    /// Concurrent synthetic jobs.
+    pub jobs: usize,
+    /// Genomes per generation of a synthetic job.
+    pub genomes: usize,
+    /// Samples per genome.
+    pub samples: usize,
+}
+
+/// The result.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoadReport {
+    /// Fake workers.
+    pub workers: usize,
+    /// Seconds measured.
+    pub seconds: f64,
+    /// Fixed cost of a batch, ms.
+    pub batch_cost_ms: f64,
+    /// Batches completed in the window.
+    pub batches: u64,
+    /// Batches per second through the master.
+    pub batches_per_second: f64,
+    /// (genome, sample) results per second.
+    pub evaluations_per_second: f64,
+    /// Lease call latency when a batch was handed out, ms: 50th, 90th, 99th percentile, max.
+    pub lease_latency_ms: [f64; 4],
+    /// Lease calls that returned a batch, in the window.
+    pub leases: usize,
+    /// The rate a master with zero overhead would reach: workers / batch cost.
+    pub ideal_batches_per_second: f64,
+}
+
+fn template() -> (ControllerFile, TaskConfig) {
+    let template = ControllerFile::new(NodeSpec { name: "p".into(), kind: NodeKind::Primitive, inputs: vec![InputGroup::Ir], hidden: 3, genome: None, children: vec![] });
+    (template, TaskConfig::new(TaskKind::FollowWall))
+}
+
+/// Runs the load benchmark.
+pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
+    let token = "dispatch-load-benchmark";
+    let lease = Duration::from_secs(30);
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { lease_timeout: lease, ..DispatchConfig::default() }));
+    let api = WorkerApi::new(dispatcher.clone(), lease, MAX_LEASE_WAIT);
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| e.to_string())?;
+    let address = listener.local_addr().map_err(|e| e.to_string())?;
+    let (stop, stopped) = tokio::sync::watch::channel(false);
+    let server = {
+        let mut stopped = stopped.clone();
+        tokio::spawn(
+            tonic::transport::Server::builder()
+                .add_service(worker_service(api, ServerAuth::new(token)))
+                .serve_with_incoming_shutdown(incoming(listener), async move {
+                    let _ = stopped.wait_for(|&s| s).await;
+                }),
+        )
+    };
+
+    let (template, task) = template();
+    let shared = Arc::new(RequestShared { template_hash: template.content_hash(), task_hash: task_content_hash(&task), template, task });
+    let warm_up = Duration::from_secs(1);
+    let started = Instant::now();
+    let measure_from = started + warm_up;
+    let end = measure_from + Duration::from_secs_f64(config.seconds);
+
+    // Synthetic jobs: generation after generation until the end.
+    let feeders: Vec<_> = (0..config.jobs.max(1))
+        .map(|job| {
+            let (dispatcher, shared) = (dispatcher.clone(), shared.clone());
+            let (genomes, samples) = (config.genomes.max(1), config.samples.max(1));
+            tokio::spawn(async move {
+                let mut generation = 0u64;
+                while Instant::now() < end {
+                    let request = EvaluationRequest {
+                        job: format!("load-{job}"),
+                        shared: shared.clone(),
+                        genomes: (0..genomes).map(|g| Arc::from(vec![g as f32; 3])).collect(),
+                        samples: (0..samples).map(|s| Sample::seeded(generation * 1_000 + s as u64)).collect(),
+                    };
+                    if dispatcher.evaluate(request).await.is_err() {
+                        break;
+                    }
+                    generation += 1;
+                }
+            })
+        })
+        .collect();
+
+    let options = ClientOptions { url: format!("http://{address}"), token: Some(token.into()), tls_ca: None };
+    let workers: Vec<_> = (0..config.workers.max(1))
+        .map(|w| {
+            let options = options.clone();
+            let cost = config.batch_cost;
+            tokio::spawn(async move { fake_worker(options, format!("fake-{w}"), cost, measure_from, end).await })
+        })
+        .collect();
+
+    let mut latencies = Vec::new();
+    let mut failures = Vec::new();
+    let before = loop {
+        // Counters at the start of the measurement window.
+        let now = Instant::now();
+        if now >= measure_from {
+            break dispatcher.stats();
+        }
+        tokio::time::sleep(measure_from - now).await;
+    };
+    for worker in workers {
+        match worker.await {
+            Ok(Ok(mut found)) => latencies.append(&mut found),
+            Ok(Err(error)) => failures.push(error),
+            Err(error) => failures.push(error.to_string()),
+        }
+    }
+    let after = dispatcher.stats();
+    let measured = Instant::now().duration_since(measure_from).as_secs_f64();
+    dispatcher.shut_down();
+    for feeder in feeders {
+        let _ = feeder.await;
+    }
+    let _ = stop.send(true);
+    let _ = server.await;
+    if let Some(error) = failures.first() {
+        return Err(format!("{} of {} fake workers failed; first: {error}", failures.len(), config.workers));
+    }
+    latencies.sort_by(f64::total_cmp);
+    let percentile = |p: f64| latencies.get(((latencies.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(0.0);
+    let batches = after.batches_completed - before.batches_completed;
+    Ok(LoadReport {
+        workers: config.workers,
+        seconds: measured,
+        batch_cost_ms: config.batch_cost.as_secs_f64() * 1e3,
+        batches,
+        batches_per_second: batches as f64 / measured,
+        evaluations_per_second: (after.evaluations - before.evaluations) as f64 / measured,
+        lease_latency_ms: [percentile(0.5), percentile(0.9), percentile(0.99), percentile(1.0)],
+        leases: latencies.len(),
+        ideal_batches_per_second: config.workers as f64 / config.batch_cost.as_secs_f64().max(1e-9),
+    })
+}
+
+/// Leases, sleeps `cost`, returns constant results; records lease latencies (ms) inside the
+/// measurement window.
+async fn fake_worker(options: ClientOptions, name: String, cost: Duration, measure_from: Instant, end: Instant) -> Result<Vec<f64>, String> {
+    let mut client = worker_client(options.connect().await?);
+    let mut latencies = Vec::new();
+    while Instant::now() < end {
+        let asked = Instant::now();
+        let request = v1::LeaseBatchRequest { worker: name.clone(), threads: 1, wait_ms: 1_000, cached: Vec::new() };
+        let response = client.lease_batch(request).await.map_err(|s| hevo_proto::client::describe_status(&s))?;
+        let Some(batch) = response.into_inner().batch else { continue };
+        if asked >= measure_from {
+            latencies.push(asked.elapsed().as_secs_f64() * 1e3);
+        }
+        tokio::time::sleep(cost).await;
+        let result = v1::SampleResult { fitness: 0.5, solved: false, collided: false, stage: 0, variant: 0, cycles: 100 };
+        let genomes = batch.genomes.iter().map(|_| v1::GenomeResult { samples: vec![result; batch.samples.len()] }).collect();
+        let request = v1::CompleteBatchRequest {
+            epoch: batch.epoch,
+            lease_id: batch.lease_id,
+            batch_id: batch.batch_id,
+            worker: name.clone(),
+            genomes,
+            elapsed_ms: cost.as_millis() as u64,
+        };
+        client.complete_batch(request).await.map_err(|s| hevo_proto::client::describe_status(&s))?;
+    }
+    Ok(latencies)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_short_load_run_moves_batches() {
+        let report = run(LoadConfig { workers: 8, seconds: 0.5, batch_cost: Duration::from_millis(2), jobs: 2, genomes: 40, samples: 2 }).await.unwrap();
+        assert!(report.batches > 0, "{report:?}");
+        assert!(report.leases > 0 && report.lease_latency_ms[0] > 0.0, "{report:?}");
+    }
+}

@@ -1,0 +1,130 @@
+//! Connections to a master, shared by `hevo-worker` and the `hevo` client commands: the URL
+//! (a bare `host:port` means plain `http://`), TLS when the URL is `https://` (the system's
+//! web PKI roots, or the CA given with `--tls-ca` for a private certificate), the token on
+//! every call, generous message limits, and HTTP/2 keep-alives so a dead master is noticed
+//! even while a worker is busy evaluating.
+
+use crate::auth::ClientAuth;
+use crate::v1::job_service_client::JobServiceClient;
+use crate::v1::worker_service_client::WorkerServiceClient;
+use std::path::PathBuf;
+use std::time::Duration;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
+
+/// Where and how to connect.
+#[derive(Debug, Clone)]
+pub struct ClientOptions {
+    /// `http://host:port`, `https://host:port` or `host:port`.
+    pub url: String,
+    /// The shared token.
+    pub token: Option<String>,
+    /// A PEM CA certificate to trust for `https://` (instead of the web PKI roots).
+    pub tls_ca: Option<PathBuf>,
+}
+
+/// A channel that carries the token.
+pub type AuthChannel = InterceptedService<Channel, ClientAuth>;
+
+impl ClientOptions {
+    /// The URL with a scheme.
+    pub fn normalized_url(&self) -> String {
+        if self.url.contains("://") { self.url.clone() } else { format!("http://{}", self.url) }
+    }
+
+    /// The endpoint, not yet connected.
+    pub fn endpoint(&self) -> Result<Endpoint, String> {
+        let url = self.normalized_url();
+        let mut endpoint = Endpoint::from_shared(url.clone())
+            .map_err(|e| format!("invalid master URL '{}': {e}", self.url))?
+            .connect_timeout(Duration::from_secs(5))
+            .tcp_nodelay(true)
+            .http2_keep_alive_interval(Duration::from_secs(15))
+            .keep_alive_timeout(Duration::from_secs(10))
+            .keep_alive_while_idle(true);
+        let https = url.starts_with("https://");
+        if let Some(ca) = &self.tls_ca {
+            if !https {
+                return Err(format!("--tls-ca was given but the master URL '{}' is not https://", self.url));
+            }
+            let pem = std::fs::read(ca).map_err(|e| format!("cannot read the CA certificate {}: {e}", ca.display()))?;
+            let tls = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(pem));
+            endpoint = endpoint.tls_config(tls).map_err(|e| format!("TLS setup failed: {e}"))?;
+        } else if https {
+            endpoint = endpoint.tls_config(ClientTlsConfig::new().with_webpki_roots()).map_err(|e| format!("TLS setup failed: {e}"))?;
+        }
+        Ok(endpoint)
+    }
+
+    /// A channel that connects on first use and reconnects by itself after the master comes
+    /// back (calls fail with UNAVAILABLE meanwhile).
+    pub fn lazy_channel(&self) -> Result<AuthChannel, String> {
+        let channel = self.endpoint()?.connect_lazy();
+        Ok(InterceptedService::new(channel, ClientAuth::new(self.token.as_deref())?))
+    }
+
+    /// A connected channel (fails fast when the master cannot be reached).
+    pub async fn connect(&self) -> Result<AuthChannel, String> {
+        let channel = self.endpoint()?.connect().await.map_err(|e| format!("cannot connect to the master at {}: {}", self.url, error_chain(&e)))?;
+        Ok(InterceptedService::new(channel, ClientAuth::new(self.token.as_deref())?))
+    }
+}
+
+/// A job service client with hevo's message limits.
+pub fn job_client(channel: AuthChannel) -> JobServiceClient<AuthChannel> {
+    JobServiceClient::new(channel).max_decoding_message_size(crate::MAX_MESSAGE_BYTES).max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
+}
+
+/// A worker service client with hevo's message limits.
+pub fn worker_client(channel: AuthChannel) -> WorkerServiceClient<AuthChannel> {
+    WorkerServiceClient::new(channel).max_decoding_message_size(crate::MAX_MESSAGE_BYTES).max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
+}
+
+/// An error and its sources on one line ("transport error: connection refused").
+pub fn error_chain(error: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = error.to_string();
+    let mut source = error.source();
+    while let Some(cause) = source {
+        let cause_text = cause.to_string();
+        if !text.contains(&cause_text) {
+            text.push_str(": ");
+            text.push_str(&cause_text);
+        }
+        source = cause.source();
+    }
+    text
+}
+
+/// A status as a user-facing line: the code's name and the master's message.
+pub fn describe_status(status: &tonic::Status) -> String {
+    let code = match status.code() {
+        tonic::Code::Unauthenticated => "UNAUTHENTICATED",
+        tonic::Code::InvalidArgument => "INVALID_ARGUMENT",
+        tonic::Code::NotFound => "NOT_FOUND",
+        tonic::Code::Unavailable => "UNAVAILABLE",
+        tonic::Code::FailedPrecondition => "FAILED_PRECONDITION",
+        tonic::Code::ResourceExhausted => "RESOURCE_EXHAUSTED",
+        tonic::Code::Internal => "INTERNAL",
+        tonic::Code::DeadlineExceeded => "DEADLINE_EXCEEDED",
+        tonic::Code::Cancelled => "CANCELLED",
+        other => return format!("{other:?}: {}", status.message()),
+    };
+    if let Some(source) = std::error::Error::source(status) {
+        return format!("{code}: {} ({})", status.message(), error_chain(source));
+    }
+    format!("{code}: {}", status.message())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls_get_a_scheme_and_tls_needs_https() {
+        let options = ClientOptions { url: "127.0.0.1:5000".into(), token: None, tls_ca: None };
+        assert_eq!(options.normalized_url(), "http://127.0.0.1:5000");
+        assert!(options.endpoint().is_ok());
+        let tls = ClientOptions { tls_ca: Some("/nonexistent.pem".into()), ..options };
+        assert!(tls.endpoint().unwrap_err().contains("https"));
+    }
+}

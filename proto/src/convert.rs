@@ -1,0 +1,196 @@
+//! Conversions between sim-core's types and the `hevo.v1` messages, used by the master and the
+//! worker alike. They are lossless where it matters for reproducibility: genes and fitness
+//! travel as `float` (the same f32 bits), seeds as `uint64`, and templates and tasks as
+//! sim-core's own JSON whose content hash is checked on arrival, so a worker evaluates exactly
+//! what the master would have evaluated in-process. Anything from the wire that does not fit
+//! (a stage above 255, a hash that does not match) is an error, never a silent truncation.
+
+use crate::v1;
+use sim_core::Sample;
+use sim_core::TaskConfig;
+use sim_core::batch::{SampleSummary, task_content_hash};
+use sim_core::controller::ControllerFile;
+
+/// Why a message could not be turned into sim-core values.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConvertError {
+    /// A field holds a value sim-core cannot represent.
+    #[error("{field}: {message}")]
+    Field {
+        /// The field, e.g. `genomes[2].samples[0].stage`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn field_error(field: impl Into<String>, message: impl Into<String>) -> ConvertError {
+    ConvertError::Field { field: field.into(), message: message.into() }
+}
+
+/// A sample for the wire.
+pub fn sample_to_proto(sample: &Sample) -> v1::SampleSpec {
+    v1::SampleSpec { seed: sample.seed, variant: sample.variant }
+}
+
+/// A sample from the wire.
+pub fn sample_from_proto(sample: &v1::SampleSpec) -> Sample {
+    Sample { seed: sample.seed, variant: sample.variant }
+}
+
+/// One (genome, sample) outcome for the wire.
+pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
+    v1::SampleResult {
+        fitness: summary.fitness,
+        solved: summary.solved,
+        collided: summary.collided,
+        stage: u32::from(summary.stage),
+        variant: summary.variant,
+        cycles: summary.cycles,
+    }
+}
+
+/// One outcome from the wire; `field` names it in errors.
+pub fn summary_from_proto(result: &v1::SampleResult, field: &str) -> Result<SampleSummary, ConvertError> {
+    let stage = u8::try_from(result.stage).map_err(|_| field_error(format!("{field}.stage"), format!("{} is not a stage", result.stage)))?;
+    if !result.fitness.is_finite() {
+        return Err(field_error(format!("{field}.fitness"), format!("{} is not finite", result.fitness)));
+    }
+    Ok(SampleSummary {
+        fitness: result.fitness,
+        solved: result.solved,
+        collided: result.collided,
+        stage,
+        variant: result.variant,
+        cycles: result.cycles,
+    })
+}
+
+/// A batch's results, [genome][sample], for the wire.
+pub fn results_to_proto(results: &[Vec<SampleSummary>]) -> Vec<v1::GenomeResult> {
+    results
+        .iter()
+        .map(|genome| v1::GenomeResult { samples: genome.iter().map(summary_to_proto).collect() })
+        .collect()
+}
+
+/// A batch's results from the wire. The shape is not checked here (the dispatcher checks it
+/// against the batch); every value is.
+pub fn results_from_proto(results: &[v1::GenomeResult]) -> Result<Vec<Vec<SampleSummary>>, ConvertError> {
+    results
+        .iter()
+        .enumerate()
+        .map(|(g, genome)| {
+            genome
+                .samples
+                .iter()
+                .enumerate()
+                .map(|(s, result)| summary_from_proto(result, &format!("genomes[{g}].samples[{s}]")))
+                .collect()
+        })
+        .collect()
+}
+
+/// A task configuration as JSON text (compact).
+pub fn task_to_json(task: &TaskConfig) -> String {
+    // Plain data: serialising cannot fail; an empty string would be refused by the receiver.
+    serde_json::to_string(task).unwrap_or_default()
+}
+
+/// A task configuration from JSON text, checked against the hash it was sent with.
+pub fn task_from_json(json: &str, expected_hash: &str) -> Result<TaskConfig, ConvertError> {
+    let task: TaskConfig = serde_json::from_str(json).map_err(|e| field_error("task_json", e.to_string()))?;
+    let found = task_content_hash(&task);
+    if found != expected_hash {
+        return Err(field_error("task_hash", format!("the task hashes to {found}, the batch says {expected_hash}")));
+    }
+    task.validate().map_err(|message| field_error("task_json", message))?;
+    Ok(task)
+}
+
+/// A controller template as JSON text (compact).
+pub fn template_to_json(template: &ControllerFile) -> String {
+    serde_json::to_string(template).unwrap_or_default()
+}
+
+/// A controller template from JSON text, validated and checked against the content hash it
+/// was sent with (the hash covers the exact bits of every gene).
+pub fn template_from_json(json: &str, expected_hash: &str) -> Result<ControllerFile, ConvertError> {
+    let template = ControllerFile::from_json_str(json).map_err(|e| field_error("template_json", e.to_string()))?;
+    let found = template.content_hash();
+    if found != expected_hash {
+        return Err(field_error("template_hash", format!("the template hashes to {found}, the batch says {expected_hash}")));
+    }
+    Ok(template)
+}
+
+/// The key of a worker's evaluator cache, as listed in `LeaseBatchRequest.cached`.
+pub fn cache_key(template_hash: &str, task_hash: &str) -> String {
+    format!("{template_hash}/{task_hash}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sim_core::TaskKind;
+    use sim_core::controller::{NodeKind, NodeSpec};
+    use sim_core::frame::InputGroup;
+
+    fn template(genes: Option<Vec<f32>>) -> ControllerFile {
+        ControllerFile::new(NodeSpec { name: "p".into(), kind: NodeKind::Primitive, inputs: vec![InputGroup::Ir], hidden: 2, genome: genes, children: vec![] })
+    }
+
+    #[test]
+    fn templates_and_tasks_round_trip_bit_for_bit() {
+        let n = template(None).root.topology().n_genes();
+        // Awkward values: subnormal, many digits, negative zero, the range limits.
+        let genes: Vec<f32> = (0..n)
+            .map(|i| match i % 5 {
+                0 => 1.0e-40,
+                1 => -0.0,
+                2 => 0.1 + i as f32 * 1.0e-7,
+                3 => -10.0,
+                _ => std::f32::consts::PI,
+            })
+            .collect();
+        let file = template(Some(genes.clone()));
+        let back = template_from_json(&template_to_json(&file), &file.content_hash()).unwrap();
+        let back_genes = back.root.genome.unwrap();
+        assert!(genes.iter().zip(&back_genes).all(|(a, b)| a.to_bits() == b.to_bits()));
+        for kind in TaskKind::ALL {
+            let task = TaskConfig::new(kind);
+            let hash = task_content_hash(&task);
+            assert_eq!(task_from_json(&task_to_json(&task), &hash).unwrap(), task);
+        }
+    }
+
+    #[test]
+    fn a_wrong_hash_is_refused() {
+        let file = template(None);
+        let err = template_from_json(&template_to_json(&file), "0000000000000000").unwrap_err();
+        assert!(err.to_string().contains("template_hash"), "{err}");
+        let task = TaskConfig::new(TaskKind::FollowWall);
+        assert!(task_from_json(&task_to_json(&task), "x").is_err());
+        assert!(task_from_json("{", "x").unwrap_err().to_string().starts_with("task_json"));
+    }
+
+    #[test]
+    fn results_round_trip_and_bad_values_name_the_field() {
+        let s = SampleSummary { fitness: 0.123_456_79, solved: true, collided: false, stage: 3, variant: 2, cycles: 777 };
+        let wire = results_to_proto(&[vec![s, s], vec![s]]);
+        assert_eq!(results_from_proto(&wire).unwrap(), vec![vec![s, s], vec![s]]);
+        let mut bad = wire.clone();
+        bad[1].samples[0].stage = 300;
+        assert_eq!(results_from_proto(&bad).unwrap_err().to_string(), "genomes[1].samples[0].stage: 300 is not a stage");
+        let mut nan = wire;
+        nan[0].samples[1].fitness = f32::NAN;
+        assert!(results_from_proto(&nan).unwrap_err().to_string().contains("genomes[0].samples[1].fitness"));
+    }
+
+    #[test]
+    fn samples_round_trip() {
+        for sample in [Sample { seed: u64::MAX, variant: Some(3) }, Sample::seeded(0)] {
+            assert_eq!(sample_from_proto(&sample_to_proto(&sample)), sample);
+        }
+    }
+}

@@ -1,0 +1,112 @@
+//! The `hevo-worker` command line. The master's address and the token can come from the
+//! environment (`HEVO_MASTER`, `HEVO_TOKEN`), as containers prefer.
+
+use crate::remote::{self, Shutdown, SimExecutor, WorkerConfig};
+use anyhow::{Context, Result};
+use clap::Parser;
+use hevo_proto::client::ClientOptions;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::watch;
+
+/// hevo-worker: evaluates genomes for a hevo master.
+#[derive(Debug, Parser)]
+#[command(name = "hevo-worker", version, about, long_about = None)]
+pub struct Args {
+    /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
+    #[arg(long, env = "HEVO_MASTER")]
+    pub master: String,
+    /// Threads to evaluate with (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// The master's shared token.
+    #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Read the token from this file (wins over --token and HEVO_TOKEN).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
+    /// Trust this PEM CA certificate for an https:// master.
+    #[arg(long)]
+    pub tls_ca: Option<PathBuf>,
+    /// The worker's name in the master's logs (default: host name and process id).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// On SIGTERM/SIGINT, how long the current batch may run before it is handed back
+    /// (a second signal hands it back at once).
+    #[arg(long, default_value_t = 30.0)]
+    pub grace_seconds: f64,
+}
+
+/// Parses the command line and runs the worker; the exit code.
+pub fn main() -> std::process::ExitCode {
+    let args = Args::parse();
+    init_tracing();
+    match execute(args) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn init_tracing() {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_ansi(std::io::stderr().is_terminal()).with_writer(std::io::stderr).try_init();
+}
+
+fn default_name() -> String {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "worker".into());
+    format!("{host}-{}", std::process::id())
+}
+
+/// Runs a parsed command line.
+pub fn execute(args: Args) -> Result<()> {
+    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref()).map_err(anyhow::Error::msg)?;
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    if !(args.grace_seconds.is_finite() && args.grace_seconds >= 0.0) {
+        anyhow::bail!("--grace-seconds must be a non-negative number");
+    }
+    let name = args.name.clone().unwrap_or_else(default_name);
+    if name.is_empty() || name.len() > 128 {
+        anyhow::bail!("--name must be 1 to 128 characters");
+    }
+    let mut config = WorkerConfig::new(ClientOptions { url: args.master.clone(), token, tls_ca: args.tls_ca.clone() }, name, threads);
+    config.grace = Duration::from_secs_f64(args.grace_seconds);
+    // The async side only waits on the network; evaluation runs on blocking threads.
+    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build().context("cannot start the async runtime")?;
+    let report = runtime.block_on(async move {
+        let (stop, stopped) = watch::channel(Shutdown::Running);
+        tokio::spawn(async move {
+            if let Err(error) = forward_signals(stop).await {
+                tracing::error!(%error, "cannot listen for signals");
+            }
+        });
+        remote::run(config, Arc::new(SimExecutor::default()), stopped).await
+    })?;
+    tracing::info!(batches = report.batches, evaluations = report.evaluations, released = report.released, "worker stopped");
+    Ok(())
+}
+
+/// First SIGTERM/SIGINT: graceful; second: now.
+async fn forward_signals(stop: watch::Sender<Shutdown>) -> std::io::Result<()> {
+    use tokio::signal::unix::{SignalKind, signal};
+    let mut term = signal(SignalKind::terminate())?;
+    let mut int = signal(SignalKind::interrupt())?;
+    for level in [Shutdown::Graceful, Shutdown::Now] {
+        tokio::select! {
+            _ = term.recv() => {}
+            _ = int.recv() => {}
+        }
+        tracing::info!(?level, "shutdown requested");
+        let _ = stop.send(level);
+    }
+    Ok(())
+}
