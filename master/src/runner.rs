@@ -15,6 +15,7 @@ use crate::ea;
 use crate::evaluation::{self, EvalReport};
 use crate::experiment::{Experiment, NodePlan};
 use crate::store::{read_json, write_atomic, write_json_atomic};
+use crate::viz::plot::{FITNESS_CSV_HEADER, FitnessRow};
 use serde::{Deserialize, Serialize};
 use sim_core::Sample;
 use sim_core::batch::task_content_hash;
@@ -134,23 +135,6 @@ pub enum RunError {
     Invalid(String),
 }
 
-/// One row of a run's fitness log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LogRow {
-    /// Generation.
-    pub generation: u32,
-    /// Best fitness.
-    pub best: f64,
-    /// Mean fitness.
-    pub mean: f64,
-    /// Lowest fitness.
-    pub min: f64,
-    /// Highest fitness (= best).
-    pub max: f64,
-    /// Standard deviation.
-    pub std: f64,
-}
-
 /// A run's checkpoint: everything needed to continue it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Checkpoint {
@@ -165,7 +149,7 @@ pub struct Checkpoint {
     /// The run's best genome, set once the last generation has been evaluated.
     pub best: Option<Vec<f32>>,
     /// The fitness log so far.
-    pub log: Vec<LogRow>,
+    pub log: Vec<FitnessRow>,
 }
 
 /// A finished run.
@@ -467,11 +451,11 @@ async fn run_one(
     Ok(summary)
 }
 
-fn log_row(generation: u32, fitness: &[f64]) -> LogRow {
+fn log_row(generation: u32, fitness: &[f64]) -> FitnessRow {
     let n = fitness.len().max(1) as f64;
     let mean = fitness.iter().sum::<f64>() / n;
     let var = fitness.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / n;
-    LogRow {
+    FitnessRow {
         generation,
         best: fitness.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         mean,
@@ -481,10 +465,7 @@ fn log_row(generation: u32, fitness: &[f64]) -> LogRow {
     }
 }
 
-/// The header of every fitness log.
-pub const FITNESS_CSV_HEADER: &str = "generation,best,mean,min,max,std";
-
-fn write_fitness_csv(path: &Path, log: &[LogRow]) -> Result<(), RunError> {
+fn write_fitness_csv(path: &Path, log: &[FitnessRow]) -> Result<(), RunError> {
     let mut text = String::from(FITNESS_CSV_HEADER);
     text.push('\n');
     for row in log {

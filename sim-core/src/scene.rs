@@ -97,44 +97,46 @@ impl Solid {
     #[inline(always)]
     fn to_local(&self, p: [f32; 2]) -> [f32; 2] {
         let (dx, dy) = (p[0] - self.center[0], p[1] - self.center[1]);
+        if self.axis_aligned {
+            return [dx, dy];
+        }
         [self.axis[0] * dx + self.axis[1] * dy, -self.axis[1] * dx + self.axis[0] * dy]
     }
 
     /// A direction in the rectangle's frame.
     #[inline(always)]
     fn dir_to_local(&self, d: [f32; 2]) -> [f32; 2] {
+        if self.axis_aligned {
+            return d;
+        }
         [self.axis[0] * d[0] + self.axis[1] * d[1], -self.axis[1] * d[0] + self.axis[0] * d[1]]
     }
 
-    /// Distance from a point given in the local frame to the rectangle (0 inside).
+
+    /// Slab test of a ray against the rectangle, in its frame: the ray's local origin and the
+    /// component-wise inverse of its local direction. Returns the entry distance (0 when the
+    /// origin is inside) if the ray meets the rectangle before `max`.
     #[inline(always)]
-    fn local_distance(&self, q: [f32; 2]) -> f32 {
-        let ex = (q[0].abs() - self.half[0]).max(0.0);
-        let ey = (q[1].abs() - self.half[1]).max(0.0);
-        (ex * ex + ey * ey).sqrt()
+    fn slab(&self, o: [f32; 2], inverse: [f32; 2], max: f32) -> Option<f32> {
+        let tx1 = (-self.half[0] - o[0]) * inverse[0];
+        let tx2 = (self.half[0] - o[0]) * inverse[0];
+        let ty1 = (-self.half[1] - o[1]) * inverse[1];
+        let ty2 = (self.half[1] - o[1]) * inverse[1];
+        // f32 min/max drop a NaN operand (0 * inf for a ray along a face), which is what a
+        // slab test wants.
+        let enter = tx1.min(tx2).max(ty1.min(ty2)).max(0.0);
+        let exit = tx1.max(tx2).min(ty1.max(ty2));
+        (exit >= enter && enter < max).then_some(enter)
     }
 
-    /// Slab test of a ray (local origin and direction) against the rectangle: the entry
-    /// distance, 0 when the origin is inside, `None` when the ray misses within `max`.
+    /// The offset from a local point to the rectangle's nearest point, and its length.
     #[inline(always)]
-    fn local_ray(&self, o: [f32; 2], d: [f32; 2], max: f32) -> Option<f32> {
-        let mut t_enter = f32::NEG_INFINITY;
-        let mut t_exit = f32::INFINITY;
-        for axis in 0..2 {
-            if d[axis].abs() < 1e-12 {
-                if o[axis].abs() > self.half[axis] {
-                    return None;
-                }
-            } else {
-                let inv = 1.0 / d[axis];
-                let t1 = (-self.half[axis] - o[axis]) * inv;
-                let t2 = (self.half[axis] - o[axis]) * inv;
-                t_enter = t_enter.max(t1.min(t2));
-                t_exit = t_exit.min(t1.max(t2));
-            }
-        }
-        let t = t_enter.max(0.0);
-        (t_exit >= t && t <= max).then_some(t)
+    fn nearest_offset(&self, q: [f32; 2]) -> ([f32; 2], f32) {
+        let offset = [
+            q[0].clamp(-self.half[0], self.half[0]) - q[0],
+            q[1].clamp(-self.half[1], self.half[1]) - q[1],
+        ];
+        (offset, (offset[0] * offset[0] + offset[1] * offset[1]).sqrt())
     }
 }
 
@@ -319,7 +321,7 @@ impl Scene {
                 && point.x < solid.aabb.maxs.x + radius
                 && solid.aabb.mins.y - radius < point.y
                 && point.y < solid.aabb.maxs.y + radius
-                && solid.local_distance(solid.to_local(center)) < radius
+                && solid.nearest_offset(solid.to_local(center)).1 < radius
         })
     }
 
@@ -343,46 +345,10 @@ impl Scene {
             {
                 continue;
             }
-            if solid.axis_aligned {
-                // Walls: the solid's frame is the world's shifted, so no rotation is needed
-                // and the boundary rays' inverse directions are the cone's own.
-                let local_origin = [origin[0] - solid.center[0], origin[1] - solid.center[1]];
-                let offset = [
-                    local_origin[0].clamp(-solid.half[0], solid.half[0]) - local_origin[0],
-                    local_origin[1].clamp(-solid.half[1], solid.half[1]) - local_origin[1],
-                ];
-                let distance = (offset[0] * offset[0] + offset[1] * offset[1]).sqrt();
-                if distance >= best {
-                    continue;
-                }
-                if offset[0] * cone.axis[0] + offset[1] * cone.axis[1] >= distance * cone.cos_half_angle {
-                    best = distance;
-                    hit = true;
-                    continue;
-                }
-                for inverse in &cone.inverse_boundaries {
-                    let tx1 = (-solid.half[0] - local_origin[0]) * inverse[0];
-                    let tx2 = (solid.half[0] - local_origin[0]) * inverse[0];
-                    let ty1 = (-solid.half[1] - local_origin[1]) * inverse[1];
-                    let ty2 = (solid.half[1] - local_origin[1]) * inverse[1];
-                    // f32 min/max drop a NaN operand (0 * inf for a ray along a face), which is
-                    // what a slab test wants.
-                    let enter = tx1.min(tx2).max(ty1.min(ty2)).max(0.0);
-                    let exit = tx1.max(tx2).min(ty1.max(ty2));
-                    if exit >= enter && enter < best {
-                        best = enter;
-                        hit = true;
-                    }
-                }
-                continue;
-            }
+            // Walls are axis-aligned: their frame is the world's shifted, so the helpers skip
+            // the rotation and the boundary rays' inverse directions are the cone's own.
             let local_origin = solid.to_local(origin);
-            // Offset from the origin to the solid's nearest point, in the solid's frame.
-            let offset = [
-                local_origin[0].clamp(-solid.half[0], solid.half[0]) - local_origin[0],
-                local_origin[1].clamp(-solid.half[1], solid.half[1]) - local_origin[1],
-            ];
-            let distance = (offset[0] * offset[0] + offset[1] * offset[1]).sqrt();
+            let (offset, distance) = solid.nearest_offset(local_origin);
             if distance >= best {
                 continue;
             }
@@ -392,8 +358,14 @@ impl Scene {
                 hit = true;
                 continue;
             }
-            for boundary in &cone.boundaries {
-                if let Some(toi) = solid.local_ray(local_origin, solid.dir_to_local(*boundary), best) {
+            for (boundary, inverse) in cone.boundaries.iter().zip(&cone.inverse_boundaries) {
+                let inverse = if solid.axis_aligned {
+                    *inverse
+                } else {
+                    let d = solid.dir_to_local(*boundary);
+                    [1.0 / d[0], 1.0 / d[1]]
+                };
+                if let Some(toi) = solid.slab(local_origin, inverse, best) {
                     best = toi;
                     hit = true;
                 }
@@ -418,7 +390,7 @@ mod tests {
                 let p = [-0.2 + ix as f32 * 0.01, -0.5 + iy as f32 * 0.01];
                 let exact = cuboid.distance_to_point(&rect.pose(), Vector::new(p[0], p[1]), true);
                 let solid = &scene.solids[0];
-                let ours = solid.local_distance(solid.to_local(p));
+                let ours = solid.nearest_offset(solid.to_local(p)).1;
                 assert!((exact - ours).abs() < 1e-5, "at {p:?}: {exact} vs {ours}");
             }
         }

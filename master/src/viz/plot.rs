@@ -7,8 +7,8 @@
 use super::svg::{INK, PALETTE, SvgDocument, Tag, num_with};
 use std::collections::BTreeMap;
 
-/// One generation's line of a `fitness.csv` log.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One generation's line of a `fitness.csv` log (also kept in run checkpoints).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FitnessRow {
     /// Generation number, from 0.
     pub generation: u32,
