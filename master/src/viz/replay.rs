@@ -1587,9 +1587,27 @@ mod tests {
         let mut seen_collision = false;
         let mut seen_clean = false;
         for seed in 0..6 {
+            // A robot that never moves never collides and one that drives straight on always
+            // does, so both cases are always exercised.
+            struct Straight;
+            impl Policy for Straight {
+                fn reset(&mut self) {}
+                fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+                    [1.0, 1.0]
+                }
+            }
+            struct Still;
+            impl Policy for Still {
+                fn reset(&mut self) {}
+                fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+                    [0.5, 0.5]
+                }
+            }
             for trace in [
                 room.evaluate_traced(&mut Circler, Sample::seeded(seed)),
                 room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(seed)),
+                room.evaluate_traced(&mut Still, Sample::seeded(seed)),
+                room.evaluate_traced(&mut Straight, Sample::seeded(seed)),
             ] {
                 let (_, elements) = render(&trace, &room, &ReplayOptions::default());
                 let collided = trace.cycles.iter().any(|c| c.collided);
