@@ -142,7 +142,9 @@ stop_processes() {
     for pid in "${pids[@]}"; do
         wait "$pid" 2>/dev/null || true
     done
-    kill -TERM "$watchdog" 2>/dev/null || true
+    # The watchdog is a process group of its own (set -m): end it together with its sleep.
+    # SIGKILL, since it was started while the cleanup ignores SIGTERM, and inherited that.
+    kill -KILL -- "-$watchdog" 2>/dev/null || kill -KILL "$watchdog" 2>/dev/null || true
     wait "$watchdog" 2>/dev/null || true
 }
 
@@ -163,7 +165,9 @@ cleanup() {
         log "stopping the master"
         stop_processes 30 "$master_pid"
     fi
-    if ((status != 0)); then
+    if ((status == 130 || status == 143)); then
+        log "interrupted; state and logs kept in $work_dir"
+    elif ((status != 0)); then
         local file
         for file in "$work_dir"/master.log "$work_dir"/worker-*.log; do
             [[ -s $file ]] || continue

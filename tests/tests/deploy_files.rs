@@ -754,8 +754,8 @@ impl Invocation {
 
 /// Commands that run another command given as one of their later words.
 const PREFIX_COMMANDS: &[&str] = &[
-    "exec", "nohup", "setsid", "timeout", "env", "command", "stdbuf", "nice", "srun", "mpirun",
-    "sudo", "docker", "kubectl", "xargs", "time",
+    "exec", "nohup", "setsid", "timeout", "env", "command", "stdbuf", "nice", "srun", "sbatch",
+    "mpirun", "sudo", "docker", "kubectl", "xargs", "time",
 ];
 
 fn is_assignment(word: &str) -> bool {
@@ -804,7 +804,10 @@ fn shell_invocations(
         let origin = format!("{file}:{}", command.line);
         let found = if let Some(program) = program_of(first) {
             Some((program, &words[1..]))
-        } else if PREFIX_COMMANDS.contains(&base) {
+        } else if PREFIX_COMMANDS.contains(&base)
+            // `command -v hevo` looks the program up; it does not run it.
+            && !(base == "command" && words.get(1).is_some_and(|w| w == "-v" || w == "-V"))
+        {
             // kubectl runs a command in a pod only after `--`; elsewhere its words name objects.
             let start = if base == "kubectl" {
                 words
@@ -1346,7 +1349,10 @@ fn check_dockerfile(files: &DeployFiles, problems: &mut Problems, facts: &mut Fa
     match build {
         None => problems.add(path, "no RUN with `cargo build`"),
         Some(run) => {
-            let words: Vec<&str> = run.split_whitespace().collect();
+            // The words of the cargo command itself, up to the next `&&`, `;` or `|`.
+            let command = &run[run.find("cargo build").unwrap()..];
+            let command = command.split(['&', ';', '|']).next().unwrap_or(command);
+            let words: Vec<&str> = command.split_whitespace().collect();
             let mut built_bins = BTreeSet::new();
             for pair in words.windows(2) {
                 if pair[0] == "-p" || pair[0] == "--package" {
@@ -1372,7 +1378,8 @@ fn check_dockerfile(files: &DeployFiles, problems: &mut Problems, facts: &mut Fa
                     ),
                 );
                 problems.check(
-                    words.contains(&format!("target/release/{bin}").as_str()),
+                    run.split_whitespace()
+                        .any(|w| w == format!("target/release/{bin}")),
                     path,
                     format!("target/release/{bin} is not copied out of the build"),
                 );
@@ -2696,10 +2703,6 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
     let helps = helps();
     let files = DeployFiles::load();
     let (_, facts) = check_all(&files, helps);
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
     let scratch = std::env::temp_dir().join(format!("hevo-deploy-files-{}", std::process::id()));
     let token = "deploy-files-test-token";
     let mut services = facts.probe_services.clone();
@@ -2718,6 +2721,12 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
         ("k8s", k8s_argv, false),
     ] {
         let master = Master::start(&argv, &scratch.join(name), token, env_token);
+        // One runtime per master, dropped before the master is stopped so that no gRPC
+        // connection of ours holds its shutdown up.
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
         for service in &services {
             let deadline = Instant::now() + Duration::from_secs(15);
             loop {
@@ -2777,6 +2786,7 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
                 args.join(" ")
             );
         }
+        drop(runtime);
         let status = master.stop();
         eprintln!("{name}: hevo serve exited with {status} after SIGTERM");
     }
