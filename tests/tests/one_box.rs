@@ -1,7 +1,8 @@
 //! deploy/local/one-box.sh run for real: a `hevo serve` master and three `hevo-worker`
 //! processes on loopback finish a small job and its results are fetched; and a SIGTERM in the
 //! middle of a job stops every process the script started. This is the cluster path (gRPC,
-//! token, leases, submit/watch/fetch) end to end, on one machine.
+//! token, leases, submit/watch/fetch) end to end, on one machine. The SLURM script runs too,
+//! with the allocation's environment and a stand-in for srun.
 //!
 //! The binaries come from `cargo build --release -p hevo-master -p hevo-worker`, or from the
 //! directory in `HEVO_TEST_BIN_DIR` when it is set.
@@ -345,5 +346,128 @@ fn one_box_stops_every_process_on_sigterm() {
         "the script did not stop the workers:\n{}",
         script.log.join("\n")
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A stand-in for `srun` (no SLURM here): runs `--ntasks` copies of the command on this machine,
+/// each with its `--output` file, and passes SIGTERM on to them, as srun does.
+const FAKE_SRUN: &str = r#"#!/usr/bin/env bash
+# Test stand-in for srun: N local copies of the command, SIGTERM forwarded.
+set -euo pipefail
+ntasks=1
+output=/dev/stderr
+while (($# > 0)); do
+    case "$1" in
+        --ntasks=*) ntasks=${1#*=} ;;
+        --output=*) output=${1#*=} ;;
+        -*) ;;
+        *) break ;;
+    esac
+    shift
+done
+pids=()
+for ((task = 0; task < ntasks; task++)); do
+    SLURM_PROCID=$task "$@" >"${output//%t/$task}" 2>&1 &
+    pids+=("$!")
+done
+trap 'kill -TERM "${pids[@]}" 2>/dev/null || true' TERM INT
+status=0
+for pid in "${pids[@]}"; do
+    wait "$pid" || status=$?
+done
+for pid in "${pids[@]}"; do
+    wait "$pid" 2>/dev/null || true
+done
+exit "$status"
+"#;
+
+/// deploy/slurm/hevo.sbatch with the allocation's environment and a stand-in srun: the master
+/// starts, writes its address where the workers find it, two workers run the tiny job, the
+/// results are fetched, and nothing is left running.
+#[test]
+fn slurm_script_runs_a_job_with_a_stand_in_srun() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("slurm");
+    let shims = dir.join("bin");
+    std::fs::create_dir_all(&shims).unwrap();
+    let srun = shims.join("srun");
+    std::fs::write(&srun, FAKE_SRUN).unwrap();
+    std::fs::set_permissions(&srun, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let path = format!(
+        "{}:{}:{}",
+        shims.display(),
+        bin_dir().display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let experiment = repo_root().join("deploy/local/tiny.toml");
+    let mut child = Command::new("bash")
+        .arg(repo_root().join("deploy/slurm/hevo.sbatch"))
+        .args(["--state-dir", "state", "--out", "results"])
+        .arg(&experiment)
+        .current_dir(&dir)
+        .env("PATH", path)
+        .env("SLURM_JOB_ID", "4242")
+        .env("SLURM_NTASKS", "2")
+        .env("SLURM_CPUS_PER_TASK", "1")
+        // The master's node, as the workers dial it: loopback here.
+        .env("SLURMD_NODENAME", "127.0.0.1")
+        .env_remove("HEVO_TOKEN")
+        .env_remove("HEVO_MASTER")
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("run hevo.sbatch");
+    let deadline = Instant::now() + Duration::from_secs(180);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            kill_leftovers(dir.to_str().unwrap());
+            panic!("hevo.sbatch did not finish within 180 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let leftovers = processes_mentioning(dir.to_str().unwrap());
+    kill_leftovers(dir.to_str().unwrap());
+    let logs: String = ["master.log", "worker-0.log", "worker-1.log"]
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(dir.join("state").join(f)).unwrap_or_default();
+            format!("--- {f}\n{text}")
+        })
+        .collect();
+    assert!(
+        status.success(),
+        "hevo.sbatch failed with {status}:\n{logs}"
+    );
+    assert!(
+        leftovers.is_empty(),
+        "processes outlived hevo.sbatch:\n{}",
+        leftovers.join("\n")
+    );
+    let url = std::fs::read_to_string(dir.join("state/master.url")).unwrap();
+    assert!(
+        url.trim().starts_with("http://127.0.0.1:"),
+        "master.url is {url:?}"
+    );
+    let job = std::fs::read_to_string(dir.join("state/job-id")).unwrap();
+    assert!(!job.trim().is_empty(), "no job id was recorded");
+    for worker in ["worker-0.log", "worker-1.log"] {
+        assert!(
+            dir.join("state").join(worker).exists(),
+            "{worker} is missing:\n{logs}"
+        );
+    }
+    for run in 0..2 {
+        let run_dir = dir.join("results/follow_wall").join(format!("run-{run}"));
+        for file in ["fitness.csv", "best.json", "summary.json"] {
+            assert!(
+                run_dir.join(file).is_file(),
+                "{} is missing",
+                run_dir.join(file).display()
+            );
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
