@@ -14,13 +14,14 @@
 //! to leave an obstacle).
 //!
 //! The policies assume the paper's geometry (0.20 m corridors, square room corners,
-//! rectangular obstacles at least 0.10 m from everything else); `for_robot` adapts them to
-//! another robot's size and speed.
+//! rectangular obstacles at least 0.10 m from everything else); `for_task` adapts them to a
+//! task configuration's robot (size, speed) and IR mapping.
 
 use crate::evaluate::Policy;
 use crate::frame::SensorFrame;
 use crate::robot::RobotConfig;
-use crate::sensors::ir::{IrModel, MEAN_IR_CURVE};
+use crate::sensors::ir::{IrMapping, IrModel, MEAN_IR_CURVE};
+use crate::task::TaskConfig;
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -67,6 +68,12 @@ const SEEN_MAX: f32 = 0.092;
 /// in a corridor sees its walls at 6.25 cm, and a wall that reads farther is usually one whose
 /// end the sensor's cone is just passing, which would pull the robot towards the opening.
 const STEER_MAX: f32 = 0.08;
+/// With the linear-distance IR mapping, a lateral reading this much farther than the wall it
+/// has been reading means that wall ended. Needed besides `SEEN_MAX` because that mapping
+/// reads an empty cone as a wall 7.6-10.4 cm away for three of the eight measured curves
+/// (r2s7, r2s5, r1s5). With the linear-raw mapping, which reads every curve's empty cone as
+/// 0, `SEEN_MAX` alone is more reliable.
+const WALL_END_JUMP: f32 = 0.012;
 /// A side that was open within this distance of travel still counts as open at a wall ahead:
 /// at the junction's centre the cone may again catch the corner of the wall just passed.
 const OPEN_MEMORY: f32 = 0.12;
@@ -123,38 +130,59 @@ const PASSAGE_PROBE: f32 = 0.08;
 /// How far the exiter drives along a passage found behind a convex corner before it follows
 /// walls again: far enough to be out of the room through the exit.
 const PASSAGE_LENGTH: f32 = 0.3;
+/// Distance along one surface after which the exiter gives it up (two rounds of the largest
+/// room without finding the exit mean it is lost), metres.
+const HUG_GIVE_UP: f32 = 8.0;
 /// Net left turning, radians, after which a left-hand follower concludes it is circling an
 /// obstacle (following the room's walls turns it right, never left).
 const ORBIT_TURN: f32 = 1.75 * PI;
 
-/// Turns IR inputs back into distances (sensor to surface, metres) with the average measured
-/// curve. Real sensors differ from it by up to about a centimetre at the distances used here,
-/// which the policies tolerate.
+/// Turns IR inputs back into distances (sensor to surface, metres) through the average
+/// measured curve and the task's raw-to-input mapping. Real sensors differ from the average;
+/// at the distances the policies steer by that is up to about a centimetre.
 #[derive(Debug)]
 struct Ranger {
     /// Input of the average curve at each millimetre from contact, made non-increasing.
     input_at_mm: Vec<f32>,
+    /// `WALL_END_JUMP` where the mapping needs it.
+    wall_end_jump: Option<f32>,
 }
 
 impl Ranger {
-    fn builtin() -> &'static Ranger {
-        static RANGER: OnceLock<Ranger> = OnceLock::new();
-        RANGER.get_or_init(|| {
-            let model = IrModel::builtin();
-            let mut lowest = f32::INFINITY;
-            let input_at_mm = (0..=120)
-                .map(|mm| {
-                    let distance = mm as f32 * 0.001;
-                    let input =
-                        model.raw_to_input(MEAN_IR_CURVE, model.mean_raw(MEAN_IR_CURVE, distance));
-                    // The measured curves flatten and even rise again near 12 cm; a running
-                    // minimum keeps the inverse well defined.
-                    lowest = lowest.min(input);
-                    lowest
-                })
-                .collect();
-            Ranger { input_at_mm }
-        })
+    /// The ranger for a mapping, built once per process.
+    fn for_mapping(mapping: IrMapping) -> &'static Ranger {
+        static LINEAR_DISTANCE: OnceLock<Ranger> = OnceLock::new();
+        static LINEAR_RAW: OnceLock<Ranger> = OnceLock::new();
+        let cell = match mapping {
+            IrMapping::LinearDistance => &LINEAR_DISTANCE,
+            IrMapping::LinearRaw => &LINEAR_RAW,
+        };
+        cell.get_or_init(|| Ranger::new(mapping))
+    }
+
+    fn new(mapping: IrMapping) -> Ranger {
+        let model = IrModel::builtin();
+        // The distance the linear-distance mapping reads as 0: the calibration's last row.
+        let table_end = model.raw_to_distance(f32::NEG_INFINITY);
+        let mut lowest = f32::INFINITY;
+        let input_at_mm = (0..=120)
+            .map(|mm| {
+                let raw = model.mean_raw(MEAN_IR_CURVE, mm as f32 * 0.001);
+                let input = match mapping {
+                    IrMapping::LinearDistance => 1.0 - model.raw_to_distance(raw) / table_end,
+                    IrMapping::LinearRaw => model.raw_to_input(MEAN_IR_CURVE, raw),
+                };
+                // The measured curves flatten and even rise again near 12 cm; a running
+                // minimum keeps the inverse well defined.
+                lowest = lowest.min(input);
+                lowest
+            })
+            .collect();
+        let wall_end_jump = (mapping == IrMapping::LinearDistance).then_some(WALL_END_JUMP);
+        Ranger {
+            input_at_mm,
+            wall_end_jump,
+        }
     }
 
     /// The distance whose average input is `input`; infinity when the input is below what any
@@ -213,6 +241,7 @@ struct Driver {
     v_max: f32,
     wheel_base: f32,
     radius: f32,
+    ranger: &'static Ranger,
     /// Dead-reckoned heading, radians, not wrapped.
     heading: f32,
     /// Dead-reckoned distance driven forward, metres.
@@ -227,20 +256,37 @@ struct Driver {
     last_speed: f32,
     /// For each side (left, right), the last cycles' "no wall seen" as bits, newest lowest.
     open_history: [u8; 2],
+    /// The distance each side's wall (left, right) has been reading, while there is one.
+    wall_level: [Option<f32>; 2],
     /// Odometer when each side (left, right) was last open.
     open_at: [Option<f32>; 2],
 }
 
 impl Driver {
-    fn new(robot: &RobotConfig) -> Driver {
-        Driver::with_body(robot.v_max, robot.wheel_base, robot.radius)
+    /// A driver for the default robot and IR mapping.
+    fn standard() -> Driver {
+        Driver::new(&RobotConfig::default(), IrMapping::default())
     }
 
-    fn with_body(v_max: f32, wheel_base: f32, radius: f32) -> Driver {
+    fn for_task(task: &TaskConfig) -> Driver {
+        Driver::new(&task.robot, task.ir.mapping)
+    }
+
+    fn new(robot: &RobotConfig, mapping: IrMapping) -> Driver {
+        Driver::with_body(
+            robot.v_max,
+            robot.wheel_base,
+            robot.radius,
+            Ranger::for_mapping(mapping),
+        )
+    }
+
+    fn with_body(v_max: f32, wheel_base: f32, radius: f32, ranger: &'static Ranger) -> Driver {
         Driver {
             v_max,
             wheel_base,
             radius,
+            ranger,
             heading: 0.0,
             odometer: 0.0,
             axis: 0.0,
@@ -248,17 +294,18 @@ impl Driver {
             unmeasured: 0,
             last_speed: 0.0,
             open_history: [0; 2],
+            wall_level: [None; 2],
             open_at: [None; 2],
         }
     }
 
     fn reset(&mut self) {
-        *self = Driver::with_body(self.v_max, self.wheel_base, self.radius);
+        *self = Driver::with_body(self.v_max, self.wheel_base, self.radius, self.ranger);
     }
 
     /// Reads the frame into distances and updates the open-side counters.
     fn perceive(&mut self, frame: &SensorFrame) -> Ranges {
-        let ranger = Ranger::builtin();
+        let ranger = self.ranger;
         let ranges = Ranges {
             front_left: ranger.distance(frame.ir[0]),
             left: ranger.distance(frame.ir[1]),
@@ -266,10 +313,29 @@ impl Driver {
             front_right: ranger.distance(frame.ir[3]),
         };
         for side in [TurnSide::Left, TurnSide::Right] {
+            let distance = ranges.lateral(side);
+            let level = &mut self.wall_level[side.index()];
+            // A wall ends where the reading jumps well beyond the level it has been at, or
+            // beyond anything a wall in range gives. The jump matters where a sensor's own
+            // curve reads an empty cone as a wall some 8 cm away (see `WALL_END_JUMP`).
+            let jumped = ranger
+                .wall_end_jump
+                .is_some_and(|jump| level.is_some_and(|at| distance > at + jump));
+            let gone = distance > SEEN_MAX || jumped;
+            if !gone {
+                *level = Some(match *level {
+                    // Follow a wall coming closer at once, one receding slowly: a wall that
+                    // ends must not drag the level along before the jump is seen.
+                    Some(at) if distance > at => at + 0.15 * (distance - at),
+                    _ => distance,
+                });
+            }
             let history = &mut self.open_history[side.index()];
-            *history = (*history << 1) | u8::from(ranges.lateral(side) > SEEN_MAX);
+            *history = (*history << 1) | u8::from(gone);
             if self.is_open(side) {
                 self.open_at[side.index()] = Some(self.odometer);
+                // Whatever comes into view next is a new wall.
+                self.wall_level[side.index()] = None;
             }
         }
         ranges
@@ -385,6 +451,8 @@ impl Driver {
         self.axis = axis;
         self.lateral = None;
         self.unmeasured = 0;
+        // Facing another way, the sensors see other walls.
+        self.wall_level = [None; 2];
     }
 }
 
@@ -600,15 +668,19 @@ pub struct CorridorFollower {
 }
 
 impl CorridorFollower {
-    /// A follower for the default robot.
+    /// A follower for the default robot and sensors.
     pub fn new() -> CorridorFollower {
-        CorridorFollower::for_robot(&RobotConfig::default())
+        CorridorFollower::with_driver(Driver::standard())
     }
 
-    /// A follower for a robot with other dimensions or top speed.
-    pub fn for_robot(robot: &RobotConfig) -> CorridorFollower {
+    /// A follower for the robot and IR mapping of a task configuration.
+    pub fn for_task(task: &TaskConfig) -> CorridorFollower {
+        CorridorFollower::with_driver(Driver::for_task(task))
+    }
+
+    fn with_driver(driver: Driver) -> CorridorFollower {
         CorridorFollower {
-            driver: Driver::new(robot),
+            driver,
             logic: CorridorLogic::new(Strategy::Follow),
         }
     }
@@ -633,16 +705,20 @@ pub struct Turner {
 }
 
 impl Turner {
-    /// A turner to `side` for the default robot.
+    /// A turner to `side` for the default robot and sensors.
     pub fn new(side: TurnSide) -> Turner {
-        Turner::for_robot(side, &RobotConfig::default())
+        Turner::with_driver(side, Driver::standard())
     }
 
-    /// A turner for a robot with other dimensions or top speed.
-    pub fn for_robot(side: TurnSide, robot: &RobotConfig) -> Turner {
+    /// A turner to `side` for the robot and IR mapping of a task configuration.
+    pub fn for_task(side: TurnSide, task: &TaskConfig) -> Turner {
+        Turner::with_driver(side, Driver::for_task(task))
+    }
+
+    fn with_driver(side: TurnSide, driver: Driver) -> Turner {
         Turner {
             side,
-            driver: Driver::new(robot),
+            driver,
             logic: CorridorLogic::new(Strategy::Turn(side)),
         }
     }
@@ -670,15 +746,19 @@ pub struct MazeSolver {
 }
 
 impl MazeSolver {
-    /// A solver for the default robot.
+    /// A solver for the default robot and sensors.
     pub fn new() -> MazeSolver {
-        MazeSolver::for_robot(&RobotConfig::default())
+        MazeSolver::with_driver(Driver::standard())
     }
 
-    /// A solver for a robot with other dimensions or top speed.
-    pub fn for_robot(robot: &RobotConfig) -> MazeSolver {
+    /// A solver for the robot and IR mapping of a task configuration.
+    pub fn for_task(task: &TaskConfig) -> MazeSolver {
+        MazeSolver::with_driver(Driver::for_task(task))
+    }
+
+    fn with_driver(driver: Driver) -> MazeSolver {
         MazeSolver {
-            driver: Driver::new(robot),
+            driver,
             logic: CorridorLogic::new(Strategy::Maze),
         }
     }
@@ -707,15 +787,19 @@ pub struct Returner {
 }
 
 impl Returner {
-    /// A returner for the default robot.
+    /// A returner for the default robot and sensors.
     pub fn new() -> Returner {
-        Returner::for_robot(&RobotConfig::default())
+        Returner::with_driver(Driver::standard())
     }
 
-    /// A returner for a robot with other dimensions or top speed.
-    pub fn for_robot(robot: &RobotConfig) -> Returner {
+    /// A returner for the robot and IR mapping of a task configuration.
+    pub fn for_task(task: &TaskConfig) -> Returner {
+        Returner::with_driver(Driver::for_task(task))
+    }
+
+    fn with_driver(driver: Driver) -> Returner {
         Returner {
-            driver: Driver::new(robot),
+            driver,
             logic: CorridorLogic::new(Strategy::Return),
         }
     }
@@ -943,7 +1027,7 @@ impl RoomLogic {
                 }
                 RoomMode::Hug => {
                     if driver.heading - self.hug_heading >= ORBIT_TURN
-                        || driver.odometer - self.hug_start > 8.0
+                        || driver.odometer - self.hug_start > HUG_GIVE_UP
                     {
                         // Circling an obstacle (or lost): leave it, turning away from it.
                         self.escapes += 1;
@@ -1080,15 +1164,19 @@ pub struct RoomExiter {
 }
 
 impl RoomExiter {
-    /// An exiter for the default robot.
+    /// An exiter for the default robot and sensors.
     pub fn new() -> RoomExiter {
-        RoomExiter::for_robot(&RobotConfig::default())
+        RoomExiter::with_driver(Driver::standard())
     }
 
-    /// An exiter for a robot with other dimensions or top speed.
-    pub fn for_robot(robot: &RobotConfig) -> RoomExiter {
+    /// An exiter for the robot and IR mapping of a task configuration.
+    pub fn for_task(task: &TaskConfig) -> RoomExiter {
+        RoomExiter::with_driver(Driver::for_task(task))
+    }
+
+    fn with_driver(driver: Driver) -> RoomExiter {
         RoomExiter {
-            driver: Driver::new(robot),
+            driver,
             logic: RoomLogic::new(),
         }
     }
@@ -1135,15 +1223,19 @@ pub struct Rescuer {
 }
 
 impl Rescuer {
-    /// A rescuer for the default robot.
+    /// A rescuer for the default robot and sensors.
     pub fn new() -> Rescuer {
-        Rescuer::for_robot(&RobotConfig::default())
+        Rescuer::with_driver(Driver::standard())
     }
 
-    /// A rescuer for a robot with other dimensions or top speed.
-    pub fn for_robot(robot: &RobotConfig) -> Rescuer {
+    /// A rescuer for the robot and IR mapping of a task configuration.
+    pub fn for_task(task: &TaskConfig) -> Rescuer {
+        Rescuer::with_driver(Driver::for_task(task))
+    }
+
+    fn with_driver(driver: Driver) -> Rescuer {
         Rescuer {
-            driver: Driver::new(robot),
+            driver,
             room: RoomLogic::new(),
             maze: CorridorLogic::new(Strategy::Maze),
             back: CorridorLogic::new(Strategy::Return),

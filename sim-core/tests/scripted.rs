@@ -5,31 +5,81 @@
 //! against the ground truth, and the light flashes reach the controller as the paper's held
 //! inputs. The shares asserted sit a little below what the policies reach today (noted next to
 //! each), so the tests stay stable under small model changes but still fail if a task becomes
-//! unsolvable or its goal detection goes wrong. Run in release: they simulate about two million
+//! unsolvable or its goal detection goes wrong. Run in release: they simulate a few million
 //! cycles.
+//!
+//! The main tests run the paper's tasks with the IR mapping that meets the specification's
+//! "1 at contact, 0 at 12 cm or beyond" for every measured sensor curve (`linear_raw`). The
+//! default mapping (`linear_distance`) reads an empty cone as a wall 7.6-10.4 cm away for three
+//! of the eight curves, which costs the scripted policies part of their reliability; one test
+//! checks the default configuration with lower bars (see
+//! `the_default_configuration_is_solvable_too`).
 
 use sim_core::frame::SensorFrame;
 use sim_core::scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
+use sim_core::sensors::IrMapping;
 use sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, TaskKind, Trace};
 
 /// Samples per task (per light configuration for the maze).
 const SEEDS: u64 = 200;
 
-fn evaluator(kind: TaskKind) -> Evaluator {
-    Evaluator::new(TaskConfig::new(kind)).expect("the paper's task configurations are valid")
+/// The paper's task with the specification-conforming IR mapping (see the top of the file).
+fn spec_task(kind: TaskKind) -> TaskConfig {
+    let mut task = TaskConfig::new(kind);
+    task.ir.mapping = IrMapping::LinearRaw;
+    task
 }
 
-/// Runs one policy (reset by the evaluator before each sample) on seeds `0..SEEDS`.
-fn run(kind: TaskKind, policy: &mut impl Policy, variant: Option<u32>) -> Vec<(Sample, Outcome)> {
-    let evaluator = evaluator(kind);
+fn evaluator(kind: TaskKind) -> Evaluator {
+    Evaluator::new(spec_task(kind)).expect("the paper's task configurations are valid")
+}
+
+// The scripted policies, told the IR mapping of `spec_task`.
+fn follower() -> CorridorFollower {
+    CorridorFollower::for_task(&spec_task(TaskKind::FollowWall))
+}
+
+fn turner(side: TurnSide) -> Turner {
+    Turner::for_task(side, &spec_task(TaskKind::TurnLeft))
+}
+
+fn solver() -> MazeSolver {
+    MazeSolver::for_task(&spec_task(TaskKind::SolveMaze))
+}
+
+fn returner() -> Returner {
+    Returner::for_task(&spec_task(TaskKind::ReturnRoom))
+}
+
+fn exiter() -> RoomExiter {
+    RoomExiter::for_task(&spec_task(TaskKind::ExitRoom))
+}
+
+fn rescuer() -> Rescuer {
+    Rescuer::for_task(&spec_task(TaskKind::Rescue))
+}
+
+/// Runs one policy (reset by the evaluator before each sample) on seeds `0..SEEDS` of a task.
+fn run_on(
+    task: &TaskConfig,
+    policy: &mut impl Policy,
+    variant: Option<u32>,
+) -> Vec<(Sample, Outcome)> {
+    let evaluator =
+        Evaluator::new(task.clone()).expect("the paper's task configurations are valid");
     (0..SEEDS)
         .map(|seed| {
             let sample = Sample { seed, variant };
             (sample, evaluator.evaluate(policy, sample))
         })
         .collect()
+}
+
+/// `run_on` the specification-conforming task.
+fn run(kind: TaskKind, policy: &mut impl Policy, variant: Option<u32>) -> Vec<(Sample, Outcome)> {
+    run_on(&spec_task(kind), policy, variant)
 }
 
 fn solved_share(outcomes: &[(Sample, Outcome)]) -> f64 {
@@ -56,7 +106,7 @@ fn assert_share(kind: TaskKind, outcomes: &[(Sample, Outcome)], at_least: f64) {
 
 /// Checks what must hold for every outcome of a task, whatever the policy did.
 fn assert_coherent(kind: TaskKind, outcomes: &[(Sample, Outcome)]) {
-    let max_cycles = TaskConfig::new(kind).max_cycles();
+    let max_cycles = spec_task(kind).max_cycles();
     for (sample, o) in outcomes {
         let context = format!("{kind} {sample:?} {o:?}");
         assert_eq!(o.solved, o.ending == Ending::Solved, "{context}");
@@ -152,10 +202,10 @@ fn assert_ends_in_goal(kind: TaskKind, policy: &mut impl Policy, seeds: std::ops
 #[test]
 fn follow_wall_is_solved_by_the_corridor_follower() {
     // Measured: 200 of 200.
-    let outcomes = run(TaskKind::FollowWall, &mut CorridorFollower::new(), None);
+    let outcomes = run(TaskKind::FollowWall, &mut follower(), None);
     assert_coherent(TaskKind::FollowWall, &outcomes);
     assert_share(TaskKind::FollowWall, &outcomes, 0.97);
-    assert_ends_in_goal(TaskKind::FollowWall, &mut CorridorFollower::new(), 0..20);
+    assert_ends_in_goal(TaskKind::FollowWall, &mut follower(), 0..20);
 }
 
 #[test]
@@ -165,7 +215,7 @@ fn turns_are_solved_by_the_turners_at_bends_and_junctions() {
         (TaskKind::TurnLeft, TurnSide::Left),
         (TaskKind::TurnRight, TurnSide::Right),
     ] {
-        let outcomes = run(kind, &mut Turner::new(side), None);
+        let outcomes = run(kind, &mut turner(side), None);
         assert_coherent(kind, &outcomes);
         assert_share(kind, &outcomes, 0.97);
         for variant in [0, 1] {
@@ -180,7 +230,7 @@ fn turns_are_solved_by_the_turners_at_bends_and_junctions() {
             );
             assert_share(kind, &of_shape, 0.95);
         }
-        assert_ends_in_goal(kind, &mut Turner::new(side), 0..20);
+        assert_ends_in_goal(kind, &mut turner(side), 0..20);
     }
 }
 
@@ -192,7 +242,7 @@ fn a_turn_to_the_wrong_side_at_a_junction_is_a_wrong_branch() {
         (TaskKind::TurnLeft, TurnSide::Right),
         (TaskKind::TurnRight, TurnSide::Left),
     ] {
-        let outcomes = run(kind, &mut Turner::new(wrong), None);
+        let outcomes = run(kind, &mut turner(wrong), None);
         assert_coherent(kind, &outcomes);
         for (sample, o) in &outcomes {
             if o.variant == 1 {
@@ -219,15 +269,11 @@ fn a_turn_to_the_wrong_side_at_a_junction_is_a_wrong_branch() {
 fn solve_maze_is_solved_in_every_light_configuration() {
     // Measured: 200 of 200 in each of the four configurations.
     for configuration in 0..4 {
-        let outcomes = run(
-            TaskKind::SolveMaze,
-            &mut MazeSolver::new(),
-            Some(configuration),
-        );
+        let outcomes = run(TaskKind::SolveMaze, &mut solver(), Some(configuration));
         assert_coherent(TaskKind::SolveMaze, &outcomes);
         assert_share(TaskKind::SolveMaze, &outcomes, 0.97);
     }
-    assert_ends_in_goal(TaskKind::SolveMaze, &mut MazeSolver::new(), 0..20);
+    assert_ends_in_goal(TaskKind::SolveMaze, &mut solver(), 0..20);
 }
 
 /// Swaps the two light inputs before a wrapped policy sees them.
@@ -253,7 +299,7 @@ fn turning_against_the_lights_ends_in_a_wrong_branch() {
     for configuration in 0..4 {
         let outcomes = run(
             TaskKind::SolveMaze,
-            &mut SwappedLights(MazeSolver::new()),
+            &mut SwappedLights(solver()),
             Some(configuration),
         );
         assert_coherent(TaskKind::SolveMaze, &outcomes);
@@ -275,7 +321,7 @@ fn turning_against_the_lights_ends_in_a_wrong_branch() {
 #[test]
 fn return_room_is_solved_by_the_returner() {
     // Measured: 200 of 200.
-    let outcomes = run(TaskKind::ReturnRoom, &mut Returner::new(), None);
+    let outcomes = run(TaskKind::ReturnRoom, &mut returner(), None);
     assert_coherent(TaskKind::ReturnRoom, &outcomes);
     assert_share(TaskKind::ReturnRoom, &outcomes, 0.97);
     for branch in 0..4 {
@@ -290,20 +336,20 @@ fn return_room_is_solved_by_the_returner() {
         );
         assert_share(TaskKind::ReturnRoom, &from_branch, 0.95);
     }
-    assert_ends_in_goal(TaskKind::ReturnRoom, &mut Returner::new(), 0..20);
+    assert_ends_in_goal(TaskKind::ReturnRoom, &mut returner(), 0..20);
 }
 
 #[test]
 fn exit_room_is_solved_by_the_room_exiter() {
     // Measured: 185 of 200 (about 93% over 1000 seeds).
-    let outcomes = run(TaskKind::ExitRoom, &mut RoomExiter::new(), None);
+    let outcomes = run(TaskKind::ExitRoom, &mut exiter(), None);
     assert_coherent(TaskKind::ExitRoom, &outcomes);
     assert_share(TaskKind::ExitRoom, &outcomes, 0.85);
     // A solved sample ends with the robot's centre beyond the exit wall and its own radius.
     let evaluator = evaluator(TaskKind::ExitRoom);
-    let task = TaskConfig::new(TaskKind::ExitRoom);
+    let task = spec_task(TaskKind::ExitRoom);
     for seed in 0..30 {
-        let trace = evaluator.evaluate_traced(&mut RoomExiter::new(), Sample::seeded(seed));
+        let trace = evaluator.evaluate_traced(&mut exiter(), Sample::seeded(seed));
         let Some(exit) = trace.exit else {
             panic!("the room's trace names its exit")
         };
@@ -320,7 +366,7 @@ fn exit_room_is_solved_by_the_room_exiter() {
 #[test]
 fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
     // Measured: 180 of 200 (about 91% over 1000 seeds).
-    let outcomes = run(TaskKind::Rescue, &mut Rescuer::new(), None);
+    let outcomes = run(TaskKind::Rescue, &mut rescuer(), None);
     assert_coherent(TaskKind::Rescue, &outcomes);
     assert_share(TaskKind::Rescue, &outcomes, 0.80);
     for (sample, o) in &outcomes {
@@ -349,9 +395,9 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
     // A solved rescue ends with the teammate inside the room: the last recorded teammate pose
     // is at most one cycle's travel short of the room side of the exit.
     let evaluator = evaluator(TaskKind::Rescue);
-    let task = TaskConfig::new(TaskKind::Rescue);
+    let task = spec_task(TaskKind::Rescue);
     for seed in 0..20 {
-        let trace = evaluator.evaluate_traced(&mut Rescuer::new(), Sample::seeded(seed));
+        let trace = evaluator.evaluate_traced(&mut rescuer(), Sample::seeded(seed));
         if !trace.outcome.solved {
             continue;
         }
@@ -423,12 +469,12 @@ fn derived_fitness_counts_the_roots_choices_against_the_ground_truth() {
     let evaluator = evaluator(TaskKind::Rescue);
     let samples: Vec<Sample> = (0..60).map(Sample::seeded).collect();
     let mut right = ReportedChoice {
-        inner: Rescuer::new(),
+        inner: rescuer(),
         report: Report::Own,
     };
     // The same driving, but while solving the maze the root claims to be exiting the room.
     let mut wrong_in_maze = ReportedChoice {
-        inner: Rescuer::new(),
+        inner: rescuer(),
         report: Report::Replace {
             phase: 1,
             reported: 0,
@@ -474,11 +520,11 @@ fn derived_fitness_counts_the_roots_choices_against_the_ground_truth() {
     // 1 whatever happens. One that keeps reporting "solve maze" on the way back loses the
     // return stage only.
     let mut always_exit = ReportedChoice {
-        inner: Rescuer::new(),
+        inner: rescuer(),
         report: Report::Always(0),
     };
     let mut lost_on_return = ReportedChoice {
-        inner: Rescuer::new(),
+        inner: rescuer(),
         report: Report::Replace {
             phase: 2,
             reported: 1,
@@ -501,7 +547,7 @@ fn derived_fitness_counts_the_roots_choices_against_the_ground_truth() {
     }
 
     // Without a root (a primitive) nothing is ever right.
-    let mut plain = RescuerWithoutRoot(Rescuer::new());
+    let mut plain = RescuerWithoutRoot(rescuer());
     for &sample in samples.iter().take(5) {
         assert_eq!(
             evaluator.evaluate(&mut plain, sample).fitness,
@@ -553,7 +599,7 @@ fn light_runs(trace: &Trace) -> Vec<(usize, usize, usize, bool)> {
 #[test]
 fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
     let evaluator = evaluator(TaskKind::SolveMaze);
-    let hold = TaskConfig::new(TaskKind::SolveMaze).light.hold_cycles as usize;
+    let hold = spec_task(TaskKind::SolveMaze).light.hold_cycles as usize;
     assert_eq!(hold, 15, "the paper holds a flash for 15 cycles");
     // The shipped layout: configurations 0 and 1 flash on the right in the first row, 2 and 3
     // on the left; in the second row 1 and 2 on the right, 0 and 3 on the left.
@@ -564,7 +610,7 @@ fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
                 seed,
                 variant: Some(configuration),
             };
-            let trace = evaluator.evaluate_traced(&mut MazeSolver::new(), sample);
+            let trace = evaluator.evaluate_traced(&mut solver(), sample);
             // The rows of this sample's flashing lights, in the order the robot meets them
             // driving up the stem (+y); a light at x > 0 is on the robot's right (input 1).
             let mut flashing: Vec<[f32; 2]> = trace
@@ -595,5 +641,45 @@ fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
             let sides: Vec<usize> = runs.iter().map(|&(side, ..)| side).collect();
             assert_eq!(sides[..2], expected[..], "{sample:?}: runs {runs:?}");
         }
+    }
+}
+
+#[test]
+fn the_default_configuration_is_solvable_too() {
+    // The default IR mapping (linear distance through the average curve) reads some sensors'
+    // empty cones as walls 7.6-10.4 cm away, so the shares here are lower. Measured on these
+    // seeds: follow wall 200, turn left 197, turn right 195, maze 182/189/184/186, return 167,
+    // exit 175, rescue 121 of 200.
+    let checks: [(TaskKind, Option<u32>, f64); 10] = [
+        (TaskKind::FollowWall, None, 0.97),
+        (TaskKind::TurnLeft, None, 0.93),
+        (TaskKind::TurnRight, None, 0.93),
+        (TaskKind::SolveMaze, Some(0), 0.85),
+        (TaskKind::SolveMaze, Some(1), 0.85),
+        (TaskKind::SolveMaze, Some(2), 0.85),
+        (TaskKind::SolveMaze, Some(3), 0.85),
+        (TaskKind::ReturnRoom, None, 0.75),
+        (TaskKind::ExitRoom, None, 0.8),
+        (TaskKind::Rescue, None, 0.5),
+    ];
+    for (kind, variant, at_least) in checks {
+        let task = TaskConfig::new(kind);
+        let outcomes = match kind {
+            TaskKind::FollowWall => run_on(&task, &mut CorridorFollower::for_task(&task), variant),
+            TaskKind::TurnLeft => {
+                run_on(&task, &mut Turner::for_task(TurnSide::Left, &task), variant)
+            }
+            TaskKind::TurnRight => run_on(
+                &task,
+                &mut Turner::for_task(TurnSide::Right, &task),
+                variant,
+            ),
+            TaskKind::SolveMaze => run_on(&task, &mut MazeSolver::for_task(&task), variant),
+            TaskKind::ReturnRoom => run_on(&task, &mut Returner::for_task(&task), variant),
+            TaskKind::ExitRoom => run_on(&task, &mut RoomExiter::for_task(&task), variant),
+            TaskKind::Rescue => run_on(&task, &mut Rescuer::for_task(&task), variant),
+        };
+        assert_coherent(kind, &outcomes);
+        assert_share(kind, &outcomes, at_least);
     }
 }

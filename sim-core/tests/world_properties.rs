@@ -4,15 +4,20 @@
 //! and trace while different seeds give different samples, every start pose is free, and a
 //! sample's environment depends on its seed only, never on the policy. The policies are random
 //! piecewise-constant wheel commands drawn by proptest, plus the scripted reference policies.
+//! The IR sensors must read an empty cone as 0 and never read a nearer wall as farther, with
+//! every measured curve (SPEC section 2: "1 at contact, 0 at 12 cm or beyond").
 //! Case counts keep the file well under half a minute in release.
 
 use proptest::prelude::*;
-use sim_core::frame::SensorFrame;
+use sim_core::frame::{N_IR, SensorFrame};
+use sim_core::rng::{Stream, stream_rng};
 use sim_core::robot::Pose;
 use sim_core::scene::Rect;
 use sim_core::scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
+use sim_core::sensors::IrMapping;
+use sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
 use sim_core::{Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
@@ -287,4 +292,108 @@ fn light_configurations_and_branches_can_be_fixed_or_drawn() {
         }
         assert_eq!(seen, [true; 4], "{kind}: drawn variants");
     }
+}
+
+/// Mean input of IR sensor 0 modelled by `curve` with the nearest surface at `distance` (`None`:
+/// nothing in the cone), over many noisy reads.
+fn mean_input(mapping: IrMapping, curve: u8, distance: Option<f32>) -> f32 {
+    let setup = IrSensorSetup {
+        curve: [curve; N_IR],
+        offset: [0.0; N_IR],
+        mapping,
+    };
+    let mut rng = stream_rng(u64::from(curve), Stream::Noise);
+    let reads = 400;
+    let sum: f32 = (0..reads)
+        .map(|_| IrModel::builtin().read(&setup, 0, distance, &mut rng))
+        .sum();
+    sum / reads as f32
+}
+
+/// For every measured curve: an empty cone (and a surface at 12 cm or beyond) reads about 0,
+/// and the mean input never rises as the surface moves away. Returns the violations.
+fn ir_spec_violations(mapping: IrMapping) -> Vec<String> {
+    let mut violations = Vec::new();
+    for curve in 0..N_MEASURED_IR_CURVES as u8 {
+        let name = IR_CURVE_NAMES[usize::from(curve)];
+        for distance in [None, Some(0.12), Some(0.3)] {
+            let input = mean_input(mapping, curve, distance);
+            if input > 0.01 {
+                violations.push(format!(
+                    "{name}: surface at {distance:?} m reads {input:.3}, not 0"
+                ));
+            }
+        }
+        let inputs: Vec<f32> = (0..=12)
+            .map(|cm| mean_input(mapping, curve, Some(cm as f32 * 0.01)))
+            .collect();
+        for cm in 1..inputs.len() {
+            if inputs[cm] > inputs[cm - 1] + 0.01 {
+                violations.push(format!(
+                    "{name}: {} cm reads {:.3}, more than {} cm ({:.3})",
+                    cm,
+                    inputs[cm],
+                    cm - 1,
+                    inputs[cm - 1]
+                ));
+            }
+        }
+    }
+    violations
+}
+
+#[test]
+fn ir_inputs_meet_the_spec_with_the_linear_raw_mapping() {
+    let violations = ir_spec_violations(IrMapping::LinearRaw);
+    assert!(violations.is_empty(), "{}", violations.join("\n"));
+}
+
+#[test]
+#[ignore = "simulator bug: the default linear-distance IR mapping (sensors/ir.rs, IrModel::read) reads an \
+            empty cone as 0.37 with curve r2s7, 0.19 with r2s5, 0.14 with r1s5, and r2s7 reads a wall \
+            at 10-11 cm lower than no wall"]
+fn ir_inputs_meet_the_spec_with_the_default_mapping() {
+    let violations = ir_spec_violations(IrMapping::default());
+    assert!(violations.is_empty(), "{}", violations.join("\n"));
+}
+
+/// Cycle-0 IR inputs of exit-room samples whose start has nothing within the sensors' reach
+/// (obstacles kept 0.4 m from the room's centre): each must be about 0.
+fn empty_room_start_readings(mapping: IrMapping) -> Vec<String> {
+    let mut task = TaskConfig::new(TaskKind::ExitRoom);
+    task.ir.mapping = mapping;
+    task.room.start_clearance = 0.4;
+    let reach = task.robot.radius + task.ir.range_m;
+    let evaluator = Evaluator::new(task).expect("a valid configuration");
+    let mut bad = Vec::new();
+    for seed in 0..200 {
+        let trace = evaluator.evaluate_traced(&mut Wander::new(Vec::new()), Sample::seeded(seed));
+        let start = trace.cycles[0].robot;
+        let (nearest, _) = clearance(&start, &trace.rects);
+        assert!(
+            nearest > reach + 0.01,
+            "seed {seed}: something within reach at the start"
+        );
+        let ir = trace.cycles[0].frame.ir;
+        if ir.iter().any(|&input| input > 0.05) {
+            bad.push(format!(
+                "exit_room seed {seed}: nothing within {reach} m, IR inputs {ir:?}"
+            ));
+        }
+    }
+    bad
+}
+
+#[test]
+fn nothing_in_reach_reads_zero_with_the_linear_raw_mapping() {
+    let bad = empty_room_start_readings(IrMapping::LinearRaw);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+#[ignore = "simulator bug: with the default linear-distance IR mapping an empty cone reads up to 0.37 \
+            (sensors/ir.rs, IrModel::read); e.g. exit_room seed 3 with room.start_clearance 0.4"]
+fn nothing_in_reach_reads_zero_with_the_default_mapping() {
+    let bad = empty_room_start_readings(IrMapping::default());
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
