@@ -205,18 +205,30 @@ pub struct Dispatcher {
 impl Dispatcher {
     /// A dispatcher with the given tuning.
     pub fn new(config: DispatchConfig) -> Dispatcher {
-        Dispatcher { config, state: Mutex::new(State { next_id: 1, ..State::default() }), work_available: Notify::new() }
+        Dispatcher {
+            config,
+            state: Mutex::new(State {
+                next_id: 1,
+                ..State::default()
+            }),
+            work_available: Notify::new(),
+        }
     }
 
     fn lock(&self) -> MutexGuard<'_, State> {
         // A panic while holding the lock cannot leave the maps half-updated in a way that
         // matters more than losing the whole master, so a poisoned lock is still used.
-        self.state.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+        self.state
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
     /// Evaluates every genome of the request on every sample; returns the summaries indexed
     /// [genome][sample]. Waits for workers; never fails because a worker died.
-    pub async fn evaluate(&self, request: EvaluationRequest) -> Result<Vec<Vec<SampleSummary>>, DispatchError> {
+    pub async fn evaluate(
+        &self,
+        request: EvaluationRequest,
+    ) -> Result<Vec<Vec<SampleSummary>>, DispatchError> {
         let (reply, wait) = oneshot::channel();
         {
             let mut state = self.lock();
@@ -228,7 +240,10 @@ impl Dispatcher {
             if n_genomes == 0 || n_samples == 0 {
                 return Ok(vec![Vec::new(); n_genomes]);
             }
-            let active = self.active_threads(&state).max(self.config.expected_workers).max(1);
+            let active = self
+                .active_threads(&state)
+                .max(self.config.expected_workers)
+                .max(1);
             let target = active * self.config.batches_per_worker.max(1);
             let pieces = split(n_genomes, n_samples, target);
             let request_id = state.next_id;
@@ -240,9 +255,20 @@ impl Dispatcher {
                 state.next_id += 1;
                 state.batches.insert(
                     batch_id,
-                    BatchEntry { request_id, job: job.clone(), genome_indices, sample_range, lease: None, done: false },
+                    BatchEntry {
+                        request_id,
+                        job: job.clone(),
+                        genome_indices,
+                        sample_range,
+                        lease: None,
+                        done: false,
+                    },
                 );
-                state.pending.entry(job.clone()).or_default().push_back(batch_id);
+                state
+                    .pending
+                    .entry(job.clone())
+                    .or_default()
+                    .push_back(batch_id);
                 batch_ids.push(batch_id);
             }
             state.stats.queued_batches += batch_ids.len();
@@ -264,7 +290,13 @@ impl Dispatcher {
     fn active(&self, state: &State) -> impl Iterator<Item = usize> {
         let now = Instant::now();
         let window = self.config.worker_window;
-        state.workers.values().filter(move |(seen, _)| now.duration_since(*seen) < window).map(|&(_, threads)| threads).collect::<Vec<_>>().into_iter()
+        state
+            .workers
+            .values()
+            .filter(move |(seen, _)| now.duration_since(*seen) < window)
+            .map(|&(_, threads)| threads)
+            .collect::<Vec<_>>()
+            .into_iter()
     }
 
     fn active_threads(&self, state: &State) -> usize {
@@ -278,7 +310,12 @@ impl Dispatcher {
 
     /// [`Dispatcher::lease`] for a worker that evaluates a batch on `threads` threads: it
     /// counts as that many workers when requests are split into batches.
-    pub async fn lease_with_threads(&self, worker: &str, threads: usize, wait: Duration) -> Option<Batch> {
+    pub async fn lease_with_threads(
+        &self,
+        worker: &str,
+        threads: usize,
+        wait: Duration,
+    ) -> Option<Batch> {
         let until = Instant::now() + wait;
         loop {
             // Register interest before looking, so a notification between the look and the
@@ -309,13 +346,20 @@ impl Dispatcher {
     pub fn try_lease_with_threads(&self, worker: &str, threads: usize) -> Option<Batch> {
         let mut state = self.lock();
         let now = Instant::now();
-        state.workers.insert(worker.to_string(), (now, threads.max(1)));
+        state
+            .workers
+            .insert(worker.to_string(), (now, threads.max(1)));
         self.expire_leases(&mut state, now);
         if state.shutting_down {
             return None;
         }
         // Round-robin: the first job after the one served last that has work.
-        let jobs: Vec<String> = state.pending.iter().filter(|(_, q)| !q.is_empty()).map(|(j, _)| j.clone()).collect();
+        let jobs: Vec<String> = state
+            .pending
+            .iter()
+            .filter(|(_, q)| !q.is_empty())
+            .map(|(j, _)| j.clone())
+            .collect();
         if jobs.is_empty() {
             return None;
         }
@@ -329,26 +373,45 @@ impl Dispatcher {
         let lease_id = state.next_id;
         state.next_id += 1;
         let deadline = now + self.config.lease_timeout;
-        state.leases.insert(lease_id, LeaseEntry { batch_id, worker: worker.to_string(), deadline });
+        state.leases.insert(
+            lease_id,
+            LeaseEntry {
+                batch_id,
+                worker: worker.to_string(),
+                deadline,
+            },
+        );
         state.stats.queued_batches = state.stats.queued_batches.saturating_sub(1);
         state.stats.leased_batches += 1;
         let entry = state.batches.get_mut(&batch_id)?;
         entry.lease = Some(lease_id);
-        let (request_id, genome_indices, range) = (entry.request_id, entry.genome_indices.clone(), entry.sample_range.clone());
+        let (request_id, genome_indices, range) = (
+            entry.request_id,
+            entry.genome_indices.clone(),
+            entry.sample_range.clone(),
+        );
         let request = &state.requests.get(&request_id)?.request;
         Some(Batch {
             batch_id,
             lease_id,
             job,
             shared: request.shared.clone(),
-            genomes: genome_indices.iter().map(|&g| (g, request.genomes[g as usize].clone())).collect(),
+            genomes: genome_indices
+                .iter()
+                .map(|&g| (g, request.genomes[g as usize].clone()))
+                .collect(),
             samples: request.samples[range].into(),
             deadline,
         })
     }
 
     fn expire_leases(&self, state: &mut State, now: Instant) {
-        let expired: Vec<u64> = state.leases.iter().filter(|(_, l)| l.deadline <= now).map(|(&id, _)| id).collect();
+        let expired: Vec<u64> = state
+            .leases
+            .iter()
+            .filter(|(_, l)| l.deadline <= now)
+            .map(|(&id, _)| id)
+            .collect();
         for lease_id in expired {
             if let Some(lease) = state.leases.remove(&lease_id) {
                 tracing::warn!(lease_id, batch_id = lease.batch_id, worker = %lease.worker, "lease expired; batch re-queued");
@@ -394,7 +457,11 @@ impl Dispatcher {
         let mut state = self.lock();
         if state.leases.remove(&lease_id).is_some() {
             state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-            let batch_id = state.batches.iter().find(|(_, b)| b.lease == Some(lease_id)).map(|(&id, _)| id);
+            let batch_id = state
+                .batches
+                .iter()
+                .find(|(_, b)| b.lease == Some(lease_id))
+                .map(|(&id, _)| id);
             if let Some(batch_id) = batch_id {
                 requeue(&mut state, batch_id, lease_id);
             }
@@ -407,16 +474,25 @@ impl Dispatcher {
     /// invalid): the whole request fails, since every worker would fail the same way.
     pub fn fail(&self, lease_id: u64, message: String) {
         let mut state = self.lock();
-        let Some(lease) = state.leases.remove(&lease_id) else { return };
+        let Some(lease) = state.leases.remove(&lease_id) else {
+            return;
+        };
         state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-        let Some(request_id) = state.batches.get(&lease.batch_id).map(|b| b.request_id) else { return };
+        let Some(request_id) = state.batches.get(&lease.batch_id).map(|b| b.request_id) else {
+            return;
+        };
         finish_request(&mut state, request_id, Err(DispatchError::Failed(message)));
     }
 
     /// A worker returns the summaries of a batch, indexed [genome of the batch][sample of the
     /// batch]. Results for a lease that expired are still accepted if the batch is not done yet
     /// (evaluation is deterministic, so any copy is right); duplicates are ignored.
-    pub fn complete(&self, lease_id: u64, batch_id: u64, results: Vec<Vec<SampleSummary>>) -> Result<Completion, CompleteError> {
+    pub fn complete(
+        &self,
+        lease_id: u64,
+        batch_id: u64,
+        results: Vec<Vec<SampleSummary>>,
+    ) -> Result<Completion, CompleteError> {
         let mut state = self.lock();
         let lease = state.leases.remove(&lease_id);
         if lease.is_some() {
@@ -425,9 +501,19 @@ impl Dispatcher {
         if let Some(lease) = &lease
             && lease.batch_id != batch_id
         {
-            state.leases.insert(lease_id, LeaseEntry { batch_id: lease.batch_id, worker: lease.worker.clone(), deadline: lease.deadline });
+            state.leases.insert(
+                lease_id,
+                LeaseEntry {
+                    batch_id: lease.batch_id,
+                    worker: lease.worker.clone(),
+                    deadline: lease.deadline,
+                },
+            );
             state.stats.leased_batches += 1;
-            return Err(CompleteError::Malformed { batch_id, message: format!("lease {lease_id} is for batch {}", lease.batch_id) });
+            return Err(CompleteError::Malformed {
+                batch_id,
+                message: format!("lease {lease_id} is for batch {}", lease.batch_id),
+            });
         }
         let Some(entry) = state.batches.get(&batch_id) else {
             // The batch is gone: its request completed or was cancelled.
@@ -444,9 +530,20 @@ impl Dispatcher {
         // Validate the shape and values before touching the request.
         let n_samples = entry.sample_range.len();
         let problem = if results.len() != entry.genome_indices.len() {
-            Some(format!("{} genomes returned, batch has {}", results.len(), entry.genome_indices.len()))
-        } else if let Some((g, r)) = results.iter().enumerate().find(|(_, r)| r.len() != n_samples) {
-            Some(format!("genome {g} has {} samples, batch has {n_samples}", r.len()))
+            Some(format!(
+                "{} genomes returned, batch has {}",
+                results.len(),
+                entry.genome_indices.len()
+            ))
+        } else if let Some((g, r)) = results
+            .iter()
+            .enumerate()
+            .find(|(_, r)| r.len() != n_samples)
+        {
+            Some(format!(
+                "genome {g} has {} samples, batch has {n_samples}",
+                r.len()
+            ))
         } else {
             results
                 .iter()
@@ -467,7 +564,12 @@ impl Dispatcher {
         let entry = state.batches.get_mut(&batch_id).expect("checked above");
         entry.done = true;
         let other_lease = entry.lease.take().filter(|&l| l != lease_id);
-        let (request_id, job, genome_indices, range) = (entry.request_id, entry.job.clone(), entry.genome_indices.clone(), entry.sample_range.clone());
+        let (request_id, job, genome_indices, range) = (
+            entry.request_id,
+            entry.job.clone(),
+            entry.genome_indices.clone(),
+            entry.sample_range.clone(),
+        );
         if let Some(other) = other_lease
             && state.leases.remove(&other).is_some()
         {
@@ -500,9 +602,14 @@ impl Dispatcher {
         state.stats.batches_completed += 1;
         if finished {
             let request = state.requests.get_mut(&request_id).expect("present");
-            let results: Option<Vec<Vec<SampleSummary>>> =
-                request.results.iter().map(|genome| genome.iter().copied().collect::<Option<Vec<_>>>()).collect();
-            let outcome = results.ok_or_else(|| DispatchError::Failed("internal: a finished request has holes".into()));
+            let results: Option<Vec<Vec<SampleSummary>>> = request
+                .results
+                .iter()
+                .map(|genome| genome.iter().copied().collect::<Option<Vec<_>>>())
+                .collect();
+            let outcome = results.ok_or_else(|| {
+                DispatchError::Failed("internal: a finished request has holes".into())
+            });
             finish_request(&mut state, request_id, outcome);
         }
         Ok(Completion::Accepted)
@@ -511,9 +618,18 @@ impl Dispatcher {
     /// Drops every queued batch of a job and fails its waiting requests.
     pub fn cancel_job(&self, job: &str) {
         let mut state = self.lock();
-        let request_ids: Vec<u64> = state.requests.iter().filter(|(_, r)| r.request.job == job).map(|(&id, _)| id).collect();
+        let request_ids: Vec<u64> = state
+            .requests
+            .iter()
+            .filter(|(_, r)| r.request.job == job)
+            .map(|(&id, _)| id)
+            .collect();
         for request_id in request_ids {
-            finish_request(&mut state, request_id, Err(DispatchError::Cancelled(job.to_string())));
+            finish_request(
+                &mut state,
+                request_id,
+                Err(DispatchError::Cancelled(job.to_string())),
+            );
         }
     }
 
@@ -532,13 +648,19 @@ impl Dispatcher {
     /// A snapshot of the counters.
     pub fn stats(&self) -> DispatchStats {
         let state = self.lock();
-        DispatchStats { active_workers: self.active(&state).count(), active_threads: self.active_threads(&state), ..state.stats.clone() }
+        DispatchStats {
+            active_workers: self.active(&state).count(),
+            active_threads: self.active_threads(&state),
+            ..state.stats.clone()
+        }
     }
 }
 
 /// Puts a batch back at the front of its job's queue unless it is done or already queued.
 fn requeue(state: &mut State, batch_id: u64, lease_id: u64) {
-    let Some(entry) = state.batches.get_mut(&batch_id) else { return };
+    let Some(entry) = state.batches.get_mut(&batch_id) else {
+        return;
+    };
     if entry.done || (entry.lease.is_some() && entry.lease != Some(lease_id)) {
         return;
     }
@@ -552,8 +674,14 @@ fn requeue(state: &mut State, batch_id: u64, lease_id: u64) {
 }
 
 /// Removes a request and its batches, leases and queue entries, and replies.
-fn finish_request(state: &mut State, request_id: u64, outcome: Result<Vec<Vec<SampleSummary>>, DispatchError>) {
-    let Some(mut request) = state.requests.remove(&request_id) else { return };
+fn finish_request(
+    state: &mut State,
+    request_id: u64,
+    outcome: Result<Vec<Vec<SampleSummary>>, DispatchError>,
+) {
+    let Some(mut request) = state.requests.remove(&request_id) else {
+        return;
+    };
     for batch_id in &request.batch_ids {
         if let Some(entry) = state.batches.remove(batch_id) {
             if let Some(lease) = entry.lease
@@ -577,7 +705,11 @@ fn finish_request(state: &mut State, request_id: u64, outcome: Result<Vec<Vec<Sa
 
 /// Splits genomes x samples into about `target` batches: whole genomes when there are enough of
 /// them, otherwise each genome's samples in contiguous pieces (post-evaluation of one genome).
-fn split(n_genomes: usize, n_samples: usize, target: usize) -> Vec<(Vec<u32>, std::ops::Range<usize>)> {
+fn split(
+    n_genomes: usize,
+    n_samples: usize,
+    target: usize,
+) -> Vec<(Vec<u32>, std::ops::Range<usize>)> {
     if n_genomes >= target {
         let per_batch = n_genomes.div_ceil(target);
         (0..n_genomes)
@@ -590,7 +722,9 @@ fn split(n_genomes: usize, n_samples: usize, target: usize) -> Vec<(Vec<u32>, st
         let per_piece = n_samples.div_ceil(pieces);
         (0..n_genomes)
             .flat_map(|g| {
-                (0..n_samples).step_by(per_piece).map(move |start| (vec![g as u32], start..(start + per_piece).min(n_samples)))
+                (0..n_samples)
+                    .step_by(per_piece)
+                    .map(move |start| (vec![g as u32], start..(start + per_piece).min(n_samples)))
             })
             .collect()
     }
@@ -621,7 +755,9 @@ mod tests {
                 template,
                 task,
             }),
-            genomes: (0..n_genomes).map(|g| Arc::from(vec![g as f32; 3])).collect(),
+            genomes: (0..n_genomes)
+                .map(|g| Arc::from(vec![g as f32; 3]))
+                .collect(),
             samples: (0..n_samples).map(|s| Sample::seeded(s as u64)).collect(),
         }
     }
@@ -635,7 +771,14 @@ mod tests {
                 batch
                     .samples
                     .iter()
-                    .map(|s| SampleSummary { fitness: genes[0] * 1000.0 + s.seed as f32, solved: false, collided: false, stage: 0, variant: 0, cycles: 10 })
+                    .map(|s| SampleSummary {
+                        fitness: genes[0] * 1000.0 + s.seed as f32,
+                        solved: false,
+                        collided: false,
+                        stage: 0,
+                        variant: 0,
+                        cycles: 10,
+                    })
                     .collect()
             })
             .collect()
@@ -643,7 +786,13 @@ mod tests {
 
     #[test]
     fn split_covers_everything_once() {
-        for (g, s, t) in [(100, 50, 12), (1, 400, 12), (3, 7, 20), (5, 1, 3), (7, 3, 7)] {
+        for (g, s, t) in [
+            (100, 50, 12),
+            (1, 400, 12),
+            (3, 7, 20),
+            (5, 1, 3),
+            (7, 3, 7),
+        ] {
             let pieces = split(g, s, t);
             let mut seen = vec![vec![0; s]; g];
             for (genomes, range) in pieces {
@@ -663,7 +812,10 @@ mod tests {
         let d = dispatcher.clone();
         let worker = tokio::spawn(async move {
             while let Some(batch) = d.lease("w", Duration::from_millis(200)).await {
-                assert_eq!(d.complete(batch.lease_id, batch.batch_id, fake(&batch)), Ok(Completion::Accepted));
+                assert_eq!(
+                    d.complete(batch.lease_id, batch.batch_id, fake(&batch)),
+                    Ok(Completion::Accepted)
+                );
             }
         });
         let results = dispatcher.evaluate(request("j", 10, 4)).await.unwrap();
@@ -679,7 +831,10 @@ mod tests {
 
     #[tokio::test]
     async fn expired_leases_are_redispatched_and_late_duplicates_ignored() {
-        let config = DispatchConfig { lease_timeout: Duration::from_millis(50), ..DispatchConfig::default() };
+        let config = DispatchConfig {
+            lease_timeout: Duration::from_millis(50),
+            ..DispatchConfig::default()
+        };
         let dispatcher = Arc::new(Dispatcher::new(config));
         let d = dispatcher.clone();
         let waiting = tokio::spawn(async move { d.evaluate(request("j", 1, 3)).await });
@@ -694,7 +849,9 @@ mod tests {
         // Another worker gets the same batches again after expiry and completes them.
         let mut redone = 0;
         while let Some(batch) = dispatcher.lease("alive", Duration::from_millis(100)).await {
-            dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)).unwrap();
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .unwrap();
             redone += 1;
         }
         assert_eq!(redone, dead.len());
@@ -702,7 +859,10 @@ mod tests {
         assert_eq!(results[0].len(), 3);
         // The dead worker comes back late: ignored.
         for batch in &dead {
-            assert_eq!(dispatcher.complete(batch.lease_id, batch.batch_id, fake(batch)), Ok(Completion::Ignored));
+            assert_eq!(
+                dispatcher.complete(batch.lease_id, batch.batch_id, fake(batch)),
+                Ok(Completion::Ignored)
+            );
         }
         assert!(dispatcher.stats().lease_expiries >= 1);
     }
@@ -716,14 +876,23 @@ mod tests {
         let batch = dispatcher.try_lease("bad").unwrap();
         let mut wrong = fake(&batch);
         wrong[0].pop();
-        assert!(matches!(dispatcher.complete(batch.lease_id, batch.batch_id, wrong), Err(CompleteError::Malformed { .. })));
+        assert!(matches!(
+            dispatcher.complete(batch.lease_id, batch.batch_id, wrong),
+            Err(CompleteError::Malformed { .. })
+        ));
         let mut nan = fake(&batch);
         nan[0][0].fitness = f32::NAN;
         let again = dispatcher.try_lease("bad").unwrap();
         assert_eq!(again.batch_id, batch.batch_id);
-        assert!(dispatcher.complete(again.lease_id, again.batch_id, nan).is_err());
+        assert!(
+            dispatcher
+                .complete(again.lease_id, again.batch_id, nan)
+                .is_err()
+        );
         while let Some(batch) = dispatcher.lease("good", Duration::from_millis(100)).await {
-            dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)).unwrap();
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .unwrap();
         }
         let results = waiting.await.unwrap().unwrap();
         assert_eq!(results[1][1].fitness, 1001.0);
@@ -732,7 +901,10 @@ mod tests {
 
     #[tokio::test]
     async fn jobs_are_served_round_robin() {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: 4, ..DispatchConfig::default() }));
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+            expected_workers: 4,
+            ..DispatchConfig::default()
+        }));
         let (a, b) = (dispatcher.clone(), dispatcher.clone());
         let job_a = tokio::spawn(async move { a.evaluate(request("a", 12, 1)).await });
         let job_b = tokio::spawn(async move { b.evaluate(request("b", 12, 1)).await });
@@ -740,7 +912,9 @@ mod tests {
         let mut order = Vec::new();
         while let Some(batch) = dispatcher.try_lease("w") {
             order.push(batch.job.clone());
-            dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)).unwrap();
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .unwrap();
         }
         // Alternating while both have work.
         assert!(order.windows(2).take(8).all(|w| w[0] != w[1]), "{order:?}");
@@ -761,7 +935,9 @@ mod tests {
             sizes.push(batch.genomes.len());
             assert!(dispatcher.extend(batch.lease_id));
             assert!(dispatcher.leased_request(batch.lease_id).is_some());
-            dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)).unwrap();
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .unwrap();
         }
         assert_eq!(sizes, vec![2; 12]);
         waiting.await.unwrap().unwrap();
@@ -787,7 +963,10 @@ mod tests {
         let waiting = tokio::spawn(async move { d.evaluate(request("j", 2, 2)).await });
         tokio::time::sleep(Duration::from_millis(10)).await;
         dispatcher.cancel_job("j");
-        assert_eq!(waiting.await.unwrap(), Err(DispatchError::Cancelled("j".into())));
+        assert_eq!(
+            waiting.await.unwrap(),
+            Err(DispatchError::Cancelled("j".into()))
+        );
         assert!(dispatcher.try_lease("w").is_none());
     }
 }

@@ -18,14 +18,20 @@ use tokio::task::JoinHandle;
 pub fn evaluator_for(cache: &EvaluatorCache, batch: &Batch) -> Result<Arc<BatchEvaluator>, String> {
     let shared = &batch.shared;
     cache
-        .get_or_build(&shared.template_hash, &shared.task_hash, || Ok((shared.template.clone(), shared.task.clone())))
+        .get_or_build(&shared.template_hash, &shared.task_hash, || {
+            Ok((shared.template.clone(), shared.task.clone()))
+        })
         .map_err(|e| e.to_string())
 }
 
 /// Evaluates a whole batch on the calling thread.
-pub fn evaluate_batch(evaluator: &BatchEvaluator, batch: &Batch) -> Result<Vec<Vec<SampleSummary>>, String> {
+pub fn evaluate_batch(
+    evaluator: &BatchEvaluator,
+    batch: &Batch,
+) -> Result<Vec<Vec<SampleSummary>>, String> {
     let genomes: Vec<&[f32]> = batch.genomes.iter().map(|(_, genes)| &genes[..]).collect();
-    evaluate_genomes(evaluator, &genomes, &batch.samples, 1, None).map_err(|e: ExecError| e.to_string())
+    evaluate_genomes(evaluator, &genomes, &batch.samples, 1, None)
+        .map_err(|e: ExecError| e.to_string())
 }
 
 /// A running pool of in-process workers.
@@ -63,10 +69,14 @@ impl LocalPool {
                             evaluate_batch(&evaluator, &work)
                         })
                         .await
-                        .unwrap_or_else(|join_error| Err(format!("evaluation thread failed: {join_error}")));
+                        .unwrap_or_else(|join_error| {
+                            Err(format!("evaluation thread failed: {join_error}"))
+                        });
                         match result {
                             Ok(results) => {
-                                if let Err(error) = dispatcher.complete(batch.lease_id, batch.batch_id, results) {
+                                if let Err(error) =
+                                    dispatcher.complete(batch.lease_id, batch.batch_id, results)
+                                {
                                     tracing::error!(%error, "local worker result refused");
                                 }
                             }

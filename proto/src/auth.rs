@@ -16,9 +16,15 @@ pub const AUTHORIZATION: &str = "authorization";
 /// Picks the token from `--token-file` (which wins, being the more deliberate choice) or
 /// `--token` / `HEVO_TOKEN`. Surrounding whitespace (a file's final newline) is dropped; an
 /// empty token or one that cannot travel in a header is an error.
-pub fn resolve_token(token: Option<&str>, token_file: Option<&Path>) -> Result<Option<String>, String> {
+pub fn resolve_token(
+    token: Option<&str>,
+    token_file: Option<&Path>,
+) -> Result<Option<String>, String> {
     let raw = match token_file {
-        Some(path) => Some(std::fs::read_to_string(path).map_err(|e| format!("cannot read the token file {}: {e}", path.display()))?),
+        Some(path) => Some(
+            std::fs::read_to_string(path)
+                .map_err(|e| format!("cannot read the token file {}: {e}", path.display()))?,
+        ),
         None => token.map(str::to_string),
     };
     let Some(raw) = raw else { return Ok(None) };
@@ -40,7 +46,9 @@ pub struct ClientAuth {
 
 impl std::fmt::Debug for ClientAuth {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ClientAuth").field("token", &self.header.as_ref().map(|_| "<redacted>")).finish()
+        f.debug_struct("ClientAuth")
+            .field("token", &self.header.as_ref().map(|_| "<redacted>"))
+            .finish()
     }
 }
 
@@ -48,7 +56,11 @@ impl ClientAuth {
     /// Sends `token`, if any.
     pub fn new(token: Option<&str>) -> Result<ClientAuth, String> {
         let header = match token {
-            Some(token) => Some(format!("Bearer {token}").parse().map_err(|_| "the token cannot be sent in a header".to_string())?),
+            Some(token) => Some(
+                format!("Bearer {token}")
+                    .parse()
+                    .map_err(|_| "the token cannot be sent in a header".to_string())?,
+            ),
             None => None,
         };
         Ok(ClientAuth { header })
@@ -73,7 +85,9 @@ pub struct ServerAuth {
 
 impl std::fmt::Debug for ServerAuth {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ServerAuth").field("required", &self.digest.is_some()).finish()
+        f.debug_struct("ServerAuth")
+            .field("required", &self.digest.is_some())
+            .finish()
     }
 }
 
@@ -84,7 +98,9 @@ fn digest(bytes: &[u8]) -> [u8; 32] {
 impl ServerAuth {
     /// Requires `token`.
     pub fn new(token: &str) -> ServerAuth {
-        ServerAuth { digest: Some(digest(token.as_bytes())) }
+        ServerAuth {
+            digest: Some(digest(token.as_bytes())),
+        }
     }
 
     /// Requires nothing.
@@ -94,15 +110,25 @@ impl ServerAuth {
 
     /// Whether the metadata carries the token.
     pub fn check(&self, metadata: &tonic::metadata::MetadataMap) -> Result<(), Status> {
-        let Some(expected) = &self.digest else { return Ok(()) };
-        let Some(value) = metadata.get(AUTHORIZATION) else {
-            return Err(Status::unauthenticated("missing token: send `authorization: Bearer <token>` (hevo: --token, --token-file or HEVO_TOKEN)"));
+        let Some(expected) = &self.digest else {
+            return Ok(());
         };
-        let presented = value.as_bytes().strip_prefix(b"Bearer ").unwrap_or_default();
+        let Some(value) = metadata.get(AUTHORIZATION) else {
+            return Err(Status::unauthenticated(
+                "missing token: send `authorization: Bearer <token>` (hevo: --token, --token-file or HEVO_TOKEN)",
+            ));
+        };
+        let presented = value
+            .as_bytes()
+            .strip_prefix(b"Bearer ")
+            .unwrap_or_default();
         // Constant time over fixed-length digests: the comparison does not stop at the first
         // differing byte.
         let found = digest(presented);
-        let difference = found.iter().zip(expected).fold(0u8, |acc, (a, b)| acc | (a ^ b));
+        let difference = found
+            .iter()
+            .zip(expected)
+            .fold(0u8, |acc, (a, b)| acc | (a ^ b));
         if presented.is_empty() || difference != 0 {
             return Err(Status::unauthenticated("wrong token"));
         }
@@ -130,12 +156,23 @@ mod tests {
     fn the_right_token_passes_and_others_are_unauthenticated() {
         let server = ServerAuth::new("s3cret");
         assert!(call(&server, &ClientAuth::new(Some("s3cret")).unwrap()).is_ok());
-        for client in [ClientAuth::new(Some("s3cre")).unwrap(), ClientAuth::new(Some("s3cret2")).unwrap(), ClientAuth::default()] {
-            assert_eq!(call(&server, &client).unwrap_err().code(), tonic::Code::Unauthenticated);
+        for client in [
+            ClientAuth::new(Some("s3cre")).unwrap(),
+            ClientAuth::new(Some("s3cret2")).unwrap(),
+            ClientAuth::default(),
+        ] {
+            assert_eq!(
+                call(&server, &client).unwrap_err().code(),
+                tonic::Code::Unauthenticated
+            );
         }
         let mut bare = Request::new(());
-        bare.metadata_mut().insert(AUTHORIZATION, "s3cret".parse().unwrap());
-        assert!(server.clone().call(bare).is_err(), "the Bearer prefix is required");
+        bare.metadata_mut()
+            .insert(AUTHORIZATION, "s3cret".parse().unwrap());
+        assert!(
+            server.clone().call(bare).is_err(),
+            "the Bearer prefix is required"
+        );
         assert!(call(&ServerAuth::open(), &ClientAuth::default()).is_ok());
     }
 
@@ -145,12 +182,22 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join("token");
         std::fs::write(&file, "from-file\n").unwrap();
-        assert_eq!(resolve_token(Some("flag"), Some(&file)).unwrap().as_deref(), Some("from-file"));
-        assert_eq!(resolve_token(Some(" flag "), None).unwrap().as_deref(), Some("flag"));
+        assert_eq!(
+            resolve_token(Some("flag"), Some(&file)).unwrap().as_deref(),
+            Some("from-file")
+        );
+        assert_eq!(
+            resolve_token(Some(" flag "), None).unwrap().as_deref(),
+            Some("flag")
+        );
         assert_eq!(resolve_token(None, None).unwrap(), None);
         assert!(resolve_token(Some("  "), None).is_err());
         assert!(resolve_token(Some("a b"), None).is_err());
-        assert!(resolve_token(None, Some(&dir.join("missing"))).unwrap_err().contains("missing"));
+        assert!(
+            resolve_token(None, Some(&dir.join("missing")))
+                .unwrap_err()
+                .contains("missing")
+        );
         assert!(!format!("{:?}", ClientAuth::new(Some("flag")).unwrap()).contains("flag"));
         std::fs::remove_dir_all(&dir).unwrap();
     }

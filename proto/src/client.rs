@@ -29,7 +29,11 @@ pub type AuthChannel = InterceptedService<Channel, ClientAuth>;
 impl ClientOptions {
     /// The URL with a scheme.
     pub fn normalized_url(&self) -> String {
-        if self.url.contains("://") { self.url.clone() } else { format!("http://{}", self.url) }
+        if self.url.contains("://") {
+            self.url.clone()
+        } else {
+            format!("http://{}", self.url)
+        }
     }
 
     /// The endpoint, not yet connected.
@@ -45,13 +49,21 @@ impl ClientOptions {
         let https = url.starts_with("https://");
         if let Some(ca) = &self.tls_ca {
             if !https {
-                return Err(format!("--tls-ca was given but the master URL '{}' is not https://", self.url));
+                return Err(format!(
+                    "--tls-ca was given but the master URL '{}' is not https://",
+                    self.url
+                ));
             }
-            let pem = std::fs::read(ca).map_err(|e| format!("cannot read the CA certificate {}: {e}", ca.display()))?;
+            let pem = std::fs::read(ca)
+                .map_err(|e| format!("cannot read the CA certificate {}: {e}", ca.display()))?;
             let tls = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(pem));
-            endpoint = endpoint.tls_config(tls).map_err(|e| format!("TLS setup failed: {e}"))?;
+            endpoint = endpoint
+                .tls_config(tls)
+                .map_err(|e| format!("TLS setup failed: {e}"))?;
         } else if https {
-            endpoint = endpoint.tls_config(ClientTlsConfig::new().with_webpki_roots()).map_err(|e| format!("TLS setup failed: {e}"))?;
+            endpoint = endpoint
+                .tls_config(ClientTlsConfig::new().with_webpki_roots())
+                .map_err(|e| format!("TLS setup failed: {e}"))?;
         }
         Ok(endpoint)
     }
@@ -60,24 +72,40 @@ impl ClientOptions {
     /// back (calls fail with UNAVAILABLE meanwhile).
     pub fn lazy_channel(&self) -> Result<AuthChannel, String> {
         let channel = self.endpoint()?.connect_lazy();
-        Ok(InterceptedService::new(channel, ClientAuth::new(self.token.as_deref())?))
+        Ok(InterceptedService::new(
+            channel,
+            ClientAuth::new(self.token.as_deref())?,
+        ))
     }
 
     /// A connected channel (fails fast when the master cannot be reached).
     pub async fn connect(&self) -> Result<AuthChannel, String> {
-        let channel = self.endpoint()?.connect().await.map_err(|e| format!("cannot connect to the master at {}: {}", self.url, error_chain(&e)))?;
-        Ok(InterceptedService::new(channel, ClientAuth::new(self.token.as_deref())?))
+        let channel = self.endpoint()?.connect().await.map_err(|e| {
+            format!(
+                "cannot connect to the master at {}: {}",
+                self.url,
+                error_chain(&e)
+            )
+        })?;
+        Ok(InterceptedService::new(
+            channel,
+            ClientAuth::new(self.token.as_deref())?,
+        ))
     }
 }
 
 /// A job service client with hevo's message limits.
 pub fn job_client(channel: AuthChannel) -> JobServiceClient<AuthChannel> {
-    JobServiceClient::new(channel).max_decoding_message_size(crate::MAX_MESSAGE_BYTES).max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
+    JobServiceClient::new(channel)
+        .max_decoding_message_size(crate::MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
 }
 
 /// A worker service client with hevo's message limits.
 pub fn worker_client(channel: AuthChannel) -> WorkerServiceClient<AuthChannel> {
-    WorkerServiceClient::new(channel).max_decoding_message_size(crate::MAX_MESSAGE_BYTES).max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
+    WorkerServiceClient::new(channel)
+        .max_decoding_message_size(crate::MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
 }
 
 /// An error and its sources on one line ("transport error: connection refused").
@@ -121,10 +149,17 @@ mod tests {
 
     #[test]
     fn urls_get_a_scheme_and_tls_needs_https() {
-        let options = ClientOptions { url: "127.0.0.1:5000".into(), token: None, tls_ca: None };
+        let options = ClientOptions {
+            url: "127.0.0.1:5000".into(),
+            token: None,
+            tls_ca: None,
+        };
         assert_eq!(options.normalized_url(), "http://127.0.0.1:5000");
         assert!(options.endpoint().is_ok());
-        let tls = ClientOptions { tls_ca: Some("/nonexistent.pem".into()), ..options };
+        let tls = ClientOptions {
+            tls_ca: Some("/nonexistent.pem".into()),
+            ..options
+        };
         assert!(tls.endpoint().unwrap_err().contains("https"));
     }
 }

@@ -25,17 +25,26 @@ pub enum ConvertError {
 }
 
 fn field_error(field: impl Into<String>, message: impl Into<String>) -> ConvertError {
-    ConvertError::Field { field: field.into(), message: message.into() }
+    ConvertError::Field {
+        field: field.into(),
+        message: message.into(),
+    }
 }
 
 /// A sample for the wire.
 pub fn sample_to_proto(sample: &Sample) -> v1::SampleSpec {
-    v1::SampleSpec { seed: sample.seed, variant: sample.variant }
+    v1::SampleSpec {
+        seed: sample.seed,
+        variant: sample.variant,
+    }
 }
 
 /// A sample from the wire.
 pub fn sample_from_proto(sample: &v1::SampleSpec) -> Sample {
-    Sample { seed: sample.seed, variant: sample.variant }
+    Sample {
+        seed: sample.seed,
+        variant: sample.variant,
+    }
 }
 
 /// One (genome, sample) outcome for the wire.
@@ -51,10 +60,21 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
 }
 
 /// One outcome from the wire; `field` names it in errors.
-pub fn summary_from_proto(result: &v1::SampleResult, field: &str) -> Result<SampleSummary, ConvertError> {
-    let stage = u8::try_from(result.stage).map_err(|_| field_error(format!("{field}.stage"), format!("{} is not a stage", result.stage)))?;
+pub fn summary_from_proto(
+    result: &v1::SampleResult,
+    field: &str,
+) -> Result<SampleSummary, ConvertError> {
+    let stage = u8::try_from(result.stage).map_err(|_| {
+        field_error(
+            format!("{field}.stage"),
+            format!("{} is not a stage", result.stage),
+        )
+    })?;
     if !result.fitness.is_finite() {
-        return Err(field_error(format!("{field}.fitness"), format!("{} is not finite", result.fitness)));
+        return Err(field_error(
+            format!("{field}.fitness"),
+            format!("{} is not finite", result.fitness),
+        ));
     }
     Ok(SampleSummary {
         fitness: result.fitness,
@@ -70,13 +90,17 @@ pub fn summary_from_proto(result: &v1::SampleResult, field: &str) -> Result<Samp
 pub fn results_to_proto(results: &[Vec<SampleSummary>]) -> Vec<v1::GenomeResult> {
     results
         .iter()
-        .map(|genome| v1::GenomeResult { samples: genome.iter().map(summary_to_proto).collect() })
+        .map(|genome| v1::GenomeResult {
+            samples: genome.iter().map(summary_to_proto).collect(),
+        })
         .collect()
 }
 
 /// A batch's results from the wire. The shape is not checked here (the dispatcher checks it
 /// against the batch); every value is.
-pub fn results_from_proto(results: &[v1::GenomeResult]) -> Result<Vec<Vec<SampleSummary>>, ConvertError> {
+pub fn results_from_proto(
+    results: &[v1::GenomeResult],
+) -> Result<Vec<Vec<SampleSummary>>, ConvertError> {
     results
         .iter()
         .enumerate()
@@ -85,7 +109,9 @@ pub fn results_from_proto(results: &[v1::GenomeResult]) -> Result<Vec<Vec<Sample
                 .samples
                 .iter()
                 .enumerate()
-                .map(|(s, result)| summary_from_proto(result, &format!("genomes[{g}].samples[{s}]")))
+                .map(|(s, result)| {
+                    summary_from_proto(result, &format!("genomes[{g}].samples[{s}]"))
+                })
                 .collect()
         })
         .collect()
@@ -99,12 +125,17 @@ pub fn task_to_json(task: &TaskConfig) -> String {
 
 /// A task configuration from JSON text, checked against the hash it was sent with.
 pub fn task_from_json(json: &str, expected_hash: &str) -> Result<TaskConfig, ConvertError> {
-    let task: TaskConfig = serde_json::from_str(json).map_err(|e| field_error("task_json", e.to_string()))?;
+    let task: TaskConfig =
+        serde_json::from_str(json).map_err(|e| field_error("task_json", e.to_string()))?;
     let found = task_content_hash(&task);
     if found != expected_hash {
-        return Err(field_error("task_hash", format!("the task hashes to {found}, the batch says {expected_hash}")));
+        return Err(field_error(
+            "task_hash",
+            format!("the task hashes to {found}, the batch says {expected_hash}"),
+        ));
     }
-    task.validate().map_err(|message| field_error("task_json", message))?;
+    task.validate()
+        .map_err(|message| field_error("task_json", message))?;
     Ok(task)
 }
 
@@ -116,10 +147,14 @@ pub fn template_to_json(template: &ControllerFile) -> String {
 /// A controller template from JSON text, validated and checked against the content hash it
 /// was sent with (the hash covers the exact bits of every gene).
 pub fn template_from_json(json: &str, expected_hash: &str) -> Result<ControllerFile, ConvertError> {
-    let template = ControllerFile::from_json_str(json).map_err(|e| field_error("template_json", e.to_string()))?;
+    let template = ControllerFile::from_json_str(json)
+        .map_err(|e| field_error("template_json", e.to_string()))?;
     let found = template.content_hash();
     if found != expected_hash {
-        return Err(field_error("template_hash", format!("the template hashes to {found}, the batch says {expected_hash}")));
+        return Err(field_error(
+            "template_hash",
+            format!("the template hashes to {found}, the batch says {expected_hash}"),
+        ));
     }
     Ok(template)
 }
@@ -137,7 +172,14 @@ mod tests {
     use sim_core::frame::InputGroup;
 
     fn template(genes: Option<Vec<f32>>) -> ControllerFile {
-        ControllerFile::new(NodeSpec { name: "p".into(), kind: NodeKind::Primitive, inputs: vec![InputGroup::Ir], hidden: 2, genome: genes, children: vec![] })
+        ControllerFile::new(NodeSpec {
+            name: "p".into(),
+            kind: NodeKind::Primitive,
+            inputs: vec![InputGroup::Ir],
+            hidden: 2,
+            genome: genes,
+            children: vec![],
+        })
     }
 
     #[test]
@@ -156,7 +198,12 @@ mod tests {
         let file = template(Some(genes.clone()));
         let back = template_from_json(&template_to_json(&file), &file.content_hash()).unwrap();
         let back_genes = back.root.genome.unwrap();
-        assert!(genes.iter().zip(&back_genes).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(
+            genes
+                .iter()
+                .zip(&back_genes)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
         for kind in TaskKind::ALL {
             let task = TaskConfig::new(kind);
             let hash = task_content_hash(&task);
@@ -171,25 +218,54 @@ mod tests {
         assert!(err.to_string().contains("template_hash"), "{err}");
         let task = TaskConfig::new(TaskKind::FollowWall);
         assert!(task_from_json(&task_to_json(&task), "x").is_err());
-        assert!(task_from_json("{", "x").unwrap_err().to_string().starts_with("task_json"));
+        assert!(
+            task_from_json("{", "x")
+                .unwrap_err()
+                .to_string()
+                .starts_with("task_json")
+        );
     }
 
     #[test]
     fn results_round_trip_and_bad_values_name_the_field() {
-        let s = SampleSummary { fitness: 0.123_456_79, solved: true, collided: false, stage: 3, variant: 2, cycles: 777 };
+        let s = SampleSummary {
+            fitness: 0.123_456_79,
+            solved: true,
+            collided: false,
+            stage: 3,
+            variant: 2,
+            cycles: 777,
+        };
         let wire = results_to_proto(&[vec![s, s], vec![s]]);
-        assert_eq!(results_from_proto(&wire).unwrap(), vec![vec![s, s], vec![s]]);
+        assert_eq!(
+            results_from_proto(&wire).unwrap(),
+            vec![vec![s, s], vec![s]]
+        );
         let mut bad = wire.clone();
         bad[1].samples[0].stage = 300;
-        assert_eq!(results_from_proto(&bad).unwrap_err().to_string(), "genomes[1].samples[0].stage: 300 is not a stage");
+        assert_eq!(
+            results_from_proto(&bad).unwrap_err().to_string(),
+            "genomes[1].samples[0].stage: 300 is not a stage"
+        );
         let mut nan = wire;
         nan[0].samples[1].fitness = f32::NAN;
-        assert!(results_from_proto(&nan).unwrap_err().to_string().contains("genomes[0].samples[1].fitness"));
+        assert!(
+            results_from_proto(&nan)
+                .unwrap_err()
+                .to_string()
+                .contains("genomes[0].samples[1].fitness")
+        );
     }
 
     #[test]
     fn samples_round_trip() {
-        for sample in [Sample { seed: u64::MAX, variant: Some(3) }, Sample::seeded(0)] {
+        for sample in [
+            Sample {
+                seed: u64::MAX,
+                variant: Some(3),
+            },
+            Sample::seeded(0),
+        ] {
             assert_eq!(sample_from_proto(&sample_to_proto(&sample)), sample);
         }
     }

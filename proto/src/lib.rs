@@ -10,13 +10,19 @@ pub mod client;
 pub mod convert;
 
 /// The generated `hevo.v1` messages, clients and servers.
-#[allow(clippy::all, clippy::pedantic, missing_debug_implementations, rust_2018_idioms)]
+#[allow(
+    clippy::all,
+    clippy::pedantic,
+    missing_debug_implementations,
+    rust_2018_idioms
+)]
 pub mod v1 {
     tonic::include_proto!("hevo.v1");
 }
 
 /// The encoded file descriptor set of `hevo.v1`, for the server reflection service.
-pub const FILE_DESCRIPTOR_SET: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/hevo_v1_descriptor.bin"));
+pub const FILE_DESCRIPTOR_SET: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/hevo_v1_descriptor.bin"));
 
 /// The largest message either side decodes: far above any batch or result set hevo produces
 /// (a generation of 100 genomes x 50 samples is about 100 KiB, a job's result files a few

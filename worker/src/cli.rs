@@ -53,8 +53,13 @@ pub fn main() -> std::process::ExitCode {
 
 fn init_tracing() {
     use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_ansi(std::io::stderr().is_terminal()).with_writer(std::io::stderr).try_init();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_writer(std::io::stderr)
+        .try_init();
 }
 
 fn default_name() -> String {
@@ -69,8 +74,12 @@ fn default_name() -> String {
 
 /// Runs a parsed command line.
 pub fn execute(args: Args) -> Result<()> {
-    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref()).map_err(anyhow::Error::msg)?;
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())
+        .map_err(anyhow::Error::msg)?;
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
     if !(args.grace_seconds.is_finite() && args.grace_seconds >= 0.0) {
         anyhow::bail!("--grace-seconds must be a non-negative number");
     }
@@ -78,10 +87,21 @@ pub fn execute(args: Args) -> Result<()> {
     if name.is_empty() || name.len() > 128 {
         anyhow::bail!("--name must be 1 to 128 characters");
     }
-    let mut config = WorkerConfig::new(ClientOptions { url: args.master.clone(), token, tls_ca: args.tls_ca.clone() }, name, threads);
+    let mut config = WorkerConfig::new(
+        ClientOptions {
+            url: args.master.clone(),
+            token,
+            tls_ca: args.tls_ca.clone(),
+        },
+        name,
+        threads,
+    );
     config.grace = Duration::from_secs_f64(args.grace_seconds);
     // The async side only waits on the network; evaluation runs on blocking threads.
-    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build().context("cannot start the async runtime")?;
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
     let report = runtime.block_on(async move {
         let (stop, stopped) = watch::channel(Shutdown::Running);
         tokio::spawn(async move {
@@ -91,7 +111,12 @@ pub fn execute(args: Args) -> Result<()> {
         });
         remote::run(config, Arc::new(SimExecutor::default()), stopped).await
     })?;
-    tracing::info!(batches = report.batches, evaluations = report.evaluations, released = report.released, "worker stopped");
+    tracing::info!(
+        batches = report.batches,
+        evaluations = report.evaluations,
+        released = report.released,
+        "worker stopped"
+    );
     Ok(())
 }
 

@@ -67,7 +67,12 @@ pub trait Executor: Send + Sync + 'static {
     /// Cache keys (`<template_hash>/<task_hash>`) the executor holds.
     fn cached(&self) -> Vec<String>;
     /// Evaluates a batch on `threads` threads (blocking); stops early when `abort` is set.
-    fn execute(&self, batch: &v1::Batch, threads: usize, abort: &AtomicBool) -> Result<Vec<v1::GenomeResult>, ExecError>;
+    fn execute(
+        &self,
+        batch: &v1::Batch,
+        threads: usize,
+        abort: &AtomicBool,
+    ) -> Result<Vec<v1::GenomeResult>, ExecError>;
 }
 
 /// The real executor: sim-core through [`evaluate_genomes`], evaluators cached by hash.
@@ -81,16 +86,30 @@ impl Executor for SimExecutor {
         self.cache.keys()
     }
 
-    fn execute(&self, batch: &v1::Batch, threads: usize, abort: &AtomicBool) -> Result<Vec<v1::GenomeResult>, ExecError> {
-        let evaluator = self.cache.get_or_build(&batch.template_hash, &batch.task_hash, || {
-            if batch.template_json.is_empty() || batch.task_json.is_empty() {
-                return Err(ExecError::Missing);
-            }
-            let template = convert::template_from_json(&batch.template_json, &batch.template_hash).map_err(|e| ExecError::Invalid(e.to_string()))?;
-            let task = convert::task_from_json(&batch.task_json, &batch.task_hash).map_err(|e| ExecError::Invalid(e.to_string()))?;
-            Ok((template, task))
-        })?;
-        let samples: Vec<Sample> = batch.samples.iter().map(convert::sample_from_proto).collect();
+    fn execute(
+        &self,
+        batch: &v1::Batch,
+        threads: usize,
+        abort: &AtomicBool,
+    ) -> Result<Vec<v1::GenomeResult>, ExecError> {
+        let evaluator = self
+            .cache
+            .get_or_build(&batch.template_hash, &batch.task_hash, || {
+                if batch.template_json.is_empty() || batch.task_json.is_empty() {
+                    return Err(ExecError::Missing);
+                }
+                let template =
+                    convert::template_from_json(&batch.template_json, &batch.template_hash)
+                        .map_err(|e| ExecError::Invalid(e.to_string()))?;
+                let task = convert::task_from_json(&batch.task_json, &batch.task_hash)
+                    .map_err(|e| ExecError::Invalid(e.to_string()))?;
+                Ok((template, task))
+            })?;
+        let samples: Vec<Sample> = batch
+            .samples
+            .iter()
+            .map(convert::sample_from_proto)
+            .collect();
         let genomes: Vec<&[f32]> = batch.genomes.iter().map(|g| g.genes.as_slice()).collect();
         let results = evaluate_genomes(&evaluator, &genomes, &samples, threads, Some(abort))?;
         Ok(convert::results_to_proto(&results))
@@ -130,7 +149,10 @@ impl Backoff {
     const START: Duration = Duration::from_millis(100);
 
     fn new(max: Duration) -> Backoff {
-        Backoff { next: Self::START, max }
+        Backoff {
+            next: Self::START,
+            max,
+        }
     }
 
     fn reset(&mut self) {
@@ -146,7 +168,10 @@ impl Backoff {
 
 /// Errors after which retrying cannot help.
 fn is_fatal(status: &tonic::Status) -> bool {
-    matches!(status.code(), tonic::Code::Unauthenticated | tonic::Code::PermissionDenied | tonic::Code::Unimplemented)
+    matches!(
+        status.code(),
+        tonic::Code::Unauthenticated | tonic::Code::PermissionDenied | tonic::Code::Unimplemented
+    )
 }
 
 /// Resolves once the shutdown level reaches `level` (never if the sender is gone).
@@ -170,10 +195,20 @@ struct Worker {
 }
 
 /// Runs a worker until a shutdown request (Ok) or a fatal refusal (Err).
-pub async fn run(config: WorkerConfig, executor: Arc<dyn Executor>, shutdown: watch::Receiver<Shutdown>) -> Result<WorkerReport, WorkerError> {
+pub async fn run(
+    config: WorkerConfig,
+    executor: Arc<dyn Executor>,
+    shutdown: watch::Receiver<Shutdown>,
+) -> Result<WorkerReport, WorkerError> {
     let channel = config.client.lazy_channel().map_err(WorkerError::Setup)?;
     let client = worker_client(channel);
-    let mut worker = Worker { config, client, executor, shutdown, report: WorkerReport::default() };
+    let mut worker = Worker {
+        config,
+        client,
+        executor,
+        shutdown,
+        report: WorkerReport::default(),
+    };
     worker.run().await?;
     Ok(worker.report)
 }
@@ -237,19 +272,29 @@ impl Worker {
         let batch = Arc::new(batch);
         let abort = Arc::new(AtomicBool::new(false));
         let started = Instant::now();
-        let (executor, work, flag, threads) = (self.executor.clone(), batch.clone(), abort.clone(), self.config.threads);
-        let mut evaluation = tokio::task::spawn_blocking(move || executor.execute(&work, threads, &flag));
+        let (executor, work, flag, threads) = (
+            self.executor.clone(),
+            batch.clone(),
+            abort.clone(),
+            self.config.threads,
+        );
+        let mut evaluation =
+            tokio::task::spawn_blocking(move || executor.execute(&work, threads, &flag));
         let lease_period = Duration::from_millis(u64::from(batch.lease_ms.max(1_000)));
         let beat = lease_period / 3;
         let mut heartbeat = tokio::time::interval_at(tokio::time::Instant::now() + beat, beat);
         let mut shutdown = self.shutdown.clone();
         let mut urgent = self.shutdown.clone();
-        let mut grace_until: Option<tokio::time::Instant> =
-            (*shutdown.borrow() != Shutdown::Running).then(|| tokio::time::Instant::now() + self.config.grace);
+        let mut grace_until: Option<tokio::time::Instant> = (*shutdown.borrow()
+            != Shutdown::Running)
+            .then(|| tokio::time::Instant::now() + self.config.grace);
         // Set once the batch is no longer ours (handed back, or the lease was lost).
         let mut given_up = false;
         let outcome = loop {
-            let grace_sleep = tokio::time::sleep_until(grace_until.unwrap_or_else(|| tokio::time::Instant::now() + Duration::from_secs(86_400)));
+            let grace_sleep = tokio::time::sleep_until(
+                grace_until
+                    .unwrap_or_else(|| tokio::time::Instant::now() + Duration::from_secs(86_400)),
+            );
             tokio::select! {
                 joined = &mut evaluation => {
                     break joined.unwrap_or_else(|e| Err(ExecError::Invalid(format!("evaluation thread failed: {e}"))));
@@ -285,13 +330,21 @@ impl Worker {
             Ok(results) if !given_up => self.complete(&batch, results, started.elapsed()).await,
             Ok(_) | Err(ExecError::Aborted) => Ok(()),
             Err(ExecError::Missing) => {
-                tracing::warn!(batch_id = batch.batch_id, "batch came without its template; handing it back");
+                tracing::warn!(
+                    batch_id = batch.batch_id,
+                    "batch came without its template; handing it back"
+                );
                 self.release(&batch).await;
                 Ok(())
             }
             Err(ExecError::Invalid(message)) => {
                 tracing::error!(batch_id = batch.batch_id, job = %batch.job_id, %message, "batch cannot be evaluated");
-                let request = v1::FailBatchRequest { epoch: batch.epoch, lease_id: batch.lease_id, worker: self.config.name.clone(), message };
+                let request = v1::FailBatchRequest {
+                    epoch: batch.epoch,
+                    lease_id: batch.lease_id,
+                    worker: self.config.name.clone(),
+                    message,
+                };
                 if let Err(status) = self.client.clone().fail_batch(request).await {
                     tracing::warn!(error = %describe_status(&status), "could not report the failure; the lease will expire");
                 }
@@ -301,17 +354,28 @@ impl Worker {
     }
 
     async fn release(&mut self, batch: &v1::Batch) {
-        let request = v1::ReleaseBatchRequest { epoch: batch.epoch, lease_id: batch.lease_id, worker: self.config.name.clone() };
+        let request = v1::ReleaseBatchRequest {
+            epoch: batch.epoch,
+            lease_id: batch.lease_id,
+            worker: self.config.name.clone(),
+        };
         match self.client.clone().release_batch(request).await {
             Ok(_) => {
                 self.report.released += 1;
                 tracing::info!(batch_id = batch.batch_id, "batch handed back");
             }
-            Err(status) => tracing::warn!(batch_id = batch.batch_id, error = %describe_status(&status), "could not hand the batch back; its lease will expire"),
+            Err(status) => {
+                tracing::warn!(batch_id = batch.batch_id, error = %describe_status(&status), "could not hand the batch back; its lease will expire")
+            }
         }
     }
 
-    async fn complete(&mut self, batch: &v1::Batch, results: Vec<v1::GenomeResult>, elapsed: Duration) -> Result<(), WorkerError> {
+    async fn complete(
+        &mut self,
+        batch: &v1::Batch,
+        results: Vec<v1::GenomeResult>,
+        elapsed: Duration,
+    ) -> Result<(), WorkerError> {
         let evaluations: u64 = results.iter().map(|g| g.samples.len() as u64).sum();
         let request = v1::CompleteBatchRequest {
             epoch: batch.epoch,
@@ -324,7 +388,8 @@ impl Worker {
         // Results stay useful while the batch is not done elsewhere, so delivery is retried
         // for a while (a master restarting quickly gets them); after that the batch has surely
         // been given to another worker.
-        let give_up = Instant::now() + Duration::from_millis(u64::from(batch.lease_ms)).max(Duration::from_secs(30));
+        let give_up = Instant::now()
+            + Duration::from_millis(u64::from(batch.lease_ms)).max(Duration::from_secs(30));
         let mut backoff = Backoff::new(self.config.max_backoff);
         loop {
             match self.client.clone().complete_batch(request.clone()).await {
@@ -332,14 +397,31 @@ impl Worker {
                     if response.get_ref().accepted {
                         self.report.batches += 1;
                         self.report.evaluations += evaluations;
-                        tracing::debug!(batch_id = batch.batch_id, evaluations, ms = elapsed.as_millis() as u64, "batch done");
+                        tracing::debug!(
+                            batch_id = batch.batch_id,
+                            evaluations,
+                            ms = elapsed.as_millis() as u64,
+                            "batch done"
+                        );
                     } else {
-                        tracing::debug!(batch_id = batch.batch_id, "result not needed any more (duplicate or job ended)");
+                        tracing::debug!(
+                            batch_id = batch.batch_id,
+                            "result not needed any more (duplicate or job ended)"
+                        );
                     }
                     return Ok(());
                 }
-                Err(status) if is_fatal(&status) => return Err(WorkerError::Refused(describe_status(&status))),
-                Err(status) if matches!(status.code(), tonic::Code::InvalidArgument | tonic::Code::FailedPrecondition | tonic::Code::NotFound) => {
+                Err(status) if is_fatal(&status) => {
+                    return Err(WorkerError::Refused(describe_status(&status)));
+                }
+                Err(status)
+                    if matches!(
+                        status.code(),
+                        tonic::Code::InvalidArgument
+                            | tonic::Code::FailedPrecondition
+                            | tonic::Code::NotFound
+                    ) =>
+                {
                     tracing::warn!(batch_id = batch.batch_id, error = %describe_status(&status), "result refused");
                     return Ok(());
                 }
@@ -373,7 +455,14 @@ mod tests {
     fn the_sim_executor_evaluates_and_refuses_what_it_cannot_trust() {
         use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
         use sim_core::frame::InputGroup;
-        let template = ControllerFile::new(NodeSpec { name: "p".into(), kind: NodeKind::Primitive, inputs: vec![InputGroup::Ir], hidden: 2, genome: None, children: vec![] });
+        let template = ControllerFile::new(NodeSpec {
+            name: "p".into(),
+            kind: NodeKind::Primitive,
+            inputs: vec![InputGroup::Ir],
+            hidden: 2,
+            genome: None,
+            children: vec![],
+        });
         let mut task = sim_core::TaskConfig::new(sim_core::TaskKind::FollowWall);
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();
@@ -382,8 +471,15 @@ mod tests {
             task_hash: sim_core::batch::task_content_hash(&task),
             template_json: convert::template_to_json(&template),
             task_json: convert::task_to_json(&task),
-            genomes: (0..3).map(|g| v1::Genome { index: g, genes: vec![g as f32 * 0.5; n] }).collect(),
-            samples: (0..2).map(|s| convert::sample_to_proto(&Sample::seeded(s))).collect(),
+            genomes: (0..3)
+                .map(|g| v1::Genome {
+                    index: g,
+                    genes: vec![g as f32 * 0.5; n],
+                })
+                .collect(),
+            samples: (0..2)
+                .map(|s| convert::sample_to_proto(&Sample::seeded(s)))
+                .collect(),
             ..v1::Batch::default()
         };
         let executor = SimExecutor::default();
@@ -393,13 +489,18 @@ mod tests {
         assert!(results.iter().all(|g| g.samples.len() == 2));
         assert_eq!(executor.cached().len(), 1);
         // Cached now: the same batch without the texts still evaluates, identically.
-        let (template_json, task_json) = (std::mem::take(&mut batch.template_json), std::mem::take(&mut batch.task_json));
+        let (template_json, task_json) = (
+            std::mem::take(&mut batch.template_json),
+            std::mem::take(&mut batch.task_json),
+        );
         assert_eq!(executor.execute(&batch, 1, &flag).unwrap(), results);
         // Unknown key without texts: missing; a tampered template: invalid.
         let fresh = SimExecutor::default();
         assert_eq!(fresh.execute(&batch, 1, &flag), Err(ExecError::Missing));
         batch.template_json = template_json.replace("\"hidden\":2", "\"hidden\":3");
         batch.task_json = task_json;
-        assert!(matches!(fresh.execute(&batch, 1, &flag), Err(ExecError::Invalid(m)) if m.contains("template_hash")));
+        assert!(
+            matches!(fresh.execute(&batch, 1, &flag), Err(ExecError::Invalid(m)) if m.contains("template_hash"))
+        );
     }
 }

@@ -20,8 +20,12 @@ fn refused(status: tonic::Status) -> anyhow::Error {
 
 /// Submits an experiment file; returns the job id.
 pub async fn submit(options: &ClientOptions, file: &Path, settings: JobSettings) -> Result<String> {
-    let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
-    let file_name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let text =
+        std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let file_name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
     let request = v1::SubmitJobRequest {
         experiment_toml: text,
@@ -56,7 +60,12 @@ pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
     let mut delay = Duration::from_millis(200);
     loop {
         let outcome = async {
-            let mut stream = client.watch_job(v1::WatchJobRequest { job_id: job.to_string() }).await?.into_inner();
+            let mut stream = client
+                .watch_job(v1::WatchJobRequest {
+                    job_id: job.to_string(),
+                })
+                .await?
+                .into_inner();
             while let Some(event) = stream.message().await? {
                 if let Some(info) = view.show(&event) {
                     return Ok(Some(info));
@@ -72,8 +81,19 @@ pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
             }
             // The stream ended without a final state: the master is restarting.
             Ok(None) => view.note("the master closed the stream; reconnecting"),
-            Err(status) if matches!(status.code(), tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Cancelled | tonic::Code::Internal) => {
-                view.note(&format!("lost the master ({}); reconnecting", describe_status(&status)));
+            Err(status)
+                if matches!(
+                    status.code(),
+                    tonic::Code::Unavailable
+                        | tonic::Code::Unknown
+                        | tonic::Code::Cancelled
+                        | tonic::Code::Internal
+                ) =>
+            {
+                view.note(&format!(
+                    "lost the master ({}); reconnecting",
+                    describe_status(&status)
+                ));
             }
             Err(status) => {
                 view.finish();
@@ -96,14 +116,19 @@ impl View {
         let bar = std::io::stdout().is_terminal().then(|| {
             let bar = ProgressBar::new(0);
             bar.set_style(
-                ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} gen  {msg}  eta {eta}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar())
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{prefix} [{bar:30}] {pos}/{len} gen  {msg}  eta {eta}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
             );
             bar.set_prefix(job.to_string());
             bar
         });
-        View { job: job.to_string(), bar }
+        View {
+            job: job.to_string(),
+            bar,
+        }
     }
 
     fn line(&self, text: &str) {
@@ -136,7 +161,12 @@ impl View {
                     bar.set_length(info.generations_total);
                     bar.set_position(info.generations_done);
                 }
-                let mut text = format!("{job}: {} ({}/{} generations)", state_name(info.state), info.generations_done, info.generations_total);
+                let mut text = format!(
+                    "{job}: {} ({}/{} generations)",
+                    state_name(info.state),
+                    info.generations_done,
+                    info.generations_total
+                );
                 if !info.error.is_empty() {
                     text.push_str(&format!(": {}", info.error));
                 }
@@ -146,18 +176,37 @@ impl View {
                 }
             }
             Event::Generation(g) => {
-                let text = format!("{} run {} generation {}/{}: best {:.4} mean {:.4}", g.node, g.run, g.generation + 1, g.generations, g.best, g.mean);
+                let text = format!(
+                    "{} run {} generation {}/{}: best {:.4} mean {:.4}",
+                    g.node,
+                    g.run,
+                    g.generation + 1,
+                    g.generations,
+                    g.best,
+                    g.mean
+                );
                 match &self.bar {
                     Some(bar) => {
                         bar.set_length(g.job_generations_total);
                         bar.set_position(g.job_generations_done);
                         bar.set_message(text);
                     }
-                    None => self.line(&format!("{job} {text} ({}/{})", g.job_generations_done, g.job_generations_total)),
+                    None => self.line(&format!(
+                        "{job} {text} ({}/{})",
+                        g.job_generations_done, g.job_generations_total
+                    )),
                 }
             }
-            Event::NodeStarted(n) => self.line(&format!("{job} {}: {} runs x {} generations", n.node, n.runs, n.generations)),
-            Event::RunFinished(r) => self.line(&format!("{job} {} run {}: post-evaluation solve rate {:.1}%", r.node, r.run, 100.0 * r.solve_rate)),
+            Event::NodeStarted(n) => self.line(&format!(
+                "{job} {}: {} runs x {} generations",
+                n.node, n.runs, n.generations
+            )),
+            Event::RunFinished(r) => self.line(&format!(
+                "{job} {} run {}: post-evaluation solve rate {:.1}%",
+                r.node,
+                r.run,
+                100.0 * r.solve_rate
+            )),
             Event::NodeFinished(n) => self.line(&format!(
                 "{job} {}: best run {} solves {:.1}%, mean over runs {:.1}%",
                 n.node,
@@ -174,8 +223,16 @@ impl View {
 /// The jobs as a table.
 pub async fn jobs(options: &ClientOptions) -> Result<String> {
     let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
-    let jobs = client.list_jobs(v1::ListJobsRequest {}).await.map_err(refused)?.into_inner().jobs;
-    let mut text = format!("{:<12} {:<10} {:>15}  {:<20} {:<20} {}\n", "JOB", "STATE", "GENERATIONS", "EXPERIMENT", "SUBMITTED (UTC)", "FILE");
+    let jobs = client
+        .list_jobs(v1::ListJobsRequest {})
+        .await
+        .map_err(refused)?
+        .into_inner()
+        .jobs;
+    let mut text = format!(
+        "{:<12} {:<10} {:>15}  {:<20} {:<20} {}\n",
+        "JOB", "STATE", "GENERATIONS", "EXPERIMENT", "SUBMITTED (UTC)", "FILE"
+    );
     for job in jobs {
         text.push_str(&format!(
             "{:<12} {:<10} {:>15}  {:<20} {:<20} {}\n",
@@ -197,16 +254,30 @@ pub async fn jobs(options: &ClientOptions) -> Result<String> {
 /// job's status and the number of files.
 pub async fn fetch(options: &ClientOptions, job: &str, out: &Path) -> Result<(v1::JobInfo, usize)> {
     let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
-    let response = client.get_job(v1::GetJobRequest { job_id: job.to_string(), include_files: true }).await.map_err(refused)?.into_inner();
-    let info = response.job.ok_or_else(|| anyhow!("the master sent no job status"))?;
+    let response = client
+        .get_job(v1::GetJobRequest {
+            job_id: job.to_string(),
+            include_files: true,
+        })
+        .await
+        .map_err(refused)?
+        .into_inner();
+    let info = response
+        .job
+        .ok_or_else(|| anyhow!("the master sent no job status"))?;
     for file in &response.files {
         // Paths come from the network: only plain relative paths below `out` are written.
         let relative = Path::new(&file.path);
-        if file.path.is_empty() || !relative.components().all(|c| matches!(c, Component::Normal(_))) {
+        if file.path.is_empty()
+            || !relative
+                .components()
+                .all(|c| matches!(c, Component::Normal(_)))
+        {
             bail!("the master sent an unsafe path '{}'", file.path);
         }
         let path = out.join(relative);
-        crate::store::write_atomic(&path, &file.content).with_context(|| format!("cannot write {}", path.display()))?;
+        crate::store::write_atomic(&path, &file.content)
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok((info, response.files.len()))
 }
@@ -214,8 +285,16 @@ pub async fn fetch(options: &ClientOptions, job: &str, out: &Path) -> Result<(v1
 /// Cancels a job; returns its status.
 pub async fn cancel(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
     let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
-    let response = client.cancel_job(v1::CancelJobRequest { job_id: job.to_string() }).await.map_err(refused)?.into_inner();
-    response.job.ok_or_else(|| anyhow!("the master sent no job status"))
+    let response = client
+        .cancel_job(v1::CancelJobRequest {
+            job_id: job.to_string(),
+        })
+        .await
+        .map_err(refused)?
+        .into_inner();
+    response
+        .job
+        .ok_or_else(|| anyhow!("the master sent no job status"))
 }
 
 /// `YYYY-MM-DD HH:MM:SS` in UTC (days to civil date after H. Hinnant's algorithm).
@@ -231,7 +310,12 @@ pub fn format_utc(unix_ms: i64) -> String {
     let day = doy - (153 * mp + 2) / 5 + 1;
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
-    format!("{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02}", rest / 3600, rest % 3600 / 60, rest % 60)
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02}",
+        rest / 3600,
+        rest % 3600 / 60,
+        rest % 60
+    )
 }
 
 #[cfg(test)]
@@ -241,7 +325,10 @@ mod tests {
     #[test]
     fn utc_dates() {
         assert_eq!(format_utc(0), "1970-01-01 00:00:00");
-        assert_eq!(format_utc(951_782_400_000 + 3_661_000), "2000-02-29 01:01:01");
+        assert_eq!(
+            format_utc(951_782_400_000 + 3_661_000),
+            "2000-02-29 01:01:01"
+        );
         assert_eq!(format_utc(1_763_856_000_000), "2025-11-23 00:00:00");
     }
 }

@@ -30,8 +30,14 @@ pub struct MasterArgs {
 
 impl MasterArgs {
     fn options(&self) -> Result<ClientOptions> {
-        let token = hevo_proto::auth::resolve_token(self.token.as_deref(), self.token_file.as_deref()).map_err(anyhow::Error::msg)?;
-        Ok(ClientOptions { url: self.master.clone(), token, tls_ca: self.tls_ca.clone() })
+        let token =
+            hevo_proto::auth::resolve_token(self.token.as_deref(), self.token_file.as_deref())
+                .map_err(anyhow::Error::msg)?;
+        Ok(ClientOptions {
+            url: self.master.clone(),
+            token,
+            tls_ca: self.tls_ca.clone(),
+        })
     }
 }
 
@@ -111,12 +117,16 @@ pub struct FetchArgs {
 }
 
 fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread().enable_all().build().context("cannot start the async runtime")
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
 }
 
 /// `hevo serve`.
 pub fn serve(args: ServeArgs) -> Result<()> {
-    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref()).map_err(anyhow::Error::msg)?;
+    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let config = super::ServeConfig {
         listen: args.listen,
         state_dir: args.state_dir,
@@ -132,7 +142,12 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 /// `hevo submit`: prints the job id alone.
 pub fn submit(args: SubmitArgs) -> Result<()> {
     let options = args.master.options()?;
-    let settings = super::db::JobSettings { node: args.node, runs: args.runs, generations: args.generations, seed: args.seed };
+    let settings = super::db::JobSettings {
+        node: args.node,
+        runs: args.runs,
+        generations: args.generations,
+        seed: args.seed,
+    };
     let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
     println!("{job}");
     Ok(())
@@ -162,9 +177,16 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
     let (info, files) = runtime()?.block_on(client::fetch(&options, &args.job, &args.out))?;
     let state = client::state_name(info.state);
     if state != "succeeded" {
-        eprintln!("warning: job {} is {state}: its results are incomplete", args.job);
+        eprintln!(
+            "warning: job {} is {state}: its results are incomplete",
+            args.job
+        );
     }
-    println!("{files} files of job {} ({state}) -> {}", args.job, args.out.display());
+    println!(
+        "{files} files of job {} ({state}) -> {}",
+        args.job,
+        args.out.display()
+    );
     Ok(())
 }
 
@@ -178,7 +200,7 @@ pub fn cancel(args: JobArgs) -> Result<()> {
 
 /// `hevo bench --dispatch-load WORKERS`.
 pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: bool) -> Result<()> {
-    if !(1..=5_000).contains(&workers) || !(seconds > 0.0 && seconds <= 600.0) {
+    if !((1..=5_000).contains(&workers) && seconds > 0.0 && seconds <= 600.0) {
         bail!("--dispatch-load takes 1 to 5000 workers, for at most 600 seconds");
     }
     if !(batch_cost_ms.is_finite() && batch_cost_ms >= 0.0) {
@@ -192,7 +214,9 @@ pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: boo
         genomes: 1_000,
         samples: 1,
     };
-    let report = runtime()?.block_on(super::load::run(config)).map_err(anyhow::Error::msg)?;
+    let report = runtime()?
+        .block_on(super::load::run(config))
+        .map_err(anyhow::Error::msg)?;
     if json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

@@ -37,23 +37,47 @@ pub fn job_info(record: &JobRecord) -> v1::JobInfo {
         finished_unix_ms: record.finished_unix_ms.unwrap_or_default(),
         generations_done: record.generations_done,
         generations_total: record.generations_total(),
-        last_event: record.last_event.as_ref().map(|event| Box::new(event_to_proto(&record.id, event, record.generations_done, record.generations_total()))),
+        last_event: record.last_event.as_ref().map(|event| {
+            Box::new(event_to_proto(
+                &record.id,
+                event,
+                record.generations_done,
+                record.generations_total(),
+            ))
+        }),
     }
 }
 
 /// A status event.
 pub fn status_event(record: &JobRecord) -> v1::JobEvent {
-    v1::JobEvent { job_id: record.id.clone(), event: Some(v1::job_event::Event::Status(Box::new(job_info(record)))) }
+    v1::JobEvent {
+        job_id: record.id.clone(),
+        event: Some(v1::job_event::Event::Status(Box::new(job_info(record)))),
+    }
 }
 
 /// A progress event on the wire; `done`/`total` are the job's generation counts after it.
 pub fn event_to_proto(job: &str, event: &ProgressEvent, done: u64, total: u64) -> v1::JobEvent {
     use v1::job_event::Event;
     let event = match event {
-        ProgressEvent::NodeStarted { node, runs, generations } => {
-            Event::NodeStarted(v1::NodeStarted { node: node.clone(), runs: *runs, generations: *generations })
-        }
-        ProgressEvent::Generation { node, run, generation, generations, best, mean, cycles } => Event::Generation(v1::GenerationDone {
+        ProgressEvent::NodeStarted {
+            node,
+            runs,
+            generations,
+        } => Event::NodeStarted(v1::NodeStarted {
+            node: node.clone(),
+            runs: *runs,
+            generations: *generations,
+        }),
+        ProgressEvent::Generation {
+            node,
+            run,
+            generation,
+            generations,
+            best,
+            mean,
+            cycles,
+        } => Event::Generation(v1::GenerationDone {
             node: node.clone(),
             run: *run,
             generation: *generation,
@@ -64,10 +88,21 @@ pub fn event_to_proto(job: &str, event: &ProgressEvent, done: u64, total: u64) -
             job_generations_done: done,
             job_generations_total: total,
         }),
-        ProgressEvent::RunFinished { node, run, solve_rate } => {
-            Event::RunFinished(v1::RunFinished { node: node.clone(), run: *run, solve_rate: *solve_rate })
-        }
-        ProgressEvent::NodeFinished { node, best_run, best_solve_rate, mean_solve_rate } => Event::NodeFinished(v1::NodeFinished {
+        ProgressEvent::RunFinished {
+            node,
+            run,
+            solve_rate,
+        } => Event::RunFinished(v1::RunFinished {
+            node: node.clone(),
+            run: *run,
+            solve_rate: *solve_rate,
+        }),
+        ProgressEvent::NodeFinished {
+            node,
+            best_run,
+            best_solve_rate,
+            mean_solve_rate,
+        } => Event::NodeFinished(v1::NodeFinished {
             node: node.clone(),
             best_run: *best_run,
             best_solve_rate: *best_solve_rate,
@@ -75,7 +110,10 @@ pub fn event_to_proto(job: &str, event: &ProgressEvent, done: u64, total: u64) -
         }),
         ProgressEvent::Note { message } => Event::Note(message.clone()),
     };
-    v1::JobEvent { job_id: job.to_string(), event: Some(event) }
+    v1::JobEvent {
+        job_id: job.to_string(),
+        event: Some(event),
+    }
 }
 
 /// A leased batch on the wire. The template and task text are left out when the worker said
@@ -91,9 +129,24 @@ pub fn batch_to_proto(batch: &Batch, epoch: u64, lease_ms: u32, cached: &[String
         job_id: batch.job.clone(),
         template_hash: shared.template_hash.clone(),
         task_hash: shared.task_hash.clone(),
-        template_json: if send_texts { wire::template_to_json(&shared.template) } else { String::new() },
-        task_json: if send_texts { wire::task_to_json(&shared.task) } else { String::new() },
-        genomes: batch.genomes.iter().map(|(index, genes)| v1::Genome { index: *index, genes: genes.to_vec() }).collect(),
+        template_json: if send_texts {
+            wire::template_to_json(&shared.template)
+        } else {
+            String::new()
+        },
+        task_json: if send_texts {
+            wire::task_to_json(&shared.task)
+        } else {
+            String::new()
+        },
+        genomes: batch
+            .genomes
+            .iter()
+            .map(|(index, genes)| v1::Genome {
+                index: *index,
+                genes: genes.to_vec(),
+            })
+            .collect(),
         samples: batch.samples.iter().map(wire::sample_to_proto).collect(),
         lease_ms,
     }

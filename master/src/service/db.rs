@@ -31,11 +31,20 @@ pub enum JobState {
 
 impl JobState {
     /// Every state, for metrics.
-    pub const ALL: [JobState; 5] = [JobState::Queued, JobState::Running, JobState::Succeeded, JobState::Failed, JobState::Cancelled];
+    pub const ALL: [JobState; 5] = [
+        JobState::Queued,
+        JobState::Running,
+        JobState::Succeeded,
+        JobState::Failed,
+        JobState::Cancelled,
+    ];
 
     /// Whether the job will not change any more.
     pub fn is_final(self) -> bool {
-        matches!(self, JobState::Succeeded | JobState::Failed | JobState::Cancelled)
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::Cancelled
+        )
     }
 
     /// The lowercase name.
@@ -99,7 +108,10 @@ pub struct JobRecord {
 impl JobRecord {
     /// Generations the whole job evaluates.
     pub fn generations_total(&self) -> u64 {
-        self.plan.iter().map(|(_, runs, generations)| u64::from(*runs) * u64::from(*generations)).sum()
+        self.plan
+            .iter()
+            .map(|(_, runs, generations)| u64::from(*runs) * u64::from(*generations))
+            .sum()
     }
 }
 
@@ -124,10 +136,15 @@ impl JobStore {
         let display = path.display().to_string();
         let db = Database::create(path).map_err(|e| {
             let message = match e {
-                redb::DatabaseError::DatabaseAlreadyOpen => "already open: is another master using this state directory?".to_string(),
+                redb::DatabaseError::DatabaseAlreadyOpen => {
+                    "already open: is another master using this state directory?".to_string()
+                }
                 other => other.to_string(),
             };
-            StoreError { path: display.clone(), message }
+            StoreError {
+                path: display.clone(),
+                message,
+            }
         })?;
         let store = JobStore { db, path: display };
         // Create the tables so that readers never meet a missing one.
@@ -140,10 +157,17 @@ impl JobStore {
     }
 
     fn error(&self, error: impl std::fmt::Display) -> StoreError {
-        StoreError { path: self.path.clone(), message: error.to_string() }
+        StoreError {
+            path: self.path.clone(),
+            message: error.to_string(),
+        }
     }
 
-    fn write<T>(&self, durability: Durability, body: impl FnOnce(&redb::WriteTransaction) -> Result<T, redb::Error>) -> Result<T, StoreError> {
+    fn write<T>(
+        &self,
+        durability: Durability,
+        body: impl FnOnce(&redb::WriteTransaction) -> Result<T, redb::Error>,
+    ) -> Result<T, StoreError> {
         let mut txn = self.db.begin_write().map_err(|e| self.error(e))?;
         txn.set_durability(durability).map_err(|e| self.error(e))?;
         let value = body(&txn).map_err(|e| self.error(e))?;
@@ -152,14 +176,19 @@ impl JobStore {
     }
 
     /// Stores a new job under the next id, durably; `make` builds the record for the id.
-    pub fn insert_new(&self, make: impl FnOnce(String) -> JobRecord) -> Result<JobRecord, StoreError> {
+    pub fn insert_new(
+        &self,
+        make: impl FnOnce(String) -> JobRecord,
+    ) -> Result<JobRecord, StoreError> {
         self.write(Durability::Immediate, |txn| {
             let mut meta = txn.open_table(META)?;
             let number = meta.get(NEXT_JOB)?.map_or(1, |v| v.value());
             meta.insert(NEXT_JOB, number + 1)?;
             let record = make(format!("job-{number:06}"));
-            let json = serde_json::to_string(&record).map_err(|e| redb::Error::Corrupted(e.to_string()))?;
-            txn.open_table(JOBS)?.insert(record.id.as_str(), json.as_str())?;
+            let json = serde_json::to_string(&record)
+                .map_err(|e| redb::Error::Corrupted(e.to_string()))?;
+            txn.open_table(JOBS)?
+                .insert(record.id.as_str(), json.as_str())?;
             Ok(record)
         })
     }
@@ -167,9 +196,14 @@ impl JobStore {
     /// Replaces a job's record; `durable` waits for the disk.
     pub fn put(&self, record: &JobRecord, durable: bool) -> Result<(), StoreError> {
         let json = serde_json::to_string(record).map_err(|e| self.error(e))?;
-        let durability = if durable { Durability::Immediate } else { Durability::None };
+        let durability = if durable {
+            Durability::Immediate
+        } else {
+            Durability::None
+        };
         self.write(durability, |txn| {
-            txn.open_table(JOBS)?.insert(record.id.as_str(), json.as_str())?;
+            txn.open_table(JOBS)?
+                .insert(record.id.as_str(), json.as_str())?;
             Ok(())
         })
     }
@@ -181,8 +215,8 @@ impl JobStore {
         let mut records = Vec::new();
         for entry in table.iter().map_err(|e| self.error(e))? {
             let (key, value) = entry.map_err(|e| self.error(e))?;
-            let record: JobRecord =
-                serde_json::from_str(value.value()).map_err(|e| self.error(format!("job {}: unreadable record: {e}", key.value())))?;
+            let record: JobRecord = serde_json::from_str(value.value())
+                .map_err(|e| self.error(format!("job {}: unreadable record: {e}", key.value())))?;
             records.push(record);
         }
         Ok(records)
@@ -199,7 +233,10 @@ mod tests {
             experiment_name: "e".into(),
             file_name: "e.toml".into(),
             experiment_toml: "[experiment]".into(),
-            settings: JobSettings { seed: Some(3), ..JobSettings::default() },
+            settings: JobSettings {
+                seed: Some(3),
+                ..JobSettings::default()
+            },
             plan: vec![("a".into(), 2, 5), ("b".into(), 1, 4)],
             state: JobState::Queued,
             error: None,
@@ -225,11 +262,24 @@ mod tests {
             store.put(&second, false).unwrap();
             second.state = JobState::Succeeded;
             store.put(&second, true).unwrap();
-            assert!(JobStore::open(&path).unwrap_err().to_string().contains("another master"));
+            assert!(
+                JobStore::open(&path)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("another master")
+            );
         }
         let store = JobStore::open(&path).unwrap();
         let jobs = store.list().unwrap();
-        assert_eq!(jobs.iter().map(|j| (j.id.as_str(), j.state)).collect::<Vec<_>>(), [("job-000001", JobState::Queued), ("job-000002", JobState::Succeeded)]);
+        assert_eq!(
+            jobs.iter()
+                .map(|j| (j.id.as_str(), j.state))
+                .collect::<Vec<_>>(),
+            [
+                ("job-000001", JobState::Queued),
+                ("job-000002", JobState::Succeeded)
+            ]
+        );
         assert_eq!(store.insert_new(record).unwrap().id, "job-000003");
     }
 }

@@ -49,12 +49,20 @@ impl JobApi {
 
 #[tonic::async_trait]
 impl JobService for JobApi {
-    async fn submit_job(&self, request: Request<v1::SubmitJobRequest>) -> Result<Response<v1::SubmitJobResponse>, Status> {
+    async fn submit_job(
+        &self,
+        request: Request<v1::SubmitJobRequest>,
+    ) -> Result<Response<v1::SubmitJobResponse>, Status> {
         let request = request.into_inner();
         let submission = Submission {
             experiment_toml: request.experiment_toml,
             file_name: request.file_name,
-            settings: JobSettings { node: request.node, runs: request.runs, generations: request.generations, seed: request.seed },
+            settings: JobSettings {
+                node: request.node,
+                runs: request.runs,
+                generations: request.generations,
+                seed: request.seed,
+            },
         };
         let manager = self.manager.clone();
         // Parsing and the durable commit block; keep them off the async threads.
@@ -67,7 +75,10 @@ impl JobService for JobApi {
 
     type WatchJobStream = ReceiverStream<Result<v1::JobEvent, Status>>;
 
-    async fn watch_job(&self, request: Request<v1::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
+    async fn watch_job(
+        &self,
+        request: Request<v1::WatchJobRequest>,
+    ) -> Result<Response<Self::WatchJobStream>, Status> {
         let id = request.into_inner().job_id;
         let (mut events, mut stopping) = self.manager.subscribe(&id).map_err(job_status)?;
         let record = self.manager.get(&id).map_err(job_status)?;
@@ -102,23 +113,34 @@ impl JobService for JobApi {
         Ok(Response::new(ReceiverStream::new(receiver)))
     }
 
-    async fn get_job(&self, request: Request<v1::GetJobRequest>) -> Result<Response<v1::GetJobResponse>, Status> {
+    async fn get_job(
+        &self,
+        request: Request<v1::GetJobRequest>,
+    ) -> Result<Response<v1::GetJobResponse>, Status> {
         let request = request.into_inner();
         let record = self.manager.get(&request.job_id).map_err(job_status)?;
         let manager = self.manager.clone();
         let id = request.job_id.clone();
-        let results = tokio::task::spawn_blocking(move || manager.results(&id, request.include_files))
-            .await
-            .map_err(|e| Status::internal(format!("results task failed: {e}")))?
-            .map_err(job_status)?;
+        let results =
+            tokio::task::spawn_blocking(move || manager.results(&id, request.include_files))
+                .await
+                .map_err(|e| Status::internal(format!("results task failed: {e}")))?
+                .map_err(job_status)?;
         Ok(Response::new(v1::GetJobResponse {
             job: Some(job_info(&record)),
             nodes: results.nodes,
-            files: results.files.into_iter().map(|(path, content)| v1::ResultFile { path, content }).collect(),
+            files: results
+                .files
+                .into_iter()
+                .map(|(path, content)| v1::ResultFile { path, content })
+                .collect(),
         }))
     }
 
-    async fn list_jobs(&self, _request: Request<v1::ListJobsRequest>) -> Result<Response<v1::ListJobsResponse>, Status> {
+    async fn list_jobs(
+        &self,
+        _request: Request<v1::ListJobsRequest>,
+    ) -> Result<Response<v1::ListJobsResponse>, Status> {
         let records = self.manager.list();
         let jobs = records.iter().map(|record| {
             // The list is for an overview: the experiment text stays out of it.
@@ -126,18 +148,32 @@ impl JobService for JobApi {
             info.last_event = None;
             info
         });
-        Ok(Response::new(v1::ListJobsResponse { jobs: jobs.collect() }))
+        Ok(Response::new(v1::ListJobsResponse {
+            jobs: jobs.collect(),
+        }))
     }
 
-    async fn cancel_job(&self, request: Request<v1::CancelJobRequest>) -> Result<Response<v1::CancelJobResponse>, Status> {
-        let record = self.manager.cancel(&request.into_inner().job_id).await.map_err(job_status)?;
-        Ok(Response::new(v1::CancelJobResponse { job: Some(job_info(&record)) }))
+    async fn cancel_job(
+        &self,
+        request: Request<v1::CancelJobRequest>,
+    ) -> Result<Response<v1::CancelJobResponse>, Status> {
+        let record = self
+            .manager
+            .cancel(&request.into_inner().job_id)
+            .await
+            .map_err(job_status)?;
+        Ok(Response::new(v1::CancelJobResponse {
+            job: Some(job_info(&record)),
+        }))
     }
 }
 
 /// Whether a wire job state is final.
 pub fn is_final(state: i32) -> bool {
-    matches!(v1::JobState::try_from(state), Ok(v1::JobState::Succeeded | v1::JobState::Failed | v1::JobState::Cancelled))
+    matches!(
+        v1::JobState::try_from(state),
+        Ok(v1::JobState::Succeeded | v1::JobState::Failed | v1::JobState::Cancelled)
+    )
 }
 
 /// Counters the dispatcher does not keep.
@@ -173,9 +209,20 @@ impl WorkerApi {
         use std::hash::{BuildHasher, Hasher};
         // A fresh random number per process (std's hasher keys are seeded from the OS).
         let mut hasher = std::collections::hash_map::RandomState::new().build_hasher();
-        hasher.write_u128(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos()));
+        hasher.write_u128(
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos()),
+        );
         hasher.write_u32(std::process::id());
-        WorkerApi { dispatcher, epoch: hasher.finish(), lease, max_wait, counters: Arc::default(), seen: Arc::default() }
+        WorkerApi {
+            dispatcher,
+            epoch: hasher.finish(),
+            lease,
+            max_wait,
+            counters: Arc::default(),
+            seen: Arc::default(),
+        }
     }
 
     /// The counters, for metrics.
@@ -190,7 +237,9 @@ impl WorkerApi {
 
     fn check_worker(name: &str) -> Result<(), Status> {
         if name.is_empty() || name.len() > MAX_WORKER_NAME {
-            return Err(Status::invalid_argument(format!("worker: must be 1 to {MAX_WORKER_NAME} characters")));
+            return Err(Status::invalid_argument(format!(
+                "worker: must be 1 to {MAX_WORKER_NAME} characters"
+            )));
         }
         Ok(())
     }
@@ -198,11 +247,17 @@ impl WorkerApi {
 
 #[tonic::async_trait]
 impl WorkerService for WorkerApi {
-    async fn lease_batch(&self, request: Request<v1::LeaseBatchRequest>) -> Result<Response<v1::LeaseBatchResponse>, Status> {
+    async fn lease_batch(
+        &self,
+        request: Request<v1::LeaseBatchRequest>,
+    ) -> Result<Response<v1::LeaseBatchResponse>, Status> {
         let request = request.into_inner();
         Self::check_worker(&request.worker)?;
         if request.threads == 0 || request.threads > MAX_WORKER_THREADS {
-            return Err(Status::invalid_argument(format!("threads: must be between 1 and {MAX_WORKER_THREADS}, got {}", request.threads)));
+            return Err(Status::invalid_argument(format!(
+                "threads: must be between 1 and {MAX_WORKER_THREADS}, got {}",
+                request.threads
+            )));
         }
         let new_worker = {
             let mut seen = lock_set(&self.seen);
@@ -216,19 +271,29 @@ impl WorkerService for WorkerApi {
             tracing::info!(worker = %request.worker, threads = request.threads, "worker connected");
         }
         let wait = Duration::from_millis(u64::from(request.wait_ms)).min(self.max_wait);
-        let leased = self.dispatcher.lease_with_threads(&request.worker, request.threads as usize, wait).await;
+        let leased = self
+            .dispatcher
+            .lease_with_threads(&request.worker, request.threads as usize, wait)
+            .await;
         let lease_ms = u32::try_from(self.lease.as_millis()).unwrap_or(u32::MAX);
-        let batch = leased.map(|batch| batch_to_proto(&batch, self.epoch, lease_ms, &request.cached));
+        let batch =
+            leased.map(|batch| batch_to_proto(&batch, self.epoch, lease_ms, &request.cached));
         Ok(Response::new(v1::LeaseBatchResponse { batch }))
     }
 
-    async fn extend_lease(&self, request: Request<v1::ExtendLeaseRequest>) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
+    async fn extend_lease(
+        &self,
+        request: Request<v1::ExtendLeaseRequest>,
+    ) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
         let request = request.into_inner();
         let valid = request.epoch == self.epoch && self.dispatcher.extend(request.lease_id);
         Ok(Response::new(v1::ExtendLeaseResponse { valid }))
     }
 
-    async fn complete_batch(&self, request: Request<v1::CompleteBatchRequest>) -> Result<Response<v1::CompleteBatchResponse>, Status> {
+    async fn complete_batch(
+        &self,
+        request: Request<v1::CompleteBatchRequest>,
+    ) -> Result<Response<v1::CompleteBatchResponse>, Status> {
         let request = request.into_inner();
         if request.epoch != self.epoch {
             self.counters.stale_results.fetch_add(1, Ordering::Relaxed);
@@ -238,24 +303,38 @@ impl WorkerService for WorkerApi {
         let results = match wire::results_from_proto(&request.genomes) {
             Ok(results) => results,
             Err(error) => {
-                self.counters.refused_results.fetch_add(1, Ordering::Relaxed);
+                self.counters
+                    .refused_results
+                    .fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(worker = %request.worker, batch_id = request.batch_id, %error, "refused a malformed result; batch re-queued");
                 self.dispatcher.release(request.lease_id);
                 return Err(Status::invalid_argument(error.to_string()));
             }
         };
-        match self.dispatcher.complete(request.lease_id, request.batch_id, results) {
-            Ok(Completion::Accepted) => Ok(Response::new(v1::CompleteBatchResponse { accepted: true })),
-            Ok(Completion::Ignored) => Ok(Response::new(v1::CompleteBatchResponse { accepted: false })),
+        match self
+            .dispatcher
+            .complete(request.lease_id, request.batch_id, results)
+        {
+            Ok(Completion::Accepted) => {
+                Ok(Response::new(v1::CompleteBatchResponse { accepted: true }))
+            }
+            Ok(Completion::Ignored) => {
+                Ok(Response::new(v1::CompleteBatchResponse { accepted: false }))
+            }
             Err(error @ CompleteError::Malformed { .. }) => {
                 tracing::warn!(worker = %request.worker, %error, "refused a result");
                 Err(Status::invalid_argument(error.to_string()))
             }
-            Err(error @ CompleteError::UnknownLease(_)) => Err(Status::failed_precondition(error.to_string())),
+            Err(error @ CompleteError::UnknownLease(_)) => {
+                Err(Status::failed_precondition(error.to_string()))
+            }
         }
     }
 
-    async fn release_batch(&self, request: Request<v1::ReleaseBatchRequest>) -> Result<Response<v1::ReleaseBatchResponse>, Status> {
+    async fn release_batch(
+        &self,
+        request: Request<v1::ReleaseBatchRequest>,
+    ) -> Result<Response<v1::ReleaseBatchResponse>, Status> {
         let request = request.into_inner();
         if request.epoch == self.epoch {
             tracing::info!(worker = %request.worker, lease_id = request.lease_id, "batch handed back");
@@ -264,7 +343,10 @@ impl WorkerService for WorkerApi {
         Ok(Response::new(v1::ReleaseBatchResponse {}))
     }
 
-    async fn fail_batch(&self, request: Request<v1::FailBatchRequest>) -> Result<Response<v1::FailBatchResponse>, Status> {
+    async fn fail_batch(
+        &self,
+        request: Request<v1::FailBatchRequest>,
+    ) -> Result<Response<v1::FailBatchResponse>, Status> {
         let request = request.into_inner();
         if request.epoch != self.epoch {
             return Ok(Response::new(v1::FailBatchResponse {}));
@@ -276,13 +358,17 @@ impl WorkerService for WorkerApi {
         // itself. If they are fine, the worker is at fault (say, an older version) and the
         // batch goes to another worker.
         let check = tokio::task::spawn_blocking(move || {
-            sim_core::batch::BatchEvaluator::new(shared.template.clone(), shared.task.clone()).map(|_| ()).map_err(|e| e.to_string())
+            sim_core::batch::BatchEvaluator::new(shared.template.clone(), shared.task.clone())
+                .map(|_| ())
+                .map_err(|e| e.to_string())
         })
         .await
         .unwrap_or_else(|e| Err(e.to_string()));
         match check {
             Ok(()) => {
-                self.counters.disputed_failures.fetch_add(1, Ordering::Relaxed);
+                self.counters
+                    .disputed_failures
+                    .fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(worker = %request.worker, message = %request.message, "a worker could not evaluate a batch the master can; re-queued");
                 self.dispatcher.release(request.lease_id);
             }

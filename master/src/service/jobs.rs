@@ -63,7 +63,10 @@ pub enum JobError {
 }
 
 fn invalid(field: &str, message: impl Into<String>) -> JobError {
-    JobError::Invalid { field: field.to_string(), message: message.into() }
+    JobError::Invalid {
+        field: field.to_string(),
+        message: message.into(),
+    }
 }
 
 /// A submission, as received.
@@ -108,17 +111,23 @@ pub struct JobManager {
 
 impl std::fmt::Debug for JobManager {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("JobManager").field("state_dir", &self.inner.state_dir).finish_non_exhaustive()
+        f.debug_struct("JobManager")
+            .field("state_dir", &self.inner.state_dir)
+            .finish_non_exhaustive()
     }
 }
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
     // Every update replaces whole values, so a poisoned map is still consistent.
-    mutex.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    mutex
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 fn now_ms() -> i64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
 }
 
 /// The output directory of a job.
@@ -129,9 +138,21 @@ pub fn job_out_dir(state_dir: &Path, id: &str) -> PathBuf {
 impl JobManager {
     /// Opens the manager on a store and resumes every unfinished job. Must run inside a tokio
     /// runtime.
-    pub fn start(store: JobStore, dispatcher: Arc<Dispatcher>, state_dir: PathBuf) -> Result<JobManager, JobError> {
-        let records: BTreeMap<String, JobRecord> = store.list()?.into_iter().map(|r| (r.id.clone(), r)).collect();
-        let unfinished: Vec<String> = records.values().filter(|r| !r.state.is_final()).map(|r| r.id.clone()).collect();
+    pub fn start(
+        store: JobStore,
+        dispatcher: Arc<Dispatcher>,
+        state_dir: PathBuf,
+    ) -> Result<JobManager, JobError> {
+        let records: BTreeMap<String, JobRecord> = store
+            .list()?
+            .into_iter()
+            .map(|r| (r.id.clone(), r))
+            .collect();
+        let unfinished: Vec<String> = records
+            .values()
+            .filter(|r| !r.state.is_final())
+            .map(|r| r.id.clone())
+            .collect();
         let manager = JobManager {
             inner: Arc::new(Inner {
                 store,
@@ -183,7 +204,10 @@ impl JobManager {
     /// A job's record.
     pub fn get(&self, id: &str) -> Result<JobRecord, JobError> {
         check_id(id)?;
-        lock(&self.inner.records).get(id).cloned().ok_or_else(|| JobError::NotFound(id.to_string()))
+        lock(&self.inner.records)
+            .get(id)
+            .cloned()
+            .ok_or_else(|| JobError::NotFound(id.to_string()))
     }
 
     /// Every job, newest first.
@@ -208,7 +232,9 @@ impl JobManager {
         }
         let record = self.finish(id, JobState::Cancelled, None)?;
         // Stop the driver before dropping the job's batches, so it cannot queue new ones after.
-        let task = lock(&self.inner.live).get_mut(id).and_then(|live| live.task.take());
+        let task = lock(&self.inner.live)
+            .get_mut(id)
+            .and_then(|live| live.task.take());
         if let Some(task) = task {
             task.abort();
             let _ = task.await;
@@ -219,14 +245,24 @@ impl JobManager {
     }
 
     /// Subscribes to a job's events (before reading its status, so nothing is missed).
-    pub fn subscribe(&self, id: &str) -> Result<(broadcast::Receiver<v1::JobEvent>, watch::Receiver<bool>), JobError> {
+    pub fn subscribe(
+        &self,
+        id: &str,
+    ) -> Result<(broadcast::Receiver<v1::JobEvent>, watch::Receiver<bool>), JobError> {
         self.get(id)?;
         let receiver = self.sender(id).subscribe();
         Ok((receiver, self.inner.stopping.subscribe()))
     }
 
     fn sender(&self, id: &str) -> broadcast::Sender<v1::JobEvent> {
-        lock(&self.inner.live).entry(id.to_string()).or_insert_with(|| Live { events: broadcast::channel(256).0, task: None }).events.clone()
+        lock(&self.inner.live)
+            .entry(id.to_string())
+            .or_insert_with(|| Live {
+                events: broadcast::channel(256).0,
+                task: None,
+            })
+            .events
+            .clone()
     }
 
     /// Stops every job where it is (their state stays running, so the next start resumes
@@ -237,10 +273,17 @@ impl JobManager {
     }
 
     /// Sets a final state (unless the job already has one), durably, and tells watchers.
-    fn finish(&self, id: &str, state: JobState, error: Option<String>) -> Result<JobRecord, JobError> {
+    fn finish(
+        &self,
+        id: &str,
+        state: JobState,
+        error: Option<String>,
+    ) -> Result<JobRecord, JobError> {
         let record = {
             let mut records = lock(&self.inner.records);
-            let record = records.get_mut(id).ok_or_else(|| JobError::NotFound(id.to_string()))?;
+            let record = records
+                .get_mut(id)
+                .ok_or_else(|| JobError::NotFound(id.to_string()))?;
             if record.state.is_final() {
                 return Ok(record.clone());
             }
@@ -256,7 +299,9 @@ impl JobManager {
 
     fn set_running(&self, id: &str) -> Result<Option<JobRecord>, JobError> {
         let mut records = lock(&self.inner.records);
-        let Some(record) = records.get_mut(id) else { return Ok(None) };
+        let Some(record) = records.get_mut(id) else {
+            return Ok(None);
+        };
         if record.state.is_final() {
             return Ok(None);
         }
@@ -272,7 +317,13 @@ impl JobManager {
         let events = self.sender(&id);
         let job = id.clone();
         let task = tokio::spawn(async move { manager.drive(job).await });
-        lock(&self.inner.live).insert(id, Live { events, task: Some(task) });
+        lock(&self.inner.live).insert(
+            id,
+            Live {
+                events,
+                task: Some(task),
+            },
+        );
     }
 
     async fn drive(&self, id: String) {
@@ -285,13 +336,14 @@ impl JobManager {
             }
         };
         let _ = self.sender(&id).send(status_event(&record));
-        let experiment = match Experiment::parse(&record.experiment_toml, Path::new(&record.file_name)) {
-            Ok(experiment) => experiment,
-            Err(error) => {
-                let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
-                return;
-            }
-        };
+        let experiment =
+            match Experiment::parse(&record.experiment_toml, Path::new(&record.file_name)) {
+                Ok(experiment) => experiment,
+                Err(error) => {
+                    let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
+                    return;
+                }
+            };
         let settings = RunSettings {
             out_dir: job_out_dir(&self.inner.state_dir, &id),
             node: record.settings.node.clone(),
@@ -302,7 +354,8 @@ impl JobManager {
         };
         let progress = JobProgress::new(self.clone(), &record);
         tracing::info!(job = %id, "job started");
-        let outcome = runner::run_experiment(&experiment, &settings, &self.inner.dispatcher, &progress).await;
+        let outcome =
+            runner::run_experiment(&experiment, &settings, &self.inner.dispatcher, &progress).await;
         let result = match outcome {
             Ok(_) => {
                 tracing::info!(job = %id, "job succeeded");
@@ -310,7 +363,9 @@ impl JobManager {
             }
             // Stopping with the master: the job stays running and resumes on the next start.
             Err(RunError::Dispatch(DispatchError::ShuttingDown)) => return,
-            Err(RunError::Dispatch(DispatchError::Cancelled(_))) => self.finish(&id, JobState::Cancelled, None),
+            Err(RunError::Dispatch(DispatchError::Cancelled(_))) => {
+                self.finish(&id, JobState::Cancelled, None)
+            }
             Err(error) => {
                 tracing::warn!(job = %id, %error, "job failed");
                 self.finish(&id, JobState::Failed, Some(error.to_string()))
@@ -321,7 +376,12 @@ impl JobManager {
         }
     }
 
-    fn record_progress(&self, id: &str, event: &ProgressEvent, done: Option<u64>) -> Option<v1::JobEvent> {
+    fn record_progress(
+        &self,
+        id: &str,
+        event: &ProgressEvent,
+        done: Option<u64>,
+    ) -> Option<v1::JobEvent> {
         let mut records = lock(&self.inner.records);
         let record = records.get_mut(id)?;
         if let Some(done) = done {
@@ -332,7 +392,12 @@ impl JobManager {
         if let Err(error) = self.inner.store.put(record, false) {
             tracing::warn!(job = %id, %error, "cannot store progress");
         }
-        Some(event_to_proto(id, event, record.generations_done, record.generations_total()))
+        Some(event_to_proto(
+            id,
+            event,
+            record.generations_done,
+            record.generations_total(),
+        ))
     }
 
     /// The job's finished nodes and, with `files`, its result files.
@@ -340,7 +405,9 @@ impl JobManager {
         let record = self.get(id)?;
         let out_dir = job_out_dir(&self.inner.state_dir, id);
         let mut results = JobResults::default();
-        let read = |path: &Path| std::fs::read(path).map_err(|e| JobError::Io(format!("{}: {e}", path.display())));
+        let read = |path: &Path| {
+            std::fs::read(path).map_err(|e| JobError::Io(format!("{}: {e}", path.display())))
+        };
         for (node, _, _) in &record.plan {
             let node_dir = out_dir.join(node);
             let summary_path = node_dir.join("summary.json");
@@ -370,7 +437,9 @@ impl JobManager {
                     .filter_map(Result::ok)
                     .filter_map(|e| {
                         let name = e.file_name().to_string_lossy().into_owned();
-                        name.strip_prefix("run-").and_then(|k| k.parse().ok()).map(|k| (k, e.path()))
+                        name.strip_prefix("run-")
+                            .and_then(|k| k.parse().ok())
+                            .map(|k| (k, e.path()))
                     })
                     .collect(),
                 Err(_) => Vec::new(),
@@ -380,7 +449,9 @@ impl JobManager {
                 for name in ["fitness.csv", "best.json", "summary.json"] {
                     let path = run_dir.join(name);
                     if path.is_file() {
-                        results.files.push((format!("{node}/run-{run}/{name}"), read(&path)?));
+                        results
+                            .files
+                            .push((format!("{node}/run-{run}/{name}"), read(&path)?));
                     }
                 }
             }
@@ -391,7 +462,10 @@ impl JobManager {
 
 fn check_id(id: &str) -> Result<(), JobError> {
     if id.is_empty() || id.len() > limits::JOB_ID_CHARS {
-        return Err(invalid("job_id", format!("must be 1 to {} characters", limits::JOB_ID_CHARS)));
+        return Err(invalid(
+            "job_id",
+            format!("must be 1 to {} characters", limits::JOB_ID_CHARS),
+        ));
     }
     Ok(())
 }
@@ -399,54 +473,113 @@ fn check_id(id: &str) -> Result<(), JobError> {
 /// Checks every field of a submission; on success, the parsed experiment, the plan (node,
 /// runs, generations in run order) and the file name to use.
 #[allow(clippy::type_complexity)]
-pub fn validate(submission: &Submission) -> Result<(Experiment, Vec<(String, u32, u32)>, String), JobError> {
-    let file_name = if submission.file_name.is_empty() { "experiment.toml".to_string() } else { submission.file_name.clone() };
-    if file_name.chars().count() > limits::FILE_NAME_CHARS || file_name.chars().any(char::is_control) {
-        return Err(invalid("file_name", format!("must be at most {} characters without control characters", limits::FILE_NAME_CHARS)));
+pub fn validate(
+    submission: &Submission,
+) -> Result<(Experiment, Vec<(String, u32, u32)>, String), JobError> {
+    let file_name = if submission.file_name.is_empty() {
+        "experiment.toml".to_string()
+    } else {
+        submission.file_name.clone()
+    };
+    if file_name.chars().count() > limits::FILE_NAME_CHARS
+        || file_name.chars().any(char::is_control)
+    {
+        return Err(invalid(
+            "file_name",
+            format!(
+                "must be at most {} characters without control characters",
+                limits::FILE_NAME_CHARS
+            ),
+        ));
     }
     let text = &submission.experiment_toml;
     if text.trim().is_empty() {
         return Err(invalid("experiment_toml", "is empty"));
     }
     if text.len() > limits::EXPERIMENT_BYTES {
-        return Err(invalid("experiment_toml", format!("is {} bytes, at most {} are accepted", text.len(), limits::EXPERIMENT_BYTES)));
+        return Err(invalid(
+            "experiment_toml",
+            format!(
+                "is {} bytes, at most {} are accepted",
+                text.len(),
+                limits::EXPERIMENT_BYTES
+            ),
+        ));
     }
-    let experiment = Experiment::parse(text, Path::new(&file_name)).map_err(|e| invalid("experiment_toml", e.to_string()))?;
+    let experiment = Experiment::parse(text, Path::new(&file_name))
+        .map_err(|e| invalid("experiment_toml", e.to_string()))?;
     let settings = &submission.settings;
     if let Some(runs) = settings.runs
         && !(1..=limits::RUNS).contains(&runs)
     {
-        return Err(invalid("runs", format!("must be between 1 and {}, got {runs}", limits::RUNS)));
+        return Err(invalid(
+            "runs",
+            format!("must be between 1 and {}, got {runs}", limits::RUNS),
+        ));
     }
     if let Some(generations) = settings.generations
         && !(1..=limits::GENERATIONS).contains(&generations)
     {
-        return Err(invalid("generations", format!("must be between 1 and {}, got {generations}", limits::GENERATIONS)));
+        return Err(invalid(
+            "generations",
+            format!(
+                "must be between 1 and {}, got {generations}",
+                limits::GENERATIONS
+            ),
+        ));
     }
     let names: Vec<String> = match &settings.node {
         Some(node) => {
             if experiment.node(node).is_none() {
-                let known: Vec<&str> = experiment.nodes.iter().map(|n| n.decl.name.as_str()).collect();
-                return Err(invalid("node", format!("no node named '{node}' in {file_name}; nodes: {}", known.join(", "))));
+                let known: Vec<&str> = experiment
+                    .nodes
+                    .iter()
+                    .map(|n| n.decl.name.as_str())
+                    .collect();
+                return Err(invalid(
+                    "node",
+                    format!(
+                        "no node named '{node}' in {file_name}; nodes: {}",
+                        known.join(", ")
+                    ),
+                ));
             }
             experiment.subtree(node)
         }
-        None => experiment.nodes.iter().map(|n| n.decl.name.clone()).collect(),
+        None => experiment
+            .nodes
+            .iter()
+            .map(|n| n.decl.name.clone())
+            .collect(),
     };
     let mut plan = Vec::new();
     for name in names {
-        let node = experiment.node(&name).expect("names come from the experiment");
+        let node = experiment
+            .node(&name)
+            .expect("names come from the experiment");
         let runs = settings.runs.unwrap_or(node.decl.runs);
         let generations = settings.generations.unwrap_or(node.decl.generations);
         if runs > limits::RUNS || generations > limits::GENERATIONS {
-            return Err(invalid("experiment_toml", format!("node '{name}': at most {} runs of {} generations on a service", limits::RUNS, limits::GENERATIONS)));
+            return Err(invalid(
+                "experiment_toml",
+                format!(
+                    "node '{name}': at most {} runs of {} generations on a service",
+                    limits::RUNS,
+                    limits::GENERATIONS
+                ),
+            ));
         }
         let per_generation = u64::from(node.evolution.population) * u64::from(node.decl.samples);
-        let post = u64::from(node.evolution.post_evaluation_samples) * u64::from(sim_core::env::n_variants(node.task.kind));
+        let post = u64::from(node.evolution.post_evaluation_samples)
+            * u64::from(sim_core::env::n_variants(node.task.kind));
         if per_generation.max(post) > limits::EVALUATIONS_PER_GENERATION {
             return Err(invalid(
                 "experiment_toml",
-                format!("node '{name}': {} evaluations in one generation, at most {} on a service", per_generation.max(post), limits::EVALUATIONS_PER_GENERATION),
+                format!(
+                    "node '{name}': {} evaluations in one generation, at most {} on a service",
+                    per_generation.max(post),
+                    limits::EVALUATIONS_PER_GENERATION
+                ),
             ));
         }
         plan.push((name, runs, generations));
@@ -471,7 +604,11 @@ impl JobProgress {
             offsets.insert(node.clone(), (before, *generations));
             before += u64::from(*runs) * u64::from(*generations);
         }
-        JobProgress { manager, id: record.id.clone(), offsets }
+        JobProgress {
+            manager,
+            id: record.id.clone(),
+            offsets,
+        }
     }
 }
 
@@ -480,9 +617,14 @@ impl Progress for JobProgress {
         // Progress is a position, not a count: a resumed run that repeats a generation does not
         // count it twice.
         let done = match event {
-            ProgressEvent::Generation { node, run, generation, .. } => {
-                self.offsets.get(node).map(|(before, per_run)| before + u64::from(*run) * u64::from(*per_run) + u64::from(*generation) + 1)
-            }
+            ProgressEvent::Generation {
+                node,
+                run,
+                generation,
+                ..
+            } => self.offsets.get(node).map(|(before, per_run)| {
+                before + u64::from(*run) * u64::from(*per_run) + u64::from(*generation) + 1
+            }),
             _ => None,
         };
         if let ProgressEvent::Note { message } = event {

@@ -61,7 +61,14 @@ pub struct LoadReport {
 }
 
 fn template() -> (ControllerFile, TaskConfig) {
-    let template = ControllerFile::new(NodeSpec { name: "p".into(), kind: NodeKind::Primitive, inputs: vec![InputGroup::Ir], hidden: 3, genome: None, children: vec![] });
+    let template = ControllerFile::new(NodeSpec {
+        name: "p".into(),
+        kind: NodeKind::Primitive,
+        inputs: vec![InputGroup::Ir],
+        hidden: 3,
+        genome: None,
+        children: vec![],
+    });
     (template, TaskConfig::new(TaskKind::FollowWall))
 }
 
@@ -69,9 +76,14 @@ fn template() -> (ControllerFile, TaskConfig) {
 pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     let token = "dispatch-load-benchmark";
     let lease = Duration::from_secs(30);
-    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { lease_timeout: lease, ..DispatchConfig::default() }));
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+        lease_timeout: lease,
+        ..DispatchConfig::default()
+    }));
     let api = WorkerApi::new(dispatcher.clone(), lease, MAX_LEASE_WAIT);
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| e.to_string())?;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .map_err(|e| e.to_string())?;
     let address = listener.local_addr().map_err(|e| e.to_string())?;
     let (stop, stopped) = tokio::sync::watch::channel(false);
     let server = {
@@ -86,7 +98,12 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     };
 
     let (template, task) = template();
-    let shared = Arc::new(RequestShared { template_hash: template.content_hash(), task_hash: task_content_hash(&task), template, task });
+    let shared = Arc::new(RequestShared {
+        template_hash: template.content_hash(),
+        task_hash: task_content_hash(&task),
+        template,
+        task,
+    });
     let warm_up = Duration::from_secs(1);
     let started = Instant::now();
     let measure_from = started + warm_up;
@@ -104,7 +121,9 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
                         job: format!("load-{job}"),
                         shared: shared.clone(),
                         genomes: (0..genomes).map(|g| Arc::from(vec![g as f32; 3])).collect(),
-                        samples: (0..samples).map(|s| Sample::seeded(generation * 1_000 + s as u64)).collect(),
+                        samples: (0..samples)
+                            .map(|s| Sample::seeded(generation * 1_000 + s as u64))
+                            .collect(),
                     };
                     if dispatcher.evaluate(request).await.is_err() {
                         break;
@@ -115,12 +134,18 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
         })
         .collect();
 
-    let options = ClientOptions { url: format!("http://{address}"), token: Some(token.into()), tls_ca: None };
+    let options = ClientOptions {
+        url: format!("http://{address}"),
+        token: Some(token.into()),
+        tls_ca: None,
+    };
     let workers: Vec<_> = (0..config.workers.max(1))
         .map(|w| {
             let options = options.clone();
             let cost = config.batch_cost;
-            tokio::spawn(async move { fake_worker(options, format!("fake-{w}"), cost, measure_from, end).await })
+            tokio::spawn(async move {
+                fake_worker(options, format!("fake-{w}"), cost, measure_from, end).await
+            })
         })
         .collect();
 
@@ -150,10 +175,19 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     let _ = stop.send(true);
     let _ = server.await;
     if let Some(error) = failures.first() {
-        return Err(format!("{} of {} fake workers failed; first: {error}", failures.len(), config.workers));
+        return Err(format!(
+            "{} of {} fake workers failed; first: {error}",
+            failures.len(),
+            config.workers
+        ));
     }
     latencies.sort_by(f64::total_cmp);
-    let percentile = |p: f64| latencies.get(((latencies.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(0.0);
+    let percentile = |p: f64| {
+        latencies
+            .get(((latencies.len() as f64 - 1.0) * p).round() as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
     let batches = after.batches_completed - before.batches_completed;
     Ok(LoadReport {
         workers: config.workers,
@@ -162,7 +196,12 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
         batches,
         batches_per_second: batches as f64 / measured,
         evaluations_per_second: (after.evaluations - before.evaluations) as f64 / measured,
-        lease_latency_ms: [percentile(0.5), percentile(0.9), percentile(0.99), percentile(1.0)],
+        lease_latency_ms: [
+            percentile(0.5),
+            percentile(0.9),
+            percentile(0.99),
+            percentile(1.0),
+        ],
         leases: latencies.len(),
         ideal_batches_per_second: config.workers as f64 / config.batch_cost.as_secs_f64().max(1e-9),
     })
@@ -170,20 +209,49 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
 
 /// Leases, sleeps `cost`, returns constant results; records lease latencies (ms) inside the
 /// measurement window.
-async fn fake_worker(options: ClientOptions, name: String, cost: Duration, measure_from: Instant, end: Instant) -> Result<Vec<f64>, String> {
+async fn fake_worker(
+    options: ClientOptions,
+    name: String,
+    cost: Duration,
+    measure_from: Instant,
+    end: Instant,
+) -> Result<Vec<f64>, String> {
     let mut client = worker_client(options.connect().await?);
     let mut latencies = Vec::new();
     while Instant::now() < end {
         let asked = Instant::now();
-        let request = v1::LeaseBatchRequest { worker: name.clone(), threads: 1, wait_ms: 1_000, cached: Vec::new() };
-        let response = client.lease_batch(request).await.map_err(|s| hevo_proto::client::describe_status(&s))?;
-        let Some(batch) = response.into_inner().batch else { continue };
+        let request = v1::LeaseBatchRequest {
+            worker: name.clone(),
+            threads: 1,
+            wait_ms: 1_000,
+            cached: Vec::new(),
+        };
+        let response = client
+            .lease_batch(request)
+            .await
+            .map_err(|s| hevo_proto::client::describe_status(&s))?;
+        let Some(batch) = response.into_inner().batch else {
+            continue;
+        };
         if asked >= measure_from {
             latencies.push(asked.elapsed().as_secs_f64() * 1e3);
         }
         tokio::time::sleep(cost).await;
-        let result = v1::SampleResult { fitness: 0.5, solved: false, collided: false, stage: 0, variant: 0, cycles: 100 };
-        let genomes = batch.genomes.iter().map(|_| v1::GenomeResult { samples: vec![result; batch.samples.len()] }).collect();
+        let result = v1::SampleResult {
+            fitness: 0.5,
+            solved: false,
+            collided: false,
+            stage: 0,
+            variant: 0,
+            cycles: 100,
+        };
+        let genomes = batch
+            .genomes
+            .iter()
+            .map(|_| v1::GenomeResult {
+                samples: vec![result; batch.samples.len()],
+            })
+            .collect();
         let request = v1::CompleteBatchRequest {
             epoch: batch.epoch,
             lease_id: batch.lease_id,
@@ -192,7 +260,10 @@ async fn fake_worker(options: ClientOptions, name: String, cost: Duration, measu
             genomes,
             elapsed_ms: cost.as_millis() as u64,
         };
-        client.complete_batch(request).await.map_err(|s| hevo_proto::client::describe_status(&s))?;
+        client
+            .complete_batch(request)
+            .await
+            .map_err(|s| hevo_proto::client::describe_status(&s))?;
     }
     Ok(latencies)
 }
@@ -203,8 +274,20 @@ mod tests {
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_short_load_run_moves_batches() {
-        let report = run(LoadConfig { workers: 8, seconds: 0.5, batch_cost: Duration::from_millis(2), jobs: 2, genomes: 40, samples: 2 }).await.unwrap();
+        let report = run(LoadConfig {
+            workers: 8,
+            seconds: 0.5,
+            batch_cost: Duration::from_millis(2),
+            jobs: 2,
+            genomes: 40,
+            samples: 2,
+        })
+        .await
+        .unwrap();
         assert!(report.batches > 0, "{report:?}");
-        assert!(report.leases > 0 && report.lease_latency_ms[0] > 0.0, "{report:?}");
+        assert!(
+            report.leases > 0 && report.lease_latency_ms[0] > 0.0,
+            "{report:?}"
+        );
     }
 }

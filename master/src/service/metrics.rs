@@ -35,8 +35,17 @@ impl std::fmt::Debug for Metrics {
 
 impl Metrics {
     /// Metrics of a dispatcher, its worker service and (for a master) its jobs.
-    pub fn new(dispatcher: Arc<Dispatcher>, jobs: Option<JobManager>, counters: Arc<WorkerCounters>) -> Metrics {
-        Metrics { dispatcher, jobs, counters, samples: Arc::default() }
+    pub fn new(
+        dispatcher: Arc<Dispatcher>,
+        jobs: Option<JobManager>,
+        counters: Arc<WorkerCounters>,
+    ) -> Metrics {
+        Metrics {
+            dispatcher,
+            jobs,
+            counters,
+            samples: Arc::default(),
+        }
     }
 
     /// Samples the counters for the rates, forever (spawn it).
@@ -58,7 +67,10 @@ impl Metrics {
         match (samples.front(), samples.back()) {
             (Some(first), Some(last)) if last.0 > first.0 => {
                 let seconds = last.0.duration_since(first.0).as_secs_f64();
-                ((last.1 - first.1) as f64 / seconds, (last.2 - first.2) as f64 / seconds)
+                (
+                    (last.1 - first.1) as f64 / seconds,
+                    (last.2 - first.2) as f64 / seconds,
+                )
             }
             _ => (0.0, 0.0),
         }
@@ -70,26 +82,105 @@ impl Metrics {
         let (evaluations_rate, cycles_rate) = self.rates();
         let mut out = String::new();
         let mut metric = |name: &str, kind: &str, help: &str, value: String| {
-            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {value}");
+            let _ = writeln!(
+                out,
+                "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {value}"
+            );
         };
-        metric("hevo_workers_connected", "gauge", "Workers that asked for work or sent a heartbeat recently.", stats.active_workers.to_string());
-        metric("hevo_worker_threads", "gauge", "Evaluation threads of the connected workers.", stats.active_threads.to_string());
-        metric("hevo_batches_queued", "gauge", "Batches waiting for a worker.", stats.queued_batches.to_string());
-        metric("hevo_batches_leased", "gauge", "Batches out on lease.", stats.leased_batches.to_string());
-        metric("hevo_batches_completed_total", "counter", "Batches whose results were accepted.", stats.batches_completed.to_string());
-        metric("hevo_evaluations_total", "counter", "(genome, sample) evaluations accepted.", stats.evaluations.to_string());
-        metric("hevo_cycles_total", "counter", "Simulated control cycles accepted.", stats.cycles.to_string());
-        metric("hevo_evaluations_per_second", "gauge", "Evaluations accepted per second, recent window.", format!("{evaluations_rate:.1}"));
-        metric("hevo_cycles_per_second", "gauge", "Simulated control cycles per second, recent window.", format!("{cycles_rate:.1}"));
-        metric("hevo_lease_expiries_total", "counter", "Leases that ran out and were re-queued.", stats.lease_expiries.to_string());
-        let refused = stats.malformed_results + self.counters.refused_results.load(Ordering::Relaxed);
-        metric("hevo_results_refused_total", "counter", "Results refused as malformed (batch re-queued).", refused.to_string());
-        metric("hevo_results_duplicate_total", "counter", "Late duplicate results ignored.", stats.duplicates_ignored.to_string());
-        metric("hevo_results_stale_total", "counter", "Results for leases of an earlier master process, ignored.", self.counters.stale_results.load(Ordering::Relaxed).to_string());
+        metric(
+            "hevo_workers_connected",
+            "gauge",
+            "Workers that asked for work or sent a heartbeat recently.",
+            stats.active_workers.to_string(),
+        );
+        metric(
+            "hevo_worker_threads",
+            "gauge",
+            "Evaluation threads of the connected workers.",
+            stats.active_threads.to_string(),
+        );
+        metric(
+            "hevo_batches_queued",
+            "gauge",
+            "Batches waiting for a worker.",
+            stats.queued_batches.to_string(),
+        );
+        metric(
+            "hevo_batches_leased",
+            "gauge",
+            "Batches out on lease.",
+            stats.leased_batches.to_string(),
+        );
+        metric(
+            "hevo_batches_completed_total",
+            "counter",
+            "Batches whose results were accepted.",
+            stats.batches_completed.to_string(),
+        );
+        metric(
+            "hevo_evaluations_total",
+            "counter",
+            "(genome, sample) evaluations accepted.",
+            stats.evaluations.to_string(),
+        );
+        metric(
+            "hevo_cycles_total",
+            "counter",
+            "Simulated control cycles accepted.",
+            stats.cycles.to_string(),
+        );
+        metric(
+            "hevo_evaluations_per_second",
+            "gauge",
+            "Evaluations accepted per second, recent window.",
+            format!("{evaluations_rate:.1}"),
+        );
+        metric(
+            "hevo_cycles_per_second",
+            "gauge",
+            "Simulated control cycles per second, recent window.",
+            format!("{cycles_rate:.1}"),
+        );
+        metric(
+            "hevo_lease_expiries_total",
+            "counter",
+            "Leases that ran out and were re-queued.",
+            stats.lease_expiries.to_string(),
+        );
+        let refused =
+            stats.malformed_results + self.counters.refused_results.load(Ordering::Relaxed);
+        metric(
+            "hevo_results_refused_total",
+            "counter",
+            "Results refused as malformed (batch re-queued).",
+            refused.to_string(),
+        );
+        metric(
+            "hevo_results_duplicate_total",
+            "counter",
+            "Late duplicate results ignored.",
+            stats.duplicates_ignored.to_string(),
+        );
+        metric(
+            "hevo_results_stale_total",
+            "counter",
+            "Results for leases of an earlier master process, ignored.",
+            self.counters
+                .stale_results
+                .load(Ordering::Relaxed)
+                .to_string(),
+        );
         if let Some(jobs) = &self.jobs {
-            let _ = writeln!(out, "# HELP hevo_jobs Jobs by state.\n# TYPE hevo_jobs gauge");
+            let _ = writeln!(
+                out,
+                "# HELP hevo_jobs Jobs by state.\n# TYPE hevo_jobs gauge"
+            );
             for (state, count) in jobs.counts() {
-                let _ = writeln!(out, "hevo_jobs{{state=\"{}\"}} {count}", JobState::name(state));
+                let _ = writeln!(
+                    out,
+                    "hevo_jobs{{state=\"{}\"}} {count}",
+                    JobState::name(state)
+                );
             }
         }
         out
@@ -97,14 +188,28 @@ impl Metrics {
 }
 
 /// Serves `GET /metrics` until `shutdown` resolves.
-pub async fn serve(listener: tokio::net::TcpListener, metrics: Metrics, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> std::io::Result<()> {
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    metrics: Metrics,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
     use axum::routing::get;
     let router = axum::Router::new().route(
         "/metrics",
         get(move || {
             let metrics = metrics.clone();
-            async move { ([(axum::http::header::CONTENT_TYPE, "text/plain; version=0.0.4")], metrics.render()) }
+            async move {
+                (
+                    [(
+                        axum::http::header::CONTENT_TYPE,
+                        "text/plain; version=0.0.4",
+                    )],
+                    metrics.render(),
+                )
+            }
         }),
     );
-    axum::serve(listener, router).with_graceful_shutdown(shutdown).await
+    axum::serve(listener, router)
+        .with_graceful_shutdown(shutdown)
+        .await
 }

@@ -53,7 +53,10 @@ pub struct ServeConfig {
 pub const MAX_LEASE_WAIT: Duration = Duration::from_secs(20);
 
 /// The worker service and its dispatcher, with hevo's limits (also used by the load benchmark).
-pub fn worker_service(api: grpc::WorkerApi, auth: ServerAuth) -> InterceptedService<WorkerServiceServer<grpc::WorkerApi>, ServerAuth> {
+pub fn worker_service(
+    api: grpc::WorkerApi,
+    auth: ServerAuth,
+) -> InterceptedService<WorkerServiceServer<grpc::WorkerApi>, ServerAuth> {
     let server = WorkerServiceServer::new(api)
         .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
         .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES);
@@ -62,7 +65,9 @@ pub fn worker_service(api: grpc::WorkerApi, auth: ServerAuth) -> InterceptedServ
 
 /// Accepted connections with Nagle's algorithm off: leases and results are small messages
 /// whose latency matters more than packet count.
-pub fn incoming(listener: tokio::net::TcpListener) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
+pub fn incoming(
+    listener: tokio::net::TcpListener,
+) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
     tokio_stream::wrappers::TcpListenerStream::new(listener).map(|stream| {
         if let Ok(stream) = &stream {
             let _ = stream.set_nodelay(true);
@@ -76,29 +81,46 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     let auth = match (&config.token, config.insecure_no_token) {
         (Some(token), _) => ServerAuth::new(token),
         (None, true) => {
-            tracing::warn!("running without a token: anyone who can reach the port can submit jobs and act as a worker");
+            tracing::warn!(
+                "running without a token: anyone who can reach the port can submit jobs and act as a worker"
+            );
             ServerAuth::open()
         }
-        (None, false) => bail!("no token: pass --token, --token-file or HEVO_TOKEN (or --insecure-no-token on a trusted network)"),
+        (None, false) => bail!(
+            "no token: pass --token, --token-file or HEVO_TOKEN (or --insecure-no-token on a trusted network)"
+        ),
     };
     if config.lease < Duration::from_secs(1) {
         bail!("--lease-seconds must be at least 1");
     }
-    std::fs::create_dir_all(&config.state_dir).with_context(|| format!("cannot create the state directory {}", config.state_dir.display()))?;
+    std::fs::create_dir_all(&config.state_dir).with_context(|| {
+        format!(
+            "cannot create the state directory {}",
+            config.state_dir.display()
+        )
+    })?;
     let store = db::JobStore::open(&config.state_dir.join("hevo.redb"))?;
     let tls = match &config.tls {
         Some((cert, key)) => {
-            let cert = std::fs::read(cert).with_context(|| format!("cannot read the TLS certificate {}", cert.display()))?;
-            let key = std::fs::read(key).with_context(|| format!("cannot read the TLS key {}", key.display()))?;
+            let cert = std::fs::read(cert)
+                .with_context(|| format!("cannot read the TLS certificate {}", cert.display()))?;
+            let key = std::fs::read(key)
+                .with_context(|| format!("cannot read the TLS key {}", key.display()))?;
             Some(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
         }
         None => None,
     };
 
-    let listener = tokio::net::TcpListener::bind(&config.listen).await.with_context(|| format!("cannot listen on {}", config.listen))?;
+    let listener = tokio::net::TcpListener::bind(&config.listen)
+        .await
+        .with_context(|| format!("cannot listen on {}", config.listen))?;
     let address = listener.local_addr()?;
     let metrics_listener = match &config.metrics_listen {
-        Some(listen) => Some(tokio::net::TcpListener::bind(listen).await.with_context(|| format!("cannot listen on {listen} for metrics"))?),
+        Some(listen) => Some(
+            tokio::net::TcpListener::bind(listen)
+                .await
+                .with_context(|| format!("cannot listen on {listen} for metrics"))?,
+        ),
         None => None,
     };
     // The first lines on stdout tell scripts (and tests binding port 0) where we are.
@@ -111,15 +133,24 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         stdout.flush()?;
     }
 
-    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { lease_timeout: config.lease, ..DispatchConfig::default() }));
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+        lease_timeout: config.lease,
+        ..DispatchConfig::default()
+    }));
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
     let worker_api = grpc::WorkerApi::new(dispatcher.clone(), config.lease, MAX_LEASE_WAIT);
-    let metrics = metrics::Metrics::new(dispatcher.clone(), Some(manager.clone()), worker_api.counters());
+    let metrics = metrics::Metrics::new(
+        dispatcher.clone(),
+        Some(manager.clone()),
+        worker_api.counters(),
+    );
     tokio::spawn(metrics.clone().sample_rates());
 
     let (health_reporter, health_service) = tonic_health::server::health_reporter();
     for name in ["", hevo_proto::JOB_SERVICE, hevo_proto::WORKER_SERVICE] {
-        health_reporter.set_service_status(name, tonic_health::ServingStatus::Serving).await;
+        health_reporter
+            .set_service_status(name, tonic_health::ServingStatus::Serving)
+            .await;
     }
     let reflection_v1 = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(hevo_proto::FILE_DESCRIPTOR_SET)
@@ -158,7 +189,9 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         .http2_keepalive_interval(Some(Duration::from_secs(20)))
         .http2_keepalive_timeout(Some(Duration::from_secs(10)));
     if let Some(tls) = tls {
-        builder = builder.tls_config(tls).context("invalid TLS certificate or key")?;
+        builder = builder
+            .tls_config(tls)
+            .context("invalid TLS certificate or key")?;
     }
     let router = builder
         .add_service(health_service)
@@ -176,7 +209,9 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
             tracing::info!("shutting down: unfinished jobs resume on the next start");
             // Ends long polls and watch streams, so the server can drain.
             shutdown_manager.shut_down();
-            health_reporter.set_service_status("", tonic_health::ServingStatus::NotServing).await;
+            health_reporter
+                .set_service_status("", tonic_health::ServingStatus::NotServing)
+                .await;
         }
     };
     let serving = router.serve_with_incoming_shutdown(incoming(listener), shutdown);
@@ -194,7 +229,10 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
 /// Resolves on the first SIGTERM or SIGINT.
 async fn wait_for_signal() {
     use tokio::signal::unix::{SignalKind, signal};
-    match (signal(SignalKind::terminate()), signal(SignalKind::interrupt())) {
+    match (
+        signal(SignalKind::terminate()),
+        signal(SignalKind::interrupt()),
+    ) {
         (Ok(mut term), Ok(mut int)) => {
             tokio::select! {
                 _ = term.recv() => {}

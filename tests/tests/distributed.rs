@@ -1,0 +1,750 @@
+//! The distributed evaluation service end to end, with the real `hevo` and `hevo-worker`
+//! binaries on 127.0.0.1: a job on a master and two workers gives byte for byte the results of
+//! `hevo run` with the same seed; so does a job during which a worker is killed, and one whose
+//! master is killed with SIGKILL and restarted on the same state directory; requests without
+//! the token are refused; a broken experiment file is refused naming the key; TLS with a
+//! private CA works; jobs can be cancelled. The tests that evolve share one local reference
+//! run and take turns, so timings stay realistic on a two-core machine.
+//!
+//! `overhead_benchmark` (ignored; `cargo test --release -p hevo-tests --test distributed --
+//! --ignored --nocapture`) compares evaluations per second of a master with two single-thread
+//! workers against local mode on two threads.
+
+use hevo_tests::{
+    Master, Proc, Scratch, assert_same_results, binaries, hevo, lines_of, start_master,
+    start_worker, wait_for_line,
+};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::time::{Duration, Instant};
+
+const TOKEN: &str = "e2e-secret-token";
+const SEED: &str = "11";
+const LONG: Duration = Duration::from_secs(180);
+
+/// Two nodes: a small primitive and an arbitrator over it, so batches carry a fixed
+/// sub-controller. The arbitrator's samples run their full 1000 cycles (collisions do not end
+/// them), so a generation takes long enough to kill things in the middle of it.
+const EXPERIMENT: &str = r#"
+[experiment]
+name = "e2e"
+seed = 5
+
+[evolution]
+post_evaluation_samples = 20
+
+[[node]]
+name = "fw"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "follow_wall"
+samples = 4
+generations = 3
+runs = 2
+[node.evolution]
+population = 8
+elites = 2
+
+[[node]]
+name = "top"
+kind = "arbitrator"
+inputs = ["ir"]
+hidden = 4
+children = ["fw"]
+task = "exit_room"
+samples = 10
+cycles = 1000
+generations = 8
+runs = 2
+[node.evolution]
+population = 20
+elites = 4
+[node.task_config]
+end_on_collision = false
+"#;
+
+/// The tests that run evolution take turns: two cores are not enough for two masters and four
+/// workers at once, and a crowded machine makes kill timings meaningless.
+fn exclusive() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn write_experiment(dir: &Path) -> PathBuf {
+    let path = dir.join("tree.toml");
+    std::fs::write(&path, EXPERIMENT).unwrap();
+    path
+}
+
+/// `hevo run` of the experiment with the test seed on two threads: what every distributed run
+/// must reproduce. Computed once per test process.
+fn reference() -> &'static Path {
+    static REFERENCE: OnceLock<PathBuf> = OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        // Kept for the whole process: every test compares against it.
+        let scratch = Box::leak(Box::new(Scratch::new("reference")));
+        let file = write_experiment(scratch.path());
+        let out = scratch.join("local");
+        let output = hevo(
+            &[
+                "run",
+                file.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--threads",
+                "2",
+                "--seed",
+                SEED,
+            ],
+            None,
+            LONG,
+        );
+        assert!(
+            output.status.success(),
+            "hevo run failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        out
+    })
+}
+
+fn submit(master: &Master, file: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "submit",
+        "--master",
+        &master.url,
+        file.to_str().unwrap(),
+        "--seed",
+        SEED,
+    ];
+    args.extend_from_slice(extra);
+    let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
+    assert!(
+        output.status.success(),
+        "submit failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let job = String::from_utf8(output.stdout).unwrap().trim().to_string();
+    assert!(
+        job.starts_with("job-") && !job.contains(char::is_whitespace),
+        "submit printed {job:?}"
+    );
+    job
+}
+
+/// `hevo watch` in the background, its stdout lines on a channel.
+fn spawn_watch(
+    master: &Master,
+    job: &str,
+    extra: &[&str],
+) -> (Proc, std::sync::mpsc::Receiver<String>) {
+    let mut proc = Proc::spawn(
+        "hevo watch",
+        Command::new(&binaries().hevo)
+            .args(["watch", "--master", &master.url, job])
+            .args(extra)
+            .env("HEVO_TOKEN", TOKEN)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit()),
+    );
+    let lines = lines_of(proc.child().stdout.take().unwrap());
+    (proc, lines)
+}
+
+fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
+    let mut args = vec!["watch", "--master", &master.url, job];
+    args.extend_from_slice(extra);
+    let output = hevo(&args, Some(TOKEN), LONG);
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(
+        output.status.success(),
+        "watch failed: {}\n{stdout}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.trim_end().ends_with("succeeded (22/22 generations)"),
+        "{stdout}"
+    );
+    stdout
+}
+
+fn fetch(master: &Master, job: &str, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "fetch",
+        "--master",
+        &master.url,
+        job,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
+    assert!(
+        output.status.success(),
+        "fetch failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// A plain HTTP GET (the metrics endpoint), body only.
+fn http_get(address: &str, path: &str) -> String {
+    let mut stream = std::net::TcpStream::connect(address).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    write!(
+        stream,
+        "GET {path} HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    assert!(response.starts_with("HTTP/1.1 200"), "{response}");
+    response
+        .split_once("\r\n\r\n")
+        .map(|(_, body)| body.to_string())
+        .unwrap_or_default()
+}
+
+fn metric(text: &str, name: &str) -> f64 {
+    text.lines()
+        .find_map(|line| {
+            line.strip_prefix(name)
+                .and_then(|rest| rest.strip_prefix(' '))
+        })
+        .and_then(|value| value.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no metric {name} in:\n{text}"))
+}
+
+fn token_args(scratch: &Scratch) -> Vec<String> {
+    let file = scratch.join("token");
+    std::fs::write(&file, format!("{TOKEN}\n")).unwrap();
+    vec!["--token-file".into(), file.to_string_lossy().into_owned()]
+}
+
+fn master_with(scratch: &Scratch, state: &str, extra: &[&str], log: &str) -> Master {
+    let mut args: Vec<String> = vec![
+        "--state-dir".into(),
+        scratch.join(state).to_string_lossy().into_owned(),
+    ];
+    args.extend(token_args(scratch));
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    start_master(&args, &scratch.join(log))
+}
+
+#[test]
+fn two_workers_give_exactly_the_local_results() {
+    let expected = reference();
+    let _turn = exclusive();
+    let started = Instant::now();
+    let scratch = Scratch::new("two-workers");
+    let file = write_experiment(scratch.path());
+    let master = master_with(
+        &scratch,
+        "state",
+        &["--metrics-listen", "127.0.0.1:0"],
+        "master.log",
+    );
+    let mut workers: Vec<Proc> = (0..2)
+        .map(|i| {
+            start_worker(
+                &master.url,
+                TOKEN,
+                &format!("w{i}"),
+                &[],
+                &scratch.join(&format!("w{i}.log")),
+            )
+        })
+        .collect();
+    let job = submit(&master, &file, &[]);
+    watch_to_end(&master, &job, &[]);
+    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    assert_same_results(expected, &scratch.join("fetched"), None);
+
+    let metrics = http_get(master.metrics.as_deref().unwrap(), "/metrics");
+    assert_eq!(metric(&metrics, "hevo_workers_connected"), 2.0, "{metrics}");
+    assert_eq!(
+        metric(&metrics, "hevo_jobs{state=\"succeeded\"}"),
+        1.0,
+        "{metrics}"
+    );
+    assert!(
+        metric(&metrics, "hevo_evaluations_total") > 3000.0,
+        "{metrics}"
+    );
+    assert_eq!(metric(&metrics, "hevo_batches_queued"), 0.0);
+
+    let listing = hevo(
+        &["jobs", "--master", &master.url],
+        Some(TOKEN),
+        Duration::from_secs(10),
+    );
+    let listing = String::from_utf8_lossy(&listing.stdout);
+    assert!(
+        listing
+            .lines()
+            .any(|l| l.starts_with(&job) && l.contains("succeeded") && l.contains("22/22")),
+        "{listing}"
+    );
+
+    // SIGTERM: an idle worker stops at once, with status 0.
+    for worker in &mut workers {
+        worker.signal("TERM");
+        let status = worker
+            .wait_timeout(Duration::from_secs(10))
+            .expect("the worker did not stop on SIGTERM");
+        assert!(status.success(), "{}: {status}", worker.name);
+    }
+    eprintln!("two workers: {:.1} s", started.elapsed().as_secs_f64());
+}
+
+#[test]
+fn a_worker_killed_mid_job_changes_nothing_but_time() {
+    let expected = reference();
+    let _turn = exclusive();
+    let started = Instant::now();
+    let scratch = Scratch::new("killed-worker");
+    let file = write_experiment(scratch.path());
+    // Short leases, so the dead worker's batch is given to the other one soon.
+    let master = master_with(
+        &scratch,
+        "state",
+        &["--lease-seconds", "2", "--metrics-listen", "127.0.0.1:0"],
+        "master.log",
+    );
+    let mut doomed = start_worker(
+        &master.url,
+        TOKEN,
+        "doomed",
+        &[],
+        &scratch.join("doomed.log"),
+    );
+    let _survivor = start_worker(
+        &master.url,
+        TOKEN,
+        "survivor",
+        &[],
+        &scratch.join("survivor.log"),
+    );
+    let job = submit(&master, &file, &[]);
+    let (mut watch, lines) = spawn_watch(&master, &job, &[]);
+    wait_for_line(&lines, LONG, |l| l.contains("top run 0 generation 2/"))
+        .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
+    // Into the next generation's batches, then SIGKILL: no goodbye, no hand-back.
+    std::thread::sleep(Duration::from_millis(40));
+    doomed.kill();
+    let status = watch.wait_timeout(LONG).expect("the job did not finish");
+    assert!(status.success());
+    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    assert_same_results(expected, &scratch.join("fetched"), None);
+    let metrics = http_get(master.metrics.as_deref().unwrap(), "/metrics");
+    eprintln!(
+        "killed worker: {:.1} s, lease expiries {}",
+        started.elapsed().as_secs_f64(),
+        metric(&metrics, "hevo_lease_expiries_total")
+    );
+}
+
+#[test]
+fn a_master_killed_and_restarted_resumes_to_the_same_results() {
+    let expected = reference();
+    let _turn = exclusive();
+    let started = Instant::now();
+    let scratch = Scratch::new("killed-master");
+    let file = write_experiment(scratch.path());
+    let job;
+    {
+        let mut master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-1.log");
+        let _workers: Vec<Proc> = (0..2)
+            .map(|i| {
+                start_worker(
+                    &master.url,
+                    TOKEN,
+                    &format!("a{i}"),
+                    &[],
+                    &scratch.join(&format!("a{i}.log")),
+                )
+            })
+            .collect();
+        job = submit(&master, &file, &[]);
+        let (_watch, lines) = spawn_watch(&master, &job, &[]);
+        wait_for_line(&lines, LONG, |l| l.contains("top run 0 generation 3/"))
+            .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
+        std::thread::sleep(Duration::from_millis(40));
+        // kill -9 in the middle of a generation; its workers and watcher go with the guards.
+        master.proc.kill();
+    }
+    // A new master on the same state directory (on another port), new workers.
+    let master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-2.log");
+    let _workers: Vec<Proc> = (0..2)
+        .map(|i| {
+            start_worker(
+                &master.url,
+                TOKEN,
+                &format!("b{i}"),
+                &[],
+                &scratch.join(&format!("b{i}.log")),
+            )
+        })
+        .collect();
+    watch_to_end(&master, &job, &[]);
+    let log = std::fs::read_to_string(scratch.join("master-2.log")).unwrap();
+    assert!(
+        log.contains("resuming job") && log.contains("resuming at generation"),
+        "the job was not resumed:\n{log}"
+    );
+    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    assert_same_results(expected, &scratch.join("fetched"), None);
+    eprintln!("killed master: {:.1} s", started.elapsed().as_secs_f64());
+}
+
+#[test]
+fn requests_without_the_right_token_are_refused() {
+    let scratch = Scratch::new("token");
+    let file = write_experiment(scratch.path());
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let url = master.url.as_str();
+    for token in [None, Some("wrong-token")] {
+        let output = hevo(
+            &["submit", "--master", url, file.to_str().unwrap()],
+            token,
+            Duration::from_secs(30),
+        );
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            !output.status.success() && stderr.contains("UNAUTHENTICATED"),
+            "{token:?}: {stderr}"
+        );
+        let output = hevo(&["jobs", "--master", url], token, Duration::from_secs(30));
+        assert!(
+            !output.status.success()
+                && String::from_utf8_lossy(&output.stderr).contains("UNAUTHENTICATED")
+        );
+    }
+    let output = hevo(
+        &["jobs", "--master", url],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&output.stdout).lines().count(),
+        1,
+        "only the header: nothing was submitted"
+    );
+
+    // A worker with the wrong token gives up at once instead of retrying forever.
+    let mut worker = start_worker(
+        url,
+        "wrong-token",
+        "intruder",
+        &[],
+        &scratch.join("intruder.log"),
+    );
+    let status = worker
+        .wait_timeout(Duration::from_secs(20))
+        .expect("a refused worker kept running");
+    assert!(!status.success());
+    let log = std::fs::read_to_string(scratch.join("intruder.log")).unwrap();
+    assert!(log.contains("UNAUTHENTICATED"), "{log}");
+
+    // Health stays open to probes; the job service does not.
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    runtime.block_on(async {
+        use tonic_health::pb::health_client::HealthClient;
+        let channel = tonic::transport::Channel::from_shared(master.url.clone())
+            .unwrap()
+            .connect()
+            .await
+            .unwrap();
+        let mut health = HealthClient::new(channel);
+        for service in ["", "hevo.v1.JobService", "hevo.v1.WorkerService"] {
+            let response = health
+                .check(tonic_health::pb::HealthCheckRequest {
+                    service: service.into(),
+                })
+                .await
+                .unwrap();
+            assert_eq!(
+                response.into_inner().status,
+                tonic_health::pb::health_check_response::ServingStatus::Serving as i32,
+                "{service:?}"
+            );
+        }
+    });
+
+    // A master without a token does not start.
+    let output = hevo(
+        &[
+            "serve",
+            "--listen",
+            "127.0.0.1:0",
+            "--state-dir",
+            scratch.join("other").to_str().unwrap(),
+        ],
+        None,
+        Duration::from_secs(30),
+    );
+    assert!(
+        !output.status.success() && String::from_utf8_lossy(&output.stderr).contains("no token")
+    );
+}
+
+#[test]
+fn a_broken_job_file_is_refused_naming_the_key() {
+    let scratch = Scratch::new("broken");
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let broken = scratch.join("broken.toml");
+    std::fs::write(
+        &broken,
+        EXPERIMENT.replacen("hidden = 3", "hidden = \"three\"", 1),
+    )
+    .unwrap();
+    let good = write_experiment(scratch.path());
+    let cases: [(&Path, &[&str], &[&str]); 5] = [
+        (
+            &broken,
+            &[],
+            &[
+                "INVALID_ARGUMENT",
+                "experiment_toml",
+                "broken.toml",
+                "node[0].hidden",
+            ],
+        ),
+        (
+            &good,
+            &["--node", "nope"],
+            &["INVALID_ARGUMENT", "node: no node named 'nope'", "fw, top"],
+        ),
+        (
+            &good,
+            &["--runs", "0"],
+            &["INVALID_ARGUMENT", "runs: must be between 1"],
+        ),
+        (
+            &good,
+            &["--generations", "0"],
+            &["INVALID_ARGUMENT", "generations: must be between 1"],
+        ),
+        (
+            &scratch.join("missing.toml"),
+            &[],
+            &["cannot read", "missing.toml"],
+        ),
+    ];
+    for (file, extra, wanted) in cases {
+        let mut args = vec!["submit", "--master", &master.url, file.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{args:?} was accepted");
+        assert!(output.stdout.is_empty(), "{args:?} printed a job id");
+        for piece in wanted {
+            assert!(
+                stderr.contains(piece),
+                "{args:?}: {piece:?} not in: {stderr}"
+            );
+        }
+    }
+    let output = hevo(
+        &["jobs", "--master", &master.url],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&output.stdout).lines().count(),
+        1,
+        "a refused job was stored"
+    );
+}
+
+#[test]
+fn jobs_can_be_cancelled() {
+    let scratch = Scratch::new("cancel");
+    let file = write_experiment(scratch.path());
+    // No workers: the job waits for them until it is cancelled.
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let job = submit(&master, &file, &[]);
+    let output = hevo(
+        &["cancel", "--master", &master.url, &job],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&output.stdout).trim(),
+        format!("{job}: cancelled")
+    );
+    let output = hevo(
+        &["watch", "--master", &master.url, &job],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(
+        !output.status.success() && String::from_utf8_lossy(&output.stderr).contains("cancelled")
+    );
+    let output = hevo(
+        &["cancel", "--master", &master.url, "job-999999"],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(
+        !output.status.success() && String::from_utf8_lossy(&output.stderr).contains("NOT_FOUND")
+    );
+}
+
+#[test]
+fn tls_with_a_private_certificate() {
+    let expected = reference();
+    let _turn = exclusive();
+    let scratch = Scratch::new("tls");
+    let certified = rcgen::generate_simple_self_signed(vec!["localhost".to_string()]).unwrap();
+    let (cert, key) = (scratch.join("cert.pem"), scratch.join("key.pem"));
+    std::fs::write(&cert, certified.cert.pem()).unwrap();
+    std::fs::write(&key, certified.signing_key.serialize_pem()).unwrap();
+    let master = master_with(
+        &scratch,
+        "state",
+        &[
+            "--tls-cert",
+            cert.to_str().unwrap(),
+            "--tls-key",
+            key.to_str().unwrap(),
+        ],
+        "master.log",
+    );
+    assert!(master.url.starts_with("https://localhost:"));
+    let ca = ["--tls-ca", cert.to_str().unwrap()];
+    let _worker = start_worker(
+        &master.url,
+        TOKEN,
+        "tls-worker",
+        &ca,
+        &scratch.join("worker.log"),
+    );
+    let file = write_experiment(scratch.path());
+    // Without the CA the certificate is not trusted.
+    let output = hevo(
+        &["jobs", "--master", &master.url],
+        Some(TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(!output.status.success());
+    let job = submit(
+        &master,
+        &file,
+        &["--node", "fw", "--tls-ca", cert.to_str().unwrap()],
+    );
+    let output = hevo(
+        &[
+            "watch",
+            "--master",
+            &master.url,
+            &job,
+            "--tls-ca",
+            cert.to_str().unwrap(),
+        ],
+        Some(TOKEN),
+        LONG,
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    fetch(&master, &job, &scratch.join("fetched"), &ca);
+    // Only the primitive was asked for: its results are those of the full local run.
+    assert_same_results(expected, &scratch.join("fetched"), Some(&["fw"]));
+    assert!(!scratch.join("fetched/top").exists());
+}
+
+/// Evaluations per second: master + two single-thread workers versus `hevo run --threads 2`,
+/// on the same experiment (the results are identical, so the work is too).
+#[test]
+#[ignore = "benchmark: run with --ignored --nocapture in release"]
+fn overhead_benchmark() {
+    let _turn = exclusive();
+    let scratch = Scratch::new("overhead");
+    let experiment = EXPERIMENT
+        .replace("generations = 8", "generations = 12")
+        .replace("population = 20", "population = 40");
+    let file = scratch.join("bench.toml");
+    std::fs::write(&file, &experiment).unwrap();
+    let evaluations = 2 * 3 * 8 * 4 + 2 * 20 + 2 * 12 * 40 * 10 + 2 * 20;
+    let rounds = std::env::var("HEVO_OVERHEAD_ROUNDS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(3);
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let _workers: Vec<Proc> = (0..2)
+        .map(|i| {
+            start_worker(
+                &master.url,
+                TOKEN,
+                &format!("w{i}"),
+                &[],
+                &scratch.join(&format!("w{i}.log")),
+            )
+        })
+        .collect();
+    let (mut local, mut remote) = (Vec::new(), Vec::new());
+    for round in 0..rounds {
+        let out = scratch.join(&format!("local-{round}"));
+        let begun = Instant::now();
+        let output = hevo(
+            &[
+                "run",
+                file.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--threads",
+                "2",
+                "--seed",
+                SEED,
+            ],
+            None,
+            LONG,
+        );
+        assert!(output.status.success());
+        local.push(begun.elapsed().as_secs_f64());
+        let begun = Instant::now();
+        let job = submit(&master, &file, &[]);
+        let output = hevo(&["watch", "--master", &master.url, &job], Some(TOKEN), LONG);
+        assert!(output.status.success());
+        remote.push(begun.elapsed().as_secs_f64());
+        fetch(
+            &master,
+            &job,
+            &scratch.join(&format!("remote-{round}")),
+            &[],
+        );
+        assert_same_results(&out, &scratch.join(&format!("remote-{round}")), None);
+    }
+    let best = |times: &[f64]| times.iter().copied().fold(f64::INFINITY, f64::min);
+    let (local_rate, remote_rate) = (
+        evaluations as f64 / best(&local),
+        evaluations as f64 / best(&remote),
+    );
+    println!(
+        "overhead: {evaluations} evaluations; local 2 threads {:.0}/s (best of {local:.2?} s), master + 2 single-thread workers {:.0}/s (best of {remote:.2?} s): {:.1}% of local",
+        local_rate,
+        remote_rate,
+        100.0 * remote_rate / local_rate
+    );
+}
