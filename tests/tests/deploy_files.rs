@@ -2363,13 +2363,26 @@ fn check_readme(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts)
         );
     }
     // Files it points to exist.
+    let user_files: BTreeSet<String> = files
+        .files
+        .iter()
+        .filter(|(p, _)| p.ends_with("/.gitignore"))
+        .flat_map(|(p, text)| {
+            let dir = p.trim_end_matches(".gitignore").to_string();
+            text.lines()
+                .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+                .map(move |l| format!("{dir}{}", l.trim()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
     for (at, _) in text.match_indices("deploy/") {
         let reference: String = text[at..]
             .chars()
             .take_while(|c| c.is_ascii_alphanumeric() || "/._-".contains(*c))
             .collect();
         let reference = reference.trim_end_matches(['.', '/']);
-        if reference == "deploy" || reference.ends_with("/token") {
+        // Files the user creates (the token files) are git-ignored in deploy/.
+        if reference == "deploy" || user_files.contains(reference) {
             continue;
         }
         problems.check(
