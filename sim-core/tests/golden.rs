@@ -244,100 +244,100 @@ const EXPECTED: &[Golden] = &[
         task: TaskKind::FollowWall,
         seed: 1,
         variant: None,
-        fitness_bits: 0x3fc851ec, // 1.565
-        cycles: 174,
+        fitness_bits: 0x3fdccccd, // 1.725
+        cycles: 110,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3bf5efe0, 0x3f86b048, 0x3fc70b8f],
-        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (43, [0x3bc5d17e, 0x3e8a058a, 0x3fca2db4]), (87, [0x3bfb454f, 0x3f0852a6, 0x3fc7e494]), (130, [0x3bf5aaab, 0x3f49fee2, 0x3fc79e96])],
+        final_pose: [0x3b86cc12, 0x3f878625, 0x3fbe2f4b],
+        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (27, [0xbb4b84b6, 0x3e84ee6f, 0x3fc39dd2]), (55, [0x399ecca0, 0x3f07cb68, 0x3fcafaf8]), (82, [0xbb30fe54, 0x3f4a78c6, 0x3fc9af79])],
     },
     Golden {
         task: TaskKind::FollowWall,
         seed: 2,
         variant: None,
-        fitness_bits: 0x3ff00000, // 1.875
-        cycles: 50,
+        fitness_bits: 0x3ff0a3d7, // 1.88
+        cycles: 48,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbb463d4e, 0x3ee9fb27, 0x3fcd6c4a],
-        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c2e4893, 0x3dcd400d, 0x3fd4a0fe]), (25, [0xbb46d78d, 0x3e60afec, 0x3fd0cdc4]), (37, [0xbb51616d, 0x3eac08b3, 0x3fc7f2b3])],
+        final_pose: [0xba8ab06b, 0x3eea61ea, 0x3fc9d1a8],
+        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c101e1b, 0x3debadcb, 0x3fd552ff]), (24, [0xbb17d137, 0x3e6a3b89, 0x3fd0a723]), (36, [0xba1aa831, 0x3eb00f6d, 0x3fc7bd12])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 3,
         variant: None,
-        fitness_bits: 0x3fb8f5c2, // 1.4449999
-        cycles: 222,
+        fitness_bits: 0x3fc570a4, // 1.5425
+        cycles: 183,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf86c6b8, 0x3f1949b2, 0x4044ea14],
-        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (55, [0x3b2c62fa, 0x3eb7f2cd, 0x3fda77bd]), (111, [0xbdabca75, 0x3f1a5785, 0xc044c3d3]), (166, [0xbf159448, 0x3f18f216, 0xc048e858])],
+        final_pose: [0xbf873570, 0x3f16f5b1, 0xc048cac4],
+        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (45, [0x3c4c9dd9, 0x3edddc1a, 0x3fcda3e3]), (91, [0xbe30ddb3, 0x3f19820a, 0xc044942a]), (137, [0xbf1db679, 0x3f161e0a, 0xc048828a])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 4,
         variant: None,
-        fitness_bits: 0x3d5f26d9, // 0.054480407
-        cycles: 65,
-        ending: Ending::WrongBranch,
-        stage: 0,
-        final_pose: [0x3e1c8ab8, 0x3e9b2685, 0xbd7c7fb2],
-        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (16, [0x3c53ebcf, 0x3de9df1d, 0x3fcd3133]), (32, [0x3c0440e2, 0x3e87c57e, 0x3fc81652]), (48, [0x3bf979c5, 0x3e9ffdb9, 0x3d7fdd4c])],
+        fitness_bits: 0x3fe23d70, // 1.7674999
+        cycles: 93,
+        ending: Ending::Solved,
+        stage: 1,
+        final_pose: [0xbeea7eda, 0x3e99fb3b, 0xc045e457],
+        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (23, [0x3c482c85, 0x3e638df2, 0x3fcb528a]), (46, [0xbbed4ca0, 0x3ea1c93a, 0xc0463f35]), (69, [0xbe67417d, 0x3e9fb42a, 0xc0482c09])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 5,
         variant: None,
-        fitness_bits: 0x3fcf0a3e, // 1.6175001
-        cycles: 153,
+        fitness_bits: 0x3fcfae14, // 1.6225
+        cycles: 151,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f426669, 0x3f1ae2c6, 0x3c57746a],
-        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (38, [0xbba305cf, 0x3ebb150a, 0x3fc7c246]), (76, [0x3c951b84, 0x3f1af403, 0xbe181c84]), (114, [0x3ec2920b, 0x3f1a973d, 0xbd06b986])],
+        final_pose: [0x3f402ffb, 0x3f19a972, 0x3b5d3d6c],
+        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (37, [0xba72445a, 0x3eb69b96, 0x3fc8ffa6]), (75, [0x3c958a5e, 0x3f1b6f80, 0x3c27317b]), (113, [0x3ec35065, 0x3f19818e, 0xbd047a4d])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 6,
         variant: None,
-        fitness_bits: 0x3fd947ae, // 1.6975
-        cycles: 121,
+        fitness_bits: 0x3fd8f5c2, // 1.6949999
+        cycles: 122,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f4240a5, 0x3e9a3387, 0xbbf467e6],
-        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0xba907285, 0x3e940bd2, 0x3fc7fe6e]), (60, [0x3e31dd26, 0x3e9dd6cc, 0xbb8091f6]), (90, [0x3eedfa8b, 0x3e9d884b, 0xbd7e55f0])],
+        final_pose: [0x3f40a7d6, 0x3e9a2ecd, 0xb9c12530],
+        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0xba8a9eeb, 0x3e941582, 0x3fc7ee2b]), (61, [0x3e2e0b5c, 0x3e9dd46b, 0x3c7bcfda]), (91, [0x3eec1194, 0x3e9d2f67, 0xbd85d4e0])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(0),
-        fitness_bits: 0x3fdb22d1, // 1.712
-        cycles: 288,
+        fitness_bits: 0x3fdac083, // 1.709
+        cycles: 291,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f66de04, 0x3e1a0c0e, 0x3fc17466],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb0426e7, 0xbf4fd7cf, 0x3fcdfdca]), (144, [0x3d989e45, 0xbe9b0d51, 0xbdea4d71]), (216, [0x3f441fff, 0xbe9a5868, 0x3d50acd8])],
+        final_pose: [0x3f661897, 0x3e22febf, 0x3fc30bed],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9491bc, 0xbf50f9b2, 0x3fd0dcc7]), (145, [0x3d8d7a24, 0xbe97fe1f, 0xbdf8a8f3]), (218, [0x3f449ba0, 0xbe97be88, 0x3d6b6bc3])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(1),
-        fitness_bits: 0x3fdb020c, // 1.711
-        cycles: 289,
+        fitness_bits: 0x3fda9fbe, // 1.708
+        cycles: 292,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f660dd4, 0xbf411cc4, 0xbfcf97f0],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb0426e7, 0xbf4fd7cf, 0x3fcdfdca]), (144, [0x3d989e45, 0xbe9b0d51, 0xbdea4d71]), (216, [0x3f441fff, 0xbe9a5868, 0x3d50acd8])],
+        final_pose: [0x3f66893d, 0xbf40655a, 0xbfd0878f],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba5163e, 0xbf4e87bf, 0x3fcec274]), (146, [0x3da0ba3d, 0xbe9890b2, 0xbdec5c2e]), (219, [0x3f471f12, 0xbe97788f, 0x3d51900e])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(2),
-        fitness_bits: 0x3fdac083, // 1.709
-        cycles: 291,
+        fitness_bits: 0x3fda9fbe, // 1.708
+        cycles: 292,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf65c004, 0x3e1ec6a8, 0x3fc24a88],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb0426e7, 0xbf4fd7cf, 0x3fcdfdca]), (145, [0xbd854ec0, 0xbe954b8a, 0xc0473104]), (218, [0xbf450da0, 0xbe995716, 0xc045a9ec])],
+        final_pose: [0xbf667a31, 0x3e239a80, 0x3fc396c0],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba5163e, 0xbf4e87bf, 0x3fcec274]), (146, [0xbd91a5d2, 0xbe9384a3, 0xc042d3fa]), (219, [0xbf459800, 0xbe9bbb81, 0xc045cc3d])],
     },
     Golden {
         task: TaskKind::SolveMaze,
@@ -347,73 +347,73 @@ const EXPECTED: &[Golden] = &[
         cycles: 291,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf673476, 0xbf42404a, 0xbfcebdaa],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb0426e7, 0xbf4fd7cf, 0x3fcdfdca]), (145, [0xbd854ec0, 0xbe954b8a, 0xc0473104]), (218, [0xbf450da0, 0xbe995716, 0xc045a9ec])],
+        final_pose: [0xbf661a89, 0xbf422b3e, 0xbfcf0bdf],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9491bc, 0xbf50f9b2, 0x3fd0dcc7]), (145, [0xbd7c85dc, 0xbe931724, 0xc0440752]), (218, [0xbf431479, 0xbe9b75c2, 0xc045658a])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
         seed: 8,
         variant: None,
-        fitness_bits: 0x3fce978e, // 1.6140001
-        cycles: 386,
-        ending: Ending::Solved,
-        stage: 1,
-        final_pose: [0xbb606840, 0xbfacda3c, 0xbfc71798],
-        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (96, [0xbf5da0df, 0xbe8b5f54, 0x3c361c27]), (193, [0xbe817dfb, 0xbe9cde42, 0xbb942bef]), (289, [0xbb5722ce, 0xbf2a80d4, 0xbfc8af2b])],
+        fitness_bits: 0x00000000, // 0
+        cycles: 1000,
+        ending: Ending::Timeout,
+        stage: 0,
+        final_pose: [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce],
+        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (250, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce]), (500, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce]), (750, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
         seed: 9,
         variant: None,
-        fitness_bits: 0x3da4dd54, // 0.080500275
-        cycles: 132,
-        ending: Ending::Collision,
+        fitness_bits: 0x3d604f37, // 0.054763045
+        cycles: 228,
+        ending: Ending::WrongBranch,
         stage: 0,
-        final_pose: [0x3f559fd9, 0xbec2e25c, 0x4045b96b],
-        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (33, [0x3f6850a3, 0xbf094e74, 0x3fc7ebe2]), (66, [0x3f64d757, 0xbe60e59e, 0x3fd25bc0]), (99, [0x3f67602a, 0xbe882595, 0xbfd6e4eb])],
+        final_pose: [0x3f5e5cdd, 0xbe164942, 0x3fd9b02b],
+        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (57, [0x3f616bdc, 0xbf6b6117, 0x40353e0a]), (114, [0x3f686dee, 0xbf4d6b5e, 0xbfd57473]), (171, [0x3f655d83, 0xbf323b09, 0x3fcbd4f2])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 10,
         variant: None,
-        fitness_bits: 0x40b6e148, // 5.715
-        cycles: 285,
+        fitness_bits: 0x40b5374c, // 5.663
+        cycles: 337,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf26e1a1, 0xbe6c27fa, 0x404742ad],
-        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (71, [0x3eca9653, 0xbdccc6dd, 0xbf84da17]), (142, [0x3e746482, 0xbef4caf7, 0x4048a6b8]), (213, [0xbecb8b58, 0xbef1ff51, 0xc048c795])],
+        final_pose: [0xbf2766c0, 0xbe6d5077, 0x40453bf3],
+        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (84, [0x3ee04a2b, 0xbe0ae8c6, 0xbf3c8720]), (168, [0x3e3058ca, 0xbe603b66, 0xc02f700c]), (252, [0xbe96921b, 0xbee9239d, 0xc0305657])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 11,
         variant: None,
-        fitness_bits: 0x40a8ac08, // 5.271
-        cycles: 729,
+        fitness_bits: 0x40a4dd2f, // 5.152
+        cycles: 848,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3e9f0147, 0xbf2525b8, 0xbfc0aeb7],
-        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (182, [0xbed4a45f, 0x3e9b6252, 0xbfbfa9f9]), (364, [0xbecbaa40, 0x3ecf330b, 0xbfeac6b8]), (546, [0x3eb9df14, 0x3ee7fa66, 0xbb537708])],
+        final_pose: [0x3eb65616, 0xbf2478c6, 0xbfca54f6],
+        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (212, [0xbe0a590d, 0x3e3f2f26, 0x3dd3a870]), (424, [0xbe90f80f, 0xbedfb44d, 0xc0367743]), (636, [0x3df16c68, 0x3ee81da4, 0xbcc2a77a])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 12,
         variant: None,
-        fitness_bits: 0x403f9268, // 2.993311
-        cycles: 1213,
+        fitness_bits: 0x403fd539, // 2.997389
+        cycles: 1035,
         ending: Ending::Solved,
         stage: 3,
-        final_pose: [0x3bd41482, 0xbfebb6c0, 0xbfc3c9d6],
-        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (303, [0xbab33a46, 0xbfcdff3a, 0x3fc3bbae]), (606, [0x3f190b20, 0xbe96e050, 0x3d11a346]), (909, [0x3eda81b8, 0xbe9b1184, 0x40484c29])],
+        final_pose: [0x3bb7464c, 0xbfea278d, 0xbfc6a4ee],
+        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (258, [0xbf544d39, 0xbfe41355, 0x3fcd5286]), (517, [0xbb97e2d3, 0xbeb270b1, 0x3fc955cd]), (776, [0x3f549915, 0xbe95d426, 0x4046226f])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 13,
         variant: None,
-        fitness_bits: 0x403ef970, // 2.9839745
-        cycles: 1224,
-        ending: Ending::Solved,
-        stage: 3,
-        final_pose: [0xbaa8ab01, 0xbfeb245b, 0xbfc93cb9],
-        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (306, [0x3e0d654c, 0xc0332467, 0xc048b2d1]), (612, [0xbb83b736, 0xbfa08c6f, 0x3fc128d7]), (918, [0xbf6561cc, 0x3d17c14c, 0xbfcb0e92])],
+        fitness_bits: 0x3f800000, // 1
+        cycles: 2000,
+        ending: Ending::Timeout,
+        stage: 1,
+        final_pose: [0x3f682a2d, 0x3eb097aa, 0x3d92ad7a],
+        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (500, [0xbece1deb, 0xbfe0974c, 0x3d4b9c8a]), (1000, [0x3f735dbe, 0xbe719363, 0xbfc8fabf]), (1500, [0x3f5a05da, 0xbf395707, 0x3fca1d3c])],
     },
 ];

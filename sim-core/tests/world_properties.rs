@@ -349,9 +349,6 @@ fn ir_inputs_meet_the_spec_with_the_linear_raw_mapping() {
 }
 
 #[test]
-#[ignore = "simulator bug: the default linear-distance IR mapping (sensors/ir.rs, IrModel::read) reads an \
-            empty cone as 0.37 with curve r2s7, 0.19 with r2s5, 0.14 with r1s5, and r2s7 reads a wall \
-            at 10-11 cm lower than no wall"]
 fn ir_inputs_meet_the_spec_with_the_default_mapping() {
     let violations = ir_spec_violations(IrMapping::default());
     assert!(violations.is_empty(), "{}", violations.join("\n"));
@@ -391,8 +388,6 @@ fn nothing_in_reach_reads_zero_with_the_linear_raw_mapping() {
 }
 
 #[test]
-#[ignore = "simulator bug: with the default linear-distance IR mapping an empty cone reads up to 0.37 \
-            (sensors/ir.rs, IrModel::read); e.g. exit_room seed 3 with room.start_clearance 0.4"]
 fn nothing_in_reach_reads_zero_with_the_default_mapping() {
     let bad = empty_room_start_readings(IrMapping::default());
     assert!(bad.is_empty(), "{}", bad.join("\n"));
