@@ -216,7 +216,19 @@ async fn fake_worker(
     measure_from: Instant,
     end: Instant,
 ) -> Result<Vec<f64>, String> {
-    let mut client = worker_client(options.connect().await?);
+    // Hundreds of simultaneous connects on a busy machine may time out: retry a few times.
+    let mut attempt = 0;
+    let channel = loop {
+        match options.connect().await {
+            Ok(channel) => break channel,
+            Err(error) if attempt >= 5 => return Err(error),
+            Err(_) => {
+                attempt += 1;
+                tokio::time::sleep(Duration::from_millis(200 * attempt)).await;
+            }
+        }
+    };
+    let mut client = worker_client(channel);
     let mut latencies = Vec::new();
     while Instant::now() < end {
         let asked = Instant::now();
