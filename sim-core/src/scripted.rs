@@ -162,16 +162,10 @@ impl Ranger {
 
     fn new(mapping: IrMapping) -> Ranger {
         let model = IrModel::builtin();
-        // The distance the linear-distance mapping reads as 0: the calibration's last row.
-        let table_end = model.raw_to_distance(f32::NEG_INFINITY);
         let mut lowest = f32::INFINITY;
         let input_at_mm = (0..=120)
             .map(|mm| {
-                let raw = model.mean_raw(MEAN_IR_CURVE, mm as f32 * 0.001);
-                let input = match mapping {
-                    IrMapping::LinearDistance => 1.0 - model.raw_to_distance(raw) / table_end,
-                    IrMapping::LinearRaw => model.raw_to_input(MEAN_IR_CURVE, raw),
-                };
+                let input = model.noise_free_input(MEAN_IR_CURVE, mm as f32 * 0.001, mapping);
                 // The measured curves flatten and even rise again near 12 cm; a running
                 // minimum keeps the inverse well defined.
                 lowest = lowest.min(input);

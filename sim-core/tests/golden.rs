@@ -244,12 +244,12 @@ const EXPECTED: &[Golden] = &[
         task: TaskKind::FollowWall,
         seed: 1,
         variant: None,
-        fitness_bits: 0x3fdccccd, // 1.725
-        cycles: 110,
+        fitness_bits: 0x3fdd1eb8, // 1.7275
+        cycles: 109,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3b86cc12, 0x3f878625, 0x3fbe2f4b],
-        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (27, [0xbb4b84b6, 0x3e84ee6f, 0x3fc39dd2]), (55, [0x399ecca0, 0x3f07cb68, 0x3fcafaf8]), (82, [0xbb30fe54, 0x3f4a78c6, 0x3fc9af79])],
+        final_pose: [0x3c101dc8, 0x3f86816d, 0x3fc63655],
+        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (27, [0x3b843dde, 0x3e83acfd, 0x3fc2784f]), (54, [0x3bf16037, 0x3f040abf, 0x3fc5178c]), (81, [0x3bffb3a3, 0x3f47874b, 0x3fcc411a])],
     },
     Golden {
         task: TaskKind::FollowWall,
@@ -259,8 +259,8 @@ const EXPECTED: &[Golden] = &[
         cycles: 48,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xba8ab06b, 0x3eea61ea, 0x3fc9d1a8],
-        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c101e1b, 0x3debadcb, 0x3fd552ff]), (24, [0xbb17d137, 0x3e6a3b89, 0x3fd0a723]), (36, [0xba1aa831, 0x3eb00f6d, 0x3fc7bd12])],
+        final_pose: [0xba04f6db, 0x3eea3b40, 0x3fcb0ed0],
+        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c1a0da0, 0x3de9ca62, 0x3fd59ed1]), (24, [0xbab3d994, 0x3e67df98, 0x3fd0a77e]), (36, [0xba39de62, 0x3eaf8e9a, 0x3fc687a0])],
     },
     Golden {
         task: TaskKind::TurnLeft,
@@ -270,85 +270,85 @@ const EXPECTED: &[Golden] = &[
         cycles: 183,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf873570, 0x3f16f5b1, 0xc048cac4],
-        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (45, [0x3c4c9dd9, 0x3edddc1a, 0x3fcda3e3]), (91, [0xbe30ddb3, 0x3f19820a, 0xc044942a]), (137, [0xbf1db679, 0x3f161e0a, 0xc048828a])],
+        final_pose: [0xbf867f05, 0x3f1986e9, 0xc048a19e],
+        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (45, [0x3c2356a2, 0x3eddd31c, 0x3fcf0689]), (91, [0xbe2ca2d1, 0x3f18bb76, 0xc0444077]), (137, [0xbf1bc42d, 0x3f18ddde, 0xc04854bb])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 4,
         variant: None,
-        fitness_bits: 0x3fe23d70, // 1.7674999
-        cycles: 93,
+        fitness_bits: 0x3fe1999a, // 1.7625
+        cycles: 95,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbeea7eda, 0x3e99fb3b, 0xc045e457],
-        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (23, [0x3c482c85, 0x3e638df2, 0x3fcb528a]), (46, [0xbbed4ca0, 0x3ea1c93a, 0xc0463f35]), (69, [0xbe67417d, 0x3e9fb42a, 0xc0482c09])],
+        final_pose: [0xbee7403c, 0x3e9ab98f, 0xc0477532],
+        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (23, [0x3ac179c2, 0x3e512078, 0x3fca8f33]), (47, [0xbc02ef3e, 0x3e9e5b7d, 0xc045465a]), (71, [0xbe70f071, 0x3e99c89c, 0xc048c0c8])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 5,
         variant: None,
-        fitness_bits: 0x3fcfae14, // 1.6225
-        cycles: 151,
+        fitness_bits: 0x3fce6666, // 1.6125
+        cycles: 155,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f402ffb, 0x3f19a972, 0x3b5d3d6c],
-        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (37, [0xba72445a, 0x3eb69b96, 0x3fc8ffa6]), (75, [0x3c958a5e, 0x3f1b6f80, 0x3c27317b]), (113, [0x3ec35065, 0x3f19818e, 0xbd047a4d])],
+        final_pose: [0x3f4210ca, 0x3f19dab6, 0x3c48a9cb],
+        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (38, [0xbad1bc93, 0x3eb45659, 0x3fc63233]), (77, [0x3c99acd8, 0x3f1a2088, 0x3d31d87b]), (116, [0x3ec3d020, 0x3f196807, 0xbd529e72])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 6,
         variant: None,
-        fitness_bits: 0x3fd8f5c2, // 1.6949999
-        cycles: 122,
+        fitness_bits: 0x3fd947ae, // 1.6975
+        cycles: 121,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f40a7d6, 0x3e9a2ecd, 0xb9c12530],
-        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0xba8a9eeb, 0x3e941582, 0x3fc7ee2b]), (61, [0x3e2e0b5c, 0x3e9dd46b, 0x3c7bcfda]), (91, [0x3eec1194, 0x3e9d2f67, 0xbd85d4e0])],
+        final_pose: [0x3f40c207, 0x3e9aa9b8, 0xbc93879f],
+        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0x3aba59b9, 0x3e917f08, 0x3fc3f066]), (60, [0x3e26e61c, 0x3e9a6a1d, 0xbc0751b8]), (90, [0x3ee85c6e, 0x3e9a81ce, 0xbd3e9915])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(0),
-        fitness_bits: 0x3fdac083, // 1.709
-        cycles: 291,
+        fitness_bits: 0x3fdae148, // 1.71
+        cycles: 290,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f661897, 0x3e22febf, 0x3fc30bed],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9491bc, 0xbf50f9b2, 0x3fd0dcc7]), (145, [0x3d8d7a24, 0xbe97fe1f, 0xbdf8a8f3]), (218, [0x3f449ba0, 0xbe97be88, 0x3d6b6bc3])],
+        final_pose: [0x3f6616b5, 0x3e1bf2f6, 0x3fc2b9e2],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9cd8b7, 0xbf501dc1, 0x3fcefbdd]), (145, [0x3d8ecedc, 0xbe99cc74, 0xbde6f970]), (217, [0x3f428614, 0xbe983ce4, 0x3d3040a9])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(1),
-        fitness_bits: 0x3fda9fbe, // 1.708
-        cycles: 292,
+        fitness_bits: 0x3fda5e35, // 1.706
+        cycles: 294,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f66893d, 0xbf40655a, 0xbfd0878f],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba5163e, 0xbf4e87bf, 0x3fcec274]), (146, [0x3da0ba3d, 0xbe9890b2, 0xbdec5c2e]), (219, [0x3f471f12, 0xbe97788f, 0x3d51900e])],
+        final_pose: [0x3f66043a, 0xbf4209c0, 0xbfd1e51a],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba95b26, 0xbf4da616, 0x3fcd463e]), (147, [0x3db64cbd, 0xbe9ad10d, 0xbdd5b4cf]), (220, [0x3f49e854, 0xbe978b6c, 0x3d0c1f78])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(2),
-        fitness_bits: 0x3fda9fbe, // 1.708
-        cycles: 292,
+        fitness_bits: 0x3fda7efa, // 1.707
+        cycles: 293,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf667a31, 0x3e239a80, 0x3fc396c0],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba5163e, 0xbf4e87bf, 0x3fcec274]), (146, [0xbd91a5d2, 0xbe9384a3, 0xc042d3fa]), (219, [0xbf459800, 0xbe9bbb81, 0xc045cc3d])],
+        final_pose: [0xbf662616, 0x3e1ef999, 0x3fc201c0],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba95b26, 0xbf4da616, 0x3fcd463e]), (146, [0xbd92812a, 0xbe95a0aa, 0xc043381c]), (219, [0xbf456ba7, 0xbe9b7519, 0xc045d7ef])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(3),
-        fitness_bits: 0x3fdac083, // 1.709
-        cycles: 291,
+        fitness_bits: 0x3fdae148, // 1.71
+        cycles: 290,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf661a89, 0xbf422b3e, 0xbfcf0bdf],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9491bc, 0xbf50f9b2, 0x3fd0dcc7]), (145, [0xbd7c85dc, 0xbe931724, 0xc0440752]), (218, [0xbf431479, 0xbe9b75c2, 0xc045658a])],
+        final_pose: [0xbf6617d1, 0xbf411eb9, 0xbfcf58ad],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9cd8b7, 0xbf501dc1, 0x3fcefbdd]), (145, [0xbd7eee3f, 0xbe9540bb, 0xc044d91f]), (217, [0xbf405f2c, 0xbe9af61b, 0xc0464e83])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
@@ -358,62 +358,62 @@ const EXPECTED: &[Golden] = &[
         cycles: 1000,
         ending: Ending::Timeout,
         stage: 0,
-        final_pose: [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce],
-        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (250, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce]), (500, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce]), (750, [0xbef8db2f, 0xbea8fd2d, 0xbe3c30ce])],
+        final_pose: [0xbf6bf146, 0xbe92bb27, 0x404685cd],
+        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (250, [0xbc3ccd6e, 0xbedce4a8, 0x3fbf47a6]), (500, [0xbf6bf146, 0xbe92bb27, 0x404685cd]), (750, [0xbf6bf146, 0xbe92bb27, 0x404685cd])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
         seed: 9,
         variant: None,
-        fitness_bits: 0x3d604f37, // 0.054763045
-        cycles: 228,
-        ending: Ending::WrongBranch,
-        stage: 0,
-        final_pose: [0x3f5e5cdd, 0xbe164942, 0x3fd9b02b],
-        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (57, [0x3f616bdc, 0xbf6b6117, 0x40353e0a]), (114, [0x3f686dee, 0xbf4d6b5e, 0xbfd57473]), (171, [0x3f655d83, 0xbf323b09, 0x3fcbd4f2])],
+        fitness_bits: 0x3fd83127, // 1.689
+        cycles: 311,
+        ending: Ending::Solved,
+        stage: 1,
+        final_pose: [0xbb8bc8a4, 0xbfad1387, 0xbfc952e1],
+        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (77, [0x3f55e2d5, 0xbea3a4b7, 0xc0481ef9]), (155, [0x3ea2adb3, 0xbe97cc86, 0xc0471668]), (233, [0xbb9ec4e6, 0xbf19c23a, 0xbfc7f06b])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 10,
         variant: None,
-        fitness_bits: 0x40b5374c, // 5.663
-        cycles: 337,
+        fitness_bits: 0x40b73333, // 5.725
+        cycles: 275,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf2766c0, 0xbe6d5077, 0x40453bf3],
-        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (84, [0x3ee04a2b, 0xbe0ae8c6, 0xbf3c8720]), (168, [0x3e3058ca, 0xbe603b66, 0xc02f700c]), (252, [0xbe96921b, 0xbee9239d, 0xc0305657])],
+        final_pose: [0xbf27fd60, 0xbe6a8430, 0xc047f21d],
+        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (68, [0x3eea0c0e, 0xbe4d240d, 0xbfcaa9c7]), (137, [0x3e3c4443, 0xbef30fa2, 0x4048b4a2]), (206, [0xbedec2aa, 0xbef2050e, 0x40478da2])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 11,
         variant: None,
-        fitness_bits: 0x40a4dd2f, // 5.152
-        cycles: 848,
+        fitness_bits: 0x40b25604, // 5.573
+        cycles: 427,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3eb65616, 0xbf2478c6, 0xbfca54f6],
-        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (212, [0xbe0a590d, 0x3e3f2f26, 0x3dd3a870]), (424, [0xbe90f80f, 0xbedfb44d, 0xc0367743]), (636, [0x3df16c68, 0x3ee81da4, 0xbcc2a77a])],
+        final_pose: [0x3e9d55b9, 0xbf249092, 0xbfd46af7],
+        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (106, [0xbef0a6a9, 0x3dd51a2c, 0x3fec431a]), (213, [0x3da6b193, 0x3ee8d1a5, 0xbc286f28]), (320, [0x3efdfef6, 0xbca93f2d, 0xbfc6f547])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 12,
         variant: None,
-        fitness_bits: 0x403fd539, // 2.997389
-        cycles: 1035,
+        fitness_bits: 0x403fbfc0, // 2.9960785
+        cycles: 1441,
         ending: Ending::Solved,
         stage: 3,
-        final_pose: [0x3bb7464c, 0xbfea278d, 0xbfc6a4ee],
-        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (258, [0xbf544d39, 0xbfe41355, 0x3fcd5286]), (517, [0xbb97e2d3, 0xbeb270b1, 0x3fc955cd]), (776, [0x3f549915, 0xbe95d426, 0x4046226f])],
+        final_pose: [0x3b932f2b, 0xbfeb2d06, 0xbfc9988f],
+        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (360, [0x3e28850c, 0xc00be8c2, 0xbfcb4c92]), (720, [0xbe5797d9, 0xbfe16a66, 0x3b02d3a6]), (1080, [0x3f66b9d9, 0x3e350432, 0x3fc54766])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 13,
         variant: None,
-        fitness_bits: 0x3f800000, // 1
-        cycles: 2000,
-        ending: Ending::Timeout,
-        stage: 1,
-        final_pose: [0x3f682a2d, 0x3eb097aa, 0x3d92ad7a],
-        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (500, [0xbece1deb, 0xbfe0974c, 0x3d4b9c8a]), (1000, [0x3f735dbe, 0xbe719363, 0xbfc8fabf]), (1500, [0x3f5a05da, 0xbf395707, 0x3fca1d3c])],
+        fitness_bits: 0x3e7ac688, // 0.24489796
+        cycles: 441,
+        ending: Ending::Collision,
+        stage: 0,
+        final_pose: [0x3f159ebf, 0xc00af0d0, 0xbfa0ee25],
+        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (110, [0x3ed7caeb, 0xbfe1f88d, 0x3d6aee05]), (220, [0xbd8ffa7d, 0xbfe8b9eb, 0xc047580c]), (330, [0x3d538352, 0xbfe7b574, 0xbccc81e4])],
     },
 ];

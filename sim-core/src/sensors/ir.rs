@@ -308,23 +308,7 @@ impl IrModel {
             return 0.0;
         };
         let raw = self.read_raw(curve, distance_m, rng);
-        let input = match setup.mapping {
-            IrMapping::LinearDistance => {
-                // Baseline correction first, as the e-puck firmware does at start-up with the
-                // ambient reading: the sensor's own empty reading (its mean at 12 cm plus four
-                // standard deviations of noise, so an empty cone reads 0 in 99.997 % of cycles)
-                // is moved onto the average curve's, so every sensor reads 0 with nothing in
-                // range while keeping its own gain, and so its own error, nearer in. The margin
-                // costs a bias far out, where the curve is flat: 8 cm reads like about 9.5 cm.
-                let own = self.curve(curve);
-                let average_floor = self.inverse_means[self.inverse_means.len() - 1];
-                let baseline = own.floor_raw + 4.0 * own.table.farthest().std;
-                let corrected = raw - baseline + average_floor;
-                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
-                1.0 - self.raw_to_distance(corrected) / max_distance
-            }
-            IrMapping::LinearRaw => self.raw_to_input(curve, raw),
-        };
+        let input = self.map_raw(curve, raw, setup.mapping);
         (input * (1.0 + offset)).clamp(0.0, 1.0)
     }
 
@@ -339,6 +323,35 @@ impl IrModel {
         std::array::from_fn(|sensor_index| {
             self.read(setup, sensor_index, distances_m[sensor_index], rng)
         })
+    }
+
+    /// Maps a raw reading of curve `curve` to an input in [0, 1] with the given mapping (before
+    /// the per-sample offset noise).
+    #[inline]
+    pub fn map_raw(&self, curve: u8, raw: f32, mapping: IrMapping) -> f32 {
+    match mapping {
+        IrMapping::LinearDistance => {
+            // Baseline correction first, as the e-puck firmware does at start-up with the
+            // ambient reading: the sensor's own empty reading (its mean at 12 cm plus four
+            // standard deviations of noise, so an empty cone reads 0 in 99.997 % of cycles)
+            // is moved onto the average curve's, so every sensor reads 0 with nothing in
+            // range while keeping its own gain, and so its own error, nearer in. The margin
+            // costs a bias far out, where the curve is flat: 8 cm reads like about 9.5 cm.
+            let own = self.curve(curve);
+            let average_floor = self.inverse_means[self.inverse_means.len() - 1];
+            let baseline = own.floor_raw + 4.0 * own.table.farthest().std;
+            let corrected = raw - baseline + average_floor;
+            let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
+            1.0 - self.raw_to_distance(corrected) / max_distance
+        }
+        IrMapping::LinearRaw => self.raw_to_input(curve, raw),
+    }
+    }
+
+    /// The noise-free input of curve `curve` with a surface at `distance_m`: what a sensor
+    /// reads on average, for policies and plots that need the inverse.
+    pub fn noise_free_input(&self, curve: u8, distance_m: f32, mapping: IrMapping) -> f32 {
+        self.map_raw(curve, self.mean_raw(curve, distance_m), mapping)
     }
 
     /// The mean raw reading of curve `curve` at `distance_m` (no noise), for tests and plots.
