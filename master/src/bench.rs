@@ -16,17 +16,44 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-fn node(name: &str, kind: NodeKind, inputs: Vec<InputGroup>, hidden: usize, children: Vec<NodeSpec>, rng: &mut SimRng) -> NodeSpec {
-    let mut spec = NodeSpec { name: name.into(), kind, inputs, hidden, genome: None, children };
+fn node(
+    name: &str,
+    kind: NodeKind,
+    inputs: Vec<InputGroup>,
+    hidden: usize,
+    children: Vec<NodeSpec>,
+    rng: &mut SimRng,
+) -> NodeSpec {
+    let mut spec = NodeSpec {
+        name: name.into(),
+        kind,
+        inputs,
+        hidden,
+        genome: None,
+        children,
+    };
     let n_genes = spec.topology().n_genes();
-    spec.genome = Some((0..n_genes).map(|_| rng.random_range(-3.0f32..3.0)).collect());
+    spec.genome = Some(
+        (0..n_genes)
+            .map(|_| rng.random_range(-3.0f32..3.0))
+            .collect(),
+    );
     spec
 }
 
 fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {
     ["follow_wall", "turn_left", "turn_right"]
         .iter()
-        .map(|name| node(name, NodeKind::Primitive, vec![InputGroup::Ir], 3, vec![], rng))
+        .map(|name| {
+            node(
+                name,
+                NodeKind::Primitive,
+                vec![InputGroup::Ir],
+                3,
+                vec![],
+                rng,
+            )
+        })
         .collect()
 }
 
@@ -35,28 +62,82 @@ fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {
 pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
     let rng = &mut SimRng::seed_from_u64(seed);
     let root = match kind {
-        TaskKind::ExitRoom => node("exit_room", NodeKind::Primitive, vec![InputGroup::Ir], 10, vec![], rng),
-        TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => {
-            node(kind.name(), NodeKind::Primitive, vec![InputGroup::Ir], 3, vec![], rng)
-        }
+        TaskKind::ExitRoom => node(
+            "exit_room",
+            NodeKind::Primitive,
+            vec![InputGroup::Ir],
+            10,
+            vec![],
+            rng,
+        ),
+        TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => node(
+            kind.name(),
+            NodeKind::Primitive,
+            vec![InputGroup::Ir],
+            3,
+            vec![],
+            rng,
+        ),
         TaskKind::SolveMaze => {
             let children = maze_primitives(rng);
-            node("solve_maze", NodeKind::Arbitrator, vec![InputGroup::Ir, InputGroup::Light], 10, children, rng)
+            node(
+                "solve_maze",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir, InputGroup::Light],
+                10,
+                children,
+                rng,
+            )
         }
         TaskKind::ReturnRoom => {
             let children = maze_primitives(rng);
-            node("return_room", NodeKind::Arbitrator, vec![InputGroup::Ir], 10, children, rng)
+            node(
+                "return_room",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir],
+                10,
+                children,
+                rng,
+            )
         }
         TaskKind::Rescue => {
-            let exit = node("exit_room", NodeKind::Primitive, vec![InputGroup::Ir], 10, vec![], rng);
+            let exit = node(
+                "exit_room",
+                NodeKind::Primitive,
+                vec![InputGroup::Ir],
+                10,
+                vec![],
+                rng,
+            );
             let prims = maze_primitives(rng);
-            let maze = node("solve_maze", NodeKind::Arbitrator, vec![InputGroup::Ir, InputGroup::Light], 10, prims, rng);
+            let maze = node(
+                "solve_maze",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir, InputGroup::Light],
+                10,
+                prims,
+                rng,
+            );
             let mut back = maze_primitives(rng);
             for child in &mut back {
                 child.name = format!("{}_back", child.name);
             }
-            let ret = node("return_room", NodeKind::Arbitrator, vec![InputGroup::Ir], 10, back, rng);
-            node("rescue", NodeKind::Arbitrator, vec![InputGroup::Ir, InputGroup::NearRobot], 10, vec![exit, maze, ret], rng)
+            let ret = node(
+                "return_room",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir],
+                10,
+                back,
+                rng,
+            );
+            node(
+                "rescue",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir, InputGroup::NearRobot],
+                10,
+                vec![exit, maze, ret],
+                rng,
+            )
         }
     };
     ControllerFile::new(root)
@@ -87,7 +168,8 @@ pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchRe
     // Collisions do not end samples, so every sample runs to its limit and the figure measures
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
-    let evaluator = BatchEvaluator::new(paper_controller(kind, 1), task).map_err(|e| e.to_string())?;
+    let evaluator =
+        BatchEvaluator::new(paper_controller(kind, 1), task).map_err(|e| e.to_string())?;
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
     let samples = AtomicU64::new(0);
@@ -99,8 +181,13 @@ pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchRe
                 let mut seed = thread_idx as u64 * 1_000_000;
                 while !stop.load(Ordering::Relaxed) {
                     seed += 1;
-                    if let Ok(outcomes) = evaluator.evaluate_summaries(None, &[Sample::seeded(seed)]) {
-                        cycles.fetch_add(outcomes.iter().map(|o| u64::from(o.cycles)).sum(), Ordering::Relaxed);
+                    if let Ok(outcomes) =
+                        evaluator.evaluate_summaries(None, &[Sample::seeded(seed)])
+                    {
+                        cycles.fetch_add(
+                            outcomes.iter().map(|o| u64::from(o.cycles)).sum(),
+                            Ordering::Relaxed,
+                        );
                         samples.fetch_add(1, Ordering::Relaxed);
                     }
                 }
@@ -124,7 +211,12 @@ pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchRe
 
 /// The `hevo run` path: generations of 100 genomes x `samples` through the dispatcher and a
 /// local pool of `threads` workers, repeated for `seconds`.
-pub async fn pipeline(kind: TaskKind, threads: usize, seconds: f64, samples: u32) -> Result<BenchReport, String> {
+pub async fn pipeline(
+    kind: TaskKind,
+    threads: usize,
+    seconds: f64,
+    samples: u32,
+) -> Result<BenchReport, String> {
     let mut template = paper_controller(kind, 1);
     let genes = template.root.genome.take().unwrap_or_default();
     let task = TaskConfig::new(kind);
@@ -134,23 +226,42 @@ pub async fn pipeline(kind: TaskKind, threads: usize, seconds: f64, samples: u32
         template,
         task,
     });
-    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: threads.max(1), ..DispatchConfig::default() }));
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+        expected_workers: threads.max(1),
+        ..DispatchConfig::default()
+    }));
     let pool = LocalPool::start(dispatcher.clone(), threads.max(1));
     let started = Instant::now();
     let (mut cycles, mut evaluations, mut generation) = (0u64, 0u64, 0u64);
     while started.elapsed().as_secs_f64() < seconds {
         let mut rng = SimRng::seed_from_u64(generation);
         // Perturbed copies of one genome: a realistic population after a few generations.
-        let genomes: Vec<Arc<[f32]>> =
-            (0..100).map(|_| genes.iter().map(|g| g + rng.random_range(-0.5f32..0.5)).collect::<Vec<_>>().into()).collect();
+        let genomes: Vec<Arc<[f32]>> = (0..100)
+            .map(|_| {
+                genes
+                    .iter()
+                    .map(|g| g + rng.random_range(-0.5f32..0.5))
+                    .collect::<Vec<_>>()
+                    .into()
+            })
+            .collect();
         let request = EvaluationRequest {
             job: "bench".into(),
             shared: shared.clone(),
             genomes,
-            samples: (0..samples).map(|s| Sample::seeded(generation * 1000 + u64::from(s))).collect(),
+            samples: (0..samples)
+                .map(|s| Sample::seeded(generation * 1000 + u64::from(s)))
+                .collect(),
         };
-        let results = dispatcher.evaluate(request).await.map_err(|e| e.to_string())?;
-        cycles += results.iter().flatten().map(|s| u64::from(s.cycles)).sum::<u64>();
+        let results = dispatcher
+            .evaluate(request)
+            .await
+            .map_err(|e| e.to_string())?;
+        cycles += results
+            .iter()
+            .flatten()
+            .map(|s| u64::from(s.cycles))
+            .sum::<u64>();
         evaluations += results.iter().map(|g| g.len() as u64).sum::<u64>();
         generation += 1;
     }
@@ -177,6 +288,12 @@ mod tests {
         rescue.validate().unwrap();
         assert_eq!(rescue.root.topology().to_string(), "5-10-3");
         assert_eq!(rescue.root.children[1].topology().to_string(), "6-10-3");
-        assert_eq!(paper_controller(TaskKind::ExitRoom, 1).root.topology().to_string(), "4-10-2");
+        assert_eq!(
+            paper_controller(TaskKind::ExitRoom, 1)
+                .root
+                .topology()
+                .to_string(),
+            "4-10-2"
+        );
     }
 }

@@ -195,19 +195,28 @@ pub fn main() -> std::process::ExitCode {
 
 /// Logs go to stderr; `RUST_LOG` filters them (default: info).
 pub fn init_tracing() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
     use std::io::IsTerminal;
     let ansi = std::io::stderr().is_terminal();
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_ansi(ansi).with_writer(std::io::stderr).try_init();
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(ansi)
+        .with_writer(std::io::stderr)
+        .try_init();
 }
 
 fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread().enable_all().build().context("cannot start the async runtime")
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
 }
 
 /// Threads to use: the flag, else every core.
 pub fn default_threads(flag: Option<usize>) -> usize {
-    flag.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1)
+    flag.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
 }
 
 /// Runs one parsed command.
@@ -225,7 +234,8 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Fetch(args) => service::commands::fetch(args),
         Command::Cancel(args) => service::commands::cancel(args),
         Command::Report(args) => {
-            let n = crate::report::write_report(&args.runs_dirs, &args.out).map_err(anyhow::Error::msg)?;
+            let n = crate::report::write_report(&args.runs_dirs, &args.out)
+                .map_err(anyhow::Error::msg)?;
             println!("{n} node(s) reported -> {}", args.out.display());
             Ok(())
         }
@@ -235,15 +245,23 @@ pub fn execute(cli: Cli) -> Result<()> {
 fn parse_task(name: &str) -> Result<TaskKind> {
     TaskKind::from_name(name).with_context(|| {
         let names: Vec<&str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
-        format!("unknown task '{name}'; expected one of {} (or maze_single)", names.join(", "))
+        format!(
+            "unknown task '{name}'; expected one of {} (or maze_single)",
+            names.join(", ")
+        )
     })
 }
 
 fn load_controller(path: &Path) -> Result<ControllerFile> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read controller file {}", path.display()))?;
-    let file = ControllerFile::from_json_str(&text).with_context(|| format!("{}: invalid controller file", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read controller file {}", path.display()))?;
+    let file = ControllerFile::from_json_str(&text)
+        .with_context(|| format!("{}: invalid controller file", path.display()))?;
     if let Some((node, _)) = file.free_node_topology() {
-        bail!("{}: node '{node}' has no genome; a controller to evaluate must be complete", path.display());
+        bail!(
+            "{}: node '{node}' has no genome; a controller to evaluate must be complete",
+            path.display()
+        );
     }
     Ok(file)
 }
@@ -254,7 +272,10 @@ pub const EMBEDDED_EXPERIMENT: &str = include_str!("../../experiments/rescue.tom
 fn run(args: RunArgs) -> Result<()> {
     let experiment = match &args.file {
         Some(file) => Experiment::load(file)?,
-        None => Experiment::parse(EMBEDDED_EXPERIMENT, Path::new("<built-in experiments/rescue.toml>"))?,
+        None => Experiment::parse(
+            EMBEDDED_EXPERIMENT,
+            Path::new("<built-in experiments/rescue.toml>"),
+        )?,
     };
     let threads = default_threads(args.threads);
     let settings = RunSettings {
@@ -267,9 +288,13 @@ fn run(args: RunArgs) -> Result<()> {
     };
     let progress = crate::progress::for_stderr();
     let summaries = runtime()?.block_on(async {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: threads, ..DispatchConfig::default() }));
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+            expected_workers: threads,
+            ..DispatchConfig::default()
+        }));
         let pool = LocalPool::start(dispatcher.clone(), threads);
-        let result = runner::run_experiment(&experiment, &settings, &dispatcher, progress.as_ref()).await;
+        let result =
+            runner::run_experiment(&experiment, &settings, &dispatcher, progress.as_ref()).await;
         pool.stop().await;
         result
     })?;
@@ -300,9 +325,13 @@ fn eval(args: EvalArgs) -> Result<()> {
     Evaluator::new(task.clone())?;
     let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
     let report = runtime()?.block_on(async {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig { expected_workers: threads, ..DispatchConfig::default() }));
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+            expected_workers: threads,
+            ..DispatchConfig::default()
+        }));
         let pool = LocalPool::start(dispatcher.clone(), threads);
-        let report = evaluation::evaluate_controller(&dispatcher, "eval", controller, task, samples).await;
+        let report =
+            evaluation::evaluate_controller(&dispatcher, "eval", controller, task, samples).await;
         pool.stop().await;
         report
     })?;
@@ -321,10 +350,17 @@ fn bench_command(args: BenchArgs) -> Result<()> {
         bail!("--seconds must be a positive number");
     }
     if let Some(workers) = args.dispatch_load {
-        return service::commands::dispatch_load(workers, args.seconds, args.batch_cost_ms, args.json);
+        return service::commands::dispatch_load(
+            workers,
+            args.seconds,
+            args.batch_cost_ms,
+            args.json,
+        );
     }
     let report = if args.pipeline {
-        runtime()?.block_on(bench::pipeline(kind, threads, args.seconds, 10)).map_err(anyhow::Error::msg)?
+        runtime()?
+            .block_on(bench::pipeline(kind, threads, args.seconds, 10))
+            .map_err(anyhow::Error::msg)?
     } else {
         bench::simulator(kind, threads, args.seconds).map_err(anyhow::Error::msg)?
     };
@@ -333,7 +369,12 @@ fn bench_command(args: BenchArgs) -> Result<()> {
     } else {
         println!(
             "{} ({}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
-            report.task, report.mode, report.threads, report.cycles_per_second, report.cycles_per_second_per_thread, report.evaluations_per_second
+            report.task,
+            report.mode,
+            report.threads,
+            report.cycles_per_second,
+            report.cycles_per_second_per_thread,
+            report.evaluations_per_second
         );
     }
     Ok(())
@@ -347,19 +388,32 @@ fn replay(args: ReplayArgs) -> Result<()> {
     if let Some(k) = args.light_config {
         let n = sim_core::env::n_variants(kind);
         if k >= n {
-            bail!("--light-config {k} is out of range: task {} has {n} configuration(s) (0..{})", kind.name(), n - 1);
+            bail!(
+                "--light-config {k} is out of range: task {} has {n} configuration(s) (0..{})",
+                kind.name(),
+                n - 1
+            );
         }
     }
-    let trace = evaluator.evaluate_traced(&mut controller, Sample { seed: args.seed, variant: args.light_config });
+    let trace = evaluator.evaluate_traced(
+        &mut controller,
+        Sample {
+            seed: args.seed,
+            variant: args.light_config,
+        },
+    );
     let options = viz::ReplayOptions {
-        node_names: (0..controller.n_nodes()).map(|i| controller.node_path(i).unwrap_or("?").to_string()).collect(),
+        node_names: (0..controller.n_nodes())
+            .map(|i| controller.node_path(i).unwrap_or("?").to_string())
+            .collect(),
         rays_at_cycles: args.rays.clone(),
         animate: args.animate,
         title: None,
         robot_radius: evaluator.task().robot.radius,
     };
     let svg = viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
-    crate::store::write_atomic(&args.out, svg.as_bytes()).with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::store::write_atomic(&args.out, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
         "{}: {:?} after {} cycles, fitness {:.3} -> {}",
         kind.name(),
@@ -380,24 +434,49 @@ fn plot(args: PlotArgs) -> Result<()> {
     let mut entries: Vec<PathBuf> = std::fs::read_dir(&node_dir)
         .with_context(|| format!("cannot read {}", node_dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("run-")))
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("run-"))
+        })
         .collect();
-    entries.sort_by_key(|p| p.file_name().and_then(|n| n.to_string_lossy().trim_start_matches("run-").parse::<u32>().ok()));
+    entries.sort_by_key(|p| {
+        p.file_name().and_then(|n| {
+            n.to_string_lossy()
+                .trim_start_matches("run-")
+                .parse::<u32>()
+                .ok()
+        })
+    });
     for run_dir in entries {
         let csv = run_dir.join("fitness.csv");
         if let Ok(text) = std::fs::read_to_string(&csv) {
-            let rows = viz::parse_fitness_csv(&text).with_context(|| format!("{}", csv.display()))?;
-            let label = run_dir.file_name().map(|n| n.to_string_lossy().replace('-', " ")).unwrap_or_default();
+            let rows =
+                viz::parse_fitness_csv(&text).with_context(|| format!("{}", csv.display()))?;
+            let label = run_dir
+                .file_name()
+                .map(|n| n.to_string_lossy().replace('-', " "))
+                .unwrap_or_default();
             runs.push(viz::RunLog { label, rows });
         }
     }
     if runs.is_empty() {
-        let hint = if args.node.is_none() { " (pass --node NAME to plot a node of a run directory)" } else { "" };
+        let hint = if args.node.is_none() {
+            " (pass --node NAME to plot a node of a run directory)"
+        } else {
+            ""
+        };
         bail!("no run-*/fitness.csv under {}{hint}", node_dir.display());
     }
-    let title = format!("{}: fitness per generation", node_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+    let title = format!(
+        "{}: fitness per generation",
+        node_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    );
     let svg = viz::fitness_plot_svg(&title, &runs);
-    crate::store::write_atomic(&args.out, svg.as_bytes()).with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::store::write_atomic(&args.out, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
     println!("{} runs plotted -> {}", runs.len(), args.out.display());
     Ok(())
 }

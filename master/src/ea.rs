@@ -27,7 +27,9 @@ pub enum RunStream {
 /// index, never from where or when it runs.
 pub fn run_seed(experiment_seed: u64, node_name: &str, run: u32) -> u64 {
     // FNV-1a of the name: stable across platforms and Rust versions, unlike `Hash`.
-    let name_hash = node_name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let name_hash = node_name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
     derive_seed(experiment_seed, &[name_hash, u64::from(run)])
 }
 
@@ -39,12 +41,21 @@ pub fn stream(run_seed: u64, stream: RunStream, indices: &[u64]) -> SimRng {
 }
 
 /// The initial population: genes drawn from N(0, initial_sigma^2), clamped to the gene range.
-pub fn initial_population(n_genes: usize, params: &EvolutionParams, run_seed: u64) -> Vec<Vec<f32>> {
+pub fn initial_population(
+    n_genes: usize,
+    params: &EvolutionParams,
+    run_seed: u64,
+) -> Vec<Vec<f32>> {
     let mut rng = stream(run_seed, RunStream::Initial, &[]);
-    let normal = Normal::new(0.0, params.initial_sigma).expect("sigma validated non-negative and finite");
+    let normal =
+        Normal::new(0.0, params.initial_sigma).expect("sigma validated non-negative and finite");
     let [low, high] = params.gene_range;
     (0..params.population)
-        .map(|_| (0..n_genes).map(|_| normal.sample(&mut rng).clamp(low, high) as f32).collect())
+        .map(|_| {
+            (0..n_genes)
+                .map(|_| normal.sample(&mut rng).clamp(low, high) as f32)
+                .collect()
+        })
         .collect()
 }
 
@@ -58,9 +69,16 @@ pub fn ranking(fitness: &[f64]) -> Vec<usize> {
 
 /// The next generation from the current one and its fitness: for each elite in rank order,
 /// the elite itself and then its mutated copies.
-pub fn next_generation(population: &[Vec<f32>], fitness: &[f64], params: &EvolutionParams, run_seed: u64, generation: u32) -> Vec<Vec<f32>> {
+pub fn next_generation(
+    population: &[Vec<f32>],
+    fitness: &[f64],
+    params: &EvolutionParams,
+    run_seed: u64,
+    generation: u32,
+) -> Vec<Vec<f32>> {
     let mut rng = stream(run_seed, RunStream::Mutation, &[u64::from(generation)]);
-    let normal = Normal::new(0.0, params.mutation_sigma).expect("sigma validated non-negative and finite");
+    let normal =
+        Normal::new(0.0, params.mutation_sigma).expect("sigma validated non-negative and finite");
     let copies_per_elite = (params.population / params.elites) as usize - 1;
     let [low, high] = params.gene_range;
     let mut next = Vec::with_capacity(params.population as usize);
@@ -87,12 +105,30 @@ pub fn next_generation(population: &[Vec<f32>], fitness: &[f64], params: &Evolut
 
 /// The sample seeds of one generation: shared by all its genomes.
 pub fn generation_seeds(run_seed: u64, generation: u32, n_samples: u32) -> Vec<u64> {
-    (0..n_samples).map(|sample_idx| derive_seed(run_seed, &[RunStream::Samples as u64, u64::from(generation), u64::from(sample_idx)])).collect()
+    (0..n_samples)
+        .map(|sample_idx| {
+            derive_seed(
+                run_seed,
+                &[
+                    RunStream::Samples as u64,
+                    u64::from(generation),
+                    u64::from(sample_idx),
+                ],
+            )
+        })
+        .collect()
 }
 
 /// The post-evaluation seeds of a run: disjoint from every generation's.
 pub fn post_evaluation_seeds(run_seed: u64, n_samples: u32) -> Vec<u64> {
-    (0..n_samples).map(|sample_idx| derive_seed(run_seed, &[RunStream::PostEvaluation as u64, u64::from(sample_idx)])).collect()
+    (0..n_samples)
+        .map(|sample_idx| {
+            derive_seed(
+                run_seed,
+                &[RunStream::PostEvaluation as u64, u64::from(sample_idx)],
+            )
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -150,8 +186,16 @@ mod tests {
         let mut p = params();
         p.initial_sigma = 50.0;
         let population = initial_population(30, &p, 4);
-        assert!(population.iter().flatten().all(|&g| (-10.0..=10.0).contains(&g)));
-        assert!(population.iter().flatten().any(|&g| g == 10.0), "clamping happens at the edge");
+        assert!(
+            population
+                .iter()
+                .flatten()
+                .all(|&g| (-10.0..=10.0).contains(&g))
+        );
+        assert!(
+            population.iter().flatten().any(|&g| g == 10.0),
+            "clamping happens at the edge"
+        );
     }
 
     #[test]

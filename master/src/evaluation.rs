@@ -74,16 +74,19 @@ pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> V
 /// Summarises sample outcomes.
 pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
     let n = summaries.len().max(1) as f64;
-    let share = |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
+    let share =
+        |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
     let n_variants = sim_core::env::n_variants(kind);
     let per_variant = if n_variants > 1 {
         (0..n_variants)
             .map(|variant| {
-                let of: Vec<&SampleSummary> = summaries.iter().filter(|s| s.variant == variant).collect();
+                let of: Vec<&SampleSummary> =
+                    summaries.iter().filter(|s| s.variant == variant).collect();
                 VariantReport {
                     variant,
                     samples: of.len() as u32,
-                    solve_rate: of.iter().filter(|s| s.solved).count() as f64 / of.len().max(1) as f64,
+                    solve_rate: of.iter().filter(|s| s.solved).count() as f64
+                        / of.len().max(1) as f64,
                 }
             })
             .collect()
@@ -121,7 +124,12 @@ pub async fn evaluate_controller(
         template: controller,
         task,
     });
-    let request = EvaluationRequest { job: job.to_string(), shared, genomes: vec![Arc::from(Vec::new())], samples: samples.into() };
+    let request = EvaluationRequest {
+        job: job.to_string(),
+        shared,
+        genomes: vec![Arc::from(Vec::new())],
+        samples: samples.into(),
+    };
     let results = dispatcher.evaluate(request).await?;
     Ok(report(kind, &results[0]))
 }
@@ -138,8 +146,15 @@ pub fn describe(report: &EvalReport) -> String {
         report.mean_cycles
     );
     if !report.per_variant.is_empty() {
-        let parts: Vec<String> = report.per_variant.iter().map(|v| format!("{}: {:.1}%", v.variant, 100.0 * v.solve_rate)).collect();
-        text.push_str(&format!("\n  per light configuration / branch: {}", parts.join(", ")));
+        let parts: Vec<String> = report
+            .per_variant
+            .iter()
+            .map(|v| format!("{}: {:.1}%", v.variant, 100.0 * v.solve_rate))
+            .collect();
+        text.push_str(&format!(
+            "\n  per light configuration / branch: {}",
+            parts.join(", ")
+        ));
     }
     if let Some(stages) = &report.stages {
         text.push_str(&format!(
@@ -170,12 +185,27 @@ mod tests {
 
     #[test]
     fn reports_count_stages_and_variants() {
-        let s = |solved, stage, variant| SampleSummary { fitness: 1.0, solved, collided: false, stage, variant, cycles: 10 };
-        let summaries = [s(true, 3, 0), s(false, 2, 1), s(false, 1, 0), s(false, 0, 1)];
+        let s = |solved, stage, variant| SampleSummary {
+            fitness: 1.0,
+            solved,
+            collided: false,
+            stage,
+            variant,
+            cycles: 10,
+        };
+        let summaries = [
+            s(true, 3, 0),
+            s(false, 2, 1),
+            s(false, 1, 0),
+            s(false, 0, 1),
+        ];
         let r = report(TaskKind::Rescue, &summaries);
         assert_eq!(r.solve_rate, 0.25);
         let stages = r.stages.unwrap();
-        assert_eq!((stages.exited_room, stages.reached_teammate, stages.returned), (0.75, 0.5, 0.25));
+        assert_eq!(
+            (stages.exited_room, stages.reached_teammate, stages.returned),
+            (0.75, 0.5, 0.25)
+        );
         assert_eq!(r.per_variant[0].solve_rate, 0.5);
     }
 }

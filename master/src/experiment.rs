@@ -117,11 +117,15 @@ impl EvolutionOverrides {
         EvolutionParams {
             population: self.population.unwrap_or(base.population),
             elites: self.elites.unwrap_or(base.elites),
-            mutation_probability: self.mutation_probability.unwrap_or(base.mutation_probability),
+            mutation_probability: self
+                .mutation_probability
+                .unwrap_or(base.mutation_probability),
             mutation_sigma: self.mutation_sigma.unwrap_or(base.mutation_sigma),
             initial_sigma: self.initial_sigma.unwrap_or(base.initial_sigma),
             gene_range: self.gene_range.unwrap_or(base.gene_range),
-            post_evaluation_samples: self.post_evaluation_samples.unwrap_or(base.post_evaluation_samples),
+            post_evaluation_samples: self
+                .post_evaluation_samples
+                .unwrap_or(base.post_evaluation_samples),
         }
     }
 }
@@ -198,32 +202,51 @@ pub struct Experiment {
 impl Experiment {
     /// Reads and validates an experiment file.
     pub fn load(file: &Path) -> Result<Experiment, ExperimentError> {
-        let text = std::fs::read_to_string(file)
-            .map_err(|source| ExperimentError::Read { file: file.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(file).map_err(|source| ExperimentError::Read {
+            file: file.to_path_buf(),
+            source,
+        })?;
         Experiment::parse(&text, file)
     }
 
     /// Parses and validates experiment text; `file` is used in messages.
     pub fn parse(text: &str, file: &Path) -> Result<Experiment, ExperimentError> {
-        let syntax = |path: String, message: String| ExperimentError::Syntax { file: file.to_path_buf(), path, message };
-        let deserializer = toml::Deserializer::parse(text).map_err(|e| syntax(String::new(), one_line(&e.to_string())))?;
-        let parsed: ExperimentFile = serde_path_to_error::deserialize(deserializer).map_err(|e| {
-            syntax(e.path().to_string(), one_line(&e.inner().to_string()))
-        })?;
-        let invalid = |path: String, message: String| ExperimentError::Invalid { file: file.to_path_buf(), path, message };
+        let syntax = |path: String, message: String| ExperimentError::Syntax {
+            file: file.to_path_buf(),
+            path,
+            message,
+        };
+        let deserializer = toml::Deserializer::parse(text)
+            .map_err(|e| syntax(String::new(), one_line(&e.to_string())))?;
+        let parsed: ExperimentFile = serde_path_to_error::deserialize(deserializer)
+            .map_err(|e| syntax(e.path().to_string(), one_line(&e.inner().to_string())))?;
+        let invalid = |path: String, message: String| ExperimentError::Invalid {
+            file: file.to_path_buf(),
+            path,
+            message,
+        };
 
         let base = parsed.evolution.apply(&EvolutionParams::default());
         let mut index_of: HashMap<&str, usize> = HashMap::new();
         for (node_idx, node) in parsed.nodes.iter().enumerate() {
             if node.name.is_empty() || node.name.contains('/') {
-                return Err(invalid(format!("node[{node_idx}].name"), "must be non-empty and contain no '/'".into()));
+                return Err(invalid(
+                    format!("node[{node_idx}].name"),
+                    "must be non-empty and contain no '/'".into(),
+                ));
             }
             if index_of.insert(node.name.as_str(), node_idx).is_some() {
-                return Err(invalid(format!("node[{node_idx}].name"), format!("'{}' is declared twice", node.name)));
+                return Err(invalid(
+                    format!("node[{node_idx}].name"),
+                    format!("'{}' is declared twice", node.name),
+                ));
             }
         }
         if parsed.nodes.is_empty() {
-            return Err(invalid("node".into(), "at least one [[node]] is required".into()));
+            return Err(invalid(
+                "node".into(),
+                "at least one [[node]] is required".into(),
+            ));
         }
 
         let mut plans: Vec<Option<NodePlan>> = vec![None; parsed.nodes.len()];
@@ -231,40 +254,81 @@ impl Experiment {
             let at = |key: &str| format!("node[{node_idx}].{key}");
             match node.kind {
                 NodeKind::Primitive if !node.children.is_empty() => {
-                    return Err(invalid(at("children"), "a primitive drives the wheels and has no children".into()));
+                    return Err(invalid(
+                        at("children"),
+                        "a primitive drives the wheels and has no children".into(),
+                    ));
                 }
                 NodeKind::Arbitrator if node.children.is_empty() => {
-                    return Err(invalid(at("children"), "an arbitrator needs at least one child".into()));
+                    return Err(invalid(
+                        at("children"),
+                        "an arbitrator needs at least one child".into(),
+                    ));
                 }
                 _ => {}
             }
             for (child_idx, child) in node.children.iter().enumerate() {
                 if !index_of.contains_key(child.as_str()) {
-                    return Err(invalid(format!("node[{node_idx}].children[{child_idx}]"), format!("no node is named '{child}'")));
+                    return Err(invalid(
+                        format!("node[{node_idx}].children[{child_idx}]"),
+                        format!("no node is named '{child}'"),
+                    ));
                 }
             }
             if node.inputs.is_empty() {
-                return Err(invalid(at("inputs"), "at least one input group is required".into()));
+                return Err(invalid(
+                    at("inputs"),
+                    "at least one input group is required".into(),
+                ));
             }
             if node.hidden == 0 || node.hidden > 1000 {
-                return Err(invalid(at("hidden"), format!("must be between 1 and 1000, got {}", node.hidden)));
+                return Err(invalid(
+                    at("hidden"),
+                    format!("must be between 1 and 1000, got {}", node.hidden),
+                ));
             }
             let kind = sim_core::TaskKind::from_name(&node.task).ok_or_else(|| {
                 let names: Vec<&str> = sim_core::TaskKind::ALL.iter().map(|k| k.name()).collect();
-                invalid(at("task"), format!("unknown task '{}', expected one of {} or maze_single", node.task, names.join(", ")))
+                invalid(
+                    at("task"),
+                    format!(
+                        "unknown task '{}', expected one of {} or maze_single",
+                        node.task,
+                        names.join(", ")
+                    ),
+                )
             })?;
-            for (key, value, min) in [("samples", node.samples, 1), ("generations", node.generations, 1), ("runs", node.runs, 1)] {
+            for (key, value, min) in [
+                ("samples", node.samples, 1),
+                ("generations", node.generations, 1),
+                ("runs", node.runs, 1),
+            ] {
                 if value < min {
-                    return Err(invalid(at(key), format!("must be at least {min}, got {value}")));
+                    return Err(invalid(
+                        at(key),
+                        format!("must be at least {min}, got {value}"),
+                    ));
                 }
             }
-            let evolution = node.evolution.as_ref().map_or_else(|| base.clone(), |o| o.apply(&base));
+            let evolution = node
+                .evolution
+                .as_ref()
+                .map_or_else(|| base.clone(), |o| o.apply(&base));
             validate_evolution(&evolution).map_err(|(key, message)| {
-                let path = if node.evolution.is_some() { at(&format!("evolution.{key}")) } else { format!("evolution.{key}") };
+                let path = if node.evolution.is_some() {
+                    at(&format!("evolution.{key}"))
+                } else {
+                    format!("evolution.{key}")
+                };
                 invalid(path, message)
             })?;
-            let task = task_config(kind, node).map_err(|(key, message)| invalid(at(&key), message))?;
-            plans[node_idx] = Some(NodePlan { decl: node.clone(), evolution, task });
+            let task =
+                task_config(kind, node).map_err(|(key, message)| invalid(at(&key), message))?;
+            plans[node_idx] = Some(NodePlan {
+                decl: node.clone(),
+                evolution,
+                task,
+            });
         }
 
         // Dependency order, and no cycles.
@@ -291,11 +355,22 @@ impl Experiment {
             Ok(())
         }
         for node_idx in 0..parsed.nodes.len() {
-            visit(node_idx, &parsed.nodes, &index_of, &mut state, &mut order)
-                .map_err(|name| invalid("node".into(), format!("the children of '{name}' form a cycle")))?;
+            visit(node_idx, &parsed.nodes, &index_of, &mut state, &mut order).map_err(|name| {
+                invalid(
+                    "node".into(),
+                    format!("the children of '{name}' form a cycle"),
+                )
+            })?;
         }
-        let nodes = order.into_iter().map(|i| plans[i].take().expect("each node planned once")).collect();
-        Ok(Experiment { file: file.to_path_buf(), header: parsed.experiment, nodes })
+        let nodes = order
+            .into_iter()
+            .map(|i| plans[i].take().expect("each node planned once"))
+            .collect();
+        Ok(Experiment {
+            file: file.to_path_buf(),
+            header: parsed.experiment,
+            nodes,
+        })
     }
 
     /// The node with this name.
@@ -314,7 +389,11 @@ impl Experiment {
                 stack.extend(plan.decl.children.iter().cloned());
             }
         }
-        self.nodes.iter().map(|n| n.decl.name.clone()).filter(|n| wanted.contains_key(n)).collect()
+        self.nodes
+            .iter()
+            .map(|n| n.decl.name.clone())
+            .filter(|n| wanted.contains_key(n))
+            .collect()
     }
 }
 
@@ -324,7 +403,11 @@ fn one_line(message: &str) -> String {
 
 fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> {
     let fail = |key: &str, message: String| Err((key.to_string(), message));
-    if params.elites == 0 || params.population < 2 || params.population % params.elites != 0 || params.population == params.elites {
+    if params.elites == 0
+        || params.population < 2
+        || !params.population.is_multiple_of(params.elites)
+        || params.population == params.elites
+    {
         return fail(
             "population",
             format!(
@@ -334,17 +417,29 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
         );
     }
     if !(0.0..=1.0).contains(&params.mutation_probability) {
-        return fail("mutation_probability", format!("must be in [0, 1], got {}", params.mutation_probability));
+        return fail(
+            "mutation_probability",
+            format!("must be in [0, 1], got {}", params.mutation_probability),
+        );
     }
     if !(params.mutation_sigma.is_finite() && params.mutation_sigma >= 0.0) {
-        return fail("mutation_sigma", format!("must be >= 0, got {}", params.mutation_sigma));
+        return fail(
+            "mutation_sigma",
+            format!("must be >= 0, got {}", params.mutation_sigma),
+        );
     }
     if !(params.initial_sigma.is_finite() && params.initial_sigma >= 0.0) {
-        return fail("initial_sigma", format!("must be >= 0, got {}", params.initial_sigma));
+        return fail(
+            "initial_sigma",
+            format!("must be >= 0, got {}", params.initial_sigma),
+        );
     }
     let [low, high] = params.gene_range;
     if !(low.is_finite() && high.is_finite() && low < high && low >= -10.0 && high <= 10.0) {
-        return fail("gene_range", format!("must be [low, high] within [-10, 10] with low < high, got [{low}, {high}]"));
+        return fail(
+            "gene_range",
+            format!("must be [low, high] within [-10, 10] with low < high, got [{low}, {high}]"),
+        );
     }
     if params.post_evaluation_samples == 0 {
         return fail("post_evaluation_samples", "must be at least 1".into());
@@ -355,20 +450,30 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
 /// The node's task configuration: the paper's defaults, the node's `task_config` overrides
 /// (checked key by key against sim-core's schema), then `cycles`.
 fn task_config(kind: sim_core::TaskKind, node: &NodeDecl) -> Result<TaskConfig, (String, String)> {
-    let mut value = serde_json::to_value(TaskConfig::new(kind)).map_err(|e| ("task".to_string(), e.to_string()))?;
+    let mut value = serde_json::to_value(TaskConfig::new(kind))
+        .map_err(|e| ("task".to_string(), e.to_string()))?;
     if let Some(overrides) = &node.task_config {
-        let overrides = serde_json::to_value(overrides).map_err(|e| ("task_config".to_string(), e.to_string()))?;
+        let overrides = serde_json::to_value(overrides)
+            .map_err(|e| ("task_config".to_string(), e.to_string()))?;
         if overrides.get("kind").is_some() {
-            return Err(("task_config.kind".into(), "set the task with the node's `task` key".into()));
+            return Err((
+                "task_config.kind".into(),
+                "set the task with the node's `task` key".into(),
+            ));
         }
         merge(&mut value, overrides);
     }
-    let mut task: TaskConfig = serde_path_to_error::deserialize(value)
-        .map_err(|e| (format!("task_config.{}", e.path()), one_line(&e.inner().to_string())))?;
+    let mut task: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
+        (
+            format!("task_config.{}", e.path()),
+            one_line(&e.inner().to_string()),
+        )
+    })?;
     if let Some(cycles) = node.cycles {
         task.max_cycles = Some(cycles);
     }
-    task.validate().map_err(|message| ("task_config".to_string(), message))?;
+    task.validate()
+        .map_err(|message| ("task_config".to_string(), message))?;
     Ok(task)
 }
 
@@ -446,7 +551,11 @@ mutation_sigma = 0.5
     #[test]
     fn a_good_file_resolves_in_dependency_order() {
         let experiment = parse(GOOD).unwrap();
-        let names: Vec<&str> = experiment.nodes.iter().map(|n| n.decl.name.as_str()).collect();
+        let names: Vec<&str> = experiment
+            .nodes
+            .iter()
+            .map(|n| n.decl.name.as_str())
+            .collect();
         assert_eq!(names, ["fw", "tl", "maze"]);
         let fw = experiment.node("fw").unwrap();
         assert_eq!(fw.task.robot.v_max, 0.12);
@@ -463,10 +572,19 @@ mutation_sigma = 0.5
 
     #[test]
     fn unknown_keys_are_errors_with_their_path() {
-        let err = error_of(&GOOD.replace("hidden = 3\ntask = \"follow_wall\"", "hiden = 3\ntask = \"follow_wall\""));
-        assert!(err.contains("exp.toml") && err.contains("node[1]") && err.contains("hiden"), "{err}");
+        let err = error_of(&GOOD.replace(
+            "hidden = 3\ntask = \"follow_wall\"",
+            "hiden = 3\ntask = \"follow_wall\"",
+        ));
+        assert!(
+            err.contains("exp.toml") && err.contains("node[1]") && err.contains("hiden"),
+            "{err}"
+        );
         let err = error_of(&GOOD.replace("robot = { v_max = 0.12 }", "robot = { vmax = 0.12 }"));
-        assert!(err.contains("node[1].task_config.robot") && err.contains("vmax"), "{err}");
+        assert!(
+            err.contains("node[1].task_config.robot") && err.contains("vmax"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -474,20 +592,38 @@ mutation_sigma = 0.5
         let err = error_of(&GOOD.replace("hidden = 10", "hidden = \"ten\""));
         assert!(err.contains("node[0].hidden"), "{err}");
         let err = error_of(&GOOD.replace("task = \"turn_left\"", "task = \"turn_up\""));
-        assert!(err.contains("node[2].task") && err.contains("turn_up"), "{err}");
-        let err = error_of(&GOOD.replace("children = [\"fw\", \"tl\"]", "children = [\"fw\", \"nope\"]"));
-        assert!(err.contains("node[0].children[1]") && err.contains("nope"), "{err}");
+        assert!(
+            err.contains("node[2].task") && err.contains("turn_up"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace(
+            "children = [\"fw\", \"tl\"]",
+            "children = [\"fw\", \"nope\"]",
+        ));
+        assert!(
+            err.contains("node[0].children[1]") && err.contains("nope"),
+            "{err}"
+        );
         let err = error_of(&GOOD.replace("elites = 4", "elites = 3"));
         assert!(err.contains("evolution.population"), "{err}");
         let err = error_of(&GOOD.replace("robot = { v_max = 0.12 }", "robot = { v_max = -1.0 }"));
-        assert!(err.contains("node[1].task_config") && err.contains("v_max"), "{err}");
-        let err = error_of(&GOOD.replace("inputs = [\"ir\", \"light\"]", "inputs = [\"ir\", \"lidar\"]"));
+        assert!(
+            err.contains("node[1].task_config") && err.contains("v_max"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace(
+            "inputs = [\"ir\", \"light\"]",
+            "inputs = [\"ir\", \"lidar\"]",
+        ));
         assert!(err.contains("node[0].inputs"), "{err}");
     }
 
     #[test]
     fn cycles_are_refused() {
-        let text = GOOD.replace("name = \"tl\"\nkind = \"primitive\"", "name = \"tl\"\nkind = \"arbitrator\"\nchildren = [\"maze\"]");
+        let text = GOOD.replace(
+            "name = \"tl\"\nkind = \"primitive\"",
+            "name = \"tl\"\nkind = \"arbitrator\"\nchildren = [\"maze\"]",
+        );
         let err = error_of(&text);
         assert!(err.contains("cycle"), "{err}");
     }

@@ -10,7 +10,11 @@ use std::time::Instant;
 
 /// Chooses the terminal bar or log lines.
 pub fn for_stderr() -> Box<dyn Progress> {
-    if std::io::stderr().is_terminal() { Box::new(BarProgress::default()) } else { Box::new(LogProgress::default()) }
+    if std::io::stderr().is_terminal() {
+        Box::new(BarProgress::default())
+    } else {
+        Box::new(LogProgress::default())
+    }
 }
 
 /// Log lines through `tracing`.
@@ -22,18 +26,55 @@ pub struct LogProgress {
 impl Progress for LogProgress {
     fn event(&self, event: &ProgressEvent) {
         match event {
-            ProgressEvent::Generation { node, run, generation, generations, best, mean, cycles } => {
+            ProgressEvent::Generation {
+                node,
+                run,
+                generation,
+                generations,
+                best,
+                mean,
+                cycles,
+            } => {
                 let now = Instant::now();
                 let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
-                let rate = last.map(|t| *cycles as f64 / now.duration_since(t).as_secs_f64().max(1e-9)).unwrap_or(0.0);
+                let rate = last
+                    .map(|t| *cycles as f64 / now.duration_since(t).as_secs_f64().max(1e-9))
+                    .unwrap_or(0.0);
                 *last = Some(now);
-                tracing::info!(node, run, generation, generations, best = format!("{best:.4}"), mean = format!("{mean:.4}"), cycles_per_second = format!("{rate:.0}"), "generation");
+                tracing::info!(
+                    node,
+                    run,
+                    generation,
+                    generations,
+                    best = format!("{best:.4}"),
+                    mean = format!("{mean:.4}"),
+                    cycles_per_second = format!("{rate:.0}"),
+                    "generation"
+                );
             }
-            ProgressEvent::NodeStarted { node, runs, generations } => tracing::info!(node, runs, generations, "node started"),
-            ProgressEvent::RunFinished { node, run, solve_rate } => {
-                tracing::info!(node, run, solve_rate = format!("{:.1}%", 100.0 * solve_rate), "run finished")
+            ProgressEvent::NodeStarted {
+                node,
+                runs,
+                generations,
+            } => tracing::info!(node, runs, generations, "node started"),
+            ProgressEvent::RunFinished {
+                node,
+                run,
+                solve_rate,
+            } => {
+                tracing::info!(
+                    node,
+                    run,
+                    solve_rate = format!("{:.1}%", 100.0 * solve_rate),
+                    "run finished"
+                )
             }
-            ProgressEvent::NodeFinished { node, best_run, best_solve_rate, mean_solve_rate } => tracing::info!(
+            ProgressEvent::NodeFinished {
+                node,
+                best_run,
+                best_solve_rate,
+                mean_solve_rate,
+            } => tracing::info!(
                 node,
                 best_run,
                 best = format!("{:.1}%", 100.0 * best_solve_rate),
@@ -55,13 +96,23 @@ impl Progress for BarProgress {
     fn event(&self, event: &ProgressEvent) {
         let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
         match event {
-            ProgressEvent::Generation { node, run, generation, generations, best, mean, cycles } => {
+            ProgressEvent::Generation {
+                node,
+                run,
+                generation,
+                generations,
+                best,
+                mean,
+                cycles,
+            } => {
                 let (bar, started, total_cycles) = state.get_or_insert_with(|| {
                     let bar = ProgressBar::new(u64::from(*generations));
                     bar.set_style(
-                        ProgressStyle::with_template("{prefix:>16} [{bar:30}] {pos}/{len} gen  {msg}  eta {eta}")
-                            .unwrap_or_else(|_| ProgressStyle::default_bar())
-                            .progress_chars("=> "),
+                        ProgressStyle::with_template(
+                            "{prefix:>16} [{bar:30}] {pos}/{len} gen  {msg}  eta {eta}",
+                        )
+                        .unwrap_or_else(|_| ProgressStyle::default_bar())
+                        .progress_chars("=> "),
                     );
                     (bar, Instant::now(), 0)
                 });
@@ -70,18 +121,37 @@ impl Progress for BarProgress {
                 bar.set_prefix(format!("{node} run {run}"));
                 bar.set_length(u64::from(*generations));
                 bar.set_position(u64::from(generation + 1));
-                bar.set_message(format!("best {best:.3}  mean {mean:.3}  {:.2}M cycles/s", rate / 1e6));
+                bar.set_message(format!(
+                    "best {best:.3}  mean {mean:.3}  {:.2}M cycles/s",
+                    rate / 1e6
+                ));
             }
-            ProgressEvent::RunFinished { node, run, solve_rate } => {
+            ProgressEvent::RunFinished {
+                node,
+                run,
+                solve_rate,
+            } => {
                 if let Some((bar, _, _)) = state.take() {
                     bar.finish_and_clear();
                 }
-                eprintln!("{node} run {run}: post-evaluation solve rate {:.1}%", 100.0 * solve_rate);
+                eprintln!(
+                    "{node} run {run}: post-evaluation solve rate {:.1}%",
+                    100.0 * solve_rate
+                );
             }
-            ProgressEvent::NodeStarted { node, runs, generations } => {
+            ProgressEvent::NodeStarted {
+                node,
+                runs,
+                generations,
+            } => {
                 eprintln!("evolving {node}: {runs} runs x {generations} generations")
             }
-            ProgressEvent::NodeFinished { node, best_run, best_solve_rate, mean_solve_rate } => eprintln!(
+            ProgressEvent::NodeFinished {
+                node,
+                best_run,
+                best_solve_rate,
+                mean_solve_rate,
+            } => eprintln!(
                 "{node}: best run {best_run} solves {:.1}%, mean over runs {:.1}%",
                 100.0 * best_solve_rate,
                 100.0 * mean_solve_rate

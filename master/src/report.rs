@@ -33,14 +33,28 @@ struct NodeResult {
 }
 
 fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
-    let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     if let Some(summary) = read_json::<NodeSummary>(&dir.join("summary.json"))? {
-        return Ok(Some(NodeResult { name, runs: summary.runs, complete: true, runs_in_progress: 0, dir: dir.to_path_buf() }));
+        return Ok(Some(NodeResult {
+            name,
+            runs: summary.runs,
+            complete: true,
+            runs_in_progress: 0,
+            dir: dir.to_path_buf(),
+        }));
     }
     let mut runs = Vec::new();
     let mut in_progress = 0;
-    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(None) };
-    let mut run_dirs: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(None);
+    };
+    let mut run_dirs: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
     run_dirs.sort();
     for run_dir in run_dirs {
         if let Some(run) = read_json::<RunSummary>(&run_dir.join("summary.json"))? {
@@ -53,7 +67,13 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     if runs.is_empty() && in_progress == 0 {
         return Ok(None);
     }
-    Ok(Some(NodeResult { name, runs, complete: false, runs_in_progress: in_progress, dir: dir.to_path_buf() }))
+    Ok(Some(NodeResult {
+        name,
+        runs,
+        complete: false,
+        runs_in_progress: in_progress,
+        dir: dir.to_path_buf(),
+    }))
 }
 
 fn percent(x: f64) -> String {
@@ -65,8 +85,12 @@ fn percent(x: f64) -> String {
 pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, String> {
     let mut nodes: Vec<NodeResult> = Vec::new();
     for runs_dir in runs_dirs {
-        let entries = std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
-        let mut dirs: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+        let entries =
+            std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
+        let mut dirs: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_dir())
+            .collect();
         dirs.sort();
         for dir in dirs {
             if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
@@ -74,10 +98,16 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             }
         }
     }
-    let base = out_file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let base = out_file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let pictures = base.join("reproduction");
     let mut md = String::new();
-    let sources: Vec<String> = runs_dirs.iter().map(|d| format!("`{}`", d.display())).collect();
+    let sources: Vec<String> = runs_dirs
+        .iter()
+        .map(|d| format!("`{}`", d.display()))
+        .collect();
     let _ = writeln!(md, "# Reproduction of the paper's results\n");
     let _ = writeln!(
         md,
@@ -85,11 +115,18 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
          Rerun the command after more runs finish. Solve rates are post-evaluation rates on fresh samples \
          (100 per controller; 100 per light configuration or start branch for maze tasks), as in the paper. \
          \"avg\" is the mean over runs of each run's best controller, \"best\" the best run's controller.\n",
-        runs_dirs.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(" "),
+        runs_dirs
+            .iter()
+            .map(|d| d.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" "),
         out_file.display()
     );
     let _ = writeln!(md, "Sources: {}.\n", sources.join(", "));
-    let _ = writeln!(md, "| controller | task | paper avg / best | hevo avg / best | runs (paper) | generations (paper) | post-eval samples | status |");
+    let _ = writeln!(
+        md,
+        "| controller | task | paper avg / best | hevo avg / best | runs (paper) | generations (paper) | post-eval samples | status |"
+    );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
     for &(name, task, paper_avg, paper_best, paper_generations, paper_runs) in PAPER {
         let Some(node) = nodes.iter().find(|n| n.name == name) else {
@@ -101,7 +138,11 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             );
             continue;
         };
-        let rates: Vec<f64> = node.runs.iter().map(|r| r.post_evaluation.solve_rate).collect();
+        let rates: Vec<f64> = node
+            .runs
+            .iter()
+            .map(|r| r.post_evaluation.solve_rate)
+            .collect();
         let (ours, samples, generations) = if rates.is_empty() {
             ("-".to_string(), "-".to_string(), "-".to_string())
         } else {
@@ -121,7 +162,11 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         let status = if node.complete {
             "complete".to_string()
         } else {
-            format!("{} run(s) finished, {} in progress", node.runs.len(), node.runs_in_progress)
+            format!(
+                "{} run(s) finished, {} in progress",
+                node.runs.len(),
+                node.runs_in_progress
+            )
         };
         let _ = writeln!(
             md,
@@ -136,12 +181,25 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         && !rescue.runs.is_empty()
     {
         let _ = writeln!(md, "\n## Rescue stages\n");
-        let _ = writeln!(md, "Paper (mean over 10 runs): 91% exit the room, 88% reach the teammate, 85% bring it back.\n");
-        let _ = writeln!(md, "| run | exited room | reached teammate | brought back |");
+        let _ = writeln!(
+            md,
+            "Paper (mean over 10 runs): 91% exit the room, 88% reach the teammate, 85% bring it back.\n"
+        );
+        let _ = writeln!(
+            md,
+            "| run | exited room | reached teammate | brought back |"
+        );
         let _ = writeln!(md, "|---|---|---|---|");
         for run in &rescue.runs {
             if let Some(stages) = &run.post_evaluation.stages {
-                let _ = writeln!(md, "| {} | {} | {} | {} |", run.run, percent(stages.exited_room), percent(stages.reached_teammate), percent(stages.returned));
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {} | {} |",
+                    run.run,
+                    percent(stages.exited_room),
+                    percent(stages.reached_teammate),
+                    percent(stages.returned)
+                );
             }
         }
     }
@@ -151,8 +209,19 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     let _ = writeln!(md, "\n## Composition versus one network\n");
     match (maze, single) {
         (Some(maze), Some(single)) if !maze.runs.is_empty() && !single.runs.is_empty() => {
-            let avg = |n: &NodeResult| n.runs.iter().map(|r| r.post_evaluation.solve_rate).sum::<f64>() / n.runs.len() as f64;
-            let best = |n: &NodeResult| n.runs.iter().map(|r| r.post_evaluation.solve_rate).fold(0.0, f64::max);
+            let avg = |n: &NodeResult| {
+                n.runs
+                    .iter()
+                    .map(|r| r.post_evaluation.solve_rate)
+                    .sum::<f64>()
+                    / n.runs.len() as f64
+            };
+            let best = |n: &NodeResult| {
+                n.runs
+                    .iter()
+                    .map(|r| r.post_evaluation.solve_rate)
+                    .fold(0.0, f64::max)
+            };
             let _ = writeln!(
                 md,
                 "The composed maze controller (arbitrator over three primitives) solves {} on average and {} at best; \
@@ -167,22 +236,36 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             );
         }
         _ => {
-            let _ = writeln!(md, "Not available yet: both `solve_maze` and `maze_single` need finished runs.");
+            let _ = writeln!(
+                md,
+                "Not available yet: both `solve_maze` and `maze_single` need finished runs."
+            );
         }
     }
 
     let _ = writeln!(md, "\n## Fitness curves\n");
-    let _ = writeln!(md, "Best (solid) and mean (dashed) fitness per generation of every run, with the mean across runs.\n");
+    let _ = writeln!(
+        md,
+        "Best (solid) and mean (dashed) fitness per generation of every run, with the mean across runs.\n"
+    );
     for node in &nodes {
         let mut logs = Vec::new();
-        let Ok(entries) = std::fs::read_dir(&node.dir) else { continue };
-        let mut run_dirs: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+        let Ok(entries) = std::fs::read_dir(&node.dir) else {
+            continue;
+        };
+        let mut run_dirs: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_dir())
+            .collect();
         run_dirs.sort();
         for run_dir in run_dirs {
             if let Ok(text) = std::fs::read_to_string(run_dir.join("fitness.csv"))
                 && let Ok(rows) = viz::parse_fitness_csv(&text)
             {
-                let label = run_dir.file_name().map(|n| n.to_string_lossy().replace('-', " ")).unwrap_or_default();
+                let label = run_dir
+                    .file_name()
+                    .map(|n| n.to_string_lossy().replace('-', " "))
+                    .unwrap_or_default();
                 logs.push(viz::RunLog { label, rows });
             }
         }

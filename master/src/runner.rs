@@ -202,23 +202,40 @@ pub async fn run_experiment(
     let names: Vec<String> = match &settings.node {
         Some(node) => {
             if experiment.node(node).is_none() {
-                let known: Vec<&str> = experiment.nodes.iter().map(|n| n.decl.name.as_str()).collect();
-                return Err(RunError::Invalid(format!("no node named '{node}' in {}; nodes: {}", experiment.file.display(), known.join(", "))));
+                let known: Vec<&str> = experiment
+                    .nodes
+                    .iter()
+                    .map(|n| n.decl.name.as_str())
+                    .collect();
+                return Err(RunError::Invalid(format!(
+                    "no node named '{node}' in {}; nodes: {}",
+                    experiment.file.display(),
+                    known.join(", ")
+                )));
             }
             experiment.subtree(node)
         }
-        None => experiment.nodes.iter().map(|n| n.decl.name.clone()).collect(),
+        None => experiment
+            .nodes
+            .iter()
+            .map(|n| n.decl.name.clone())
+            .collect(),
     };
     let mut summaries = Vec::new();
     for name in names {
-        let plan = experiment.node(&name).expect("names come from the experiment");
+        let plan = experiment
+            .node(&name)
+            .expect("names come from the experiment");
         summaries.push(run_node(experiment, plan, settings, dispatcher, progress).await?);
     }
     Ok(summaries)
 }
 
 fn io_error(path: &Path, error: impl std::fmt::Display) -> RunError {
-    RunError::Io { path: path.to_path_buf(), message: error.to_string() }
+    RunError::Io {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    }
 }
 
 /// The controller template of a node: the node itself free, its children the fixed best
@@ -228,7 +245,11 @@ pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, 
     for child in &plan.decl.children {
         let path = out_dir.join(child).join("best.json");
         let text = std::fs::read_to_string(&path).map_err(|e| {
-            RunError::Invalid(format!("{}: the child '{child}' of '{}' has no result yet ({e}); run it first", path.display(), plan.decl.name))
+            RunError::Invalid(format!(
+                "{}: the child '{child}' of '{}' has no result yet ({e}); run it first",
+                path.display(),
+                plan.decl.name
+            ))
         })?;
         let file = ControllerFile::from_json_str(&text).map_err(|e| io_error(&path, e))?;
         children.push(file.root);
@@ -257,7 +278,9 @@ fn fingerprint(plan: &NodePlan, template: &ControllerFile, seed: u64, generation
         "template": template.content_hash(),
     });
     let text = material.to_string();
-    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
     format!("{hash:016x}")
 }
 
@@ -277,19 +300,40 @@ async fn run_node(
     let fingerprint = fingerprint(plan, &template, seed, generations);
 
     let summary_path = node_dir.join("summary.json");
-    if let Some(summary) = read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+    if let Some(summary) =
+        read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
         && summary.fingerprint == fingerprint
         && summary.runs.len() == runs as usize
     {
-        progress.event(&ProgressEvent::Note { message: format!("{name}: already finished, {} runs (skipped)", runs) });
+        progress.event(&ProgressEvent::Note {
+            message: format!("{name}: already finished, {} runs (skipped)", runs),
+        });
         return Ok(summary);
     }
-    progress.event(&ProgressEvent::NodeStarted { node: name.clone(), runs, generations });
+    progress.event(&ProgressEvent::NodeStarted {
+        node: name.clone(),
+        runs,
+        generations,
+    });
 
     let mut run_summaries = Vec::new();
     for run in 0..runs {
         let run_dir = node_dir.join(format!("run-{run}"));
-        run_summaries.push(run_one(plan, &template, &fingerprint, seed, run, generations, &run_dir, settings, dispatcher, progress).await?);
+        run_summaries.push(
+            run_one(
+                plan,
+                &template,
+                &fingerprint,
+                seed,
+                run,
+                generations,
+                &run_dir,
+                settings,
+                dispatcher,
+                progress,
+            )
+            .await?,
+        );
     }
 
     let best = run_summaries
@@ -299,15 +343,25 @@ async fn run_node(
             a.post_evaluation
                 .solve_rate
                 .total_cmp(&b.post_evaluation.solve_rate)
-                .then(a.post_evaluation.mean_fitness.total_cmp(&b.post_evaluation.mean_fitness))
+                .then(
+                    a.post_evaluation
+                        .mean_fitness
+                        .total_cmp(&b.post_evaluation.mean_fitness),
+                )
                 .then(ib.cmp(ia))
         })
         .map(|(i, _)| i)
         .expect("at least one run");
     let best_controller_path = node_dir.join(format!("run-{best}")).join("best.json");
-    let best_controller = std::fs::read(&best_controller_path).map_err(|e| io_error(&best_controller_path, e))?;
-    write_atomic(&node_dir.join("best.json"), &best_controller).map_err(|e| io_error(&node_dir.join("best.json"), e))?;
-    let mean_solve_rate = run_summaries.iter().map(|r| r.post_evaluation.solve_rate).sum::<f64>() / run_summaries.len() as f64;
+    let best_controller =
+        std::fs::read(&best_controller_path).map_err(|e| io_error(&best_controller_path, e))?;
+    write_atomic(&node_dir.join("best.json"), &best_controller)
+        .map_err(|e| io_error(&node_dir.join("best.json"), e))?;
+    let mean_solve_rate = run_summaries
+        .iter()
+        .map(|r| r.post_evaluation.solve_rate)
+        .sum::<f64>()
+        / run_summaries.len() as f64;
     let summary = NodeSummary {
         node: name.clone(),
         task: plan.task.kind.name().to_string(),
@@ -347,22 +401,43 @@ async fn run_one(
         if found == fingerprint {
             Ok(())
         } else {
-            Err(RunError::Fingerprint { path: path.to_path_buf(), found: found.to_string(), expected: fingerprint.to_string() })
+            Err(RunError::Fingerprint {
+                path: path.to_path_buf(),
+                found: found.to_string(),
+                expected: fingerprint.to_string(),
+            })
         }
     };
-    if let Some(summary) = read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))? {
+    if let Some(summary) =
+        read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+    {
         check(&summary_path, &summary.fingerprint)?;
         return Ok(summary);
     }
     let run_seed = ea::run_seed(seed, name, run);
-    let n_genes = template.free_node_topology().map(|(_, t)| t.n_genes()).unwrap_or(0);
-    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path).map_err(|e| io_error(&checkpoint_path, e))? {
+    let n_genes = template
+        .free_node_topology()
+        .map(|(_, t)| t.n_genes())
+        .unwrap_or(0);
+    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path)
+        .map_err(|e| io_error(&checkpoint_path, e))?
+    {
         Some(found) => {
             check(&checkpoint_path, &found.fingerprint)?;
-            if found.format != CHECKPOINT_FORMAT || found.population.iter().any(|g| g.len() != n_genes) {
-                return Err(io_error(&checkpoint_path, "checkpoint is not in the expected format; delete it to restart the run"));
+            if found.format != CHECKPOINT_FORMAT
+                || found.population.iter().any(|g| g.len() != n_genes)
+            {
+                return Err(io_error(
+                    &checkpoint_path,
+                    "checkpoint is not in the expected format; delete it to restart the run",
+                ));
             }
-            progress.event(&ProgressEvent::Note { message: format!("{name} run {run}: resuming at generation {}", found.generation) });
+            progress.event(&ProgressEvent::Note {
+                message: format!(
+                    "{name} run {run}: resuming at generation {}",
+                    found.generation
+                ),
+            });
             found
         }
         None => Checkpoint {
@@ -390,18 +465,28 @@ async fn run_one(
         let samples: Arc<[Sample]> = ea::generation_seeds(run_seed, generation, plan.decl.samples)
             .into_iter()
             .enumerate()
-            .map(|(i, seed)| Sample { seed, variant: (n_variants > 1).then_some(i as u32 % n_variants) })
+            .map(|(i, seed)| Sample {
+                seed,
+                variant: (n_variants > 1).then_some(i as u32 % n_variants),
+            })
             .collect();
         let request = EvaluationRequest {
             job: settings.job.clone(),
             shared: shared.clone(),
-            genomes: checkpoint.population.iter().map(|g| Arc::from(g.as_slice())).collect(),
+            genomes: checkpoint
+                .population
+                .iter()
+                .map(|g| Arc::from(g.as_slice()))
+                .collect(),
             samples,
         };
         let results = dispatcher.evaluate(request).await?;
         let fitness: Vec<f64> = results
             .iter()
-            .map(|genome| genome.iter().map(|s| f64::from(s.fitness)).sum::<f64>() / genome.len().max(1) as f64)
+            .map(|genome| {
+                genome.iter().map(|s| f64::from(s.fitness)).sum::<f64>()
+                    / genome.len().max(1) as f64
+            })
             .collect();
         let cycles: u64 = results.iter().flatten().map(|s| u64::from(s.cycles)).sum();
         let row = log_row(generation, &fitness);
@@ -419,24 +504,47 @@ async fn run_one(
             let best_idx = ea::ranking(&fitness)[0];
             checkpoint.best = Some(checkpoint.population[best_idx].clone());
         } else {
-            checkpoint.population = ea::next_generation(&checkpoint.population, &fitness, &plan.evolution, run_seed, generation);
+            checkpoint.population = ea::next_generation(
+                &checkpoint.population,
+                &fitness,
+                &plan.evolution,
+                run_seed,
+                generation,
+            );
         }
         checkpoint.generation = generation + 1;
         write_fitness_csv(&run_dir.join("fitness.csv"), &checkpoint.log)?;
-        write_json_atomic(&checkpoint_path, &checkpoint).map_err(|e| io_error(&checkpoint_path, e))?;
+        write_json_atomic(&checkpoint_path, &checkpoint)
+            .map_err(|e| io_error(&checkpoint_path, e))?;
     }
 
-    let best_genes = checkpoint.best.clone().ok_or_else(|| io_error(&checkpoint_path, "finished checkpoint without a best genome"))?;
-    let controller = template.with_free_genome(&best_genes).map_err(|e| io_error(&checkpoint_path, e))?;
+    let best_genes = checkpoint.best.clone().ok_or_else(|| {
+        io_error(
+            &checkpoint_path,
+            "finished checkpoint without a best genome",
+        )
+    })?;
+    let controller = template
+        .with_free_genome(&best_genes)
+        .map_err(|e| io_error(&checkpoint_path, e))?;
     let best_path = run_dir.join("best.json");
-    let json = controller.to_json_pretty().map_err(|e| io_error(&best_path, e))?;
+    let json = controller
+        .to_json_pretty()
+        .map_err(|e| io_error(&best_path, e))?;
     write_atomic(&best_path, json.as_bytes()).map_err(|e| io_error(&best_path, e))?;
     let samples = evaluation::post_evaluation_samples(
         plan.task.kind,
         plan.evolution.post_evaluation_samples,
         ea::post_evaluation_seeds(run_seed, 1)[0],
     );
-    let post_evaluation = evaluation::evaluate_controller(dispatcher, &settings.job, controller, plan.task.clone(), samples).await?;
+    let post_evaluation = evaluation::evaluate_controller(
+        dispatcher,
+        &settings.job,
+        controller,
+        plan.task.clone(),
+        samples,
+    )
+    .await?;
     let summary = RunSummary {
         node: name.clone(),
         run,
@@ -447,7 +555,11 @@ async fn run_one(
         post_evaluation,
     };
     write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
-    progress.event(&ProgressEvent::RunFinished { node: name.clone(), run, solve_rate: summary.post_evaluation.solve_rate });
+    progress.event(&ProgressEvent::RunFinished {
+        node: name.clone(),
+        run,
+        solve_rate: summary.post_evaluation.solve_rate,
+    });
     Ok(summary)
 }
 
@@ -469,7 +581,10 @@ fn write_fitness_csv(path: &Path, log: &[FitnessRow]) -> Result<(), RunError> {
     let mut text = String::from(FITNESS_CSV_HEADER);
     text.push('\n');
     for row in log {
-        text.push_str(&format!("{},{},{},{},{},{}\n", row.generation, row.best, row.mean, row.min, row.max, row.std));
+        text.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            row.generation, row.best, row.mean, row.min, row.max, row.std
+        ));
     }
     write_atomic(path, text.as_bytes()).map_err(|e| io_error(path, e))
 }

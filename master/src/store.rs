@@ -9,9 +9,15 @@ use std::path::Path;
 
 /// Writes `bytes` to `path` atomically, creating the parent directory.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
-    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp = dir.join(format!(".{file_name}.tmp-{}", std::process::id()));
     {
         let mut file = std::fs::File::create(&tmp)?;
@@ -37,7 +43,9 @@ pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Resul
 /// malformed (never silently ignored: a corrupt checkpoint must be looked at).
 pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<Option<T>, String> {
     match std::fs::read_to_string(path) {
-        Ok(text) => serde_json::from_str(&text).map(Some).map_err(|e| format!("malformed JSON: {e}")),
+        Ok(text) => serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| format!("malformed JSON: {e}")),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(e.to_string()),
     }
@@ -54,9 +62,16 @@ mod tests {
         write_json_atomic(&path, &vec![1, 2, 3]).unwrap();
         write_json_atomic(&path, &vec![4]).unwrap();
         assert_eq!(read_json::<Vec<i32>>(&path).unwrap(), Some(vec![4]));
-        assert_eq!(read_json::<Vec<i32>>(&dir.path().join("missing.json")).unwrap(), None);
+        assert_eq!(
+            read_json::<Vec<i32>>(&dir.path().join("missing.json")).unwrap(),
+            None
+        );
         std::fs::write(&path, "{").unwrap();
-        assert!(read_json::<Vec<i32>>(&path).unwrap_err().contains("malformed"));
+        assert!(
+            read_json::<Vec<i32>>(&path)
+                .unwrap_err()
+                .contains("malformed")
+        );
         // No temporary files are left behind.
         let leftovers: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
         assert_eq!(leftovers.len(), 1);

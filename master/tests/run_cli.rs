@@ -39,7 +39,11 @@ fn write_experiment(dir: &Path, text: &str) -> PathBuf {
 }
 
 fn hevo(args: &[&str]) -> std::process::Output {
-    Command::new(HEVO).args(args).env("RUST_LOG", "warn").output().expect("hevo runs")
+    Command::new(HEVO)
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("hevo runs")
 }
 
 /// Every file under `dir`, relative path -> bytes.
@@ -52,7 +56,11 @@ fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
             if path.is_dir() {
                 stack.push(path);
             } else {
-                let relative = path.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+                let relative = path
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
                 files.push((relative, std::fs::read(&path).unwrap()));
             }
         }
@@ -66,7 +74,12 @@ fn assert_same_tree(a: &Path, b: &Path) {
     let names = |t: &[(String, Vec<u8>)]| t.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     assert_eq!(names(&ta), names(&tb), "same files");
     for ((name, bytes_a), (_, bytes_b)) in ta.iter().zip(&tb) {
-        assert!(bytes_a == bytes_b, "{name} differs between {} and {}", a.display(), b.display());
+        assert!(
+            bytes_a == bytes_b,
+            "{name} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
     }
 }
 
@@ -77,21 +90,46 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     let experiment = experiment.to_str().unwrap();
 
     let straight = dir.path().join("straight");
-    let out = hevo(&["run", experiment, "--out", straight.to_str().unwrap(), "--threads", "2"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hevo(&[
+        "run",
+        experiment,
+        "--out",
+        straight.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let summary = std::fs::read_to_string(straight.join("exit_room/summary.json")).unwrap();
     assert!(summary.contains("\"best_run\""));
 
     // One thread: the same bytes.
     let single = dir.path().join("single");
-    let out = hevo(&["run", experiment, "--out", single.to_str().unwrap(), "--threads", "1"]);
+    let out = hevo(&[
+        "run",
+        experiment,
+        "--out",
+        single.to_str().unwrap(),
+        "--threads",
+        "1",
+    ]);
     assert!(out.status.success());
     assert_same_tree(&straight, &single);
 
     // Kill -9 in the middle of the first run, then run the same command again.
     let killed = dir.path().join("killed");
     let mut child = Command::new(HEVO)
-        .args(["run", experiment, "--out", killed.to_str().unwrap(), "--threads", "2"])
+        .args([
+            "run",
+            experiment,
+            "--out",
+            killed.to_str().unwrap(),
+            "--threads",
+            "2",
+        ])
         .env("RUST_LOG", "warn")
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -107,15 +145,35 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         if generation.is_some_and(|g| g >= 3) {
             break;
         }
-        assert!(started.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
-        assert!(child.try_wait().unwrap().is_none(), "the run finished before it could be killed; make SMALL slower");
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no checkpoint appeared"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run finished before it could be killed; make SMALL slower"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    assert!(!killed.join("exit_room/summary.json").exists(), "killed before the end");
-    let out = hevo(&["run", experiment, "--out", killed.to_str().unwrap(), "--threads", "2"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        !killed.join("exit_room/summary.json").exists(),
+        "killed before the end"
+    );
+    let out = hevo(&[
+        "run",
+        experiment,
+        "--out",
+        killed.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_same_tree(&straight, &killed);
 
     // A rerun of a finished experiment does nothing and changes nothing.
@@ -125,10 +183,18 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
 
     // Changing the experiment under existing results is refused.
     let changed = write_experiment(dir.path(), &SMALL.replace("hidden = 4", "hidden = 5"));
-    let out = hevo(&["run", changed.to_str().unwrap(), "--out", killed.to_str().unwrap()]);
+    let out = hevo(&[
+        "run",
+        changed.to_str().unwrap(),
+        "--out",
+        killed.to_str().unwrap(),
+    ]);
     assert!(!out.status.success());
     let message = String::from_utf8_lossy(&out.stderr);
-    assert!(message.contains("different experiment setup") && message.contains("exit_room"), "{message}");
+    assert!(
+        message.contains("different experiment setup") && message.contains("exit_room"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -136,16 +202,33 @@ fn bad_experiment_files_are_rejected_with_the_key_path() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
         (SMALL.replace("hidden = 4", "hiden = 4"), "node[0]"),
-        (SMALL.replace("task = \"exit_room\"", "task = \"exit_rom\""), "node[0].task"),
-        (SMALL.replace("samples = 6\n", "samples = 0\n"), "node[0].samples"),
-        (SMALL.replace("[evolution]", "[evolution]\nmutation_rate = 0.2"), "evolution"),
+        (
+            SMALL.replace("task = \"exit_room\"", "task = \"exit_rom\""),
+            "node[0].task",
+        ),
+        (
+            SMALL.replace("samples = 6\n", "samples = 0\n"),
+            "node[0].samples",
+        ),
+        (
+            SMALL.replace("[evolution]", "[evolution]\nmutation_rate = 0.2"),
+            "evolution",
+        ),
     ];
     for (text, key) in cases {
         let path = write_experiment(dir.path(), &text);
-        let out = hevo(&["run", path.to_str().unwrap(), "--out", dir.path().join("o").to_str().unwrap()]);
+        let out = hevo(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            dir.path().join("o").to_str().unwrap(),
+        ]);
         assert!(!out.status.success());
         let message = String::from_utf8_lossy(&out.stderr);
-        assert!(message.contains("small.toml") && message.contains(key), "expected {key} in: {message}");
+        assert!(
+            message.contains("small.toml") && message.contains(key),
+            "expected {key} in: {message}"
+        );
         assert!(!message.contains("panicked"), "{message}");
     }
     let out = hevo(&["run", dir.path().join("missing.toml").to_str().unwrap()]);
@@ -157,18 +240,52 @@ fn bad_experiment_files_are_rejected_with_the_key_path() {
 fn eval_and_bench_report_what_they_measured() {
     let dir = tempfile::tempdir().unwrap();
     // A controller file from a tiny run.
-    let experiment = write_experiment(dir.path(), &SMALL.replace("generations = 10", "generations = 1").replace("runs = 2", "runs = 1"));
+    let experiment = write_experiment(
+        dir.path(),
+        &SMALL
+            .replace("generations = 10", "generations = 1")
+            .replace("runs = 2", "runs = 1"),
+    );
     let out_dir = dir.path().join("o");
-    let out = hevo(&["run", experiment.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hevo(&[
+        "run",
+        experiment.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let controller = out_dir.join("exit_room/best.json");
-    let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "exit_room", "--samples", "5", "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hevo(&[
+        "eval",
+        controller.to_str().unwrap(),
+        "--task",
+        "exit_room",
+        "--samples",
+        "5",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["samples"], 5);
     assert!(report["solve_rate"].as_f64().unwrap() <= 1.0);
 
-    let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "solve_maze", "--samples", "2", "--json"]);
+    let out = hevo(&[
+        "eval",
+        controller.to_str().unwrap(),
+        "--task",
+        "solve_maze",
+        "--samples",
+        "2",
+        "--json",
+    ]);
     // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
     assert!(out.status.success());
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -181,15 +298,43 @@ fn eval_and_bench_report_what_they_measured() {
 
     // The reproduction report is generated from the outputs, with the paper's figures beside.
     let report_file = dir.path().join("doc/REPRODUCTION.md");
-    let out = hevo(&["report", out_dir.to_str().unwrap(), "--out", report_file.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hevo(&[
+        "report",
+        out_dir.to_str().unwrap(),
+        "--out",
+        report_file.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let markdown = std::fs::read_to_string(&report_file).unwrap();
-    assert!(markdown.contains("| exit_room | exit_room | 52.0% / 96.0% |"), "{markdown}");
-    assert!(markdown.contains("| solve_maze | solve_maze | 93.0% / 99.5% | not run yet"), "{markdown}");
+    assert!(
+        markdown.contains("| exit_room | exit_room | 52.0% / 96.0% |"),
+        "{markdown}"
+    );
+    assert!(
+        markdown.contains("| solve_maze | solve_maze | 93.0% / 99.5% | not run yet"),
+        "{markdown}"
+    );
     assert!(markdown.contains("reproduction/exit_room-fitness.svg"));
-    assert!(dir.path().join("doc/reproduction/exit_room-fitness.svg").exists());
+    assert!(
+        dir.path()
+            .join("doc/reproduction/exit_room-fitness.svg")
+            .exists()
+    );
 
-    let out = hevo(&["bench", "--task", "follow_wall", "--seconds", "0.3", "--threads", "1", "--json"]);
+    let out = hevo(&[
+        "bench",
+        "--task",
+        "follow_wall",
+        "--seconds",
+        "0.3",
+        "--threads",
+        "1",
+        "--json",
+    ]);
     assert!(out.status.success());
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["task"], "follow_wall");

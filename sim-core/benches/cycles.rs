@@ -49,7 +49,12 @@ fn bench_cycles(c: &mut Criterion) {
     let mut task = TaskConfig::new(TaskKind::SolveMaze);
     task.end_on_collision = false;
     let batch = BatchEvaluator::new(file, task).expect("valid benchmark setup");
-    let samples: Vec<Sample> = (0..4).map(|k| Sample { seed: 100 + k, variant: Some(k as u32) }).collect();
+    let samples: Vec<Sample> = (0..4)
+        .map(|k| Sample {
+            seed: 100 + k,
+            variant: Some(k as u32),
+        })
+        .collect();
     let cycles: u64 = batch
         .evaluate_genome(Some(&genes), &samples)
         .expect("genome fits")
@@ -59,7 +64,11 @@ fn bench_cycles(c: &mut Criterion) {
     let mut group = c.benchmark_group("simulator");
     group.throughput(Throughput::Elements(cycles));
     group.bench_function("solve_maze_6-10-3_over_3x4-3-2", |b| {
-        b.iter(|| batch.evaluate_genome(Some(&genes), &samples).expect("genome fits"))
+        b.iter(|| {
+            batch
+                .evaluate_genome(Some(&genes), &samples)
+                .expect("genome fits")
+        })
     });
     group.finish();
 }

@@ -56,8 +56,14 @@ impl BatchEvaluator {
     /// Validates the template and the task once.
     pub fn new(template: ControllerFile, task: TaskConfig) -> Result<BatchEvaluator, BatchError> {
         template.validate()?;
-        let n_free_genes = template.free_node_topology().map_or(0, |(_, topology)| topology.n_genes());
-        Ok(BatchEvaluator { template, evaluator: Evaluator::new(task)?, n_free_genes })
+        let n_free_genes = template
+            .free_node_topology()
+            .map_or(0, |(_, topology)| topology.n_genes());
+        Ok(BatchEvaluator {
+            template,
+            evaluator: Evaluator::new(task)?,
+            n_free_genes,
+        })
     }
 
     /// The evaluator (task and shared geometry).
@@ -76,9 +82,16 @@ impl BatchEvaluator {
     }
 
     /// Evaluates one genome on every sample, in order.
-    pub fn evaluate_genome(&self, genes: Option<&[f32]>, samples: &[Sample]) -> Result<Vec<Outcome>, ControllerError> {
+    pub fn evaluate_genome(
+        &self,
+        genes: Option<&[f32]>,
+        samples: &[Sample],
+    ) -> Result<Vec<Outcome>, ControllerError> {
         let mut controller = self.controller(genes)?;
-        Ok(samples.iter().map(|&sample| self.evaluator.evaluate(&mut controller, sample)).collect())
+        Ok(samples
+            .iter()
+            .map(|&sample| self.evaluator.evaluate(&mut controller, sample))
+            .collect())
     }
 }
 
@@ -115,9 +128,16 @@ impl From<&Outcome> for SampleSummary {
 
 impl BatchEvaluator {
     /// Evaluates one genome on every sample and keeps the summaries.
-    pub fn evaluate_summaries(&self, genes: Option<&[f32]>, samples: &[Sample]) -> Result<Vec<SampleSummary>, ControllerError> {
+    pub fn evaluate_summaries(
+        &self,
+        genes: Option<&[f32]>,
+        samples: &[Sample],
+    ) -> Result<Vec<SampleSummary>, ControllerError> {
         let mut controller = self.controller(genes)?;
-        Ok(samples.iter().map(|&sample| SampleSummary::from(&self.evaluator.evaluate(&mut controller, sample))).collect())
+        Ok(samples
+            .iter()
+            .map(|&sample| SampleSummary::from(&self.evaluator.evaluate(&mut controller, sample)))
+            .collect())
     }
 }
 
@@ -125,6 +145,8 @@ impl BatchEvaluator {
 /// can cache evaluators by (template hash, task hash).
 pub fn task_content_hash(task: &TaskConfig) -> String {
     let json = serde_json::to_string(task).unwrap_or_default();
-    let hash = json.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let hash = json.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
     format!("{hash:016x}")
 }

@@ -46,7 +46,10 @@ pub struct Sample {
 impl Sample {
     /// A sample whose variant is drawn from its seed.
     pub fn seeded(seed: u64) -> Sample {
-        Sample { seed, variant: None }
+        Sample {
+            seed,
+            variant: None,
+        }
     }
 }
 
@@ -178,7 +181,12 @@ impl Evaluator {
         let cones = IR_ANGLES.map(|angle| Cone::new(angle, opening));
         let radius = task.robot.radius;
         let sensor_offsets = IR_ANGLES.map(|a| [radius * a.cos(), radius * a.sin()]);
-        Ok(Evaluator { statics: Statics::new(&task), task, cones, sensor_offsets })
+        Ok(Evaluator {
+            statics: Statics::new(&task),
+            task,
+            cones,
+            sensor_offsets,
+        })
     }
 
     /// The task.
@@ -198,9 +206,10 @@ impl Evaluator {
         let (goal, exit) = match &env.ground {
             Ground::Room(room) => (None, Some((room.exit_center, room.exit_outward))),
             Ground::Cells(goal) => (Some(goal.map.center(goal.goal)), None),
-            Ground::Rescue { room, maze } => {
-                (Some(maze.map.center(maze.goal)), Some((room.exit_center, room.exit_outward)))
-            }
+            Ground::Rescue { room, maze } => (
+                Some(maze.map.center(maze.goal)),
+                Some((room.exit_center, room.exit_outward)),
+            ),
         };
         Trace {
             task: self.task.kind,
@@ -223,7 +232,12 @@ impl Evaluator {
             .map(|sensor| {
                 let origin = self.sensor_position(pose, sensor);
                 let cone = self.cones[sensor].rotated(sin_h, cos_h);
-                (origin, cone.boundaries[0], cone.boundaries[1], self.task.ir.range_m)
+                (
+                    origin,
+                    cone.boundaries[0],
+                    cone.boundaries[1],
+                    self.task.ir.range_m,
+                )
             })
             .collect()
     }
@@ -235,19 +249,35 @@ impl Evaluator {
 
     /// The sensor's position given the heading's sine and cosine, computed once per cycle.
     #[inline(always)]
-    fn sensor_position_rotated(&self, pose: &Pose, sin_h: f32, cos_h: f32, sensor: usize) -> [f32; 2] {
+    fn sensor_position_rotated(
+        &self,
+        pose: &Pose,
+        sin_h: f32,
+        cos_h: f32,
+        sensor: usize,
+    ) -> [f32; 2] {
         let [ox, oy] = self.sensor_offsets[sensor];
-        [pose.x + cos_h * ox - sin_h * oy, pose.y + sin_h * ox + cos_h * oy]
+        [
+            pose.x + cos_h * ox - sin_h * oy,
+            pose.y + sin_h * ox + cos_h * oy,
+        ]
     }
 
-    fn run<R: Recorder>(&self, policy: &mut impl Policy, sample: Sample, recorder: &mut R) -> (Outcome, Environment, Pose) {
+    fn run<R: Recorder>(
+        &self,
+        policy: &mut impl Policy,
+        sample: Sample,
+        recorder: &mut R,
+    ) -> (Outcome, Environment, Pose) {
         let task = &self.task;
         let robot_config = &task.robot;
         let dt = robot_config.cycle_seconds;
         let max_cycles = task.max_cycles();
         let mut env_rng = stream_rng(sample.seed, Stream::Environment);
         let env = env::build(task, &self.statics, sample.variant, &mut env_rng);
-        let ir_setup: IrSensorSetup = task.ir.draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
+        let ir_setup: IrSensorSetup = task
+            .ir
+            .draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
         let mut noise: SimRng = stream_rng(sample.seed, Stream::Noise);
         let ir_model = IrModel::builtin();
         let light_model = LightModel::builtin();
@@ -255,11 +285,18 @@ impl Evaluator {
         policy.reset();
 
         let mut robot = env.start;
-        let mut teammate = env.teammate.map(|(pose, following)| Teammate::new(pose, following, max_cycles));
+        let mut teammate = env
+            .teammate
+            .map(|(pose, following)| Teammate::new(pose, following, max_cycles));
         let mut lights: Vec<LiveLight> = env
             .lights
             .iter()
-            .map(|spec| LiveLight { position: spec.position, flashes: spec.flashes, triggered: false, lit_cycles_left: 0 })
+            .map(|spec| LiveLight {
+                position: spec.position,
+                flashes: spec.flashes,
+                triggered: false,
+                lit_cycles_left: 0,
+            })
             .collect();
         let mut judge = Judge::new(&env.ground, robot);
         let mut active_cycles = vec![0u32; policy.n_nodes()];
@@ -276,7 +313,9 @@ impl Evaluator {
             for (sensor, distance) in ir_distances.iter_mut().enumerate() {
                 let cone = self.cones[sensor].rotated(sin_h, cos_h);
                 let origin = self.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
-                *distance = env.scene.cone_distance(robot.position(), origin, &cone, task.ir.range_m);
+                *distance =
+                    env.scene
+                        .cone_distance(robot.position(), origin, &cone, task.ir.range_m);
             }
             let ir = ir_model.read_all(&ir_setup, &ir_distances, &mut noise);
             let mut lit_mask = 0u32;
@@ -306,10 +345,14 @@ impl Evaluator {
                 }
                 flash.update(light_model.read_raw_both(nearest, &mut noise))
             };
-            let near_robot = teammate
-                .as_ref()
-                .is_some_and(|mate| mate.pose.distance_to(robot.position()) < robot_config.near_robot_range);
-            let frame = SensorFrame { ir, light, near_robot: if near_robot { 1.0 } else { 0.0 } };
+            let near_robot = teammate.as_ref().is_some_and(|mate| {
+                mate.pose.distance_to(robot.position()) < robot_config.near_robot_range
+            });
+            let frame = SensorFrame {
+                ir,
+                light,
+                near_robot: if near_robot { 1.0 } else { 0.0 },
+            };
 
             // Decide.
             let sub_task = judge.sub_task(&robot, teammate.as_ref());
@@ -327,8 +370,16 @@ impl Evaluator {
             }
 
             // Move.
-            let left = noisy_speed(wheel_speed(wheels[0], robot_config.v_max), robot_config, &mut noise);
-            let right = noisy_speed(wheel_speed(wheels[1], robot_config.v_max), robot_config, &mut noise);
+            let left = noisy_speed(
+                wheel_speed(wheels[0], robot_config.v_max),
+                robot_config,
+                &mut noise,
+            );
+            let right = noisy_speed(
+                wheel_speed(wheels[1], robot_config.v_max),
+                robot_config,
+                &mut noise,
+            );
             let before = robot;
             let next = kinematic_step(robot, left, right, robot_config);
             let collided = move_or_collide(&mut robot, next, robot_config.radius, &env.scene);
@@ -345,7 +396,11 @@ impl Evaluator {
             });
             trigger_lights(&mut lights, &before, &robot, task.light.flash_cycles);
             if let Some(mate) = teammate.as_mut() {
-                mate.update(&robot, robot_config.v_max * dt, robot_config.near_robot_range);
+                mate.update(
+                    &robot,
+                    robot_config.v_max * dt,
+                    robot_config.near_robot_range,
+                );
             }
 
             // Judge.
@@ -409,7 +464,11 @@ struct Teammate {
 
 impl Teammate {
     fn new(pose: Pose, following: bool, max_cycles: u32) -> Teammate {
-        Teammate { pose, following, trail: VecDeque::with_capacity(max_cycles as usize + 1) }
+        Teammate {
+            pose,
+            following,
+            trail: VecDeque::with_capacity(max_cycles as usize + 1),
+        }
     }
 
     fn update(&mut self, robot: &Pose, step: f32, near_range: f32) {
@@ -423,7 +482,9 @@ impl Teammate {
         self.trail.push_back(robot.position());
         let mut budget = step;
         while budget > 0.0 && self.pose.distance_to(robot.position()) > TEAMMATE_GAP {
-            let Some(&target) = self.trail.front() else { break };
+            let Some(&target) = self.trail.front() else {
+                break;
+            };
             let (dx, dy) = (target[0] - self.pose.x, target[1] - self.pose.y);
             let d = dx.hypot(dy);
             if d <= budget {
@@ -446,24 +507,44 @@ impl Teammate {
 /// The task-specific bookkeeping of a sample.
 #[derive(Debug)]
 enum Judge<'a> {
-    Room { room: &'a env::room::Room, closest: f32 },
-    Cells { goal: &'a env::CellGoal },
-    Rescue { room: &'a env::room::Room, maze: &'a env::CellGoal, exited: bool, found: bool },
+    Room {
+        room: &'a env::room::Room,
+        closest: f32,
+    },
+    Cells {
+        goal: &'a env::CellGoal,
+    },
+    Rescue {
+        room: &'a env::room::Room,
+        maze: &'a env::CellGoal,
+        exited: bool,
+        found: bool,
+    },
 }
 
 impl<'a> Judge<'a> {
     fn new(ground: &'a Ground, start: Pose) -> Judge<'a> {
         match ground {
-            Ground::Room(room) => Judge::Room { room, closest: start.distance_to(room.exit_center) },
+            Ground::Room(room) => Judge::Room {
+                room,
+                closest: start.distance_to(room.exit_center),
+            },
             Ground::Cells(goal) => Judge::Cells { goal },
-            Ground::Rescue { room, maze } => Judge::Rescue { room, maze, exited: false, found: false },
+            Ground::Rescue { room, maze } => Judge::Rescue {
+                room,
+                maze,
+                exited: false,
+                found: false,
+            },
         }
     }
 
     /// The rescue sub-task in force: 0 in the room before the teammate is found, 1 in the maze
     /// before, 2 once the teammate follows.
     fn sub_task(&self, robot: &Pose, teammate: Option<&Teammate>) -> Option<u8> {
-        let Judge::Rescue { maze, .. } = self else { return None };
+        let Judge::Rescue { maze, .. } = self else {
+            return None;
+        };
         if teammate.is_some_and(|m| m.following) {
             Some(2)
         } else if maze.map.cell_at(robot.position()).is_some() {
@@ -473,7 +554,12 @@ impl<'a> Judge<'a> {
         }
     }
 
-    fn check(&mut self, robot: &Pose, teammate: Option<&Teammate>, task: &TaskConfig) -> Option<Ending> {
+    fn check(
+        &mut self,
+        robot: &Pose,
+        teammate: Option<&Teammate>,
+        task: &TaskConfig,
+    ) -> Option<Ending> {
         match self {
             Judge::Room { room, closest } => {
                 *closest = closest.min(robot.distance_to(room.exit_center));
@@ -490,7 +576,12 @@ impl<'a> Judge<'a> {
                     None
                 }
             }
-            Judge::Rescue { room, maze, exited, found } => {
+            Judge::Rescue {
+                room,
+                maze,
+                exited,
+                found,
+            } => {
                 *exited |= maze.map.cell_at(robot.position()).is_some();
                 let mate = teammate?;
                 *found |= mate.following;
@@ -500,7 +591,15 @@ impl<'a> Judge<'a> {
         }
     }
 
-    fn fitness(&self, task: &TaskConfig, ending: Ending, cycles: u32, robot: &Pose, stage_total: [u32; 3], stage_correct: [u32; 3]) -> f32 {
+    fn fitness(
+        &self,
+        task: &TaskConfig,
+        ending: Ending,
+        cycles: u32,
+        robot: &Pose,
+        stage_total: [u32; 3],
+        stage_correct: [u32; 3],
+    ) -> f32 {
         let max_cycles = task.max_cycles() as f32;
         let time_bonus = (max_cycles - cycles as f32) / max_cycles;
         match self {
@@ -509,7 +608,8 @@ impl<'a> Judge<'a> {
                 if ending == Ending::Solved {
                     5.0 + time_bonus
                 } else {
-                    let to_exit = (room.center[0] - room.exit_center[0]).hypot(room.center[1] - room.exit_center[1]);
+                    let to_exit = (room.center[0] - room.exit_center[0])
+                        .hypot(room.center[1] - room.exit_center[1]);
                     ((to_exit - closest) / to_exit).clamp(0.0, 1.0)
                 }
             }
@@ -522,8 +622,11 @@ impl<'a> Judge<'a> {
                 if ending == Ending::Solved {
                     return 1.0 + time_bonus;
                 }
-                let current = goal.distance_from(robot.position()).unwrap_or(goal.total_distance);
-                let progress = ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0);
+                let current = goal
+                    .distance_from(robot.position())
+                    .unwrap_or(goal.total_distance);
+                let progress =
+                    ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0);
                 let maze_task = matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom);
                 match (ending, maze_task) {
                     // f2: a wrong branch or collision scores the distance covered, a timeout 0.

@@ -10,11 +10,11 @@ pub mod frame;
 pub mod rng;
 pub mod sensors;
 
-pub mod scene;
-pub mod scripted;
 pub mod env;
 pub mod evaluate;
 pub mod robot;
+pub mod scene;
+pub mod scripted;
 pub mod task;
 
 /// Version of the simulation model. Bump it whenever a change alters any trajectory or fitness

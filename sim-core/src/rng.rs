@@ -20,8 +20,9 @@ pub fn mix64(mut z: u64) -> u64 {
 /// Derives a seed from a base seed and a path of indices (for example run, generation, sample),
 /// so that every index combination gets its own independent stream.
 pub fn derive_seed(base: u64, path: &[u64]) -> u64 {
-    path.iter()
-        .fold(mix64(base), |acc, &index| mix64(acc ^ mix64(index.wrapping_add(0xA5A5_A5A5))))
+    path.iter().fold(mix64(base), |acc, &index| {
+        mix64(acc ^ mix64(index.wrapping_add(0xA5A5_A5A5)))
+    })
 }
 
 /// Which stream of a sample a random draw belongs to. Keeping the environment's layout apart

@@ -48,11 +48,16 @@ impl RobotConfig {
         ];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
-                return Err(format!("robot.{name} must be a positive number, got {value}"));
+                return Err(format!(
+                    "robot.{name} must be a positive number, got {value}"
+                ));
             }
         }
         if !(self.wheel_noise.is_finite() && (0.0..1.0).contains(&self.wheel_noise)) {
-            return Err(format!("robot.wheel_noise must be in [0, 1), got {}", self.wheel_noise));
+            return Err(format!(
+                "robot.wheel_noise must be in [0, 1), got {}",
+                self.wheel_noise
+            ));
         }
         // One cycle's travel must stay well below the thinnest solid (5 cm obstacles) so a
         // move can never jump through a wall between two collision tests.
@@ -125,7 +130,11 @@ pub fn kinematic_step(pose: Pose, left: f32, right: f32, config: &RobotConfig) -
     } else if heading <= -std::f32::consts::PI {
         heading += std::f32::consts::TAU;
     }
-    Pose { x: pose.x + chord * cos_mid, y: pose.y + chord * sin_mid, heading }
+    Pose {
+        x: pose.x + chord * cos_mid,
+        y: pose.y + chord * sin_mid,
+        heading,
+    }
 }
 
 /// Moves the robot unless the new pose would touch a solid; returns whether it collided.
@@ -147,7 +156,11 @@ mod tests {
     #[test]
     fn straight_and_spin_kinematics() {
         let config = RobotConfig::default();
-        let start = Pose { x: 0.0, y: 0.0, heading: 0.0 };
+        let start = Pose {
+            x: 0.0,
+            y: 0.0,
+            heading: 0.0,
+        };
         let straight = kinematic_step(start, 0.1, 0.1, &config);
         assert!((straight.x - 0.01).abs() < 1e-7 && straight.y.abs() < 1e-9);
         let spin = kinematic_step(start, -0.05, 0.05, &config);
@@ -162,7 +175,11 @@ mod tests {
         let (left, right) = (0.05, 0.1);
         let angular = (right - left) / config.wheel_base;
         let cycles = (std::f32::consts::TAU / (angular * config.cycle_seconds)).round() as usize;
-        let mut pose = Pose { x: 0.0, y: 0.0, heading: 0.0 };
+        let mut pose = Pose {
+            x: 0.0,
+            y: 0.0,
+            heading: 0.0,
+        };
         for _ in 0..cycles {
             pose = kinematic_step(pose, left, right, &config);
         }
@@ -178,7 +195,10 @@ mod tests {
 
     #[test]
     fn config_validation_names_the_key() {
-        let bad = RobotConfig { v_max: -1.0, ..RobotConfig::default() };
+        let bad = RobotConfig {
+            v_max: -1.0,
+            ..RobotConfig::default()
+        };
         assert!(bad.validate().unwrap_err().contains("robot.v_max"));
         assert!(RobotConfig::default().validate().is_ok());
     }

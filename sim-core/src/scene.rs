@@ -13,8 +13,7 @@ use rapier2d::parry::bounding_volume::{Aabb, BoundingVolume};
 use rapier2d::parry::query::DefaultQueryDispatcher;
 use rapier2d::parry::shape::Cuboid;
 use rapier2d::prelude::{
-    BroadPhaseBvh, ColliderBuilder, ColliderSet, IntegrationParameters,
-    QueryFilter, RigidBodySet,
+    BroadPhaseBvh, ColliderBuilder, ColliderSet, IntegrationParameters, QueryFilter, RigidBodySet,
 };
 use serde::{Deserialize, Serialize};
 
@@ -100,7 +99,10 @@ impl Solid {
         if self.axis_aligned {
             return [dx, dy];
         }
-        [self.axis[0] * dx + self.axis[1] * dy, -self.axis[1] * dx + self.axis[0] * dy]
+        [
+            self.axis[0] * dx + self.axis[1] * dy,
+            -self.axis[1] * dx + self.axis[0] * dy,
+        ]
     }
 
     /// A direction in the rectangle's frame.
@@ -109,9 +111,11 @@ impl Solid {
         if self.axis_aligned {
             return d;
         }
-        [self.axis[0] * d[0] + self.axis[1] * d[1], -self.axis[1] * d[0] + self.axis[0] * d[1]]
+        [
+            self.axis[0] * d[0] + self.axis[1] * d[1],
+            -self.axis[1] * d[0] + self.axis[0] * d[1],
+        ]
     }
-
 
     /// Slab test of a ray against the rectangle, in its frame: the ray's local origin and the
     /// component-wise inverse of its local direction. Returns the entry distance (0 when the
@@ -136,7 +140,10 @@ impl Solid {
             q[0].clamp(-self.half[0], self.half[0]) - q[0],
             q[1].clamp(-self.half[1], self.half[1]) - q[1],
         ];
-        (offset, (offset[0] * offset[0] + offset[1] * offset[1]).sqrt())
+        (
+            offset,
+            (offset[0] * offset[0] + offset[1] * offset[1]).sqrt(),
+        )
     }
 }
 
@@ -181,19 +188,32 @@ impl Cone {
     pub fn new(angle: f32, opening: f32) -> Cone {
         let half = 0.5 * opening;
         let unit = |a: f32| [a.cos(), a.sin()];
-        Cone::from_parts(unit(angle), half.cos(), [unit(angle - half), unit(angle + half)])
+        Cone::from_parts(
+            unit(angle),
+            half.cos(),
+            [unit(angle - half), unit(angle + half)],
+        )
     }
 
     fn from_parts(axis: [f32; 2], cos_half_angle: f32, boundaries: [[f32; 2]; 2]) -> Cone {
         let inverse_boundaries = boundaries.map(|d| [1.0 / d[0], 1.0 / d[1]]);
-        Cone { axis, cos_half_angle, boundaries, inverse_boundaries }
+        Cone {
+            axis,
+            cos_half_angle,
+            boundaries,
+            inverse_boundaries,
+        }
     }
 
     /// The same cone turned by an angle given by its sine and cosine.
     #[inline(always)]
     pub fn rotated(&self, sin: f32, cos: f32) -> Cone {
         let turn = |d: [f32; 2]| [cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]];
-        Cone::from_parts(turn(self.axis), self.cos_half_angle, self.boundaries.map(turn))
+        Cone::from_parts(
+            turn(self.axis),
+            self.cos_half_angle,
+            self.boundaries.map(turn),
+        )
     }
 }
 
@@ -250,12 +270,8 @@ impl Scene {
         let grid_ny = (((max[1] - min[1]) / GRID_CELL).ceil() as usize).max(1);
 
         let dispatcher = DefaultQueryDispatcher;
-        let query = broad_phase.as_query_pipeline(
-            &dispatcher,
-            &bodies,
-            &colliders,
-            QueryFilter::default(),
-        );
+        let query =
+            broad_phase.as_query_pipeline(&dispatcher, &bodies, &colliders, QueryFilter::default());
         let mut cell_ranges = Vec::with_capacity(grid_nx * grid_ny);
         let mut candidates = Vec::new();
         for iy in 0..grid_ny {
@@ -332,7 +348,13 @@ impl Scene {
     /// Exact and cheap because a solid and the cone (opening below 180 degrees) are both convex:
     /// the nearest point of their intersection is the solid's own nearest point when that lies
     /// inside the cone, and otherwise lies on one of the cone's two boundary rays.
-    pub fn cone_distance(&self, near: [f32; 2], origin: [f32; 2], cone: &Cone, max_distance: f32) -> Option<f32> {
+    pub fn cone_distance(
+        &self,
+        near: [f32; 2],
+        origin: [f32; 2],
+        cone: &Cone,
+        max_distance: f32,
+    ) -> Option<f32> {
         let mut best = max_distance;
         let mut hit = false;
         for &solid_idx in self.near(near) {
@@ -382,7 +404,12 @@ mod tests {
 
     #[test]
     fn disc_test_agrees_with_parry_on_rotated_rectangles() {
-        let rect = Rect { center: [0.1, -0.2], half_extents: [0.08, 0.03], angle: 0.9, kind: RectKind::Obstacle };
+        let rect = Rect {
+            center: [0.1, -0.2],
+            half_extents: [0.08, 0.03],
+            angle: 0.9,
+            kind: RectKind::Obstacle,
+        };
         let scene = Scene::new(vec![rect], DEFAULT_QUERY_MARGIN);
         let cuboid = Cuboid::new(Vector::new(0.08, 0.03));
         for ix in 0..60 {
@@ -420,7 +447,10 @@ mod tests {
         let d = scene.cone_distance([0.0, -0.4], [0.0, -0.4], &down, 0.14);
         assert!((d.unwrap() - 0.1).abs() < 1e-5, "{d:?}");
         // Out of range: nothing.
-        assert_eq!(scene.cone_distance([0.0, 0.0], [0.0, 0.0], &down, 0.14), None);
+        assert_eq!(
+            scene.cone_distance([0.0, 0.0], [0.0, 0.0], &down, 0.14),
+            None
+        );
         // A wall beside the cone but not in it is not seen; one at the cone's edge is, at the
         // distance along the boundary ray.
         let left = Cone::new(std::f32::consts::PI, 70f32.to_radians());
@@ -428,7 +458,9 @@ mod tests {
         assert!((d.unwrap() - 0.05).abs() < 1e-5);
         let narrow = Cone::new(0.0, 20f32.to_radians());
         // From (0.4, -0.45) looking +x: the east wall at x = 0.5 is 0.1 away, inside the cone.
-        let d = scene.cone_distance([0.4, -0.45], [0.4, -0.45], &narrow, 0.14).unwrap();
+        let d = scene
+            .cone_distance([0.4, -0.45], [0.4, -0.45], &narrow, 0.14)
+            .unwrap();
         assert!((d - 0.1).abs() < 1e-5, "{d}");
     }
 
@@ -458,10 +490,12 @@ mod tests {
                     let fast = scene.cone_distance(p, p, &cone, 0.14);
                     let mut fan: Option<f32> = None;
                     for rect in scene.rects() {
-                        let cuboid = Cuboid::new(Vector::new(rect.half_extents[0], rect.half_extents[1]));
+                        let cuboid =
+                            Cuboid::new(Vector::new(rect.half_extents[0], rect.half_extents[1]));
                         for k in 0..=400 {
                             let a = heading - 0.5 * opening + opening * k as f32 / 400.0;
-                            let ray = Ray::new(Vector::new(p[0], p[1]), Vector::new(a.cos(), a.sin()));
+                            let ray =
+                                Ray::new(Vector::new(p[0], p[1]), Vector::new(a.cos(), a.sin()));
                             if let Some(t) = cuboid.cast_ray(&rect.pose(), &ray, 0.14, true) {
                                 fan = Some(fan.map_or(t, |b: f32| b.min(t)));
                             }
@@ -469,8 +503,13 @@ mod tests {
                     }
                     match (fast, fan) {
                         (None, None) => {}
-                        (Some(a), Some(b)) => assert!(a <= b + 1e-5 && b - a < 2e-3, "at {p:?} heading {heading}: {a} vs fan {b}"),
-                        (Some(a), None) => assert!(a > 0.139, "at {p:?}: {a} but the fan saw nothing"),
+                        (Some(a), Some(b)) => assert!(
+                            a <= b + 1e-5 && b - a < 2e-3,
+                            "at {p:?} heading {heading}: {a} vs fan {b}"
+                        ),
+                        (Some(a), None) => {
+                            assert!(a > 0.139, "at {p:?}: {a} but the fan saw nothing")
+                        }
                         (None, Some(b)) => panic!("at {p:?}: fan hit at {b}, exact saw nothing"),
                     }
                 }

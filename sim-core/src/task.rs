@@ -122,7 +122,10 @@ pub struct StartConfig {
 
 impl Default for StartConfig {
     fn default() -> Self {
-        StartConfig { lateral_offset: 0.02, heading_jitter_deg: 10.0 }
+        StartConfig {
+            lateral_offset: 0.02,
+            heading_jitter_deg: 10.0,
+        }
     }
 }
 
@@ -162,7 +165,6 @@ fn default_true() -> bool {
     true
 }
 
-
 impl TaskConfig {
     /// The paper's settings for a task.
     pub fn new(kind: TaskKind) -> TaskConfig {
@@ -181,7 +183,8 @@ impl TaskConfig {
 
     /// The cycle limit in force.
     pub fn max_cycles(&self) -> u32 {
-        self.max_cycles.unwrap_or_else(|| self.kind.default_max_cycles())
+        self.max_cycles
+            .unwrap_or_else(|| self.kind.default_max_cycles())
     }
 
     /// How far around a grid cell the scene must list solids: the body, the IR range and a
@@ -198,10 +201,16 @@ impl TaskConfig {
             return Err("max_cycles must be at least 1".into());
         }
         if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
-            return Err(format!("ir.range_m must be in (0, 0.5], got {}", self.ir.range_m));
+            return Err(format!(
+                "ir.range_m must be in (0, 0.5], got {}",
+                self.ir.range_m
+            ));
         }
         if !(self.ir.cone_deg >= 0.0 && self.ir.cone_deg < 180.0) {
-            return Err(format!("ir.cone_deg must be in [0, 180), got {}", self.ir.cone_deg));
+            return Err(format!(
+                "ir.cone_deg must be in [0, 180), got {}",
+                self.ir.cone_deg
+            ));
         }
         let c = &self.corridor;
         for (name, range, min) in [
@@ -210,17 +219,28 @@ impl TaskConfig {
             ("corridor.cells_after_turn", c.cells_after_turn, 1),
         ] {
             if range[0] < min || range[0] > range[1] || range[1] > 50 {
-                return Err(format!("{name} must be [low, high] with {min} <= low <= high <= 50, got {range:?}"));
+                return Err(format!(
+                    "{name} must be [low, high] with {min} <= low <= high <= 50, got {range:?}"
+                ));
             }
         }
         if !(0.0..=1.0).contains(&c.junction_share) {
-            return Err(format!("corridor.junction_share must be in [0, 1], got {}", c.junction_share));
+            return Err(format!(
+                "corridor.junction_share must be in [0, 1], got {}",
+                c.junction_share
+            ));
         }
         if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {
-            return Err(format!("start.lateral_offset must be in [0, 0.05], got {}", self.start.lateral_offset));
+            return Err(format!(
+                "start.lateral_offset must be in [0, 0.05], got {}",
+                self.start.lateral_offset
+            ));
         }
         if !(self.start.heading_jitter_deg >= 0.0 && self.start.heading_jitter_deg <= 180.0) {
-            return Err(format!("start.heading_jitter_deg must be in [0, 180], got {}", self.start.heading_jitter_deg));
+            return Err(format!(
+                "start.heading_jitter_deg must be in [0, 180], got {}",
+                self.start.heading_jitter_deg
+            ));
         }
         Ok(())
     }
@@ -235,14 +255,18 @@ mod tests {
         for kind in TaskKind::ALL {
             assert_eq!(TaskKind::from_name(kind.name()), Some(kind));
         }
-        assert_eq!(TaskKind::from_name("maze_single"), Some(TaskKind::SolveMaze));
+        assert_eq!(
+            TaskKind::from_name("maze_single"),
+            Some(TaskKind::SolveMaze)
+        );
         let parsed: TaskConfig = serde_json::from_str(r#"{"kind":"maze_single"}"#).unwrap();
         assert_eq!(parsed.kind, TaskKind::SolveMaze);
     }
 
     #[test]
     fn unknown_keys_are_rejected() {
-        let err = serde_json::from_str::<TaskConfig>(r#"{"kind":"rescue","robot":{"radiuss":1}}"#).unwrap_err();
+        let err = serde_json::from_str::<TaskConfig>(r#"{"kind":"rescue","robot":{"radiuss":1}}"#)
+            .unwrap_err();
         assert!(err.to_string().contains("radiuss"), "{err}");
     }
 

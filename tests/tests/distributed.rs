@@ -24,9 +24,10 @@ const TOKEN: &str = "e2e-secret-token";
 const SEED: &str = "11";
 const LONG: Duration = Duration::from_secs(180);
 
-/// Two nodes: a small primitive and an arbitrator over it, so batches carry a fixed
-/// sub-controller. The arbitrator's samples run their full 1000 cycles (collisions do not end
-/// them), so a generation takes long enough to kill things in the middle of it.
+/// Three nodes: two small primitives and an arbitrator choosing between them, so batches carry
+/// fixed sub-controllers and every arbitrator genome scores differently (a genome given the
+/// wrong results would show). The arbitrator's samples run their full 1000 cycles (collisions
+/// do not end them), so a generation takes long enough to kill things in the middle of it.
 const EXPERIMENT: &str = r#"
 [experiment]
 name = "e2e"
@@ -49,11 +50,24 @@ population = 8
 elites = 2
 
 [[node]]
+name = "tl"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "turn_left"
+samples = 4
+generations = 3
+runs = 2
+[node.evolution]
+population = 8
+elites = 2
+
+[[node]]
 name = "top"
 kind = "arbitrator"
 inputs = ["ir"]
 hidden = 4
-children = ["fw"]
+children = ["fw", "tl"]
 task = "exit_room"
 samples = 10
 cycles = 1000
@@ -165,7 +179,7 @@ fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(
-        stdout.trim_end().ends_with("succeeded (22/22 generations)"),
+        stdout.trim_end().ends_with("succeeded (28/28 generations)"),
         "{stdout}"
     );
     stdout
@@ -287,7 +301,7 @@ fn two_workers_give_exactly_the_local_results() {
     assert!(
         listing
             .lines()
-            .any(|l| l.starts_with(&job) && l.contains("succeeded") && l.contains("22/22")),
+            .any(|l| l.starts_with(&job) && l.contains("succeeded") && l.contains("28/28")),
         "{listing}"
     );
 
@@ -526,7 +540,11 @@ fn a_broken_job_file_is_refused_naming_the_key() {
         (
             &good,
             &["--node", "nope"],
-            &["INVALID_ARGUMENT", "node: no node named 'nope'", "fw, top"],
+            &[
+                "INVALID_ARGUMENT",
+                "node: no node named 'nope'",
+                "fw, tl, top",
+            ],
         ),
         (
             &good,
@@ -686,12 +704,16 @@ fn overhead_benchmark() {
         .replace("population = 20", "population = 40");
     let file = scratch.join("bench.toml");
     std::fs::write(&file, &experiment).unwrap();
-    let evaluations = 2 * 3 * 8 * 4 + 2 * 20 + 2 * 12 * 40 * 10 + 2 * 20;
     let rounds = std::env::var("HEVO_OVERHEAD_ROUNDS")
         .ok()
         .and_then(|r| r.parse().ok())
         .unwrap_or(3);
-    let master = master_with(&scratch, "state", &[], "master.log");
+    let master = master_with(
+        &scratch,
+        "state",
+        &["--metrics-listen", "127.0.0.1:0"],
+        "master.log",
+    );
     let _workers: Vec<Proc> = (0..2)
         .map(|i| {
             start_worker(
@@ -703,7 +725,14 @@ fn overhead_benchmark() {
             )
         })
         .collect();
+    let evaluations_so_far = || {
+        metric(
+            &http_get(master.metrics.as_deref().unwrap(), "/metrics"),
+            "hevo_evaluations_total",
+        )
+    };
     let (mut local, mut remote) = (Vec::new(), Vec::new());
+    let mut evaluations = 0.0;
     for round in 0..rounds {
         let out = scratch.join(&format!("local-{round}"));
         let begun = Instant::now();
@@ -723,11 +752,14 @@ fn overhead_benchmark() {
         );
         assert!(output.status.success());
         local.push(begun.elapsed().as_secs_f64());
+        let before = evaluations_so_far();
         let begun = Instant::now();
         let job = submit(&master, &file, &[]);
         let output = hevo(&["watch", "--master", &master.url, &job], Some(TOKEN), LONG);
         assert!(output.status.success());
         remote.push(begun.elapsed().as_secs_f64());
+        // The same work both ways: the results are identical (checked below).
+        evaluations = evaluations_so_far() - before;
         fetch(
             &master,
             &job,
@@ -737,10 +769,7 @@ fn overhead_benchmark() {
         assert_same_results(&out, &scratch.join(&format!("remote-{round}")), None);
     }
     let best = |times: &[f64]| times.iter().copied().fold(f64::INFINITY, f64::min);
-    let (local_rate, remote_rate) = (
-        evaluations as f64 / best(&local),
-        evaluations as f64 / best(&remote),
-    );
+    let (local_rate, remote_rate) = (evaluations / best(&local), evaluations / best(&remote));
     println!(
         "overhead: {evaluations} evaluations; local 2 threads {:.0}/s (best of {local:.2?} s), master + 2 single-thread workers {:.0}/s (best of {remote:.2?} s): {:.1}% of local",
         local_rate,

@@ -126,7 +126,10 @@ impl CellMap {
 
     /// The open neighbours of a cell.
     pub fn neighbours(&self, cell_idx: usize) -> impl Iterator<Item = usize> + '_ {
-        self.neighbours[cell_idx].iter().flatten().map(|&n| usize::from(n))
+        self.neighbours[cell_idx]
+            .iter()
+            .flatten()
+            .map(|&n| usize::from(n))
     }
 
     /// The wall rectangles. Each border wall is extended by half a wall thickness at both ends
@@ -200,7 +203,11 @@ impl CellMap {
             let c = self.center(idx);
             (point[0] - c[0]).hypot(point[1] - c[1]) + table[idx]
         };
-        Some(self.neighbours(cell_idx).map(via).fold(via(cell_idx), f32::min))
+        Some(
+            self.neighbours(cell_idx)
+                .map(via)
+                .fold(via(cell_idx), f32::min),
+        )
     }
 }
 
@@ -211,11 +218,26 @@ mod tests {
     /// An L: three cells up, then two to the left.
     fn l_corridor() -> CellMap {
         let cells = vec![
-            Cell { at: [0, 0], walls: [false, true, true, true] },
-            Cell { at: [0, 1], walls: [false, true, false, true] },
-            Cell { at: [0, 2], walls: [true, true, false, false] },
-            Cell { at: [-1, 2], walls: [true, false, true, false] },
-            Cell { at: [-2, 2], walls: [true, false, true, true] },
+            Cell {
+                at: [0, 0],
+                walls: [false, true, true, true],
+            },
+            Cell {
+                at: [0, 1],
+                walls: [false, true, false, true],
+            },
+            Cell {
+                at: [0, 2],
+                walls: [true, true, false, false],
+            },
+            Cell {
+                at: [-1, 2],
+                walls: [true, false, true, false],
+            },
+            Cell {
+                at: [-2, 2],
+                walls: [true, false, true, true],
+            },
         ];
         CellMap::new(cells, 0.3, 0.1)
     }

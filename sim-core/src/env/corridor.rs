@@ -54,7 +54,10 @@ pub fn build(turn: Turn, before: u32, after: u32, junction: bool) -> Corridor {
     let connected = |a: [i32; 2], b: [i32; 2]| {
         // Consecutive path cells, and the junction cell with the first wrong-arm cell, and
         // consecutive wrong-arm cells are joined; nothing else.
-        let along = |list: &[[i32; 2]]| list.windows(2).any(|w| (w[0] == a && w[1] == b) || (w[0] == b && w[1] == a));
+        let along = |list: &[[i32; 2]]| {
+            list.windows(2)
+                .any(|w| (w[0] == a && w[1] == b) || (w[0] == b && w[1] == a))
+        };
         let junction_cell = [0, top];
         let wrong_link = wrong_at.first().is_some_and(|&first| {
             (a == junction_cell && b == first) || (b == junction_cell && a == first)
@@ -72,7 +75,10 @@ pub fn build(turn: Turn, before: u32, after: u32, junction: bool) -> Corridor {
         })
         .collect();
     let map = CellMap::new(cells, MAZE_CELL_SIZE, MAZE_WALL_THICKNESS);
-    Corridor { map, path: (0..path_at.len()).collect() }
+    Corridor {
+        map,
+        path: (0..path_at.len()).collect(),
+    }
 }
 
 #[cfg(test)]

@@ -64,7 +64,10 @@ impl MazeLayout {
             if line.is_empty() || line.starts_with('#') {
                 continue;
             }
-            let error = |message: String| MazeError { line: line_no, message };
+            let error = |message: String| MazeError {
+                line: line_no,
+                message,
+            };
             let fields: Vec<&str> = line.split(';').map(str::trim).collect();
             let number = |idx: usize| -> Result<f32, MazeError> {
                 fields
@@ -76,26 +79,37 @@ impl MazeLayout {
             match fields[0] {
                 "W" => {
                     if fields.len() != 7 {
-                        return Err(error(format!("a W line has 7 fields, found {}", fields.len())));
+                        return Err(error(format!(
+                            "a W line has 7 fields, found {}",
+                            fields.len()
+                        )));
                     }
                     let mut walls = [false; 4];
                     for (side, wall) in walls.iter_mut().enumerate() {
                         *wall = match fields[3 + side] {
                             "0" => false,
                             "1" => true,
-                            other => return Err(error(format!("wall flag '{other}' is not 0 or 1"))),
+                            other => {
+                                return Err(error(format!("wall flag '{other}' is not 0 or 1")));
+                            }
                         };
                     }
                     let (x, y) = (number(1)?, number(2)?);
                     if x.fract() != 0.0 || y.fract() != 0.0 {
                         return Err(error("cell coordinates must be whole numbers".into()));
                     }
-                    cells.push(Cell { at: [x as i32, y as i32], walls });
+                    cells.push(Cell {
+                        at: [x as i32, y as i32],
+                        walls,
+                    });
                 }
                 "S" => {
                     let path = fields[1..]
                         .iter()
-                        .map(|f| f.parse::<usize>().map_err(|_| error(format!("'{f}' is not a cell number"))))
+                        .map(|f| {
+                            f.parse::<usize>()
+                                .map_err(|_| error(format!("'{f}' is not a cell number")))
+                        })
                         .collect::<Result<Vec<_>, _>>()?;
                     if path.len() < 2 {
                         return Err(error("a path needs at least two cells".into()));
@@ -104,11 +118,16 @@ impl MazeLayout {
                 }
                 "L" => {
                     if fields.len() < 4 {
-                        return Err(error("an L line needs x, y and at least one configuration".into()));
+                        return Err(error(
+                            "an L line needs x, y and at least one configuration".into(),
+                        ));
                     }
                     let configurations = fields[3..]
                         .iter()
-                        .map(|f| f.parse::<u32>().map_err(|_| error(format!("'{f}' is not a configuration number"))))
+                        .map(|f| {
+                            f.parse::<u32>()
+                                .map_err(|_| error(format!("'{f}' is not a configuration number")))
+                        })
                         .collect::<Result<Vec<_>, _>>()?;
                     lights.push(MazeLight {
                         position: [number(1)? * MAZE_CELL_SIZE, number(2)? * MAZE_CELL_SIZE],
@@ -124,7 +143,10 @@ impl MazeLayout {
             for window in path.windows(2) {
                 let (a, b) = (window[0], window[1]);
                 if a >= n_cells || b >= n_cells {
-                    return Err(MazeError { line: *line, message: format!("cell {} does not exist", a.max(b)) });
+                    return Err(MazeError {
+                        line: *line,
+                        message: format!("cell {} does not exist", a.max(b)),
+                    });
                 }
                 if !map.neighbours(a).any(|n| n == b) {
                     return Err(MazeError {
@@ -136,14 +158,30 @@ impl MazeLayout {
         }
         let n_configurations = raw_paths.len() as u32;
         if n_configurations == 0 {
-            return Err(MazeError { line: 0, message: "no S (path) lines".into() });
+            return Err(MazeError {
+                line: 0,
+                message: "no S (path) lines".into(),
+            });
         }
         for light in &lights {
-            if let Some(bad) = light.configurations.iter().find(|&&c| c >= n_configurations) {
-                return Err(MazeError { line: 0, message: format!("a light names configuration {bad}, only {n_configurations} exist") });
+            if let Some(bad) = light
+                .configurations
+                .iter()
+                .find(|&&c| c >= n_configurations)
+            {
+                return Err(MazeError {
+                    line: 0,
+                    message: format!(
+                        "a light names configuration {bad}, only {n_configurations} exist"
+                    ),
+                });
             }
         }
-        Ok(MazeLayout { map, paths: raw_paths.into_iter().map(|(_, p)| p).collect(), lights })
+        Ok(MazeLayout {
+            map,
+            paths: raw_paths.into_iter().map(|(_, p)| p).collect(),
+            lights,
+        })
     }
 
     /// Number of light configurations (four in the paper's maze).
@@ -169,7 +207,11 @@ mod tests {
         assert_eq!(maze.map.cells.len(), 19);
         // Every configuration has exactly one light per row.
         for config in 0..4 {
-            let lit: Vec<_> = maze.lights.iter().filter(|l| l.configurations.contains(&config)).collect();
+            let lit: Vec<_> = maze
+                .lights
+                .iter()
+                .filter(|l| l.configurations.contains(&config))
+                .collect();
             assert_eq!(lit.len(), 2);
             assert_ne!(lit[0].position[1], lit[1].position[1]);
         }
@@ -187,7 +229,11 @@ mod tests {
         let maze = MazeLayout::builtin();
         for (config, path) in maze.paths.iter().enumerate() {
             let rows: Vec<&MazeLight> = {
-                let mut lit: Vec<_> = maze.lights.iter().filter(|l| l.configurations.contains(&(config as u32))).collect();
+                let mut lit: Vec<_> = maze
+                    .lights
+                    .iter()
+                    .filter(|l| l.configurations.contains(&(config as u32)))
+                    .collect();
                 lit.sort_by(|a, b| a.position[1].total_cmp(&b.position[1]));
                 lit
             };
@@ -200,7 +246,10 @@ mod tests {
                     turns.push(if cross > 0.0 { "left" } else { "right" });
                 }
             }
-            let lights: Vec<&str> = rows.iter().map(|l| if l.position[0] > 0.0 { "right" } else { "left" }).collect();
+            let lights: Vec<&str> = rows
+                .iter()
+                .map(|l| if l.position[0] > 0.0 { "right" } else { "left" })
+                .collect();
             assert_eq!(turns, lights, "configuration {config}");
         }
     }

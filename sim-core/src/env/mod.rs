@@ -69,7 +69,13 @@ impl CellGoal {
             on_path[cell_idx] = true;
         }
         let total_distance = distances[path[0]];
-        CellGoal { map, on_path, goal, distances, total_distance }
+        CellGoal {
+            map,
+            on_path,
+            goal,
+            distances,
+            total_distance,
+        }
     }
 
     /// Corridor distance from a point to the goal (None outside the cells).
@@ -104,11 +110,12 @@ pub struct Statics {
 impl Statics {
     /// Builds what never changes between samples of this task.
     pub fn new(task: &TaskConfig) -> Statics {
-        let maze_closed = matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom).then(|| {
-            let layout = MazeLayout::builtin();
-            let scene = Scene::new(layout.map.wall_rects(&[]), task.query_margin());
-            (Arc::new(scene), Arc::new(layout.map.clone()))
-        });
+        let maze_closed =
+            matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom).then(|| {
+                let layout = MazeLayout::builtin();
+                let scene = Scene::new(layout.map.wall_rects(&[]), task.query_margin());
+                (Arc::new(scene), Arc::new(layout.map.clone()))
+            });
         Statics { maze_closed }
     }
 }
@@ -117,16 +124,24 @@ impl Statics {
 /// return, 1 otherwise.
 pub fn n_variants(kind: TaskKind) -> u32 {
     match kind {
-        TaskKind::SolveMaze | TaskKind::ReturnRoom | TaskKind::Rescue => MazeLayout::builtin().n_configurations(),
+        TaskKind::SolveMaze | TaskKind::ReturnRoom | TaskKind::Rescue => {
+            MazeLayout::builtin().n_configurations()
+        }
         _ => 1,
     }
 }
 
 /// Builds the environment of one sample. `variant` fixes the light configuration (or start
 /// branch); `None` draws it from the stream.
-pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &mut SimRng) -> Environment {
+pub fn build(
+    task: &TaskConfig,
+    statics: &Statics,
+    variant: Option<u32>,
+    rng: &mut SimRng,
+) -> Environment {
     let maze = MazeLayout::builtin();
-    let pick_variant = |rng: &mut SimRng| variant.unwrap_or_else(|| rng.random_range(0..n_variants(task.kind)));
+    let pick_variant =
+        |rng: &mut SimRng| variant.unwrap_or_else(|| rng.random_range(0..n_variants(task.kind)));
     let margin = task.query_margin();
     match task.kind {
         TaskKind::ExitRoom => {
@@ -143,9 +158,17 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
         TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => {
             let c = &task.corridor;
             let (turn, before, after) = match task.kind {
-                TaskKind::FollowWall => (Turn::Straight, rng.random_range(c.straight_cells[0]..=c.straight_cells[1]), 0),
+                TaskKind::FollowWall => (
+                    Turn::Straight,
+                    rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
+                    0,
+                ),
                 kind => (
-                    if kind == TaskKind::TurnLeft { Turn::Left } else { Turn::Right },
+                    if kind == TaskKind::TurnLeft {
+                        Turn::Left
+                    } else {
+                        Turn::Right
+                    },
                     rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
                     rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
                 ),
@@ -164,7 +187,10 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
             }
         }
         TaskKind::SolveMaze => {
-            let (scene, map) = statics.maze_closed.clone().expect("maze statics are built for maze tasks");
+            let (scene, map) = statics
+                .maze_closed
+                .clone()
+                .expect("maze statics are built for maze tasks");
             let config = pick_variant(rng);
             let path = &maze.paths[config as usize];
             let start = stem_start(map.center(path[0]), FRAC_PI_2, task, rng);
@@ -179,7 +205,10 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
             }
         }
         TaskKind::ReturnRoom => {
-            let (scene, map) = statics.maze_closed.clone().expect("maze statics are built for maze tasks");
+            let (scene, map) = statics
+                .maze_closed
+                .clone()
+                .expect("maze statics are built for maze tasks");
             let branch = pick_variant(rng);
             let mut path = maze.paths[branch as usize].clone();
             path.reverse();
@@ -190,8 +219,17 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
             let out = map.center(path[1]);
             let heading = (out[1] - end[1]).atan2(out[0] - end[0]);
             let dir = [heading.cos(), heading.sin()];
-            let start = stem_start([end[0] + 0.05 * dir[0], end[1] + 0.05 * dir[1]], heading, task, rng);
-            let mate = Pose { x: end[0] - 0.06 * dir[0], y: end[1] - 0.06 * dir[1], heading };
+            let start = stem_start(
+                [end[0] + 0.05 * dir[0], end[1] + 0.05 * dir[1]],
+                heading,
+                task,
+                rng,
+            );
+            let mate = Pose {
+                x: end[0] - 0.06 * dir[0],
+                y: end[1] - 0.06 * dir[1],
+                heading,
+            };
             Environment {
                 scene,
                 start,
@@ -206,8 +244,17 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
             let entrance = maze.entrance();
             let entrance_center = maze.map.center(entrance);
             let half = 0.5 * maze.map.cell_size;
-            let room_exit = [entrance_center[0], entrance_center[1] - half - 0.5 * maze.map.wall_thickness];
-            let room = room::generate(&task.room, Placement::Below { exit_center: room_exit }, rng);
+            let room_exit = [
+                entrance_center[0],
+                entrance_center[1] - half - 0.5 * maze.map.wall_thickness,
+            ];
+            let room = room::generate(
+                &task.room,
+                Placement::Below {
+                    exit_center: room_exit,
+                },
+                rng,
+            );
             // The room's top wall is the maze's lower border, so the maze leaves its
             // entrance border open and the room's exit gap is the way in.
             let mut rects: Vec<Rect> = maze.map.wall_rects(&[(entrance, Side::Bottom)]);
@@ -231,8 +278,16 @@ pub fn build(task: &TaskConfig, statics: &Statics, variant: Option<u32>, rng: &m
 fn stem_start(center: [f32; 2], heading: f32, task: &TaskConfig, rng: &mut SimRng) -> Pose {
     let lateral = task.start.lateral_offset;
     let jitter = task.start.heading_jitter_deg.to_radians();
-    let offset = if lateral > 0.0 { rng.random_range(-lateral..=lateral) } else { 0.0 };
-    let turn = if jitter > 0.0 { rng.random_range(-jitter..=jitter) } else { 0.0 };
+    let offset = if lateral > 0.0 {
+        rng.random_range(-lateral..=lateral)
+    } else {
+        0.0
+    };
+    let turn = if jitter > 0.0 {
+        rng.random_range(-jitter..=jitter)
+    } else {
+        0.0
+    };
     let side = [-(heading.sin()), heading.cos()];
     Pose {
         x: center[0] + offset * side[0],
@@ -244,16 +299,27 @@ fn stem_start(center: [f32; 2], heading: f32, task: &TaskConfig, rng: &mut SimRn
 /// The teammate waits near the dead end of the goal branch.
 fn teammate_at_branch_end(goal: &CellGoal, task: &TaskConfig) -> Pose {
     let end = goal.map.center(goal.goal);
-    let before = goal.map.neighbours(goal.goal).next().map_or(end, |n| goal.map.center(n));
+    let before = goal
+        .map
+        .neighbours(goal.goal)
+        .next()
+        .map_or(end, |n| goal.map.center(n));
     let heading = (before[1] - end[1]).atan2(before[0] - end[0]);
     // Towards the dead end from the cell centre, clear of the end wall.
     let back = 0.5 * goal.map.cell_size - 0.5 * goal.map.wall_thickness - task.robot.radius - 0.01;
-    Pose { x: end[0] - back * heading.cos(), y: end[1] - back * heading.sin(), heading }
+    Pose {
+        x: end[0] - back * heading.cos(),
+        y: end[1] - back * heading.sin(),
+        heading,
+    }
 }
 
 fn lights_for(maze: &MazeLayout, config: u32) -> Vec<LightSpec> {
     maze.lights
         .iter()
-        .map(|light| LightSpec { position: light.position, flashes: light.configurations.contains(&config) })
+        .map(|light| LightSpec {
+            position: light.position,
+            flashes: light.configurations.contains(&config),
+        })
         .collect()
 }

@@ -66,13 +66,30 @@ impl RoomConfig {
     /// Checks ranges; names the offending key.
     pub fn validate(&self) -> Result<(), String> {
         let checks = [
-            (self.min_side > 0.3 && self.min_side <= self.max_side, "room.min_side must be > 0.3 and <= room.max_side"),
-            (self.obstacle_min_side > 0.0 && self.obstacle_min_side <= self.obstacle_max_side, "room.obstacle_min_side must be > 0 and <= room.obstacle_max_side"),
-            (self.exit_width > 0.0 && self.exit_width < self.min_side - 0.2, "room.exit_width must be > 0 and leave 0.1 m of wall either side"),
+            (
+                self.min_side > 0.3 && self.min_side <= self.max_side,
+                "room.min_side must be > 0.3 and <= room.max_side",
+            ),
+            (
+                self.obstacle_min_side > 0.0 && self.obstacle_min_side <= self.obstacle_max_side,
+                "room.obstacle_min_side must be > 0 and <= room.obstacle_max_side",
+            ),
+            (
+                self.exit_width > 0.0 && self.exit_width < self.min_side - 0.2,
+                "room.exit_width must be > 0 and leave 0.1 m of wall either side",
+            ),
             (self.wall_thickness > 0.0, "room.wall_thickness must be > 0"),
             (self.start_offset >= 0.0, "room.start_offset must be >= 0"),
-            (self.obstacle_clearance >= 0.0 && self.start_clearance >= 0.0 && self.exit_clearance >= 0.0, "room clearances must be >= 0"),
-            (self.exit_corridor_length >= 0.0, "room.exit_corridor_length must be >= 0"),
+            (
+                self.obstacle_clearance >= 0.0
+                    && self.start_clearance >= 0.0
+                    && self.exit_clearance >= 0.0,
+                "room clearances must be >= 0",
+            ),
+            (
+                self.exit_corridor_length >= 0.0,
+                "room.exit_corridor_length must be >= 0",
+            ),
         ];
         match checks.iter().find(|(ok, _)| !ok) {
             Some((_, message)) => Err((*message).to_string()),
@@ -123,17 +140,39 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
         Rect::from_corners(RectKind::Wall, -t, 0.0, 0.0, depth),
         Rect::from_corners(RectKind::Wall, width, 0.0, width + t, depth),
         Rect::from_corners(RectKind::Wall, -t, depth, exit_x - half_exit, depth + t),
-        Rect::from_corners(RectKind::Wall, exit_x + half_exit, depth, width + t, depth + t),
+        Rect::from_corners(
+            RectKind::Wall,
+            exit_x + half_exit,
+            depth,
+            width + t,
+            depth + t,
+        ),
     ];
     if matches!(placement, Placement::Standalone) && config.exit_corridor_length > 0.0 {
         let top = depth + t + config.exit_corridor_length;
-        local.push(Rect::from_corners(RectKind::Wall, exit_x - half_exit - t, depth, exit_x - half_exit, top));
-        local.push(Rect::from_corners(RectKind::Wall, exit_x + half_exit, depth, exit_x + half_exit + t, top));
+        local.push(Rect::from_corners(
+            RectKind::Wall,
+            exit_x - half_exit - t,
+            depth,
+            exit_x - half_exit,
+            top,
+        ));
+        local.push(Rect::from_corners(
+            RectKind::Wall,
+            exit_x + half_exit,
+            depth,
+            exit_x + half_exit + t,
+            top,
+        ));
     }
 
     let center = [0.5 * width, 0.5 * depth];
     let exit_center = [exit_x, depth];
-    let n_obstacles = if width * depth > config.three_obstacles_above_area { 3 } else { 2 };
+    let n_obstacles = if width * depth > config.three_obstacles_above_area {
+        3
+    } else {
+        2
+    };
     let mut obstacles: Vec<Rect> = Vec::new();
     // Rejection sampling with a fixed attempt budget: deterministic for a seed, and a room in
     // which an obstacle finds no legal place simply has one fewer (never seen with defaults).
@@ -144,20 +183,32 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
                 0.5 * rng.random_range(config.obstacle_min_side..=config.obstacle_max_side),
             ];
             let angle = rng.random_range(0.0..PI);
-            let candidate = Rect { center: [0.0, 0.0], half_extents, angle, kind: RectKind::Obstacle };
+            let candidate = Rect {
+                center: [0.0, 0.0],
+                half_extents,
+                angle,
+                kind: RectKind::Obstacle,
+            };
             let reach = candidate.circumradius() + config.obstacle_clearance;
             if 2.0 * reach >= width || 2.0 * reach >= depth {
                 continue;
             }
-            let c = [rng.random_range(reach..width - reach), rng.random_range(reach..depth - reach)];
+            let c = [
+                rng.random_range(reach..width - reach),
+                rng.random_range(reach..depth - reach),
+            ];
             let dist = |p: [f32; 2]| (c[0] - p[0]).hypot(c[1] - p[1]);
             let clear_of_start = dist(center) > config.start_clearance + candidate.circumradius();
-            let clear_of_exit = dist(exit_center) > config.exit_clearance + candidate.circumradius();
+            let clear_of_exit =
+                dist(exit_center) > config.exit_clearance + candidate.circumradius();
             let clear_of_others = obstacles
                 .iter()
                 .all(|o| dist(o.center) > o.circumradius() + reach);
             if clear_of_start && clear_of_exit && clear_of_others {
-                obstacles.push(Rect { center: c, ..candidate });
+                obstacles.push(Rect {
+                    center: c,
+                    ..candidate
+                });
                 break;
             }
         }
@@ -176,9 +227,9 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
             let rotated_center = rotate(center, quarter_turns);
             (quarter_turns, [-rotated_center[0], -rotated_center[1]])
         }
-        Placement::Below { exit_center: target } => {
-            (0, [target[0] - exit_center[0], target[1] - exit_center[1]])
-        }
+        Placement::Below {
+            exit_center: target,
+        } => (0, [target[0] - exit_center[0], target[1] - exit_center[1]]),
     };
     let place = |p: [f32; 2]| {
         let r = rotate(p, quarter_turns);
@@ -187,7 +238,11 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
     let turn = quarter_turns as f32 * FRAC_PI_2;
     let rects = local
         .into_iter()
-        .map(|rect| Rect { center: place(rect.center), angle: rect.angle + turn, ..rect })
+        .map(|rect| Rect {
+            center: place(rect.center),
+            angle: rect.angle + turn,
+            ..rect
+        })
         .collect();
     let start_position = place([start_local.x, start_local.y]);
     Room {
@@ -195,7 +250,11 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
         center: place(center),
         exit_center: place(exit_center),
         exit_outward: rotate([0.0, 1.0], quarter_turns),
-        start: Pose { x: start_position[0], y: start_position[1], heading: start_local.heading + turn },
+        start: Pose {
+            x: start_position[0],
+            y: start_position[1],
+            heading: start_local.heading + turn,
+        },
         size: [width, depth],
     }
 }
@@ -232,16 +291,28 @@ mod tests {
             let mut rng = stream_rng(seed, Stream::Environment);
             let room = generate(&config, Placement::Standalone, &mut rng);
             assert!(room.size.iter().all(|&s| (1.0..=1.2).contains(&s)));
-            let obstacles: Vec<&Rect> = room.rects.iter().filter(|r| r.kind == RectKind::Obstacle).collect();
-            let expected = if room.size[0] * room.size[1] > 1.21 { 3 } else { 2 };
+            let obstacles: Vec<&Rect> = room
+                .rects
+                .iter()
+                .filter(|r| r.kind == RectKind::Obstacle)
+                .collect();
+            let expected = if room.size[0] * room.size[1] > 1.21 {
+                3
+            } else {
+                2
+            };
             assert_eq!(obstacles.len(), expected, "seed {seed}");
             for o in &obstacles {
                 assert!(o.half_extents.iter().all(|&h| (0.025..=0.1).contains(&h)));
             }
             // The start pose is free, and the exit is on the room's boundary.
             let scene = Scene::new(room.rects.clone(), 0.25);
-            assert!(!scene.disc_hits(room.start.position(), 0.0375), "seed {seed}");
-            let d = (room.exit_center[0] - room.center[0]).hypot(room.exit_center[1] - room.center[1]);
+            assert!(
+                !scene.disc_hits(room.start.position(), 0.0375),
+                "seed {seed}"
+            );
+            let d =
+                (room.exit_center[0] - room.center[0]).hypot(room.exit_center[1] - room.center[1]);
             assert!(d >= 0.5 - 1e-4 && d <= 0.6f32.hypot(0.6) + 1e-4);
         }
     }
@@ -249,7 +320,13 @@ mod tests {
     #[test]
     fn rescue_room_puts_its_exit_where_asked() {
         let mut rng = stream_rng(3, Stream::Environment);
-        let room = generate(&RoomConfig::default(), Placement::Below { exit_center: [0.0, -1.7] }, &mut rng);
+        let room = generate(
+            &RoomConfig::default(),
+            Placement::Below {
+                exit_center: [0.0, -1.7],
+            },
+            &mut rng,
+        );
         assert!(room.exit_center[0].abs() < 1e-5 && (room.exit_center[1] + 1.7).abs() < 1e-5);
         assert_eq!(room.exit_outward, [0.0, 1.0]);
         assert!(room.center[1] < -2.0);

@@ -483,7 +483,10 @@ impl ResampledCurve {
     /// The mean at every grid point, nearest first, and the grid step in metres.
     pub fn grid_means(&self) -> (Vec<f32>, f32) {
         let n_points = self.points.len() - 1;
-        (self.points[..n_points].iter().map(|p| p.mean).collect(), 1.0 / self.inv_step)
+        (
+            self.points[..n_points].iter().map(|p| p.mean).collect(),
+            1.0 / self.inv_step,
+        )
     }
 }
 

@@ -113,7 +113,10 @@ impl Default for IrConfig {
 impl IrConfig {
     /// Draws one sample's sensor setup with this configuration.
     pub fn draw_setup(&self, rng: &mut SimRng) -> IrSensorSetup {
-        IrSensorSetup { mapping: self.mapping, ..IrSensorSetup::draw(rng, self.curve_choice, self.offset_fraction) }
+        IrSensorSetup {
+            mapping: self.mapping,
+            ..IrSensorSetup::draw(rng, self.curve_choice, self.offset_fraction)
+        }
     }
 }
 
@@ -166,7 +169,11 @@ impl IrSensorSetup {
         // Drawing u in [0, 1) and scaling, rather than sampling a range, keeps a fraction of 0
         // valid (an empty range would be an error) and always consumes the same draws.
         let offset = std::array::from_fn(|_| (2.0 * rng.random::<f32>() - 1.0) * fraction);
-        IrSensorSetup { curve, offset, mapping: IrMapping::default() }
+        IrSensorSetup {
+            curve,
+            offset,
+            mapping: IrMapping::default(),
+        }
     }
 }
 
@@ -243,7 +250,11 @@ impl IrModel {
         for i in 1..inverse_means.len() {
             inverse_means[i] = inverse_means[i].min(inverse_means[i - 1]);
         }
-        Ok(IrModel { curves, inverse_means, inverse_step })
+        Ok(IrModel {
+            curves,
+            inverse_means,
+            inverse_step,
+        })
     }
 
     /// The distance (metres) at which the average curve's mean (made non-increasing) equals `raw`: 0 above the
@@ -261,7 +272,11 @@ impl IrModel {
         // First grid point whose mean is at or below `raw`: the means are non-increasing.
         let above = means.partition_point(|&m| m > raw);
         let (near, far) = (means[above - 1], means[above]);
-        let fraction = if near > far { (near - raw) / (near - far) } else { 0.0 };
+        let fraction = if near > far {
+            (near - raw) / (near - far)
+        } else {
+            0.0
+        };
         ((above - 1) as f32 + fraction) * self.inverse_step
     }
 
@@ -329,23 +344,23 @@ impl IrModel {
     /// the per-sample offset noise).
     #[inline]
     pub fn map_raw(&self, curve: u8, raw: f32, mapping: IrMapping) -> f32 {
-    match mapping {
-        IrMapping::LinearDistance => {
-            // Baseline correction first, as the e-puck firmware does at start-up with the
-            // ambient reading: the sensor's own empty reading (its mean at 12 cm plus four
-            // standard deviations of noise, so an empty cone reads 0 in 99.997 % of cycles)
-            // is moved onto the average curve's, so every sensor reads 0 with nothing in
-            // range while keeping its own gain, and so its own error, nearer in. The margin
-            // costs a bias far out, where the curve is flat: 8 cm reads like about 9.5 cm.
-            let own = self.curve(curve);
-            let average_floor = self.inverse_means[self.inverse_means.len() - 1];
-            let baseline = own.floor_raw + 4.0 * own.table.farthest().std;
-            let corrected = raw - baseline + average_floor;
-            let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
-            1.0 - self.raw_to_distance(corrected) / max_distance
+        match mapping {
+            IrMapping::LinearDistance => {
+                // Baseline correction first, as the e-puck firmware does at start-up with the
+                // ambient reading: the sensor's own empty reading (its mean at 12 cm plus four
+                // standard deviations of noise, so an empty cone reads 0 in 99.997 % of cycles)
+                // is moved onto the average curve's, so every sensor reads 0 with nothing in
+                // range while keeping its own gain, and so its own error, nearer in. The margin
+                // costs a bias far out, where the curve is flat: 8 cm reads like about 9.5 cm.
+                let own = self.curve(curve);
+                let average_floor = self.inverse_means[self.inverse_means.len() - 1];
+                let baseline = own.floor_raw + 4.0 * own.table.farthest().std;
+                let corrected = raw - baseline + average_floor;
+                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
+                1.0 - self.raw_to_distance(corrected) / max_distance
+            }
+            IrMapping::LinearRaw => self.raw_to_input(curve, raw),
         }
-        IrMapping::LinearRaw => self.raw_to_input(curve, raw),
-    }
     }
 
     /// The noise-free input of curve `curve` with a surface at `distance_m`: what a sensor
@@ -612,20 +627,33 @@ mod tests {
     #[test]
     fn linear_distance_mapping_recovers_the_distance_on_the_average_curve() {
         let model = IrModel::builtin();
-        let setup = IrSensorSetup { curve: [MEAN_IR_CURVE; N_IR], offset: [0.0; N_IR], mapping: IrMapping::LinearDistance };
+        let setup = IrSensorSetup {
+            curve: [MEAN_IR_CURVE; N_IR],
+            offset: [0.0; N_IR],
+            mapping: IrMapping::LinearDistance,
+        };
         let mut rng = crate::rng::stream_rng(3, crate::rng::Stream::Noise);
         // Near the robot, where the curve is steep, the distance comes back unbiased; far out
         // the noise margin of the baseline correction reads it a little farther.
         for distance_cm in [0.5f32, 1.0, 2.0, 3.0, 5.0] {
             let d = distance_cm / 100.0;
             let n = 2000;
-            let mean: f32 = (0..n).map(|_| model.read(&setup, 0, Some(d), &mut rng)).sum::<f32>() / n as f32;
+            let mean: f32 = (0..n)
+                .map(|_| model.read(&setup, 0, Some(d), &mut rng))
+                .sum::<f32>()
+                / n as f32;
             let expected = 1.0 - d / 0.12;
-            assert!((mean - expected).abs() < 0.03, "at {distance_cm} cm: {mean} vs {expected}");
+            assert!(
+                (mean - expected).abs() < 0.03,
+                "at {distance_cm} cm: {mean} vs {expected}"
+            );
         }
         // Contact reads 1, nothing in range reads (nearly) 0.
         assert!(model.read(&setup, 0, Some(0.0), &mut rng) > 0.99);
-        let far: f32 = (0..1000).map(|_| model.read(&setup, 0, None, &mut rng)).sum::<f32>() / 1000.0;
+        let far: f32 = (0..1000)
+            .map(|_| model.read(&setup, 0, None, &mut rng))
+            .sum::<f32>()
+            / 1000.0;
         assert!(far < 0.1, "{far}");
         // The inverse is monotone in the raw value.
         let mut last = 0.0;
