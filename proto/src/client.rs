@@ -26,6 +26,9 @@ pub struct ClientOptions {
 /// A channel that carries the token.
 pub type AuthChannel = InterceptedService<Channel, ClientAuth>;
 
+/// The worker service client every hevo worker (real or fake) talks through.
+pub type WorkerClient = WorkerServiceClient<AuthChannel>;
+
 impl ClientOptions {
     /// The URL with a scheme.
     pub fn normalized_url(&self) -> String {
@@ -102,7 +105,7 @@ pub fn job_client(channel: AuthChannel) -> JobServiceClient<AuthChannel> {
 }
 
 /// A worker service client with hevo's message limits.
-pub fn worker_client(channel: AuthChannel) -> WorkerServiceClient<AuthChannel> {
+pub fn worker_client(channel: AuthChannel) -> WorkerClient {
     WorkerServiceClient::new(channel)
         .max_decoding_message_size(crate::MAX_MESSAGE_BYTES)
         .max_encoding_message_size(crate::MAX_MESSAGE_BYTES)
@@ -125,7 +128,7 @@ pub fn error_chain(error: &(dyn std::error::Error + 'static)) -> String {
 
 /// A status as a user-facing line: the code's name and the master's message.
 pub fn describe_status(status: &tonic::Status) -> String {
-    let code = match status.code() {
+    let code: &str = match status.code() {
         tonic::Code::Unauthenticated => "UNAUTHENTICATED",
         tonic::Code::InvalidArgument => "INVALID_ARGUMENT",
         tonic::Code::NotFound => "NOT_FOUND",
@@ -135,7 +138,7 @@ pub fn describe_status(status: &tonic::Status) -> String {
         tonic::Code::Internal => "INTERNAL",
         tonic::Code::DeadlineExceeded => "DEADLINE_EXCEEDED",
         tonic::Code::Cancelled => "CANCELLED",
-        other => return format!("{other:?}: {}", status.message()),
+        other => &format!("{other:?}"),
     };
     if let Some(source) = std::error::Error::source(status) {
         return format!("{code}: {} ({})", status.message(), error_chain(source));

@@ -223,14 +223,15 @@ pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: boo
         let [p50, p90, p99, max] = report.lease_latency_ms;
         println!(
             "dispatch load: {} fake workers, {:.0} ms per batch, {:.1} s: {:.0} batches/s (ideal {:.0}), {:.0} evaluations/s; \
-             lease latency p50 {p50:.2} ms, p90 {p90:.2} ms, p99 {p99:.2} ms, max {max:.2} ms over {} leases",
+             lease latency p50 {p50:.2} ms, p90 {p90:.2} ms, p99 {p99:.2} ms, max {max:.2} ms over {} leases; {} reconnects",
             report.workers,
             report.batch_cost_ms,
             report.seconds,
             report.batches_per_second,
             report.ideal_batches_per_second,
             report.evaluations_per_second,
-            report.leases
+            report.leases,
+            report.reconnects
         );
     }
     Ok(())

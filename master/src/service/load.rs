@@ -56,6 +56,8 @@ pub struct LoadReport {
     pub lease_latency_ms: [f64; 4],
     /// Lease calls that returned a batch, in the window.
     pub leases: usize,
+    /// Times a fake worker's connection broke and it reconnected.
+    pub reconnects: usize,
     /// The rate a master with zero overhead would reach: workers / batch cost.
     pub ideal_batches_per_second: f64,
 }
@@ -150,6 +152,7 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
         .collect();
 
     let mut latencies = Vec::new();
+    let mut reconnects = 0;
     let mut failures = Vec::new();
     let before = loop {
         // Counters at the start of the measurement window.
@@ -161,7 +164,10 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     };
     for worker in workers {
         match worker.await {
-            Ok(Ok(mut found)) => latencies.append(&mut found),
+            Ok(Ok(mut log)) => {
+                latencies.append(&mut log.latencies);
+                reconnects += log.reconnects;
+            }
             Ok(Err(error)) => failures.push(error),
             Err(error) => failures.push(error.to_string()),
         }
@@ -203,81 +209,122 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
             percentile(1.0),
         ],
         leases: latencies.len(),
+        reconnects,
         ideal_batches_per_second: config.workers as f64 / config.batch_cost.as_secs_f64().max(1e-9),
     })
 }
 
-/// Leases, sleeps `cost`, returns constant results; records lease latencies (ms) inside the
-/// measurement window.
-async fn fake_worker(
-    options: ClientOptions,
-    name: String,
-    cost: Duration,
-    measure_from: Instant,
-    end: Instant,
-) -> Result<Vec<f64>, String> {
-    // Hundreds of simultaneous connects on a busy machine may time out: retry a few times.
+/// What one fake worker saw.
+struct FakeWorkerLog {
+    /// Lease latencies (ms) inside the measurement window.
+    latencies: Vec<f64>,
+    /// Times its connection failed and it reconnected.
+    reconnects: usize,
+}
+
+/// Connects, retrying a few times: hundreds of simultaneous connects on a busy machine may
+/// time out or be reset, and a real worker retries too.
+async fn connect_with_retry(
+    options: &ClientOptions,
+) -> Result<hevo_proto::client::AuthChannel, String> {
     let mut attempt = 0;
-    let channel = loop {
+    loop {
         match options.connect().await {
-            Ok(channel) => break channel,
+            Ok(channel) => return Ok(channel),
             Err(error) if attempt >= 5 => return Err(error),
             Err(_) => {
                 attempt += 1;
                 tokio::time::sleep(Duration::from_millis(200 * attempt)).await;
             }
         }
-    };
-    let mut client = worker_client(channel);
-    let mut latencies = Vec::new();
-    while Instant::now() < end {
-        let asked = Instant::now();
-        let request = v1::LeaseBatchRequest {
-            worker: name.clone(),
-            threads: 1,
-            wait_ms: 1_000,
-            cached: Vec::new(),
-        };
-        let response = client
-            .lease_batch(request)
-            .await
-            .map_err(|s| hevo_proto::client::describe_status(&s))?;
-        let Some(batch) = response.into_inner().batch else {
-            continue;
-        };
-        if asked >= measure_from {
-            latencies.push(asked.elapsed().as_secs_f64() * 1e3);
-        }
-        tokio::time::sleep(cost).await;
-        let result = v1::SampleResult {
-            fitness: 0.5,
-            solved: false,
-            collided: false,
-            stage: 0,
-            variant: 0,
-            cycles: 100,
-        };
-        let genomes = batch
-            .genomes
-            .iter()
-            .map(|_| v1::GenomeResult {
-                samples: vec![result; batch.samples.len()],
-            })
-            .collect();
-        let request = v1::CompleteBatchRequest {
-            epoch: batch.epoch,
-            lease_id: batch.lease_id,
-            batch_id: batch.batch_id,
-            worker: name.clone(),
-            genomes,
-            elapsed_ms: cost.as_millis() as u64,
-        };
-        client
-            .complete_batch(request)
-            .await
-            .map_err(|s| hevo_proto::client::describe_status(&s))?;
     }
-    Ok(latencies)
+}
+
+/// Leases, sleeps `cost`, returns constant results; records lease latencies (ms) inside the
+/// measurement window. Like a real worker it reconnects when its connection breaks (counted,
+/// because a master that drops connections under load is part of what is measured), and a
+/// batch it could not return is simply re-leased by another after its lease expires.
+async fn fake_worker(
+    options: ClientOptions,
+    name: String,
+    cost: Duration,
+    measure_from: Instant,
+    end: Instant,
+) -> Result<FakeWorkerLog, String> {
+    let mut log = FakeWorkerLog {
+        latencies: Vec::new(),
+        reconnects: 0,
+    };
+    let mut client = worker_client(connect_with_retry(&options).await?);
+    while Instant::now() < end {
+        match lease_and_complete(&mut client, &name, cost, measure_from).await {
+            Ok(Some(latency)) => log.latencies.extend(latency),
+            Ok(None) => {}
+            Err(status)
+                if matches!(
+                    status.code(),
+                    tonic::Code::Unknown | tonic::Code::Cancelled | tonic::Code::Unavailable
+                ) =>
+            {
+                // A transport error (the connection was reset or closed): reconnect, as a
+                // real worker does, instead of giving up.
+                log.reconnects += 1;
+                if log.reconnects > 20 {
+                    return Err(hevo_proto::client::describe_status(&status));
+                }
+                client = worker_client(connect_with_retry(&options).await?);
+            }
+            Err(status) => return Err(hevo_proto::client::describe_status(&status)),
+        }
+    }
+    Ok(log)
+}
+
+/// One lease, the fake evaluation, and the result. Returns the lease latency when a batch was
+/// handed out inside the measurement window.
+async fn lease_and_complete(
+    client: &mut hevo_proto::client::WorkerClient,
+    name: &str,
+    cost: Duration,
+    measure_from: Instant,
+) -> Result<Option<Option<f64>>, tonic::Status> {
+    let asked = Instant::now();
+    let request = v1::LeaseBatchRequest {
+        worker: name.to_string(),
+        threads: 1,
+        wait_ms: 1_000,
+        cached: Vec::new(),
+    };
+    let Some(batch) = client.lease_batch(request).await?.into_inner().batch else {
+        return Ok(None);
+    };
+    let latency = (asked >= measure_from).then(|| asked.elapsed().as_secs_f64() * 1e3);
+    tokio::time::sleep(cost).await;
+    let result = v1::SampleResult {
+        fitness: 0.5,
+        solved: false,
+        collided: false,
+        stage: 0,
+        variant: 0,
+        cycles: 100,
+    };
+    let genomes = batch
+        .genomes
+        .iter()
+        .map(|_| v1::GenomeResult {
+            samples: vec![result; batch.samples.len()],
+        })
+        .collect();
+    let request = v1::CompleteBatchRequest {
+        epoch: batch.epoch,
+        lease_id: batch.lease_id,
+        batch_id: batch.batch_id,
+        worker: name.to_string(),
+        genomes,
+        elapsed_ms: cost.as_millis() as u64,
+    };
+    client.complete_batch(request).await?;
+    Ok(Some(latency))
 }
 
 #[cfg(test)]
