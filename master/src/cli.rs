@@ -46,7 +46,7 @@ pub enum Command {
     /// Follow a job's progress until it ends (exit status 0 when it succeeded).
     Watch(service::commands::JobArgs),
     /// List a master's jobs.
-    Jobs(service::commands::MasterArgs),
+    Jobs(hevo_proto::client::MasterArgs),
     /// Download a job's results (controllers, fitness logs, summaries) into a directory.
     Fetch(service::commands::FetchArgs),
     /// Cancel a job.
@@ -213,6 +213,27 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
         .context("cannot start the async runtime")
 }
 
+/// Runs `work` on a new runtime against a dispatcher served by `threads` in-process workers
+/// (local mode), and stops the workers once it is done.
+fn with_local_workers<T, E>(
+    threads: usize,
+    work: impl AsyncFnOnce(&Dispatcher) -> Result<T, E>,
+) -> Result<T>
+where
+    E: std::error::Error + Send + Sync + 'static,
+{
+    Ok(runtime()?.block_on(async {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+            expected_workers: threads,
+            ..DispatchConfig::default()
+        }));
+        let pool = LocalPool::start(dispatcher.clone(), threads);
+        let result = work(&dispatcher).await;
+        pool.stop().await;
+        result
+    })?)
+}
+
 /// Threads to use: the flag, else every core.
 pub fn default_threads(flag: Option<usize>) -> usize {
     flag.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -287,16 +308,8 @@ fn run(args: RunArgs) -> Result<()> {
         job: "local".into(),
     };
     let progress = crate::progress::for_stderr();
-    let summaries = runtime()?.block_on(async {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
-            expected_workers: threads,
-            ..DispatchConfig::default()
-        }));
-        let pool = LocalPool::start(dispatcher.clone(), threads);
-        let result =
-            runner::run_experiment(&experiment, &settings, &dispatcher, progress.as_ref()).await;
-        pool.stop().await;
-        result
+    let summaries = with_local_workers(threads, async |dispatcher| {
+        runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()).await
     })?;
     println!("results in {}", args.out.display());
     for summary in &summaries {
@@ -324,16 +337,8 @@ fn eval(args: EvalArgs) -> Result<()> {
     let task = TaskConfig::new(kind);
     Evaluator::new(task.clone())?;
     let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
-    let report = runtime()?.block_on(async {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
-            expected_workers: threads,
-            ..DispatchConfig::default()
-        }));
-        let pool = LocalPool::start(dispatcher.clone(), threads);
-        let report =
-            evaluation::evaluate_controller(&dispatcher, "eval", controller, task, samples).await;
-        pool.stop().await;
-        report
+    let report = with_local_workers(threads, async |dispatcher| {
+        evaluation::evaluate_controller(dispatcher, "eval", controller, task, samples).await
     })?;
     if args.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -2,7 +2,9 @@
 //! (a bare `host:port` means plain `http://`), TLS when the URL is `https://` (the system's
 //! web PKI roots, or the CA given with `--tls-ca` for a private certificate), the token on
 //! every call, generous message limits, and HTTP/2 keep-alives so a dead master is noticed
-//! even while a worker is busy evaluating.
+//! even while a worker is busy evaluating. The command-line flags that say where the master is
+//! ([`MasterArgs`]) live here too, so `hevo-worker` and every `hevo` client command spell them,
+//! their environment variables and their help the same way.
 
 use crate::auth::ClientAuth;
 use crate::v1::job_service_client::JobServiceClient;
@@ -21,6 +23,36 @@ pub struct ClientOptions {
     pub token: Option<String>,
     /// A PEM CA certificate to trust for `https://` (instead of the web PKI roots).
     pub tls_ca: Option<PathBuf>,
+}
+
+/// How to reach a master, as command-line flags (flattened into `hevo-worker` and every `hevo`
+/// client command).
+#[derive(Debug, Clone, clap::Args)]
+pub struct MasterArgs {
+    /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
+    #[arg(long, env = "HEVO_MASTER")]
+    pub master: String,
+    /// The master's shared token.
+    #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Read the token from this file (wins over --token and HEVO_TOKEN).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
+    /// Trust this PEM CA certificate for an https:// master.
+    #[arg(long)]
+    pub tls_ca: Option<PathBuf>,
+}
+
+impl MasterArgs {
+    /// The connection options, with the token read from `--token-file` when one was given.
+    pub fn options(&self) -> Result<ClientOptions, String> {
+        let token = crate::auth::resolve_token(self.token.as_deref(), self.token_file.as_deref())?;
+        Ok(ClientOptions {
+            url: self.master.clone(),
+            token,
+            tls_ca: self.tls_ca.clone(),
+        })
+    }
 }
 
 /// A channel that carries the token.

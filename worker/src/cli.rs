@@ -4,8 +4,7 @@
 use crate::remote::{self, Shutdown, SimExecutor, WorkerConfig};
 use anyhow::{Context, Result};
 use clap::Parser;
-use hevo_proto::client::ClientOptions;
-use std::path::PathBuf;
+use hevo_proto::client::MasterArgs;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;
@@ -14,21 +13,11 @@ use tokio::sync::watch;
 #[derive(Debug, Parser)]
 #[command(name = "hevo-worker", version, about, long_about = None)]
 pub struct Args {
-    /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
-    #[arg(long, env = "HEVO_MASTER")]
-    pub master: String,
+    #[command(flatten)]
+    pub master: MasterArgs,
     /// Threads to evaluate with (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// The master's shared token.
-    #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
-    pub token: Option<String>,
-    /// Read the token from this file (wins over --token and HEVO_TOKEN).
-    #[arg(long)]
-    pub token_file: Option<PathBuf>,
-    /// Trust this PEM CA certificate for an https:// master.
-    #[arg(long)]
-    pub tls_ca: Option<PathBuf>,
     /// The worker's name in the master's logs (default: host name and process id).
     #[arg(long)]
     pub name: Option<String>,
@@ -74,8 +63,7 @@ fn default_name() -> String {
 
 /// Runs a parsed command line.
 pub fn execute(args: Args) -> Result<()> {
-    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())
-        .map_err(anyhow::Error::msg)?;
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -87,15 +75,7 @@ pub fn execute(args: Args) -> Result<()> {
     if name.is_empty() || name.len() > 128 {
         anyhow::bail!("--name must be 1 to 128 characters");
     }
-    let mut config = WorkerConfig::new(
-        ClientOptions {
-            url: args.master.clone(),
-            token,
-            tls_ca: args.tls_ca.clone(),
-        },
-        name,
-        threads,
-    );
+    let mut config = WorkerConfig::new(options, name, threads);
     config.grace = Duration::from_secs_f64(args.grace_seconds);
     // The async side only waits on the network; evaluation runs on blocking threads.
     let runtime = tokio::runtime::Builder::new_current_thread()

@@ -2,44 +2,15 @@
 //! `cancel`, and the dispatch load benchmark behind `hevo bench --dispatch-load`. Their
 //! arguments live here (flattened into `cli.rs`'s command enum) so the service's command line
 //! is one module. Every client command takes the master's URL, the token (`--token`,
-//! `--token-file` or `HEVO_TOKEN`) and `--tls-ca`.
+//! `--token-file` or `HEVO_TOKEN`) and `--tls-ca`: the flags of `hevo_proto`'s [`MasterArgs`],
+//! which `hevo-worker` shares.
 
 use super::client;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use hevo_proto::client::ClientOptions;
+use hevo_proto::client::MasterArgs;
 use std::path::PathBuf;
 use std::time::Duration;
-
-/// How to reach a master (every client command).
-#[derive(Debug, Args)]
-pub struct MasterArgs {
-    /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
-    #[arg(long, env = "HEVO_MASTER")]
-    pub master: String,
-    /// The master's shared token.
-    #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
-    pub token: Option<String>,
-    /// Read the token from this file (wins over --token and HEVO_TOKEN).
-    #[arg(long)]
-    pub token_file: Option<PathBuf>,
-    /// Trust this PEM CA certificate for an https:// master.
-    #[arg(long)]
-    pub tls_ca: Option<PathBuf>,
-}
-
-impl MasterArgs {
-    fn options(&self) -> Result<ClientOptions> {
-        let token =
-            hevo_proto::auth::resolve_token(self.token.as_deref(), self.token_file.as_deref())
-                .map_err(anyhow::Error::msg)?;
-        Ok(ClientOptions {
-            url: self.master.clone(),
-            token,
-            tls_ca: self.tls_ca.clone(),
-        })
-    }
-}
 
 /// `hevo serve`.
 #[derive(Debug, Args)]
@@ -141,7 +112,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 
 /// `hevo submit`: prints the job id alone.
 pub fn submit(args: SubmitArgs) -> Result<()> {
-    let options = args.master.options()?;
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
     let settings = super::db::JobSettings {
         node: args.node,
         runs: args.runs,
@@ -155,7 +126,7 @@ pub fn submit(args: SubmitArgs) -> Result<()> {
 
 /// `hevo watch`: an error unless the job succeeded.
 pub fn watch(args: JobArgs) -> Result<()> {
-    let options = args.master.options()?;
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
     let info = runtime()?.block_on(client::watch(&options, &args.job))?;
     match hevo_proto::v1::JobState::try_from(info.state) {
         Ok(hevo_proto::v1::JobState::Succeeded) => Ok(()),
@@ -166,14 +137,14 @@ pub fn watch(args: JobArgs) -> Result<()> {
 
 /// `hevo jobs`.
 pub fn jobs(args: MasterArgs) -> Result<()> {
-    let options = args.options()?;
+    let options = args.options().map_err(anyhow::Error::msg)?;
     print!("{}", runtime()?.block_on(client::jobs(&options))?);
     Ok(())
 }
 
 /// `hevo fetch`.
 pub fn fetch(args: FetchArgs) -> Result<()> {
-    let options = args.master.options()?;
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
     let (info, files) = runtime()?.block_on(client::fetch(&options, &args.job, &args.out))?;
     let state = client::state_name(info.state);
     if state != "succeeded" {
@@ -192,7 +163,7 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
 
 /// `hevo cancel`.
 pub fn cancel(args: JobArgs) -> Result<()> {
-    let options = args.master.options()?;
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
     let info = runtime()?.block_on(client::cancel(&options, &args.job))?;
     println!("{}: {}", args.job, client::state_name(info.state));
     Ok(())
