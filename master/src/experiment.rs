@@ -378,6 +378,24 @@ impl Experiment {
         self.nodes.iter().find(|n| n.decl.name == name)
     }
 
+    /// The names of the nodes to evolve, in dependency order: `node` and everything below it,
+    /// or every node when no node is named. The runner and the service both ask this, so an
+    /// unknown node is refused with the same message (naming the known nodes) either way.
+    pub fn nodes_to_run(&self, node: Option<&str>) -> Result<Vec<String>, String> {
+        let Some(node) = node else {
+            return Ok(self.nodes.iter().map(|n| n.decl.name.clone()).collect());
+        };
+        if self.node(node).is_none() {
+            let known: Vec<&str> = self.nodes.iter().map(|n| n.decl.name.as_str()).collect();
+            return Err(format!(
+                "no node named '{node}' in {}; nodes: {}",
+                self.file.display(),
+                known.join(", ")
+            ));
+        }
+        Ok(self.subtree(node))
+    }
+
     /// The names of a node and everything below it, in dependency order.
     pub fn subtree(&self, name: &str) -> Vec<String> {
         let mut wanted: BTreeMap<String, ()> = BTreeMap::new();

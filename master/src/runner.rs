@@ -199,28 +199,9 @@ pub async fn run_experiment(
     dispatcher: &Dispatcher,
     progress: &dyn Progress,
 ) -> Result<Vec<NodeSummary>, RunError> {
-    let names: Vec<String> = match &settings.node {
-        Some(node) => {
-            if experiment.node(node).is_none() {
-                let known: Vec<&str> = experiment
-                    .nodes
-                    .iter()
-                    .map(|n| n.decl.name.as_str())
-                    .collect();
-                return Err(RunError::Invalid(format!(
-                    "no node named '{node}' in {}; nodes: {}",
-                    experiment.file.display(),
-                    known.join(", ")
-                )));
-            }
-            experiment.subtree(node)
-        }
-        None => experiment
-            .nodes
-            .iter()
-            .map(|n| n.decl.name.clone())
-            .collect(),
-    };
+    let names = experiment
+        .nodes_to_run(settings.node.as_deref())
+        .map_err(RunError::Invalid)?;
     let mut summaries = Vec::new();
     for name in names {
         let plan = experiment

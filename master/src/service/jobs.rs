@@ -528,30 +528,9 @@ pub fn validate(
             ),
         ));
     }
-    let names: Vec<String> = match &settings.node {
-        Some(node) => {
-            if experiment.node(node).is_none() {
-                let known: Vec<&str> = experiment
-                    .nodes
-                    .iter()
-                    .map(|n| n.decl.name.as_str())
-                    .collect();
-                return Err(invalid(
-                    "node",
-                    format!(
-                        "no node named '{node}' in {file_name}; nodes: {}",
-                        known.join(", ")
-                    ),
-                ));
-            }
-            experiment.subtree(node)
-        }
-        None => experiment
-            .nodes
-            .iter()
-            .map(|n| n.decl.name.clone())
-            .collect(),
-    };
+    let names = experiment
+        .nodes_to_run(settings.node.as_deref())
+        .map_err(|message| invalid("node", message))?;
     let mut plan = Vec::new();
     for name in names {
         let node = experiment
