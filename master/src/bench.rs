@@ -57,19 +57,49 @@ fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {
         .collect()
 }
 
+// The sub-trees below are whole controllers of their own and parts of the rescue controller;
+// the genes are drawn children first, in the order the tree lists them.
+
+fn exit_room_primitive(rng: &mut SimRng) -> NodeSpec {
+    node(
+        "exit_room",
+        NodeKind::Primitive,
+        vec![InputGroup::Ir],
+        10,
+        vec![],
+        rng,
+    )
+}
+
+fn solve_maze_arbitrator(rng: &mut SimRng) -> NodeSpec {
+    let children = maze_primitives(rng);
+    node(
+        "solve_maze",
+        NodeKind::Arbitrator,
+        vec![InputGroup::Ir, InputGroup::Light],
+        10,
+        children,
+        rng,
+    )
+}
+
+fn return_room_arbitrator(children: Vec<NodeSpec>, rng: &mut SimRng) -> NodeSpec {
+    node(
+        "return_room",
+        NodeKind::Arbitrator,
+        vec![InputGroup::Ir],
+        10,
+        children,
+        rng,
+    )
+}
+
 /// The paper's controller for a task (Figure 4 topologies), with random fixed genes: what the
 /// benchmark runs, so each task is measured with the network sizes it is evolved with.
 pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
     let rng = &mut SimRng::seed_from_u64(seed);
     let root = match kind {
-        TaskKind::ExitRoom => node(
-            "exit_room",
-            NodeKind::Primitive,
-            vec![InputGroup::Ir],
-            10,
-            vec![],
-            rng,
-        ),
+        TaskKind::ExitRoom => exit_room_primitive(rng),
         TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => node(
             kind.name(),
             NodeKind::Primitive,
@@ -78,58 +108,16 @@ pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
             vec![],
             rng,
         ),
-        TaskKind::SolveMaze => {
-            let children = maze_primitives(rng);
-            node(
-                "solve_maze",
-                NodeKind::Arbitrator,
-                vec![InputGroup::Ir, InputGroup::Light],
-                10,
-                children,
-                rng,
-            )
-        }
-        TaskKind::ReturnRoom => {
-            let children = maze_primitives(rng);
-            node(
-                "return_room",
-                NodeKind::Arbitrator,
-                vec![InputGroup::Ir],
-                10,
-                children,
-                rng,
-            )
-        }
+        TaskKind::SolveMaze => solve_maze_arbitrator(rng),
+        TaskKind::ReturnRoom => return_room_arbitrator(maze_primitives(rng), rng),
         TaskKind::Rescue => {
-            let exit = node(
-                "exit_room",
-                NodeKind::Primitive,
-                vec![InputGroup::Ir],
-                10,
-                vec![],
-                rng,
-            );
-            let prims = maze_primitives(rng);
-            let maze = node(
-                "solve_maze",
-                NodeKind::Arbitrator,
-                vec![InputGroup::Ir, InputGroup::Light],
-                10,
-                prims,
-                rng,
-            );
+            let exit = exit_room_primitive(rng);
+            let maze = solve_maze_arbitrator(rng);
             let mut back = maze_primitives(rng);
             for child in &mut back {
                 child.name = format!("{}_back", child.name);
             }
-            let ret = node(
-                "return_room",
-                NodeKind::Arbitrator,
-                vec![InputGroup::Ir],
-                10,
-                back,
-                rng,
-            );
+            let ret = return_room_arbitrator(back, rng);
             node(
                 "rescue",
                 NodeKind::Arbitrator,

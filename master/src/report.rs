@@ -51,11 +51,7 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return Ok(None);
     };
-    let mut run_dirs: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_dir())
-        .collect();
-    run_dirs.sort();
+    let run_dirs = sorted_subdirectories(entries);
     for run_dir in run_dirs {
         if let Some(run) = read_json::<RunSummary>(&run_dir.join("summary.json"))? {
             runs.push(run);
@@ -76,6 +72,17 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     }))
 }
 
+/// The directories among `entries`, in name order, so nodes and runs are reported in a stable
+/// order whatever order the file system lists them in.
+fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
+    let mut dirs: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    dirs.sort();
+    dirs
+}
+
 fn percent(x: f64) -> String {
     format!("{:.1}%", 100.0 * x)
 }
@@ -87,11 +94,7 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     for runs_dir in runs_dirs {
         let entries =
             std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
-        let mut dirs: Vec<PathBuf> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_dir())
-            .collect();
-        dirs.sort();
+        let dirs = sorted_subdirectories(entries);
         for dir in dirs {
             if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
                 nodes.push(node);
@@ -253,11 +256,7 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         let Ok(entries) = std::fs::read_dir(&node.dir) else {
             continue;
         };
-        let mut run_dirs: Vec<PathBuf> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_dir())
-            .collect();
-        run_dirs.sort();
+        let run_dirs = sorted_subdirectories(entries);
         for run_dir in run_dirs {
             if let Ok(text) = std::fs::read_to_string(run_dir.join("fitness.csv"))
                 && let Ok(rows) = viz::parse_fitness_csv(&text)

@@ -46,6 +46,18 @@ fn hevo(args: &[&str]) -> std::process::Output {
         .expect("hevo runs")
 }
 
+/// `hevo` with `args`, which must succeed (its stderr is the failure message).
+fn hevo_ok(args: &[&str]) -> std::process::Output {
+    let out = hevo(args);
+    assert!(
+        out.status.success(),
+        "hevo {} failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Every file under `dir`, relative path -> bytes.
 fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files = Vec::new();
@@ -90,7 +102,7 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     let experiment = experiment.to_str().unwrap();
 
     let straight = dir.path().join("straight");
-    let out = hevo(&[
+    hevo_ok(&[
         "run",
         experiment,
         "--out",
@@ -98,17 +110,12 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         "--threads",
         "2",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let summary = std::fs::read_to_string(straight.join("exit_room/summary.json")).unwrap();
     assert!(summary.contains("\"best_run\""));
 
     // One thread: the same bytes.
     let single = dir.path().join("single");
-    let out = hevo(&[
+    hevo_ok(&[
         "run",
         experiment,
         "--out",
@@ -116,7 +123,6 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         "--threads",
         "1",
     ]);
-    assert!(out.status.success());
     assert_same_tree(&straight, &single);
 
     // Kill -9 in the middle of the first run, then run the same command again.
@@ -161,7 +167,7 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         !killed.join("exit_room/summary.json").exists(),
         "killed before the end"
     );
-    let out = hevo(&[
+    hevo_ok(&[
         "run",
         experiment,
         "--out",
@@ -169,16 +175,10 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         "--threads",
         "2",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     assert_same_tree(&straight, &killed);
 
     // A rerun of a finished experiment does nothing and changes nothing.
-    let out = hevo(&["run", experiment, "--out", straight.to_str().unwrap()]);
-    assert!(out.status.success());
+    hevo_ok(&["run", experiment, "--out", straight.to_str().unwrap()]);
     assert_same_tree(&straight, &single);
 
     // Changing the experiment under existing results is refused.
@@ -247,19 +247,14 @@ fn eval_and_bench_report_what_they_measured() {
             .replace("runs = 2", "runs = 1"),
     );
     let out_dir = dir.path().join("o");
-    let out = hevo(&[
+    hevo_ok(&[
         "run",
         experiment.to_str().unwrap(),
         "--out",
         out_dir.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let controller = out_dir.join("exit_room/best.json");
-    let out = hevo(&[
+    let out = hevo_ok(&[
         "eval",
         controller.to_str().unwrap(),
         "--task",
@@ -268,16 +263,12 @@ fn eval_and_bench_report_what_they_measured() {
         "5",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["samples"], 5);
     assert!(report["solve_rate"].as_f64().unwrap() <= 1.0);
 
-    let out = hevo(&[
+    // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
+    let out = hevo_ok(&[
         "eval",
         controller.to_str().unwrap(),
         "--task",
@@ -286,8 +277,6 @@ fn eval_and_bench_report_what_they_measured() {
         "2",
         "--json",
     ]);
-    // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
-    assert!(out.status.success());
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["samples"], 8);
     assert_eq!(report["per_variant"].as_array().unwrap().len(), 4);
@@ -298,17 +287,12 @@ fn eval_and_bench_report_what_they_measured() {
 
     // The reproduction report is generated from the outputs, with the paper's figures beside.
     let report_file = dir.path().join("doc/REPRODUCTION.md");
-    let out = hevo(&[
+    hevo_ok(&[
         "report",
         out_dir.to_str().unwrap(),
         "--out",
         report_file.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let markdown = std::fs::read_to_string(&report_file).unwrap();
     assert!(
         markdown.contains("| exit_room | exit_room | 52.0% / 96.0% |"),
@@ -325,7 +309,7 @@ fn eval_and_bench_report_what_they_measured() {
             .exists()
     );
 
-    let out = hevo(&[
+    let out = hevo_ok(&[
         "bench",
         "--task",
         "follow_wall",
@@ -335,7 +319,6 @@ fn eval_and_bench_report_what_they_measured() {
         "1",
         "--json",
     ]);
-    assert!(out.status.success());
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["task"], "follow_wall");
     assert_eq!(report["threads"], 1);
