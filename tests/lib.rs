@@ -2,10 +2,11 @@
 //! `hevo-worker` executables built once per test process (`cargo build --release`, or taken
 //! from `HEVO_TEST_BIN_DIR`), child processes that are killed when their guard is dropped (so a
 //! failing test leaves nothing running), a master started on 127.0.0.1 port 0 whose address is
-//! read from its first line of output, scratch directories, and a byte-for-byte comparison of
-//! two result directories in the layout `hevo run --out` writes.
+//! read from its first line of output, scratch directories, a plain HTTP GET for the metrics
+//! endpoint, and a byte-for-byte comparison of two result directories in the layout
+//! `hevo run --out` writes.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::OnceLock;
@@ -322,6 +323,26 @@ pub fn hevo(args: &[&str], token: Option<&str>, timeout: Duration) -> Output {
         stdout: collect(stdout),
         stderr: collect(stderr),
     }
+}
+
+/// A plain HTTP/1.1 GET (the metrics endpoint): the whole response, status line, headers and
+/// body. The connection is closed after one request, so the response ends where the stream does.
+pub fn http_get(address: &str, path: &str) -> String {
+    let mut stream = std::net::TcpStream::connect(address)
+        .unwrap_or_else(|e| panic!("cannot connect to {address}: {e}"));
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .expect("a read timeout can be set");
+    write!(
+        stream,
+        "GET {path} HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap_or_else(|e| panic!("cannot send GET {path} to {address}: {e}"));
+    let mut response = String::new();
+    stream
+        .read_to_string(&mut response)
+        .unwrap_or_else(|e| panic!("cannot read the answer to GET {path} from {address}: {e}"));
+    response
 }
 
 /// Every result file under `dir` in the layout `hevo run --out` writes (checkpoints excluded:

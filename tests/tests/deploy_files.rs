@@ -12,85 +12,19 @@
 //! The binaries come from `cargo build --release -p hevo-master -p hevo-worker`, or from the
 //! directory in `HEVO_TEST_BIN_DIR` when it is set. `shellcheck` is used when installed.
 
+use hevo_tests::{Proc, Scratch, binaries, http_get, lines_of, repo_root};
 use serde_norway::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Display;
-use std::io::{BufRead, BufReader, Read, Write};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::io::Write;
+use std::path::Path;
+use std::process::{Command, Stdio};
 use std::sync::OnceLock;
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 // ---------------------------------------------------------------------------------------------
 // The binaries and their help
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ has a parent")
-        .to_path_buf()
-}
-
-#[derive(Debug)]
-struct Binaries {
-    hevo: PathBuf,
-    worker: PathBuf,
-}
-
-/// Builds (once per test process) or locates `hevo` and `hevo-worker`. The paths come from
-/// cargo's own artifact messages, so a custom target directory is no problem.
-fn binaries() -> &'static Binaries {
-    static BINARIES: OnceLock<Binaries> = OnceLock::new();
-    BINARIES.get_or_init(|| {
-        if let Some(dir) = std::env::var_os("HEVO_TEST_BIN_DIR") {
-            let dir = PathBuf::from(dir);
-            return Binaries {
-                hevo: dir.join("hevo"),
-                worker: dir.join("hevo-worker"),
-            };
-        }
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let output = Command::new(cargo)
-            .current_dir(repo_root())
-            .args([
-                "build",
-                "--release",
-                "-p",
-                "hevo-master",
-                "-p",
-                "hevo-worker",
-                "--message-format=json",
-            ])
-            .stderr(Stdio::inherit())
-            .output()
-            .expect("cannot run cargo");
-        assert!(
-            output.status.success(),
-            "cargo build --release -p hevo-master -p hevo-worker failed"
-        );
-        let mut found: BTreeMap<String, PathBuf> = BTreeMap::new();
-        for line in String::from_utf8_lossy(&output.stdout).lines() {
-            let Ok(message) = serde_json::from_str::<serde_json::Value>(line) else {
-                continue;
-            };
-            if let Some(executable) = message.get("executable").and_then(|e| e.as_str()) {
-                let path = PathBuf::from(executable);
-                let name = path.file_name().unwrap().to_string_lossy().to_string();
-                found.insert(name, path);
-            }
-        }
-        let take = |name: &str| {
-            found
-                .get(name)
-                .cloned()
-                .unwrap_or_else(|| panic!("cargo built no `{name}` binary"))
-        };
-        Binaries {
-            hevo: take("hevo"),
-            worker: take("hevo-worker"),
-        }
-    })
-}
 
 fn run_help(program: &Path, args: &[&str]) -> String {
     let output = Command::new(program)
@@ -2582,11 +2516,14 @@ fn scripts_pass_shellcheck_when_available() {
 }
 
 /// A running master, started with the deploy files' own arguments (addresses and paths made
-/// local), stopped with SIGTERM when dropped.
+/// local), stopped with SIGTERM by [`Master::stop`] and killed when dropped.
 struct Master {
-    child: Child,
+    proc: Proc,
     grpc: String,
     metrics: Option<String>,
+    /// Its stdout after the address lines, kept open so the master never writes to a closed
+    /// pipe.
+    _stdout: mpsc::Receiver<String>,
 }
 
 impl Master {
@@ -2615,15 +2552,20 @@ impl Master {
         if env_token {
             command.env("HEVO_TOKEN", token);
         }
-        let mut child = command.spawn().expect("start hevo serve");
-        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-        let first = lines.next().and_then(Result::ok).unwrap_or_default();
+        let mut proc = Proc::spawn("hevo serve", &mut command);
+        let lines = lines_of(proc.child().stdout.take().expect("piped stdout"));
+        let next_line = || {
+            lines
+                .recv_timeout(Duration::from_secs(20))
+                .unwrap_or_default()
+        };
+        let first = next_line();
         let grpc = first
             .strip_prefix("listening on ")
             .unwrap_or_else(|| panic!("hevo {args:?} printed {first:?} first"))
             .to_string();
         let metrics = if args.iter().any(|a| a == "--metrics-listen") {
-            let second = lines.next().and_then(Result::ok).unwrap_or_default();
+            let second = next_line();
             Some(
                 second
                     .strip_prefix("metrics on ")
@@ -2633,37 +2575,19 @@ impl Master {
         } else {
             None
         };
-        // Keep draining stdout so the master never blocks on a full pipe.
-        std::thread::spawn(move || for _ in lines {});
         Master {
-            child,
+            proc,
             grpc,
             metrics,
+            _stdout: lines,
         }
     }
 
     fn stop(mut self) -> std::process::ExitStatus {
-        let _ = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status();
-        let deadline = Instant::now() + Duration::from_secs(30);
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "hevo serve did not exit within 30 s of SIGTERM"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    }
-}
-
-impl Drop for Master {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        self.proc.signal("TERM");
+        self.proc
+            .wait_timeout(Duration::from_secs(30))
+            .expect("hevo serve did not exit within 30 s of SIGTERM")
     }
 }
 
@@ -2691,22 +2615,6 @@ fn health_status(
     })
 }
 
-fn http_get_status(address: &str, path: &str) -> String {
-    let mut stream = std::net::TcpStream::connect(address)
-        .unwrap_or_else(|e| panic!("connect to metrics {address}: {e}"));
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(
-        stream,
-        "GET {path} HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut response = String::new();
-    let _ = stream.read_to_string(&mut response);
-    response.lines().next().unwrap_or_default().to_string()
-}
-
 /// What `--help` cannot show: the health services the probes ask for answer SERVING without a
 /// token, the metrics path answers, the compose health check passes, clients without the token
 /// are refused, and SIGTERM stops the master. Started once with the compose master's command
@@ -2716,7 +2624,7 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
     let helps = helps();
     let files = DeployFiles::load();
     let (_, facts) = check_all(&files, helps);
-    let scratch = std::env::temp_dir().join(format!("hevo-deploy-files-{}", std::process::id()));
+    let scratch = Scratch::new("deploy-files");
     let token = "deploy-files-test-token";
     let mut services = facts.probe_services.clone();
     services.insert(String::new());
@@ -2762,7 +2670,8 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
                 .iter()
                 .chain(std::iter::once(&"/metrics".to_string()))
             {
-                let status = http_get_status(metrics, path);
+                let response = http_get(metrics, path);
+                let status = response.lines().next().unwrap_or_default();
                 assert!(
                     status.contains(" 200"),
                     "{name}: GET {path} on the metrics port answered {status:?}"
@@ -2803,7 +2712,6 @@ fn the_master_answers_the_probes_the_deploy_files_use() {
         let status = master.stop();
         eprintln!("{name}: hevo serve exited with {status} after SIGTERM");
     }
-    let _ = std::fs::remove_dir_all(&scratch);
 }
 
 #[test]

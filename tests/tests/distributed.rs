@@ -11,10 +11,9 @@
 //! workers against local mode on two threads.
 
 use hevo_tests::{
-    Master, Proc, Scratch, assert_same_results, binaries, hevo, lines_of, start_master,
+    Master, Proc, Scratch, assert_same_results, binaries, hevo, http_get, lines_of, start_master,
     start_worker, wait_for_line,
 };
-use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::{Mutex, MutexGuard, OnceLock};
@@ -102,27 +101,32 @@ fn reference() -> &'static Path {
         let scratch = Box::leak(Box::new(Scratch::new("reference")));
         let file = write_experiment(scratch.path());
         let out = scratch.join("local");
-        let output = hevo(
-            &[
-                "run",
-                file.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-                "--threads",
-                "2",
-                "--seed",
-                SEED,
-            ],
-            None,
-            LONG,
-        );
-        assert!(
-            output.status.success(),
-            "hevo run failed: {}",
-            String::from_utf8_lossy(&output.stderr)
-        );
+        run_locally(&file, &out);
         out
     })
+}
+
+/// `hevo run` of `file` into `out` with the test seed on two threads.
+fn run_locally(file: &Path, out: &Path) {
+    let output = hevo(
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            "2",
+            "--seed",
+            SEED,
+        ],
+        None,
+        LONG,
+    );
+    assert!(
+        output.status.success(),
+        "hevo run failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
 }
 
 fn submit(master: &Master, file: &Path, extra: &[&str]) -> String {
@@ -203,19 +207,13 @@ fn fetch(master: &Master, job: &str, out: &Path, extra: &[&str]) {
     );
 }
 
-/// A plain HTTP GET (the metrics endpoint), body only.
-fn http_get(address: &str, path: &str) -> String {
-    let mut stream = std::net::TcpStream::connect(address).unwrap();
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(
-        stream,
-        "GET {path} HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut response = String::new();
-    stream.read_to_string(&mut response).unwrap();
+/// The master's metrics page (it must have been started with `--metrics-listen`).
+fn metrics_text(master: &Master) -> String {
+    let address = master
+        .metrics
+        .as_deref()
+        .expect("the master serves metrics");
+    let response = http_get(address, "/metrics");
     assert!(response.starts_with("HTTP/1.1 200"), "{response}");
     response
         .split_once("\r\n\r\n")
@@ -231,6 +229,22 @@ fn metric(text: &str, name: &str) -> f64 {
         })
         .and_then(|value| value.trim().parse().ok())
         .unwrap_or_else(|| panic!("no metric {name} in:\n{text}"))
+}
+
+/// Two single-thread workers named PREFIX0 and PREFIX1, their logs in the scratch directory.
+fn two_workers(master: &Master, scratch: &Scratch, prefix: &str) -> Vec<Proc> {
+    (0..2)
+        .map(|i| {
+            let name = format!("{prefix}{i}");
+            start_worker(
+                &master.url,
+                TOKEN,
+                &name,
+                &[],
+                &scratch.join(&format!("{name}.log")),
+            )
+        })
+        .collect()
 }
 
 fn token_args(scratch: &Scratch) -> Vec<String> {
@@ -263,23 +277,13 @@ fn two_workers_give_exactly_the_local_results() {
         &["--metrics-listen", "127.0.0.1:0"],
         "master.log",
     );
-    let mut workers: Vec<Proc> = (0..2)
-        .map(|i| {
-            start_worker(
-                &master.url,
-                TOKEN,
-                &format!("w{i}"),
-                &[],
-                &scratch.join(&format!("w{i}.log")),
-            )
-        })
-        .collect();
+    let mut workers = two_workers(&master, &scratch, "w");
     let job = submit(&master, &file, &[]);
     watch_to_end(&master, &job, &[]);
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
 
-    let metrics = http_get(master.metrics.as_deref().unwrap(), "/metrics");
+    let metrics = metrics_text(&master);
     assert_eq!(metric(&metrics, "hevo_workers_connected"), 2.0, "{metrics}");
     assert_eq!(
         metric(&metrics, "hevo_jobs{state=\"succeeded\"}"),
@@ -355,7 +359,7 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
     assert!(status.success());
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
-    let metrics = http_get(master.metrics.as_deref().unwrap(), "/metrics");
+    let metrics = metrics_text(&master);
     eprintln!(
         "killed worker: {:.1} s, lease expiries {}",
         started.elapsed().as_secs_f64(),
@@ -373,17 +377,7 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
     let job;
     {
         let mut master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-1.log");
-        let _workers: Vec<Proc> = (0..2)
-            .map(|i| {
-                start_worker(
-                    &master.url,
-                    TOKEN,
-                    &format!("a{i}"),
-                    &[],
-                    &scratch.join(&format!("a{i}.log")),
-                )
-            })
-            .collect();
+        let _workers = two_workers(&master, &scratch, "a");
         job = submit(&master, &file, &[]);
         let (_watch, lines) = spawn_watch(&master, &job, &[]);
         wait_for_line(&lines, LONG, |l| l.contains("top run 0 generation 3/"))
@@ -394,17 +388,7 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
     }
     // A new master on the same state directory (on another port), new workers.
     let master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-2.log");
-    let _workers: Vec<Proc> = (0..2)
-        .map(|i| {
-            start_worker(
-                &master.url,
-                TOKEN,
-                &format!("b{i}"),
-                &[],
-                &scratch.join(&format!("b{i}.log")),
-            )
-        })
-        .collect();
+    let _workers = two_workers(&master, &scratch, "b");
     watch_to_end(&master, &job, &[]);
     let log = std::fs::read_to_string(scratch.join("master-2.log")).unwrap();
     assert!(
@@ -714,43 +698,14 @@ fn overhead_benchmark() {
         &["--metrics-listen", "127.0.0.1:0"],
         "master.log",
     );
-    let _workers: Vec<Proc> = (0..2)
-        .map(|i| {
-            start_worker(
-                &master.url,
-                TOKEN,
-                &format!("w{i}"),
-                &[],
-                &scratch.join(&format!("w{i}.log")),
-            )
-        })
-        .collect();
-    let evaluations_so_far = || {
-        metric(
-            &http_get(master.metrics.as_deref().unwrap(), "/metrics"),
-            "hevo_evaluations_total",
-        )
-    };
+    let _workers = two_workers(&master, &scratch, "w");
+    let evaluations_so_far = || metric(&metrics_text(&master), "hevo_evaluations_total");
     let (mut local, mut remote) = (Vec::new(), Vec::new());
     let mut evaluations = 0.0;
     for round in 0..rounds {
         let out = scratch.join(&format!("local-{round}"));
         let begun = Instant::now();
-        let output = hevo(
-            &[
-                "run",
-                file.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-                "--threads",
-                "2",
-                "--seed",
-                SEED,
-            ],
-            None,
-            LONG,
-        );
-        assert!(output.status.success());
+        run_locally(&file, &out);
         local.push(begun.elapsed().as_secs_f64());
         let before = evaluations_so_far();
         let begun = Instant::now();

@@ -7,81 +7,28 @@
 //! The binaries come from `cargo build --release -p hevo-master -p hevo-worker`, or from the
 //! directory in `HEVO_TEST_BIN_DIR` when it is set.
 
+use hevo_tests::{Proc, Scratch, binaries, repo_root};
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::OnceLock;
+use std::path::Path;
+use std::process::{Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ has a parent")
-        .to_path_buf()
-}
-
-/// The directory holding `hevo` and `hevo-worker`, built once per test process.
+/// The directory holding `hevo` and `hevo-worker` (the scripts take one directory for both).
 fn bin_dir() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        if let Some(dir) = std::env::var_os("HEVO_TEST_BIN_DIR") {
-            return PathBuf::from(dir);
-        }
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let output = Command::new(cargo)
-            .current_dir(repo_root())
-            .args([
-                "build",
-                "--release",
-                "-p",
-                "hevo-master",
-                "-p",
-                "hevo-worker",
-                "--message-format=json",
-            ])
-            .stderr(Stdio::inherit())
-            .output()
-            .expect("cannot run cargo");
-        assert!(
-            output.status.success(),
-            "cargo build --release -p hevo-master -p hevo-worker failed"
-        );
-        let mut dirs = Vec::new();
-        for line in String::from_utf8_lossy(&output.stdout).lines() {
-            let Ok(message) = serde_json::from_str::<serde_json::Value>(line) else {
-                continue;
-            };
-            if let Some(executable) = message.get("executable").and_then(|e| e.as_str()) {
-                let path = PathBuf::from(executable);
-                if path
-                    .file_name()
-                    .is_some_and(|n| n == "hevo" || n == "hevo-worker")
-                {
-                    dirs.push(path.parent().unwrap().to_path_buf());
-                }
-            }
-        }
-        assert_eq!(dirs.len(), 2, "cargo did not report both binaries");
-        assert_eq!(
-            dirs[0], dirs[1],
-            "hevo and hevo-worker built into different directories"
-        );
-        dirs.remove(0)
-    })
-}
-
-/// A fresh scratch directory under the system's temporary directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hevo-one-box-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let binaries = binaries();
+    let dir = binaries.hevo.parent().expect("hevo is in a directory");
+    assert_eq!(
+        Some(dir),
+        binaries.worker.parent(),
+        "hevo and hevo-worker built into different directories"
+    );
     dir
 }
 
 /// The script, running in its own process group so that a timeout can kill everything.
 struct Script {
-    child: Child,
+    proc: Proc,
     stderr: mpsc::Receiver<String>,
     log: Vec<String>,
     /// The scratch directory, which every process the script starts has on its command line.
@@ -91,21 +38,21 @@ struct Script {
 impl Script {
     fn start(work: &Path, args: &[&str]) -> Script {
         use std::os::unix::process::CommandExt;
-        let mut child = Command::new("bash")
-            .arg(repo_root().join("deploy/local/one-box.sh"))
-            .args(["--work-dir", work.to_str().unwrap()])
-            .args(args)
-            .current_dir(repo_root())
-            .env_remove("HEVO_TOKEN")
-            .env_remove("HEVO_MASTER")
-            .stdin(Stdio::null())
-            .stdout(Stdio::inherit())
-            .stderr(Stdio::piped())
-            .process_group(0)
-            .spawn()
-            .expect("start one-box.sh");
+        let mut proc = Proc::spawn(
+            "one-box.sh",
+            Command::new("bash")
+                .arg(repo_root().join("deploy/local/one-box.sh"))
+                .args(["--work-dir", work.to_str().unwrap()])
+                .args(args)
+                .current_dir(repo_root())
+                .env_remove("HEVO_TOKEN")
+                .env_remove("HEVO_MASTER")
+                .stdout(Stdio::inherit())
+                .stderr(Stdio::piped())
+                .process_group(0),
+        );
         let (sender, stderr) = mpsc::channel();
-        let pipe = child.stderr.take().unwrap();
+        let pipe = proc.child().stderr.take().unwrap();
         std::thread::spawn(move || {
             for line in BufReader::new(pipe).lines().map_while(Result::ok) {
                 eprintln!("| {line}");
@@ -115,7 +62,7 @@ impl Script {
             }
         });
         Script {
-            child,
+            proc,
             stderr,
             log: Vec::new(),
             work: work.to_string_lossy().into_owned(),
@@ -133,7 +80,7 @@ impl Script {
                     return;
                 }
             }
-            if let Some(status) = self.child.try_wait().unwrap() {
+            if let Some(status) = self.proc.child().try_wait().unwrap() {
                 panic!(
                     "one-box.sh exited with {status} before printing {needle:?}:\n{}",
                     self.log.join("\n")
@@ -154,7 +101,7 @@ impl Script {
             while let Ok(line) = self.stderr.try_recv() {
                 self.log.push(line);
             }
-            if let Some(status) = self.child.try_wait().unwrap() {
+            if let Some(status) = self.proc.child().try_wait().unwrap() {
                 return status;
             }
             if Instant::now() > deadline {
@@ -168,29 +115,20 @@ impl Script {
         }
     }
 
-    fn signal(&self, signal: &str) {
-        let status = Command::new("kill")
-            .args([signal, &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-    }
-
     /// Kills the script and, since it puts its children in process groups of their own,
     /// every process that has the scratch directory on its command line.
     fn kill(&mut self) {
         let _ = Command::new("kill")
-            .args(["-KILL", &format!("-{}", self.child.id())])
+            .args(["-KILL", &format!("-{}", self.proc.id())])
             .status();
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        self.proc.kill();
         kill_leftovers(&self.work);
     }
 }
 
 impl Drop for Script {
     fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
+        if self.proc.child().try_wait().ok().flatten().is_none() {
             self.kill();
         }
     }
@@ -231,7 +169,7 @@ fn kill_leftovers(needle: &str) {
 
 #[test]
 fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
-    let dir = scratch("job");
+    let dir = Scratch::new("one-box-job");
     let work = dir.join("work");
     let results = dir.join("results");
     let mut script = Script::start(
@@ -285,12 +223,11 @@ fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
         let log = work.join(format!("worker-{worker}.log"));
         assert!(log.exists(), "{} is missing", log.display());
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn one_box_stops_every_process_on_sigterm() {
-    let dir = scratch("stop");
+    let dir = Scratch::new("one-box-stop");
     let work = dir.join("work");
     // Long enough that the job is still running when the signal comes.
     let mut script = Script::start(
@@ -317,7 +254,7 @@ fn one_box_stops_every_process_on_sigterm() {
         "expected a master and 3 workers running:\n{}",
         running.join("\n")
     );
-    script.signal("-TERM");
+    script.proc.signal("TERM");
     let signalled = Instant::now();
     let status = script.wait(Duration::from_secs(120));
     let stopping = signalled.elapsed();
@@ -346,7 +283,6 @@ fn one_box_stops_every_process_on_sigterm() {
         "the script did not stop the workers:\n{}",
         script.log.join("\n")
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A stand-in for `srun` (no SLURM here): runs `--ntasks` copies of the command on this machine,
@@ -387,7 +323,7 @@ exit "$status"
 #[test]
 fn slurm_script_runs_a_job_with_a_stand_in_srun() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = scratch("slurm");
+    let dir = Scratch::new("one-box-slurm");
     let shims = dir.join("bin");
     std::fs::create_dir_all(&shims).unwrap();
     let srun = shims.join("srun");
@@ -400,36 +336,29 @@ fn slurm_script_runs_a_job_with_a_stand_in_srun() {
         std::env::var("PATH").unwrap_or_default()
     );
     let experiment = repo_root().join("deploy/local/tiny.toml");
-    let mut child = Command::new("bash")
-        .arg(repo_root().join("deploy/slurm/hevo.sbatch"))
-        .args(["--state-dir", "state", "--out", "results"])
-        .arg(&experiment)
-        .current_dir(&dir)
-        .env("PATH", path)
-        .env("SLURM_JOB_ID", "4242")
-        .env("SLURM_NTASKS", "2")
-        .env("SLURM_CPUS_PER_TASK", "1")
-        // The master's node, as the workers dial it: loopback here.
-        .env("SLURMD_NODENAME", "127.0.0.1")
-        .env_remove("HEVO_TOKEN")
-        .env_remove("HEVO_MASTER")
-        .stdin(Stdio::null())
-        .spawn()
-        .expect("run hevo.sbatch");
-    let deadline = Instant::now() + Duration::from_secs(180);
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            kill_leftovers(dir.to_str().unwrap());
-            panic!("hevo.sbatch did not finish within 180 s");
-        }
-        std::thread::sleep(Duration::from_millis(100));
+    let mut sbatch = Proc::spawn(
+        "hevo.sbatch",
+        Command::new("bash")
+            .arg(repo_root().join("deploy/slurm/hevo.sbatch"))
+            .args(["--state-dir", "state", "--out", "results"])
+            .arg(&experiment)
+            .current_dir(dir.path())
+            .env("PATH", path)
+            .env("SLURM_JOB_ID", "4242")
+            .env("SLURM_NTASKS", "2")
+            .env("SLURM_CPUS_PER_TASK", "1")
+            // The master's node, as the workers dial it: loopback here.
+            .env("SLURMD_NODENAME", "127.0.0.1")
+            .env_remove("HEVO_TOKEN")
+            .env_remove("HEVO_MASTER"),
+    );
+    let Some(status) = sbatch.wait_timeout(Duration::from_secs(180)) else {
+        sbatch.kill();
+        kill_leftovers(dir.path().to_str().unwrap());
+        panic!("hevo.sbatch did not finish within 180 s");
     };
-    let leftovers = processes_mentioning(dir.to_str().unwrap());
-    kill_leftovers(dir.to_str().unwrap());
+    let leftovers = processes_mentioning(dir.path().to_str().unwrap());
+    kill_leftovers(dir.path().to_str().unwrap());
     let logs: String = ["master.log", "worker-0.log", "worker-1.log"]
         .iter()
         .map(|f| {
@@ -469,5 +398,4 @@ fn slurm_script_runs_a_job_with_a_stand_in_srun() {
             );
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
