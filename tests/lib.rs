@@ -1,6 +1,6 @@
 //! Helpers for hevo's end-to-end tests, which drive the real binaries: the `hevo` and
-//! `hevo-worker` executables built once per test process (`cargo build --release`, or taken
-//! from `HEVO_TEST_BIN_DIR`), child processes that are killed when their guard is dropped (so a
+//! `hevo-worker` executables built once per test process (`cargo build`, in the profile the
+//! tests themselves were built in, or taken from `HEVO_TEST_BIN_DIR`), child processes that are killed when their guard is dropped (so a
 //! failing test leaves nothing running), a master started on 127.0.0.1 port 0 whose address is
 //! read from its first line of output, scratch directories, a plain HTTP GET for the metrics
 //! endpoint, and a byte-for-byte comparison of two result directories in the layout
@@ -30,7 +30,10 @@ pub struct Binaries {
     pub worker: PathBuf,
 }
 
-/// The binaries, built once per test process (release profile: the tests run real evolution).
+/// The binaries, built once per test process in the tests' own profile. `cargo test` builds
+/// them in the dev profile, which reuses what the test build already compiled (dependencies
+/// and sim-core are optimised there) and saves CI a separate release build of the workspace;
+/// `cargo test --release`, as the benchmarks are run, builds release binaries.
 pub fn binaries() -> &'static Binaries {
     static BINARIES: OnceLock<Binaries> = OnceLock::new();
     BINARIES.get_or_init(|| {
@@ -42,24 +45,24 @@ pub fn binaries() -> &'static Binaries {
             };
         }
         let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut args = vec![
+            "build",
+            "-p",
+            "hevo-master",
+            "-p",
+            "hevo-worker",
+            "--message-format=json",
+        ];
+        if !cfg!(debug_assertions) {
+            args.push("--release");
+        }
         let output = Command::new(cargo)
             .current_dir(repo_root())
-            .args([
-                "build",
-                "--release",
-                "-p",
-                "hevo-master",
-                "-p",
-                "hevo-worker",
-                "--message-format=json",
-            ])
+            .args(&args)
             .stderr(Stdio::inherit())
             .output()
             .expect("cannot run cargo");
-        assert!(
-            output.status.success(),
-            "cargo build --release -p hevo-master -p hevo-worker failed"
-        );
+        assert!(output.status.success(), "cargo {} failed", args.join(" "));
         let (mut hevo, mut worker) = (None, None);
         for line in String::from_utf8_lossy(&output.stdout).lines() {
             let Ok(message) = serde_json::from_str::<serde_json::Value>(line) else {
