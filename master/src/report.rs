@@ -72,6 +72,22 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     }))
 }
 
+/// One result per node name when several run directories hold the same node: the first
+/// directory (in the order given) in which the node has a finished run, else the first in which
+/// it appears. So `hevo report NEW OLD` shows a node's new results as soon as one of its runs
+/// finishes, and the old ones until then.
+fn preferred_nodes(found: Vec<NodeResult>) -> Vec<NodeResult> {
+    let mut nodes: Vec<NodeResult> = Vec::new();
+    for node in found {
+        match nodes.iter_mut().find(|n| n.name == node.name) {
+            None => nodes.push(node),
+            Some(kept) if kept.runs.is_empty() && !node.runs.is_empty() => *kept = node,
+            Some(_) => {}
+        }
+    }
+    nodes
+}
+
 /// The directories among `entries`, in name order, so nodes and runs are reported in a stable
 /// order whatever order the file system lists them in.
 fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
@@ -90,17 +106,18 @@ fn percent(x: f64) -> String {
 /// Writes `out_file` (REPRODUCTION.md) and its pictures (beside it, in `reproduction/`) from
 /// one or more run output directories. Returns the number of nodes reported.
 pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, String> {
-    let mut nodes: Vec<NodeResult> = Vec::new();
+    let mut found: Vec<NodeResult> = Vec::new();
     for runs_dir in runs_dirs {
         let entries =
             std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
         let dirs = sorted_subdirectories(entries);
         for dir in dirs {
             if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
-                nodes.push(node);
+                found.push(node);
             }
         }
     }
+    let nodes = preferred_nodes(found);
     let base = out_file
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -125,17 +142,22 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             .join(" "),
         out_file.display()
     );
-    let _ = writeln!(md, "Sources: {}.\n", sources.join(", "));
     let _ = writeln!(
         md,
-        "| controller | task | paper avg / best | hevo avg / best | runs (paper) | generations (paper) | post-eval samples | status |"
+        "Sources: {}. Each node comes from the first of these in which it has a finished run \
+         (the `source` column).\n",
+        sources.join(", ")
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        md,
+        "| controller | task | paper avg / best | hevo avg / best | runs (paper) | generations (paper) | post-eval samples | status | source |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
     for &(name, task, paper_avg, paper_best, paper_generations, paper_runs) in PAPER {
         let Some(node) = nodes.iter().find(|n| n.name == name) else {
             let _ = writeln!(
                 md,
-                "| {name} | {task} | {} / {} | not run yet | 0 ({paper_runs}) | - ({paper_generations}) | - | not started |",
+                "| {name} | {task} | {} / {} | not run yet | 0 ({paper_runs}) | - ({paper_generations}) | - | not started | - |",
                 percent(paper_avg),
                 percent(paper_best)
             );
@@ -173,10 +195,11 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         };
         let _ = writeln!(
             md,
-            "| {name} | {task} | {} / {} | {ours} | {} ({paper_runs}) | {generations} ({paper_generations}) | {samples} | {status} |",
+            "| {name} | {task} | {} / {} | {ours} | {} ({paper_runs}) | {generations} ({paper_generations}) | {samples} | {status} | `{}` |",
             percent(paper_avg),
             percent(paper_best),
-            node.runs.len()
+            node.runs.len(),
+            node.dir.parent().unwrap_or(&node.dir).display()
         );
     }
 
@@ -279,4 +302,45 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     }
     write_atomic(out_file, md.as_bytes()).map_err(|e| format!("{}: {e}", out_file.display()))?;
     Ok(nodes.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(name: &str, source: &str, finished_runs: usize) -> NodeResult {
+        let run: RunSummary = serde_json::from_value(serde_json::json!({
+            "node": name, "run": 0, "fingerprint": "f", "run_seed": 1, "generations": 10,
+            "final_best_fitness": 1.0,
+            "post_evaluation": {"task": "follow_wall", "samples": 10, "solve_rate": 1.0,
+                "mean_fitness": 1.0, "collision_rate": 0.0, "mean_cycles": 100.0}
+        }))
+        .unwrap();
+        NodeResult {
+            name: name.into(),
+            runs: vec![run; finished_runs],
+            complete: false,
+            runs_in_progress: 1,
+            dir: Path::new(source).join(name),
+        }
+    }
+
+    #[test]
+    fn a_node_comes_from_the_first_directory_with_a_finished_run() {
+        let nodes = preferred_nodes(vec![
+            node("follow_wall", "new", 0),
+            node("exit_room", "new", 2),
+            node("follow_wall", "old", 3),
+            node("exit_room", "old", 3),
+            node("turn_left", "old", 0),
+        ]);
+        let source = |name: &str| {
+            let node = nodes.iter().find(|n| n.name == name).unwrap();
+            node.dir.parent().unwrap().to_path_buf()
+        };
+        assert_eq!(nodes.len(), 3);
+        assert_eq!(source("follow_wall"), Path::new("old"));
+        assert_eq!(source("exit_room"), Path::new("new"));
+        assert_eq!(source("turn_left"), Path::new("old"));
+    }
 }
