@@ -213,6 +213,9 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
         .context("cannot start the async runtime")
 }
 
+/// How long an in-process worker may hold a batch: in effect for ever.
+const LOCAL_LEASE: std::time::Duration = std::time::Duration::from_secs(7 * 24 * 3600);
+
 /// Runs `work` on a new runtime against a dispatcher served by `threads` in-process workers
 /// (local mode), and stops the workers once it is done.
 fn with_local_workers<T, E>(
@@ -225,6 +228,10 @@ where
     Ok(runtime()?.block_on(async {
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
             expected_workers: threads,
+            // In-process workers cannot vanish while the process lives, and they do not
+            // heartbeat: a lease that expired because the process was starved of CPU (a
+            // suspended job, a compile at higher priority) would only make the batch run twice.
+            lease_timeout: LOCAL_LEASE,
             ..DispatchConfig::default()
         }));
         let pool = LocalPool::start(dispatcher.clone(), threads);
