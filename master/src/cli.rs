@@ -72,10 +72,12 @@ pub struct RunArgs {
     /// The experiment file (TOML). Without one, the paper's rescue experiment built into hevo
     /// (a copy of experiments/rescue.toml) is used.
     pub file: Option<PathBuf>,
-    /// Evolve only this node (after its children, which are reused when already finished).
+    /// Evolve only this node (after its children, which are reused when already finished,
+    /// whatever their number of runs).
     #[arg(long)]
     pub node: Option<String>,
-    /// Override every node's number of runs.
+    /// Override every node's number of runs. A node that already has more finished runs keeps
+    /// them all; with --node, raising it adds runs to that node alone.
     #[arg(long)]
     pub runs: Option<u32>,
     /// Override every node's number of generations.
@@ -109,9 +111,21 @@ pub struct EvalArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also list the unsolved samples, each with the `hevo replay` command that draws it.
+    #[arg(long)]
+    pub failures: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+}
+
+/// What `hevo eval --json` prints: the report, and the failed samples when asked for.
+#[derive(Debug, serde::Serialize)]
+struct EvalOutput<'a> {
+    #[serde(flatten)]
+    report: &'a evaluation::EvalReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    failures: Option<&'a [evaluation::FailedSample]>,
 }
 
 /// `hevo bench`.
@@ -344,15 +358,49 @@ fn eval(args: EvalArgs) -> Result<()> {
     let task = TaskConfig::new(kind);
     Evaluator::new(task.clone())?;
     let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
-    let report = with_local_workers(threads, async |dispatcher| {
-        evaluation::evaluate_controller(dispatcher, "eval", controller, task, samples).await
+    let summaries = with_local_workers(threads, async |dispatcher| {
+        evaluation::evaluate_samples(dispatcher, "eval", controller, task, samples.clone()).await
     })?;
+    let report = evaluation::report(kind, &summaries);
+    let failures = evaluation::failed_samples(&samples, &summaries);
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!("{}", evaluation::describe(&report));
+        let output = EvalOutput {
+            report: &report,
+            failures: args.failures.then_some(failures.as_slice()),
+        };
+        println!("{}", serde_json::to_string(&output)?);
+        return Ok(());
+    }
+    println!("{}", evaluation::describe(&report));
+    if args.failures {
+        println!("unsolved samples: {}", failures.len());
+        for failure in &failures {
+            println!("  {}", describe_failure(failure, &args));
+        }
     }
     Ok(())
+}
+
+/// One failed sample as a line: how it ended, and the command that replays it.
+fn describe_failure(failure: &evaluation::FailedSample, args: &EvalArgs) -> String {
+    let ending = if failure.collided {
+        "collided"
+    } else {
+        "did not finish"
+    };
+    let variant = failure
+        .variant
+        .map(|v| format!(" --light-config {v}"))
+        .unwrap_or_default();
+    format!(
+        "{ending} at cycle {} (stage {}): hevo replay {} --task {} --seed {}{variant} --out failure-{}.svg",
+        failure.cycles,
+        failure.stage,
+        args.controller.display(),
+        args.task,
+        failure.seed,
+        failure.seed
+    )
 }
 
 fn bench_command(args: BenchArgs) -> Result<()> {

@@ -109,6 +109,39 @@ pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
     }
 }
 
+/// A sample the controller did not solve, with what it takes to replay it
+/// (`hevo replay --seed SEED --light-config VARIANT`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FailedSample {
+    /// The sample's seed.
+    pub seed: u64,
+    /// The light configuration or start branch, when the post-evaluation fixed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variant: Option<u32>,
+    /// Whether the robot touched a wall.
+    pub collided: bool,
+    /// Furthest stage reached (rescue 0..3).
+    pub stage: u8,
+    /// Cycles run before the sample ended.
+    pub cycles: u32,
+}
+
+/// The unsolved samples among `samples`, whose outcomes are `summaries` in the same order.
+pub fn failed_samples(samples: &[Sample], summaries: &[SampleSummary]) -> Vec<FailedSample> {
+    samples
+        .iter()
+        .zip(summaries)
+        .filter(|(_, summary)| !summary.solved)
+        .map(|(sample, summary)| FailedSample {
+            seed: sample.seed,
+            variant: sample.variant,
+            collided: summary.collided,
+            stage: summary.stage,
+            cycles: summary.cycles,
+        })
+        .collect()
+}
+
 /// Evaluates a complete controller (no free node) on the given samples through the dispatcher.
 pub async fn evaluate_controller(
     dispatcher: &Dispatcher,
@@ -118,6 +151,18 @@ pub async fn evaluate_controller(
     samples: Vec<Sample>,
 ) -> Result<EvalReport, DispatchError> {
     let kind = task.kind;
+    let summaries = evaluate_samples(dispatcher, job, controller, task, samples).await?;
+    Ok(report(kind, &summaries))
+}
+
+/// Evaluates a complete controller on the given samples: one outcome per sample, in order.
+pub async fn evaluate_samples(
+    dispatcher: &Dispatcher,
+    job: &str,
+    controller: ControllerFile,
+    task: TaskConfig,
+    samples: Vec<Sample>,
+) -> Result<Vec<SampleSummary>, DispatchError> {
     let shared = Arc::new(RequestShared {
         template_hash: controller.content_hash(),
         task_hash: task_content_hash(&task),
@@ -130,8 +175,8 @@ pub async fn evaluate_controller(
         genomes: vec![Arc::from(Vec::new())],
         samples: samples.into(),
     };
-    let results = dispatcher.evaluate(request).await?;
-    Ok(report(kind, &results[0]))
+    let mut results = dispatcher.evaluate(request).await?;
+    Ok(results.swap_remove(0))
 }
 
 /// A one-line human summary of a report.
@@ -181,6 +226,32 @@ mod tests {
         let room = post_evaluation_samples(TaskKind::ExitRoom, 100, 1);
         assert_eq!(room.len(), 100);
         assert!(room.iter().all(|s| s.variant.is_none()));
+    }
+
+    #[test]
+    fn failed_samples_keep_the_seed_and_variant_that_replay_them() {
+        let samples = post_evaluation_samples(TaskKind::SolveMaze, 2, 7);
+        let summaries: Vec<SampleSummary> = samples
+            .iter()
+            .enumerate()
+            .map(|(i, sample)| SampleSummary {
+                fitness: 1.0,
+                solved: i % 3 != 1,
+                collided: i == 4,
+                stage: 0,
+                variant: sample.variant.unwrap_or(0),
+                cycles: 100 + i as u32,
+            })
+            .collect();
+        let failures = failed_samples(&samples, &summaries);
+        let indices = [1usize, 4, 7];
+        assert_eq!(failures.len(), indices.len());
+        for (failure, &i) in failures.iter().zip(&indices) {
+            assert_eq!(failure.seed, samples[i].seed);
+            assert_eq!(failure.variant, samples[i].variant);
+            assert_eq!(failure.cycles, 100 + i as u32);
+            assert_eq!(failure.collided, i == 4);
+        }
     }
 
     #[test]

@@ -197,6 +197,77 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     );
 }
 
+/// Two levels: a maze arbitrator over one primitive, small enough to run in seconds.
+const TWO_LEVELS: &str = r#"
+[experiment]
+name = "two-levels"
+seed = 11
+
+[evolution]
+population = 6
+elites = 2
+post_evaluation_samples = 2
+
+[[node]]
+name = "follow_wall"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 2
+task = "follow_wall"
+samples = 2
+generations = 2
+runs = 1
+
+[[node]]
+name = "solve_maze"
+kind = "arbitrator"
+inputs = ["ir", "light"]
+hidden = 2
+children = ["follow_wall"]
+task = "solve_maze"
+samples = 2
+cycles = 200
+generations = 2
+runs = 1
+"#;
+
+#[test]
+fn more_runs_of_one_node_keep_its_children_and_are_never_thrown_away() {
+    let dir = tempfile::tempdir().unwrap();
+    let experiment = write_experiment(dir.path(), TWO_LEVELS);
+    let experiment = experiment.to_str().unwrap();
+    let out_dir = dir.path().join("o");
+    let out = out_dir.to_str().unwrap();
+    let n_runs = |node: &str| {
+        let text = std::fs::read_to_string(out_dir.join(node).join("summary.json")).unwrap();
+        let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+        summary["runs"].as_array().unwrap().len()
+    };
+    hevo_ok(&["run", experiment, "--out", out]);
+    assert_eq!((n_runs("follow_wall"), n_runs("solve_maze")), (1, 1));
+    let child_before = tree(&out_dir.join("follow_wall"));
+
+    // Two more runs of the arbitrator alone: the finished child is reused as it is.
+    hevo_ok(&[
+        "run",
+        experiment,
+        "--node",
+        "solve_maze",
+        "--runs",
+        "3",
+        "--out",
+        out,
+    ]);
+    assert_eq!((n_runs("follow_wall"), n_runs("solve_maze")), (1, 3));
+    assert!(out_dir.join("solve_maze/run-2/best.json").exists());
+    assert!(tree(&out_dir.join("follow_wall")) == child_before);
+
+    // Asking for fewer runs than are finished keeps them all.
+    let before = tree(&out_dir);
+    hevo_ok(&["run", experiment, "--out", out]);
+    assert!(tree(&out_dir) == before, "a rerun changed finished results");
+}
+
 #[test]
 fn bad_experiment_files_are_rejected_with_the_key_path() {
     let dir = tempfile::tempdir().unwrap();
@@ -280,6 +351,63 @@ fn eval_and_bench_report_what_they_measured() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["samples"], 8);
     assert_eq!(report["per_variant"].as_array().unwrap().len(), 4);
+    assert!(report.get("failures").is_none(), "only listed when asked");
+
+    // --failures lists every unsolved sample with what replays it, and the replay agrees.
+    let out = hevo_ok(&[
+        "eval",
+        controller.to_str().unwrap(),
+        "--task",
+        "solve_maze",
+        "--samples",
+        "2",
+        "--json",
+        "--failures",
+    ]);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let failures = report["failures"].as_array().unwrap();
+    let solve_rate = report["solve_rate"].as_f64().unwrap();
+    assert_eq!(failures.len(), (8.0 * (1.0 - solve_rate)).round() as usize);
+    assert!(
+        !failures.is_empty(),
+        "a 1-generation room primitive fails the maze"
+    );
+    let failure = &failures[0];
+    let replay = dir.path().join("failure.svg");
+    let out = hevo_ok(&[
+        "replay",
+        controller.to_str().unwrap(),
+        "--task",
+        "solve_maze",
+        "--seed",
+        &failure["seed"].as_u64().unwrap().to_string(),
+        "--light-config",
+        &failure["variant"].as_u64().unwrap().to_string(),
+        "--out",
+        replay.to_str().unwrap(),
+    ]);
+    let replay_line = String::from_utf8_lossy(&out.stdout);
+    let cycles = failure["cycles"].as_u64().unwrap();
+    assert!(
+        replay_line.contains(&format!(" after {cycles} cycles")),
+        "{replay_line} vs {failure}"
+    );
+    let text = hevo_ok(&[
+        "eval",
+        controller.to_str().unwrap(),
+        "--task",
+        "solve_maze",
+        "--samples",
+        "2",
+        "--failures",
+    ]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains(&format!("unsolved samples: {}", failures.len()))
+            && text.contains("hevo replay")
+            && text.contains("--light-config"),
+        "{text}"
+    );
 
     let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "teleport"]);
     assert!(!out.status.success());
