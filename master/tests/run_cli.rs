@@ -339,31 +339,26 @@ fn eval_and_bench_report_what_they_measured() {
     assert!(report["solve_rate"].as_f64().unwrap() <= 1.0);
 
     // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
-    let out = hevo_ok(&[
-        "eval",
-        controller.to_str().unwrap(),
-        "--task",
-        "solve_maze",
-        "--samples",
-        "2",
-        "--json",
-    ]);
+    let eval_maze = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            controller.to_str().unwrap(),
+            "--task",
+            "solve_maze",
+            "--samples",
+            "2",
+        ];
+        args.extend_from_slice(extra);
+        hevo_ok(&args)
+    };
+    let out = eval_maze(&["--json"]);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["samples"], 8);
     assert_eq!(report["per_variant"].as_array().unwrap().len(), 4);
     assert!(report.get("failures").is_none(), "only listed when asked");
 
     // --failures lists every unsolved sample with what replays it, and the replay agrees.
-    let out = hevo_ok(&[
-        "eval",
-        controller.to_str().unwrap(),
-        "--task",
-        "solve_maze",
-        "--samples",
-        "2",
-        "--json",
-        "--failures",
-    ]);
+    let out = eval_maze(&["--json", "--failures"]);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let failures = report["failures"].as_array().unwrap();
     let solve_rate = report["solve_rate"].as_f64().unwrap();
@@ -392,15 +387,7 @@ fn eval_and_bench_report_what_they_measured() {
         replay_line.contains(&format!(" after {cycles} cycles")),
         "{replay_line} vs {failure}"
     );
-    let text = hevo_ok(&[
-        "eval",
-        controller.to_str().unwrap(),
-        "--task",
-        "solve_maze",
-        "--samples",
-        "2",
-        "--failures",
-    ]);
+    let text = eval_maze(&["--failures"]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
         text.contains(&format!("unsolved samples: {}", failures.len()))
