@@ -80,7 +80,8 @@ pub struct RunArgs {
     /// them all; with --node, raising it adds runs to that node alone.
     #[arg(long)]
     pub runs: Option<u32>,
-    /// Override every node's number of generations.
+    /// Override every node's number of generations (with --node, the nodes below it that
+    /// are already finished are reused as they are).
     #[arg(long)]
     pub generations: Option<u32>,
     /// Output directory (checkpoints, controllers, logs).

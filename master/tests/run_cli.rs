@@ -81,6 +81,19 @@ fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
     files
 }
 
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let target = to.join(path.file_name().unwrap());
+        if path.is_dir() {
+            copy_dir(&path, &target);
+        } else {
+            std::fs::copy(&path, &target).unwrap();
+        }
+    }
+}
+
 fn assert_same_tree(a: &Path, b: &Path) {
     let (ta, tb) = (tree(a), tree(b));
     let names = |t: &[(String, Vec<u8>)]| t.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
@@ -261,6 +274,24 @@ fn more_runs_of_one_node_keep_its_children_and_are_never_thrown_away() {
     assert_eq!((n_runs("follow_wall"), n_runs("solve_maze")), (1, 3));
     assert!(out_dir.join("solve_maze/run-2/best.json").exists());
     assert!(tree(&out_dir.join("follow_wall")) == child_before);
+
+    // Fewer generations for the arbitrator alone: the child evolved for its own 2 is reused.
+    let short = dir.path().join("short");
+    std::fs::create_dir_all(&short).unwrap();
+    copy_dir(&out_dir.join("follow_wall"), &short.join("follow_wall"));
+    hevo_ok(&[
+        "run",
+        experiment,
+        "--node",
+        "solve_maze",
+        "--generations",
+        "1",
+        "--out",
+        short.to_str().unwrap(),
+    ]);
+    assert!(tree(&short.join("follow_wall")) == child_before);
+    let log = std::fs::read_to_string(short.join("solve_maze/run-0/fitness.csv")).unwrap();
+    assert_eq!(log.lines().count(), 2, "a header and one generation: {log}");
 
     // Asking for fewer runs than are finished keeps them all.
     let before = tree(&out_dir);
