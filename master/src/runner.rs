@@ -278,22 +278,29 @@ async fn run_node(
     let runs = settings.runs.unwrap_or(plan.decl.runs);
     let generations = settings.generations.unwrap_or(plan.decl.generations);
     let template = node_template(plan, &settings.out_dir)?;
-    let declared_generations_fingerprint =
-        fingerprint(plan, &template, seed, plan.decl.generations);
-    let fingerprint = fingerprint(plan, &template, seed, generations);
+    let fingerprint_for = |generations| fingerprint(plan, &template, seed, generations);
+    let fingerprint = fingerprint_for(generations);
 
     // A finished node is reused when it has at least the runs asked for: finished runs are
     // never thrown away, and throwing them away would change the node's best controller under
     // its parents' checkpoints. Below the node named by --node, a finished result is reused
-    // whatever its number of runs, and also when it was evolved for the node's own number of
-    // generations, so `--node solve_maze --runs 5 --generations 300` changes solve_maze alone.
+    // whatever its number of runs and generations (everything else must match), so
+    // `--node solve_maze --runs 5 --generations 300` changes solve_maze alone.
     let below_named_node = settings.node.as_ref().is_some_and(|named| named != name);
     let summary_path = node_dir.join("summary.json");
+    let reusable = |summary: &NodeSummary| {
+        if below_named_node {
+            summary
+                .runs
+                .first()
+                .is_some_and(|run| summary.fingerprint == fingerprint_for(run.generations))
+        } else {
+            summary.fingerprint == fingerprint && summary.runs.len() >= runs as usize
+        }
+    };
     if let Some(summary) =
         read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
-        && (summary.fingerprint == fingerprint
-            || (below_named_node && summary.fingerprint == declared_generations_fingerprint))
-        && (summary.runs.len() >= runs as usize || (below_named_node && !summary.runs.is_empty()))
+        && reusable(&summary)
     {
         progress.event(&ProgressEvent::Note {
             message: format!(
