@@ -19,7 +19,7 @@
 //! Every genome follows the layout documented in [`crate::ctrnn`]. A node whose genome is null or
 //! absent is the *free* node: the one being evolved, whose genes are supplied at evaluation time.
 
-use std::collections::HashMap;
+use std::collections::HashSet;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -60,7 +60,8 @@ pub enum NodeKind {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NodeSpec {
-    /// Unique within the tree; it may not contain `/`, which separates names in node paths.
+    /// Unique among its siblings, so node paths are unique; it may not contain `/`, which
+    /// separates names in node paths. The same name may appear under several parents.
     pub name: String,
     /// Primitive or arbitrator.
     pub kind: NodeKind,
@@ -86,9 +87,9 @@ pub enum NodeProblem {
     /// The name contains the path separator.
     #[error("name contains '/', which separates names in node paths")]
     NameContainsSeparator,
-    /// Another node of the tree already has this name.
-    #[error("name is already used by {first_path}")]
-    DuplicateName { first_path: String },
+    /// A sibling already has this name, so the two would share a path.
+    #[error("name is already used by a sibling")]
+    DuplicateName,
     /// The network declares no input group.
     #[error("declares no inputs")]
     NoInputs,
@@ -339,17 +340,17 @@ impl ControllerFile {
             });
         }
         let walked = walk_pre_order(&self.root);
-        let mut first_path_by_name: HashMap<&str, &str> = HashMap::new();
+        // Paths, not names, identify nodes: the paper's solve_maze and return_room arbitrate
+        // over the same three primitives, so one name appears under several parents. Two
+        // nodes with the same path would be indistinguishable in traces and replays.
+        let mut first_path: HashSet<&str> = HashSet::new();
         let mut first_free_path: Option<&str> = None;
         for node in &walked {
             check_node(node.spec).map_err(|problem| ControllerError::node(&node.path, problem))?;
-            if let Some(first_path) = first_path_by_name.get(node.spec.name.as_str()) {
-                let problem = NodeProblem::DuplicateName {
-                    first_path: (*first_path).to_owned(),
-                };
+            if !first_path.insert(&node.path) {
+                let problem = NodeProblem::DuplicateName;
                 return Err(ControllerError::node(&node.path, problem));
             }
-            first_path_by_name.insert(&node.spec.name, &node.path);
             if node.spec.is_free() {
                 if let Some(first_free_path) = first_free_path {
                     let problem = NodeProblem::SecondFreeNode {
@@ -727,9 +728,9 @@ impl Controller {
         self.nodes.get(node_idx).map(|node| node.path.as_str())
     }
 
-    /// The index of the node called `name`.
-    pub fn node_index(&self, name: &str) -> Option<usize> {
-        self.nodes.iter().position(|node| node.name == name)
+    /// The index of the node at `path`, e.g. `rescue/return_room/follow_wall`.
+    pub fn node_index(&self, path: &str) -> Option<usize> {
+        self.nodes.iter().position(|node| node.path == path)
     }
 
     /// Whether node `node_idx` is a primitive or an arbitrator.
@@ -846,7 +847,7 @@ mod tests {
             vec![
                 primitive("exit_room", &[Ir], 10, 2),
                 solve_maze,
-                arbitrator("return_to_room", &[Ir], 10, 3, maze_children("_back", 30)),
+                arbitrator("return_to_room", &[Ir], 10, 3, maze_children("", 30)),
             ],
         ))
     }
@@ -917,7 +918,7 @@ mod tests {
         file.root.children[2].children[2].genome.as_mut().unwrap()[7] = 10.5;
         assert_eq!(
             file.validate().unwrap_err().to_string(),
-            "rescue/return_to_room/turn_right_back: gene 7 is 10.5, outside [-10, 10]"
+            "rescue/return_to_room/turn_right: gene 7 is 10.5, outside [-10, 10]"
         );
 
         let mut file = rescue_tree();
@@ -927,11 +928,13 @@ mod tests {
             "rescue/exit_room: gene 3 is not finite (inf)"
         );
 
+        // The same name under two parents is the paper's tree (rescue_tree has it); the same
+        // name twice among siblings would make two nodes share a path.
         let mut file = rescue_tree();
         file.root.children[2].children[0].name = "turn_left".to_owned();
         assert_eq!(
             file.validate().unwrap_err().to_string(),
-            "rescue/return_to_room/turn_left: name is already used by rescue/solve_maze/turn_left"
+            "rescue/return_to_room/turn_left: name is already used by a sibling"
         );
 
         let mut file = rescue_tree();
@@ -1042,7 +1045,10 @@ mod tests {
 
         let genes = random_genes(topology, 99);
         let controller = Controller::new(&file, Some(&genes)).unwrap();
-        assert_eq!(controller.free_node(), controller.node_index("solve_maze"));
+        assert_eq!(
+            controller.free_node(),
+            controller.node_index("rescue/solve_maze")
+        );
 
         let filled = file.with_free_genome(&genes).unwrap();
         assert!(filled.free_node_topology().is_none());
