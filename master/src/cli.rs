@@ -382,21 +382,26 @@ fn eval(args: EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// One failed sample as a line: how it ended, and the command that replays it.
+/// One failed sample as a line: how far it got, and the command that replays it.
 fn describe_failure(failure: &evaluation::FailedSample, args: &EvalArgs) -> String {
-    let ending = if failure.collided {
-        "collided"
+    let wall = if failure.collided {
+        ", touched a wall"
     } else {
-        "did not finish"
+        ""
+    };
+    // Stages mean something only in rescue (left the room, reached the teammate, returned).
+    let stage = if args.task == TaskKind::Rescue.name() {
+        format!(", stage {}", failure.stage)
+    } else {
+        String::new()
     };
     let variant = failure
         .variant
         .map(|v| format!(" --light-config {v}"))
         .unwrap_or_default();
     format!(
-        "{ending} at cycle {} (stage {}): hevo replay {} --task {} --seed {}{variant} --out failure-{}.svg",
+        "{} cycles{stage}{wall}: hevo replay {} --task {} --seed {}{variant} --out failure-{}.svg",
         failure.cycles,
-        failure.stage,
         args.controller.display(),
         args.task,
         failure.seed,

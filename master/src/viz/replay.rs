@@ -449,7 +449,10 @@ pub fn replay_svg(
             (
                 node,
                 display_name(&options.node_names, node),
-                format!("{count} cycles, {share:.0}%"),
+                format!(
+                    "{count} {}, {share:.0}%",
+                    if count == 1 { "cycle" } else { "cycles" }
+                ),
             )
         })
         .collect();
