@@ -591,6 +591,20 @@ impl CorridorLogic {
                             continue;
                         }
                     }
+                    // A turner takes the first opening on its side even where the corridor
+                    // goes on straight (the maze's side junctions); where both sides open at
+                    // once it is a T, taken at the wall ahead.
+                    if settled
+                        && let Strategy::Turn(side) = self.strategy
+                        && driver.is_open(side)
+                        && !driver.is_open(side.other())
+                    {
+                        self.mode = CorridorMode::Advance {
+                            until: driver.odometer + OPENING_ADVANCE,
+                            side,
+                        };
+                        continue;
+                    }
                     let speed = if ranges.front_min() < SLOW_DOWN_AHEAD {
                         0.6
                     } else {
@@ -600,9 +614,16 @@ impl CorridorLogic {
                 }
                 CorridorMode::Advance { until, side } => {
                     if driver.is_open(side.other()) {
-                        // Both sides open at once: this is no junction but the room.
-                        self.mode = CorridorMode::Enter {
-                            until: driver.odometer + ENTER_DISTANCE,
+                        self.mode = if self.strategy == Strategy::Return {
+                            // Both sides open at once: this is no junction but the room.
+                            CorridorMode::Enter {
+                                until: driver.odometer + ENTER_DISTANCE,
+                            }
+                        } else {
+                            // A T: the turn is taken at the wall ahead.
+                            CorridorMode::Cruise {
+                                settle_until: driver.odometer,
+                            }
                         };
                         continue;
                     }
@@ -688,8 +709,9 @@ impl Default for CorridorFollower {
 
 corridor_policy!(CorridorFollower);
 
-/// Takes the single turn of a corridor to `side`: at an L-bend and at a T-junction whose other
-/// arm is a wrong branch (the turn-left and turn-right tasks).
+/// Takes the single turn of a corridor to `side`: at an L-bend, at a T-junction whose other
+/// arm is a wrong branch, and at a side opening the corridor goes on straight past (the
+/// turn-left and turn-right tasks).
 #[derive(Debug, Clone)]
 pub struct Turner {
     /// The side the turn is taken to.

@@ -97,6 +97,16 @@ pub struct CorridorConfig {
     pub cells_after_turn: [u32; 2],
     /// Share of turn samples whose turn is a T-junction with a wrong arm, not an L-bend.
     pub junction_share: f32,
+    /// Share of turn samples whose turn is a side opening with the corridor going on straight
+    /// past it (a wrong branch), as on the way back out of the maze. The turning tasks use
+    /// 0.4; absent means 0, which leaves the content hash of every other task, and so the
+    /// fingerprints of runs evolved before this option existed, unchanged.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub side_junction_share: f32,
+}
+
+fn is_zero(value: &f32) -> bool {
+    *value == 0.0
 }
 
 impl Default for CorridorConfig {
@@ -106,6 +116,7 @@ impl Default for CorridorConfig {
             cells_before_turn: [2, 4],
             cells_after_turn: [2, 4],
             junction_share: 0.5,
+            side_junction_share: 0.0,
         }
     }
 }
@@ -176,7 +187,16 @@ impl TaskConfig {
             ir: IrConfig::default(),
             light: LightConfig::default(),
             room: RoomConfig::default(),
-            corridor: CorridorConfig::default(),
+            corridor: match kind {
+                // A turning primitive meets both maze junctions in the maze (see
+                // env/corridor.rs), so it trains on both, and on a few plain bends.
+                TaskKind::TurnLeft | TaskKind::TurnRight => CorridorConfig {
+                    junction_share: 0.4,
+                    side_junction_share: 0.4,
+                    ..CorridorConfig::default()
+                },
+                _ => CorridorConfig::default(),
+            },
             start: StartConfig::default(),
         }
     }
@@ -224,10 +244,18 @@ impl TaskConfig {
                 ));
             }
         }
-        if !(0.0..=1.0).contains(&c.junction_share) {
+        for (name, share) in [
+            ("corridor.junction_share", c.junction_share),
+            ("corridor.side_junction_share", c.side_junction_share),
+        ] {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(format!("{name} must be in [0, 1], got {share}"));
+            }
+        }
+        if c.junction_share + c.side_junction_share > 1.0 {
             return Err(format!(
-                "corridor.junction_share must be in [0, 1], got {}",
-                c.junction_share
+                "corridor.junction_share + corridor.side_junction_share must be at most 1, got {} + {}",
+                c.junction_share, c.side_junction_share
             ));
         }
         if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {

@@ -13,7 +13,7 @@ use crate::robot::Pose;
 use crate::scene::{Rect, Scene};
 use crate::task::{TaskConfig, TaskKind};
 use cells::{CellMap, Side};
-use corridor::Turn;
+use corridor::{Junction, Turn};
 use maze::MazeLayout;
 use rand::RngExt;
 use room::{Placement, Room};
@@ -173,7 +173,20 @@ pub fn build(
                     rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
                 ),
             };
-            let junction = turn != Turn::Straight && rng.random::<f32>() < c.junction_share;
+            // One draw picks the turn's shape, so tasks without side junctions draw exactly
+            // what they drew before side junctions existed.
+            let junction = if turn == Turn::Straight {
+                Junction::Bend
+            } else {
+                let draw = rng.random::<f32>();
+                if draw < c.junction_share {
+                    Junction::TEnd
+                } else if draw < c.junction_share + c.side_junction_share {
+                    Junction::Side
+                } else {
+                    Junction::Bend
+                }
+            };
             let corridor = corridor::build(turn, before, after, junction);
             let map = Arc::new(corridor.map);
             let start = stem_start(map.center(corridor.path[0]), FRAC_PI_2, task, rng);
@@ -183,7 +196,7 @@ pub fn build(
                 teammate: None,
                 lights: Vec::new(),
                 ground: Ground::Cells(CellGoal::new(map, &corridor.path)),
-                variant: u32::from(junction),
+                variant: junction.index(),
             }
         }
         TaskKind::SolveMaze => {
