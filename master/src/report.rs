@@ -150,6 +150,12 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     );
     let _ = writeln!(
         md,
+        "What the paper leaves open (sensor model details, the primitives' corridors and fitness, \
+         goal tests), and what was changed when a result fell short of the paper and why, is in \
+         ARCHITECTURE.md, section \"Model decisions the paper leaves open\".\n"
+    );
+    let _ = writeln!(
+        md,
         "| controller | task | paper avg / best | hevo avg / best | runs (paper) | generations (paper) | post-eval samples | status | source |"
     );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
