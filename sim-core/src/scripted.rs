@@ -153,9 +153,11 @@ impl Ranger {
     fn for_mapping(mapping: IrMapping) -> &'static Ranger {
         static LINEAR_DISTANCE: OnceLock<Ranger> = OnceLock::new();
         static LINEAR_RAW: OnceLock<Ranger> = OnceLock::new();
+        static AVERAGE_TABLE: OnceLock<Ranger> = OnceLock::new();
         let cell = match mapping {
             IrMapping::LinearDistance => &LINEAR_DISTANCE,
             IrMapping::LinearRaw => &LINEAR_RAW,
+            IrMapping::AverageTable => &AVERAGE_TABLE,
         };
         cell.get_or_init(|| Ranger::new(mapping))
     }
@@ -172,7 +174,7 @@ impl Ranger {
                 lowest
             })
             .collect();
-        let wall_end_jump = (mapping == IrMapping::LinearDistance).then_some(WALL_END_JUMP);
+        let wall_end_jump = (mapping != IrMapping::LinearRaw).then_some(WALL_END_JUMP);
         Ranger {
             input_at_mm,
             wall_end_jump,

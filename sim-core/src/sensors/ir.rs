@@ -78,6 +78,13 @@ pub enum IrMapping {
     LinearDistance,
     /// Linear in the raw value between the curve's mean at 12 cm (0) and at contact (1).
     LinearRaw,
+    /// As JBotEvolver's `EpuckIRSensor` (the paper's simulator): nothing sensed beyond 12 cm
+    /// (reads 0); nearer, the raw reading drawn from the sensor's own curve is looked up in the
+    /// average table with no baseline correction, and the input is `1 - d / 12 cm`. A wall
+    /// 8-9 cm away then reads about 0.2-0.3 on most curves, where `linear_distance`'s noise
+    /// margin reads 0 on several; a sensor whose curve lies above the average reads a wall
+    /// just inside 12 cm as nearer than it is.
+    AverageTable,
 }
 
 /// IR sensor configuration.
@@ -322,6 +329,12 @@ impl IrModel {
         ) else {
             return 0.0;
         };
+        if setup.mapping == IrMapping::AverageTable
+            && distance_m
+                .is_none_or(|d| d >= self.inverse_step * (self.inverse_means.len() - 1) as f32)
+        {
+            return 0.0;
+        }
         let raw = self.read_raw(curve, distance_m, rng);
         let input = self.map_raw(curve, raw, setup.mapping);
         (input * (1.0 + offset)).clamp(0.0, 1.0)
@@ -360,6 +373,10 @@ impl IrModel {
                 1.0 - self.raw_to_distance(corrected) / max_distance
             }
             IrMapping::LinearRaw => self.raw_to_input(curve, raw),
+            IrMapping::AverageTable => {
+                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
+                1.0 - self.raw_to_distance(raw) / max_distance
+            }
         }
     }
 
@@ -662,5 +679,46 @@ mod tests {
             assert!(d >= last, "raw {raw}: {d} < {last}");
             last = d;
         }
+    }
+
+    #[test]
+    fn average_table_mapping_reads_as_jbotevolver_does() {
+        let model = IrModel::builtin();
+        let setup = IrSensorSetup {
+            curve: [MEAN_IR_CURVE; N_IR],
+            offset: [0.0; N_IR],
+            mapping: IrMapping::AverageTable,
+        };
+        let mut rng = crate::rng::stream_rng(4, crate::rng::Stream::Noise);
+        // On the average curve the input is 1 - d / 12 cm all the way out, with no noise
+        // margin: 9 cm reads about 0.25 (JBotEvolver: 0.250 on its centre ray).
+        for distance_cm in [1.0f32, 3.0, 6.0, 9.0] {
+            let d = distance_cm / 100.0;
+            let n = 2000;
+            let mean: f32 = (0..n)
+                .map(|_| model.read(&setup, 0, Some(d), &mut rng))
+                .sum::<f32>()
+                / n as f32;
+            let expected = 1.0 - d / 0.12;
+            assert!(
+                (mean - expected).abs() < 0.04,
+                "at {distance_cm} cm: {mean} vs {expected}"
+            );
+        }
+        // Nothing sensed beyond 12 cm, whatever the curve.
+        for curve in 0..N_IR_CURVES as u8 {
+            let setup = IrSensorSetup {
+                curve: [curve; N_IR],
+                ..setup
+            };
+            assert_eq!(model.read(&setup, 0, None, &mut rng), 0.0);
+            assert_eq!(model.read(&setup, 0, Some(0.1201), &mut rng), 0.0);
+            assert_eq!(model.read(&setup, 0, Some(0.2), &mut rng), 0.0);
+        }
+        // Where linear_distance's margin reads the average curve's 9 cm as nothing, this
+        // mapping still sees the wall.
+        let margin = model.noise_free_input(MEAN_IR_CURVE, 0.09, IrMapping::LinearDistance);
+        let table = model.noise_free_input(MEAN_IR_CURVE, 0.09, IrMapping::AverageTable);
+        assert!(margin < 0.05 && table > 0.2, "{margin} vs {table}");
     }
 }
