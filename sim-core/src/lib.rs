@@ -20,7 +20,7 @@ pub mod task;
 /// Version of the simulation model. Bump it whenever a change alters any trajectory or fitness
 /// (the golden tests catch such changes): run fingerprints include it, so checkpoints written by
 /// an older model are refused instead of being silently continued with a different one.
-pub const MODEL_VERSION: u32 = 3;
+pub const MODEL_VERSION: u32 = 4;
 
 pub use evaluate::{Ending, Evaluator, Outcome, Policy, Sample, Trace, TraceCycle};
 pub use task::{TaskConfig, TaskKind};

@@ -244,176 +244,176 @@ const EXPECTED: &[Golden] = &[
         task: TaskKind::FollowWall,
         seed: 1,
         variant: None,
-        fitness_bits: 0x3fdd1eb8, // 1.7275
-        cycles: 109,
+        fitness_bits: 0x3fd66666, // 1.675
+        cycles: 130,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3c101dc8, 0x3f86816d, 0x3fc63655],
-        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (27, [0x3b843dde, 0x3e83acfd, 0x3fc2784f]), (54, [0x3bf16037, 0x3f040abf, 0x3fc5178c]), (81, [0x3bffb3a3, 0x3f47874b, 0x3fcc411a])],
+        final_pose: [0x3bee4eae, 0x3f8704e7, 0x3fcb3663],
+        points: [(0, [0xbc33bdfa, 0xb003d099, 0x3fc31ef2]), (32, [0x3c073d2c, 0x3e8a3ccd, 0x3fc4168c]), (65, [0x3c17d277, 0x3f0a4385, 0x3fced93d]), (97, [0x3c458dec, 0x3f4d035e, 0x3fc718bb])],
     },
     Golden {
         task: TaskKind::FollowWall,
         seed: 2,
         variant: None,
-        fitness_bits: 0x3ff0a3d7, // 1.88
-        cycles: 48,
+        fitness_bits: 0x3ff00000, // 1.875
+        cycles: 50,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xba04f6db, 0x3eea3b40, 0x3fcb0ed0],
-        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c1a0da0, 0x3de9ca62, 0x3fd59ed1]), (24, [0xbab3d994, 0x3e67df98, 0x3fd0a77e]), (36, [0xba39de62, 0x3eaf8e9a, 0x3fc687a0])],
+        final_pose: [0xbb0e5ed8, 0x3ee872ba, 0x3fcc95f3],
+        points: [(0, [0x3c8bfeb8, 0x304d5509, 0x3fc6fa3a]), (12, [0x3c199790, 0x3dc7319e, 0x3fd7c40d]), (25, [0xba975c81, 0x3e5f638d, 0x3fcc9bc5]), (37, [0xbba1867b, 0x3ea8e18e, 0x3fc80287])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 3,
         variant: None,
-        fitness_bits: 0x3fc570a4, // 1.5425
-        cycles: 183,
-        ending: Ending::Solved,
-        stage: 1,
-        final_pose: [0xbf867f05, 0x3f1986e9, 0xc048a19e],
-        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (45, [0x3c2356a2, 0x3eddd31c, 0x3fcf0689]), (91, [0xbe2ca2d1, 0x3f18bb76, 0xc0444077]), (137, [0xbf1bc42d, 0x3f18ddde, 0xc04854bb])],
+        fitness_bits: 0x3eae835b, // 0.3408459
+        cycles: 400,
+        ending: Ending::Timeout,
+        stage: 0,
+        final_pose: [0xbf20862c, 0x3f195679, 0x40489f1e],
+        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (100, [0xbada74bc, 0x3ebaa37c, 0x3fca4a75]), (200, [0xbc15c388, 0x3f1723ee, 0xbd02257e]), (300, [0x3c41de48, 0x3ee2b3ee, 0x3fca504e])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 4,
         variant: None,
-        fitness_bits: 0x3fe1999a, // 1.7625
-        cycles: 95,
+        fitness_bits: 0x3fdc7ae2, // 1.7225001
+        cycles: 111,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbee7403c, 0x3e9ab98f, 0xc0477532],
-        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (23, [0x3ac179c2, 0x3e512078, 0x3fca8f33]), (47, [0xbc02ef3e, 0x3e9e5b7d, 0xc045465a]), (71, [0xbe70f071, 0x3e99c89c, 0xc048c0c8])],
+        final_pose: [0xbeeaf7d8, 0x3e9c1c19, 0x40473315],
+        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (27, [0x3c22af0f, 0x3e59e59d, 0x3fccca49]), (55, [0xbc927fb9, 0x3ea0ef2c, 0xc045aaff]), (83, [0xbe793615, 0x3e9bc85c, 0x40484e1c])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 5,
         variant: None,
-        fitness_bits: 0x3fce147b, // 1.61
-        cycles: 156,
+        fitness_bits: 0x3fcfae14, // 1.6225
+        cycles: 151,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f41dbc1, 0x3f19e0d8, 0x3c226f1a],
-        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (39, [0xbab7061b, 0x3eb93b05, 0x3fc67832]), (78, [0x3d420b03, 0x3f13f722, 0x3c251fd2]), (117, [0x3ec32320, 0x3f192041, 0xbce1fbd2])],
+        final_pose: [0x3f4284eb, 0x3f1a92ec, 0x3ce24a38],
+        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (37, [0xba3ff7ff, 0x3eb563f5, 0x3fd13edd]), (75, [0x3ca418f0, 0x3f1a7814, 0x3b15ae9d]), (113, [0x3ec7dfce, 0x3f1aec7d, 0xbbc43fa0])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 6,
         variant: None,
-        fitness_bits: 0x3fd9eb85, // 1.7025
-        cycles: 119,
+        fitness_bits: 0x3fd947ae, // 1.6975
+        cycles: 121,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f41adeb, 0x3e9ae22a, 0xbcdcb279],
-        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (29, [0x3a87a347, 0x3e8d35c5, 0x3fc2798b]), (59, [0x3e3705ab, 0x3e9a4b84, 0x3db075ba]), (89, [0x3eef7f13, 0x3e9a8dae, 0xbc80e78f])],
+        final_pose: [0x3f420884, 0x3e99bec6, 0xbabacae8],
+        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0xba9fa022, 0x3e8a4884, 0x3fb0fcc2]), (60, [0x3e30fe8f, 0x3e94ccca, 0x3e432445]), (90, [0x3ee9dcc2, 0x3e9ade17, 0xbba74211])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(0),
-        fitness_bits: 0x3fdae148, // 1.71
-        cycles: 290,
+        fitness_bits: 0x3fdb020c, // 1.711
+        cycles: 289,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f6616b5, 0x3e1bf2f6, 0x3fc2b9e2],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9cd8b7, 0xbf501dc1, 0x3fcefbdd]), (145, [0x3d8ecedc, 0xbe99cc74, 0xbde6f970]), (217, [0x3f428614, 0xbe983ce4, 0x3d3040a9])],
+        final_pose: [0x3f65fcd8, 0x3e200926, 0x3fc7cf19],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0x3bb4212f, 0xbf4f46a9, 0x3fcac4d0]), (144, [0x3d8e2f32, 0xbe96c2ef, 0xbd6cbb08]), (216, [0x3f4323dc, 0xbe9b3b07, 0xbb9e4886])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(1),
-        fitness_bits: 0x3fda5e35, // 1.706
-        cycles: 294,
+        fitness_bits: 0x3fdae148, // 1.71
+        cycles: 290,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f66043a, 0xbf4209c0, 0xbfd1e51a],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba95b26, 0xbf4da616, 0x3fcd463e]), (147, [0x3db64cbd, 0xbe9ad10d, 0xbdd5b4cf]), (220, [0x3f49e854, 0xbe978b6c, 0x3d0c1f78])],
+        final_pose: [0x3f65f234, 0xbf40cad8, 0xbfca11e5],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0x3bb4212f, 0xbf4f46a9, 0x3fcac4d0]), (145, [0x3da1996b, 0xbe970780, 0xbd56de4a]), (217, [0x3f45a4a3, 0xbe9b4697, 0xbc587271])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(2),
-        fitness_bits: 0x3fda7efa, // 1.707
-        cycles: 293,
+        fitness_bits: 0x3fdb020c, // 1.711
+        cycles: 289,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf662616, 0x3e1ef999, 0x3fc201c0],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (73, [0xbba95b26, 0xbf4da616, 0x3fcd463e]), (146, [0xbd92812a, 0xbe95a0aa, 0xc043381c]), (219, [0xbf456ba7, 0xbe9b7519, 0xc045d7ef])],
+        final_pose: [0xbf65e915, 0x3e1dfc24, 0x3fc0d06d],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0x3bb4212f, 0xbf4f46a9, 0x3fcac4d0]), (144, [0xbd825848, 0xbe95f918, 0xc0465a3f]), (216, [0xbf42ea89, 0xbe998326, 0x4047d6ca])],
     },
     Golden {
         task: TaskKind::SolveMaze,
         seed: 7,
         variant: Some(3),
-        fitness_bits: 0x3fdae148, // 1.71
-        cycles: 290,
+        fitness_bits: 0x3fdb020c, // 1.711
+        cycles: 289,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf6617d1, 0xbf411eb9, 0xbfcf58ad],
-        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0xbb9cd8b7, 0xbf501dc1, 0x3fcefbdd]), (145, [0xbd7eee3f, 0xbe9540bb, 0xc044d91f]), (217, [0xbf405f2c, 0xbe9af61b, 0xc0464e83])],
+        final_pose: [0xbf678f53, 0xbf41de63, 0xbfbf4047],
+        points: [(0, [0x3ae148a0, 0xbfc00000, 0x3fd920b2]), (72, [0x3bb4212f, 0xbf4f46a9, 0x3fcac4d0]), (144, [0xbd825848, 0xbe95f918, 0xc0465a3f]), (216, [0xbf42ea89, 0xbe998326, 0x4047d6ca])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
         seed: 8,
         variant: None,
-        fitness_bits: 0x00000000, // 0
-        cycles: 1000,
-        ending: Ending::Timeout,
-        stage: 0,
-        final_pose: [0xbf6bf146, 0xbe92bb27, 0x404685cd],
-        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (250, [0xbc3ccd6e, 0xbedce4a8, 0x3fbf47a6]), (500, [0xbf6bf146, 0xbe92bb27, 0x404685cd]), (750, [0xbf6bf146, 0xbe92bb27, 0x404685cd])],
+        fitness_bits: 0x3fd6e979, // 1.679
+        cycles: 321,
+        ending: Ending::Solved,
+        stage: 1,
+        final_pose: [0xbb87458f, 0xbfae05ae, 0xbfc3f239],
+        points: [(0, [0xbf685053, 0x3e800000, 0xbfd6a4d4]), (80, [0xbf5cc6fd, 0xbe8b95c6, 0xbd1f5571]), (160, [0xbe4db387, 0xbe9c5203, 0x3bf6430e]), (240, [0xbbb2f620, 0xbf366dca, 0xbfc74892])],
     },
     Golden {
         task: TaskKind::ReturnRoom,
         seed: 9,
         variant: None,
-        fitness_bits: 0x3fd83127, // 1.689
-        cycles: 311,
+        fitness_bits: 0x3fdbe76c, // 1.7179999
+        cycles: 282,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbb8bc8a4, 0xbfad1387, 0xbfc952e1],
-        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (77, [0x3f55e2d5, 0xbea3a4b7, 0xc0481ef9]), (155, [0x3ea2adb3, 0xbe97cc86, 0xc0471668]), (233, [0xbb9ec4e6, 0xbf19c23a, 0xbfc7f06b])],
+        final_pose: [0xbbfee9a5, 0xbfacfc63, 0xbfce3c08],
+        points: [(0, [0x3f659551, 0xbf59999a, 0x3fdf2b92]), (70, [0x3f6558dd, 0xbe91bc72, 0xc047a73c]), (141, [0x3e59ab6c, 0xbe94a034, 0xc0482693]), (211, [0xbc0b38f0, 0xbf29363e, 0xbfc8dab2])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 10,
         variant: None,
-        fitness_bits: 0x40b73333, // 5.725
-        cycles: 275,
+        fitness_bits: 0x40a93f7d, // 5.289
+        cycles: 711,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbf27fd60, 0xbe6a8430, 0xc047f21d],
-        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (68, [0x3eea0c0e, 0xbe4d240d, 0xbfcaa9c7]), (137, [0x3e3c4443, 0xbef30fa2, 0x4048b4a2]), (206, [0xbedec2aa, 0xbef2050e, 0x40478da2])],
+        final_pose: [0xbf27a2de, 0xbe6e3d83, 0x4046df9d],
+        points: [(0, [0x3d8c597c, 0xbcfe1950, 0x3dfc3340]), (177, [0x3deeda21, 0xbeef4752, 0x40414918]), (355, [0xbe0fb177, 0x3ef1745b, 0x3c645292]), (533, [0x3ee94458, 0xbee9fcc3, 0xbfc62da7])],
     },
     Golden {
         task: TaskKind::ExitRoom,
         seed: 11,
         variant: None,
-        fitness_bits: 0x40b25604, // 5.573
-        cycles: 427,
+        fitness_bits: 0x40ad1eb8, // 5.41
+        cycles: 590,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3e9d55b9, 0xbf249092, 0xbfd46af7],
-        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (106, [0xbef0a6a9, 0x3dd51a2c, 0x3fec431a]), (213, [0x3da6b193, 0x3ee8d1a5, 0xbc286f28]), (320, [0x3efdfef6, 0xbca93f2d, 0xbfc6f547])],
+        final_pose: [0x3ea0fdd9, 0xbf247bf3, 0xbfceef5e],
+        points: [(0, [0x3d427a30, 0x3d6de1e8, 0x40579e63]), (147, [0xbeeb68f6, 0x3eda8f4d, 0x4001fbf5]), (295, [0xbe869207, 0x3df678d7, 0xbd37efd9]), (442, [0x3e88cd98, 0x3e8b6369, 0xbf6b7845])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 12,
         variant: None,
-        fitness_bits: 0x403fbfc0, // 2.9960785
-        cycles: 1441,
+        fitness_bits: 0x403fd018, // 2.997076
+        cycles: 1510,
         ending: Ending::Solved,
         stage: 3,
-        final_pose: [0x3b932f2b, 0xbfeb2d06, 0xbfc9988f],
-        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (360, [0x3e28850c, 0xc00be8c2, 0xbfcb4c92]), (720, [0xbe5797d9, 0xbfe16a66, 0x3b02d3a6]), (1080, [0x3f66b9d9, 0x3e350432, 0x3fc54766])],
+        final_pose: [0x38ea5d45, 0xbfea8e1a, 0xbfc81aac],
+        points: [(0, [0xbebd5b28, 0xc011b338, 0xbfaa12bf]), (377, [0xbe0fc56d, 0xc02a9547, 0xc0490d06]), (755, [0xbba189dd, 0xbf93da4b, 0x3fcb2d7f]), (1132, [0x3f66b87c, 0xbca6bf66, 0xbfc6d893])],
     },
     Golden {
         task: TaskKind::Rescue,
         seed: 13,
         variant: None,
-        fitness_bits: 0x3e7ac688, // 0.24489796
-        cycles: 441,
-        ending: Ending::Collision,
-        stage: 0,
-        final_pose: [0x3f159ebf, 0xc00af0d0, 0xbfa0ee25],
-        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (110, [0x3ed7caeb, 0xbfe1f88d, 0x3d6aee05]), (220, [0xbd8ffa7d, 0xbfe8b9eb, 0xc047580c]), (330, [0x3d538352, 0xbfe7b574, 0xbccc81e4])],
+        fitness_bits: 0x403fe2cc, // 2.9982176
+        cycles: 1212,
+        ending: Ending::Solved,
+        stage: 3,
+        final_pose: [0x39f087ff, 0xbfebd750, 0xbfce5e71],
+        points: [(0, [0x3e11ae50, 0xc01272dc, 0x3fb402ba]), (303, [0x3d938170, 0xc033230e, 0x4047b586]), (606, [0xbb47092e, 0xbf9c2a22, 0x3fce9e24]), (909, [0xbf67c29b, 0xb98dace0, 0xbfca244f])],
     },
 ];
