@@ -644,6 +644,29 @@ mod tests {
         ));
     }
 
+    /// Asserts that the mean of many reads at each distance is `1 - d / 12 cm` within `tolerance`.
+    fn assert_reads_linear_in_distance(
+        model: &IrModel,
+        setup: &IrSensorSetup,
+        distances_cm: &[f32],
+        tolerance: f32,
+        rng: &mut SimRng,
+    ) {
+        for &distance_cm in distances_cm {
+            let d = distance_cm / 100.0;
+            let n = 2000;
+            let mean: f32 = (0..n)
+                .map(|_| model.read(setup, 0, Some(d), rng))
+                .sum::<f32>()
+                / n as f32;
+            let expected = 1.0 - d / 0.12;
+            assert!(
+                (mean - expected).abs() < tolerance,
+                "at {distance_cm} cm: {mean} vs {expected}"
+            );
+        }
+    }
+
     #[test]
     fn linear_distance_mapping_recovers_the_distance_on_the_average_curve() {
         let model = IrModel::builtin();
@@ -655,19 +678,7 @@ mod tests {
         let mut rng = crate::rng::stream_rng(3, crate::rng::Stream::Noise);
         // Near the robot, where the curve is steep, the distance comes back unbiased; far out
         // the noise margin of the baseline correction reads it a little farther.
-        for distance_cm in [0.5f32, 1.0, 2.0, 3.0, 5.0] {
-            let d = distance_cm / 100.0;
-            let n = 2000;
-            let mean: f32 = (0..n)
-                .map(|_| model.read(&setup, 0, Some(d), &mut rng))
-                .sum::<f32>()
-                / n as f32;
-            let expected = 1.0 - d / 0.12;
-            assert!(
-                (mean - expected).abs() < 0.03,
-                "at {distance_cm} cm: {mean} vs {expected}"
-            );
-        }
+        assert_reads_linear_in_distance(model, &setup, &[0.5, 1.0, 2.0, 3.0, 5.0], 0.03, &mut rng);
         // Contact reads 1, nothing in range reads (nearly) 0.
         assert!(model.read(&setup, 0, Some(0.0), &mut rng) > 0.99);
         let far: f32 = (0..1000)
@@ -695,19 +706,7 @@ mod tests {
         let mut rng = crate::rng::stream_rng(4, crate::rng::Stream::Noise);
         // On the average curve the input is 1 - d / 12 cm all the way out, with no noise
         // margin: 9 cm reads about 0.25 (JBotEvolver: 0.250 on its centre ray).
-        for distance_cm in [1.0f32, 3.0, 6.0, 9.0] {
-            let d = distance_cm / 100.0;
-            let n = 2000;
-            let mean: f32 = (0..n)
-                .map(|_| model.read(&setup, 0, Some(d), &mut rng))
-                .sum::<f32>()
-                / n as f32;
-            let expected = 1.0 - d / 0.12;
-            assert!(
-                (mean - expected).abs() < 0.04,
-                "at {distance_cm} cm: {mean} vs {expected}"
-            );
-        }
+        assert_reads_linear_in_distance(model, &setup, &[1.0, 3.0, 6.0, 9.0], 0.04, &mut rng);
         // Nothing sensed beyond 12 cm, whatever the curve.
         for curve in 0..N_IR_CURVES as u8 {
             let setup = IrSensorSetup {
