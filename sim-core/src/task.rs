@@ -2,6 +2,7 @@
 //! robot, sensors and environment generators, as one serialisable configuration. The paper's
 //! values are the defaults; everything the paper leaves open is a documented config value here.
 
+use crate::env::maze::MAZE_CELL_SIZE;
 use crate::env::room::RoomConfig;
 use crate::robot::RobotConfig;
 use crate::sensors::ir::IrConfig;
@@ -103,6 +104,15 @@ pub struct CorridorConfig {
     /// fingerprints of runs evolved before this option existed, unchanged.
     #[serde(skip_serializing_if = "is_zero")]
     pub side_junction_share: f32,
+    /// The robot starts a uniform random distance of up to this many metres further along the
+    /// corridor than the centre of its first cell. An arbitrator activates a primitive, freshly
+    /// reset, wherever the robot happens to be, often beside the opening it must take; a turning
+    /// primitive that only ever started a whole cell or more before its junction never learns
+    /// to turn from there (see ARCHITECTURE.md). The turning tasks use one cell, 0.30 m, so
+    /// starts cover every distance up to the junction's centre; absent means 0, which leaves
+    /// the other tasks' draws and content hashes unchanged.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub start_advance: f32,
 }
 
 fn is_zero(value: &f32) -> bool {
@@ -117,6 +127,7 @@ impl Default for CorridorConfig {
             cells_after_turn: [2, 4],
             junction_share: 0.5,
             side_junction_share: 0.0,
+            start_advance: 0.0,
         }
     }
 }
@@ -193,6 +204,7 @@ impl TaskConfig {
                 TaskKind::TurnLeft | TaskKind::TurnRight => CorridorConfig {
                     junction_share: 0.4,
                     side_junction_share: 0.4,
+                    start_advance: MAZE_CELL_SIZE,
                     ..CorridorConfig::default()
                 },
                 _ => CorridorConfig::default(),
@@ -258,6 +270,20 @@ impl TaskConfig {
                 c.junction_share, c.side_junction_share
             ));
         }
+        // One cell at most, and never from a one-cell corridor, so the advanced start is still
+        // inside the start cell's corridor and never past the junction's centre.
+        if !(0.0..=MAZE_CELL_SIZE).contains(&c.start_advance) {
+            return Err(format!(
+                "corridor.start_advance must be in [0, {MAZE_CELL_SIZE}] metres, got {}",
+                c.start_advance
+            ));
+        }
+        if c.start_advance > 0.0 && (c.straight_cells[0] < 2 || c.cells_before_turn[0] < 2) {
+            return Err(format!(
+                "corridor.start_advance {} needs corridor.straight_cells and corridor.cells_before_turn to start at 2 cells or more, got {:?} and {:?}",
+                c.start_advance, c.straight_cells, c.cells_before_turn
+            ));
+        }
         if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {
             return Err(format!(
                 "start.lateral_offset must be in [0, 0.05], got {}",
@@ -305,5 +331,17 @@ mod tests {
         for kind in TaskKind::ALL {
             assert_eq!(TaskConfig::new(kind).validate(), Ok(()));
         }
+    }
+
+    #[test]
+    fn a_start_advance_must_stay_inside_the_corridor() {
+        let mut task = TaskConfig::new(TaskKind::TurnLeft);
+        task.corridor.start_advance = 0.5;
+        let error = task.validate().unwrap_err();
+        assert!(error.contains("corridor.start_advance"), "{error}");
+        task.corridor.start_advance = 0.2;
+        task.corridor.cells_before_turn = [1, 3];
+        let error = task.validate().unwrap_err();
+        assert!(error.contains("cells_before_turn"), "{error}");
     }
 }

@@ -266,45 +266,45 @@ const EXPECTED: &[Golden] = &[
         task: TaskKind::TurnLeft,
         seed: 3,
         variant: None,
-        fitness_bits: 0x3eae835b, // 0.3408459
-        cycles: 400,
-        ending: Ending::Timeout,
-        stage: 0,
-        final_pose: [0xbf20862c, 0x3f195679, 0x40489f1e],
-        points: [(0, [0x3c9522cf, 0x305abd45, 0x3fbe7896]), (100, [0xbada74bc, 0x3ebaa37c, 0x3fca4a75]), (200, [0xbc15c388, 0x3f1723ee, 0xbd02257e]), (300, [0x3c41de48, 0x3ee2b3ee, 0x3fca504e])],
+        fitness_bits: 0x3fa33333, // 1.275
+        cycles: 290,
+        ending: Ending::Solved,
+        stage: 1,
+        final_pose: [0xbf86dc31, 0x3f188de3, 0xc0465405],
+        points: [(0, [0x3c9522cf, 0x3e8d4a3e, 0x3fbe7896]), (72, [0xbbc585a8, 0xbc4dd30b, 0xbf4464d2]), (145, [0x3c2ed3f0, 0x3efd2a0f, 0x3fc1b233]), (217, [0xbed0d75b, 0x3f18d414, 0xc048bac4])],
     },
     Golden {
         task: TaskKind::TurnLeft,
         seed: 4,
         variant: None,
-        fitness_bits: 0x3fdc7ae2, // 1.7225001
-        cycles: 111,
+        fitness_bits: 0x3fe70a3e, // 1.8050001
+        cycles: 78,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0xbeeaf7d8, 0x3e9c1c19, 0x40473315],
-        points: [(0, [0x3c98fd5e, 0x30606444, 0x3fcf6d72]), (27, [0x3c22af0f, 0x3e59e59d, 0x3fccca49]), (55, [0xbc927fb9, 0x3ea0ef2c, 0xc045aaff]), (83, [0xbe793615, 0x3e9bc85c, 0x40484e1c])],
+        final_pose: [0xbee8d6b6, 0x3e9c6ac4, 0xc04836f9],
+        points: [(0, [0x3c98fd5e, 0x3e80b460, 0x3fcf6d72]), (19, [0x3c2f1120, 0x3e9e1c88, 0xc0469686]), (39, [0xbe1ed99d, 0x3e9c036c, 0x404406fc]), (58, [0xbe9dbe8f, 0x3e9b1ef8, 0x40461ba2])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 5,
         variant: None,
-        fitness_bits: 0x3fcfae14, // 1.6225
-        cycles: 151,
+        fitness_bits: 0x3fd75c29, // 1.6825
+        cycles: 127,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f4284eb, 0x3f1a92ec, 0x3ce24a38],
-        points: [(0, [0x3b4c7818, 0x2f15f2d3, 0x3fcd50b2]), (37, [0xba3ff7ff, 0x3eb563f5, 0x3fd13edd]), (75, [0x3ca418f0, 0x3f1a7814, 0x3b15ae9d]), (113, [0x3ec7dfce, 0x3f1aec7d, 0xbbc43fa0])],
+        final_pose: [0x3f426c5c, 0x3f1ad598, 0xbccaf0b2],
+        points: [(0, [0x3b4c7818, 0x3e67c6c5, 0x3fcd50b2]), (31, [0xbb3d8dcb, 0x3f066d63, 0x3fcc1299]), (63, [0x3e0e1c51, 0x3f18a697, 0x3e11bd8f]), (95, [0x3ee56992, 0x3f1ac02e, 0xbc1b38c6])],
     },
     Golden {
         task: TaskKind::TurnRight,
         seed: 6,
         variant: None,
-        fitness_bits: 0x3fd947ae, // 1.6975
-        cycles: 121,
+        fitness_bits: 0x3fe1999a, // 1.7625
+        cycles: 95,
         ending: Ending::Solved,
         stage: 1,
-        final_pose: [0x3f420884, 0x3e99bec6, 0xbabacae8],
-        points: [(0, [0xbb4858e0, 0xaf12ecf9, 0x3fc2e922]), (30, [0xba9fa022, 0x3e8a4884, 0x3fb0fcc2]), (60, [0x3e30fe8f, 0x3e94ccca, 0x3e432445]), (90, [0x3ee9dcc2, 0x3e9ade17, 0xbba74211])],
+        final_pose: [0x3f41ff9a, 0x3e99c3b1, 0x3c7b9118],
+        points: [(0, [0xbb4858e0, 0x3e6c05d5, 0x3fc2e922]), (23, [0x3d8e9704, 0x3e93d4d0, 0xbcade3d1]), (47, [0x3e96cd10, 0x3e967baf, 0xbc85a92b]), (71, [0x3f0643c2, 0x3e9a4700, 0xb8aaea80])],
     },
     Golden {
         task: TaskKind::SolveMaze,

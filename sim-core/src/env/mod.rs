@@ -189,7 +189,11 @@ pub fn build(
             };
             let corridor = corridor::build(turn, before, after, junction);
             let map = Arc::new(corridor.map);
-            let start = stem_start(map.center(corridor.path[0]), FRAC_PI_2, task, rng);
+            let mut start = stem_start(map.center(corridor.path[0]), FRAC_PI_2, task, rng);
+            // Drawn only when asked for, so tasks without an advance keep their draws.
+            if c.start_advance > 0.0 {
+                start.y += rng.random_range(0.0..=c.start_advance);
+            }
             Environment {
                 scene: Arc::new(Scene::new(map.wall_rects(&[]), margin)),
                 start,
@@ -335,4 +339,49 @@ fn lights_for(maze: &MazeLayout, config: u32) -> Vec<LightSpec> {
             flashes: light.configurations.contains(&config),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Stream, stream_rng};
+    use maze::MAZE_CELL_SIZE;
+
+    /// How far along +y each of `n` samples' starts lie beyond their first cell's centre.
+    fn start_advances(task: &TaskConfig, n: u64) -> Vec<f32> {
+        let statics = Statics::new(task);
+        (0..n)
+            .map(|seed| {
+                let env = build(
+                    task,
+                    &statics,
+                    None,
+                    &mut stream_rng(seed, Stream::Environment),
+                );
+                let Ground::Cells(goal) = &env.ground else {
+                    panic!("corridor tasks are judged on cells");
+                };
+                env.start.y - goal.map.center(0)[1]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn turning_starts_spread_from_the_first_cell_to_the_junction() {
+        let advances = start_advances(&TaskConfig::new(TaskKind::TurnLeft), 400);
+        assert!(
+            advances
+                .iter()
+                .all(|a| (0.0..=MAZE_CELL_SIZE + 1e-6).contains(a))
+        );
+        // Uniform over one cell: both ends of the range are reached.
+        assert!(advances.iter().any(|&a| a < 0.03));
+        assert!(advances.iter().any(|&a| a > MAZE_CELL_SIZE - 0.03));
+    }
+
+    #[test]
+    fn following_starts_stay_at_the_first_cell_centre() {
+        let advances = start_advances(&TaskConfig::new(TaskKind::FollowWall), 100);
+        assert!(advances.iter().all(|&a| a.abs() < 1e-6), "{advances:?}");
+    }
 }
