@@ -209,7 +209,15 @@ impl TaskConfig {
                 },
                 _ => CorridorConfig::default(),
             },
-            start: StartConfig::default(),
+            start: match kind {
+                // In the rescue the robot finds its teammate driving into the branch end, so
+                // the return starts facing the dead end as often as facing out: any heading.
+                TaskKind::ReturnRoom => StartConfig {
+                    heading_jitter_deg: 180.0,
+                    ..StartConfig::default()
+                },
+                _ => StartConfig::default(),
+            },
         }
     }
 

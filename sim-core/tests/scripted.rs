@@ -646,21 +646,22 @@ fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
 
 #[test]
 fn the_default_configuration_is_solvable_too() {
-    // The default IR mapping (linear distance through the average curve) reads some sensors'
-    // empty cones as walls 7.6-10.4 cm away, so the shares here are lower. Measured on these
-    // seeds: follow wall 200, turn left 197, turn right 195, maze 182/189/184/186, return 167,
-    // exit 175, rescue 121 of 200.
+    // The default IR mapping (model 4's average table) reads a wall 9 cm away as about 0.25,
+    // close to the scripted policies' "nothing there" threshold, so a robot started off the
+    // centre line beside a turn's opening can take the far wall for a second opening; the
+    // shares here are lower. Measured on these seeds: follow wall 200, turn left 180, turn
+    // right 177, maze 200/200/200/200, return 170, exit 175, rescue 137 of 200.
     let checks: [(TaskKind, Option<u32>, f64); 10] = [
         (TaskKind::FollowWall, None, 0.97),
-        (TaskKind::TurnLeft, None, 0.93),
-        (TaskKind::TurnRight, None, 0.93),
-        (TaskKind::SolveMaze, Some(0), 0.85),
-        (TaskKind::SolveMaze, Some(1), 0.85),
-        (TaskKind::SolveMaze, Some(2), 0.85),
-        (TaskKind::SolveMaze, Some(3), 0.85),
-        (TaskKind::ReturnRoom, None, 0.75),
+        (TaskKind::TurnLeft, None, 0.85),
+        (TaskKind::TurnRight, None, 0.85),
+        (TaskKind::SolveMaze, Some(0), 0.95),
+        (TaskKind::SolveMaze, Some(1), 0.95),
+        (TaskKind::SolveMaze, Some(2), 0.95),
+        (TaskKind::SolveMaze, Some(3), 0.95),
+        (TaskKind::ReturnRoom, None, 0.8),
         (TaskKind::ExitRoom, None, 0.8),
-        (TaskKind::Rescue, None, 0.5),
+        (TaskKind::Rescue, None, 0.6),
     ];
     for (kind, variant, at_least) in checks {
         let task = TaskConfig::new(kind);
