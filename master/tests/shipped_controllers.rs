@@ -21,6 +21,7 @@ const SHIPPED: &[(&str, &str, f64)] = &[
     ("turn_left.json", "turn_left", 0.9),
     ("turn_right.json", "turn_right", 0.9),
     ("solve_maze.json", "solve_maze", 0.85),
+    ("return_room.json", "return_room", 0.85),
 ];
 
 fn controllers_dir() -> PathBuf {
