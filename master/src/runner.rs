@@ -302,6 +302,22 @@ async fn run_node(
         read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
         && reusable(&summary)
     {
+        // A `--runs` extension stopped after some of its runs finished leaves finished runs the
+        // summary does not list. They are results, and may hold the node's best controller, so
+        // they are folded in before any parent composes from `best.json`.
+        let unlisted = finished_runs_after(&node_dir, &summary)?;
+        if !unlisted.is_empty() {
+            progress.event(&ProgressEvent::Note {
+                message: format!(
+                    "{name}: {} finished run(s) were missing from its summary (an interrupted --runs extension); summary and best controller refreshed",
+                    unlisted.len()
+                ),
+            });
+            let fingerprint = summary.fingerprint.clone();
+            let mut run_summaries = summary.runs;
+            run_summaries.extend(unlisted);
+            return summarize_node(plan, &node_dir, fingerprint, run_summaries, progress);
+        }
         progress.event(&ProgressEvent::Note {
             message: format!(
                 "{name}: already finished, {} runs (skipped)",
@@ -336,6 +352,46 @@ async fn run_node(
         );
     }
 
+    summarize_node(plan, &node_dir, fingerprint, run_summaries, progress)
+}
+
+/// The finished runs of a node numbered after the ones its summary lists, in order, up to the
+/// first run that is missing or unfinished (runs are evolved in order, so later ones cannot be
+/// finished). A finished run of another setup is an error, as it is when resuming.
+fn finished_runs_after(
+    node_dir: &Path,
+    summary: &NodeSummary,
+) -> Result<Vec<RunSummary>, RunError> {
+    let mut unlisted = Vec::new();
+    for run in summary.runs.len().. {
+        let path = node_dir.join(format!("run-{run}")).join("summary.json");
+        let Some(found) = read_json::<RunSummary>(&path).map_err(|e| io_error(&path, e))? else {
+            break;
+        };
+        if found.fingerprint != summary.fingerprint {
+            return Err(RunError::Fingerprint {
+                path,
+                found: found.fingerprint,
+                expected: summary.fingerprint.clone(),
+            });
+        }
+        unlisted.push(found);
+    }
+    Ok(unlisted)
+}
+
+/// Chooses a node's best run, copies its controller to `<node>/best.json` and writes the node
+/// summary. The best run has the highest post-evaluation solve rate, then mean fitness; a tie
+/// keeps the earlier run, so adding runs changes the node's controller only for a better one.
+fn summarize_node(
+    plan: &NodePlan,
+    node_dir: &Path,
+    fingerprint: String,
+    run_summaries: Vec<RunSummary>,
+    progress: &dyn Progress,
+) -> Result<NodeSummary, RunError> {
+    let name = &plan.decl.name;
+    let summary_path = node_dir.join("summary.json");
     let best = run_summaries
         .iter()
         .enumerate()

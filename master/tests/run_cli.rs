@@ -299,6 +299,67 @@ fn more_runs_of_one_node_keep_its_children_and_are_never_thrown_away() {
     assert!(tree(&out_dir) == before, "a rerun changed finished results");
 }
 
+/// `hevo run --node N --runs K` writes the node summary only when all K runs are done. When it is
+/// stopped after a run finished, that run must still count: the next command folds it into the
+/// summary and `best.json` before any parent is composed from them.
+#[test]
+fn finished_runs_of_an_interrupted_extension_are_folded_into_the_node() {
+    let dir = tempfile::tempdir().unwrap();
+    let experiment = write_experiment(dir.path(), TWO_LEVELS);
+    let experiment = experiment.to_str().unwrap();
+    let out_dir = dir.path().join("o");
+    let out = out_dir.to_str().unwrap();
+    hevo_ok(&[
+        "run",
+        experiment,
+        "--node",
+        "follow_wall",
+        "--runs",
+        "2",
+        "--out",
+        out,
+    ]);
+
+    // The state an extension stopped after its run 1 leaves: the summary lists run 0 only.
+    let summary_path = out_dir.join("follow_wall/summary.json");
+    let complete: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&summary_path).unwrap()).unwrap();
+    let mut stale = complete.clone();
+    stale["runs"].as_array_mut().unwrap().truncate(1);
+    stale["best_run"] = 0.into();
+    std::fs::write(&summary_path, serde_json::to_string_pretty(&stale).unwrap()).unwrap();
+    std::fs::copy(
+        out_dir.join("follow_wall/run-0/best.json"),
+        out_dir.join("follow_wall/best.json"),
+    )
+    .unwrap();
+
+    let output = hevo_ok(&["run", experiment, "--out", out]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let refreshed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&summary_path).unwrap()).unwrap();
+    assert_eq!(refreshed, complete, "{stderr}");
+    let best_run = complete["best_run"].as_u64().unwrap();
+    assert_eq!(
+        std::fs::read(out_dir.join("follow_wall/best.json")).unwrap(),
+        std::fs::read(out_dir.join(format!("follow_wall/run-{best_run}/best.json"))).unwrap()
+    );
+    // The parent is composed from the refreshed best controller.
+    let parent = std::fs::read_to_string(out_dir.join("solve_maze/best.json")).unwrap();
+    let child = std::fs::read_to_string(out_dir.join("follow_wall/best.json")).unwrap();
+    let genome_of = |text: &str, path: &[&str]| {
+        let mut value: serde_json::Value = serde_json::from_str(text).unwrap();
+        for key in path {
+            value = value[key].clone();
+        }
+        value
+    };
+    assert_eq!(
+        genome_of(&parent, &["root", "children"])[0]["genome"],
+        genome_of(&child, &["root", "genome"])
+    );
+}
+
 #[test]
 fn bad_experiment_files_are_rejected_with_the_key_path() {
     let dir = tempfile::tempdir().unwrap();
