@@ -456,12 +456,13 @@ pub fn replay_svg(
             )
         })
         .collect();
-    let widest_entry = legend_entries
-        .iter()
-        .map(|(_, name, count)| {
-            40.0 + text_width(name, LEGEND_FONT) + 12.0 + text_width(count, LABEL_FONT)
-        })
-        .fold(0.0, f64::max);
+    let widest_of = |width: &dyn Fn(&(Option<u16>, String, String)) -> f64| {
+        legend_entries.iter().map(width).fold(0.0, f64::max)
+    };
+    let widest_entry = 40.0
+        + widest_of(&|(_, name, _)| text_width(name, LEGEND_FONT))
+        + 16.0
+        + widest_of(&|(_, _, count)| text_width(count, LABEL_FONT));
     let legend_columns = if legend_entries.len() > 3 && widest_entry < 0.5 * (WIDTH - 2.0 * PAD) {
         2
     } else {
@@ -584,6 +585,16 @@ pub fn replay_svg(
         legend_title,
     );
     let column_width = (WIDTH - 2.0 * PAD) / legend_columns as f64;
+    // The cycle counts of a legend column line up after its longest name, so they read as a
+    // column of numbers rather than trailing each name at a different place.
+    let names_width = |column: usize| {
+        legend_entries
+            .iter()
+            .skip(column * legend_rows)
+            .take(legend_rows)
+            .map(|(_, name, _)| text_width(name, LEGEND_FONT))
+            .fold(0.0, f64::max)
+    };
     for (i, (node, name, count)) in legend_entries.iter().enumerate() {
         let x = PAD + (i / legend_rows) as f64 * column_width;
         let y = legend_top + (i % legend_rows) as f64 * 22.0;
@@ -615,7 +626,7 @@ pub fn replay_svg(
             Tag::new("text")
                 .class("legend-cycles")
                 .attr("data-node", &node_attr)
-                .num("x", x + 40.0 + text_width(name, LEGEND_FONT) + 12.0)
+                .num("x", x + 40.0 + names_width(i / legend_rows) + 16.0)
                 .num("y", y)
                 .num("font-size", LABEL_FONT)
                 .attr("fill", "#666666"),
@@ -765,13 +776,14 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 .attr("stroke-width", "1.5"),
         );
         if let Some(cycle) = lit_cycle {
-            // Labels go on the outer side of the stem, away from the corridor and the path.
+            // Labels go on the outer side of the stem, away from the corridor and the path, and clear
+            // of the wall the light is mounted on.
             let outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
             let anchor = if outward > 0.0 { "start" } else { "end" };
             doc.text(
                 halo_label(
                     "light-label",
-                    at[0] + outward * (radius * 2.0 + 7.0),
+                    at[0] + outward * (radius * 2.0 + 16.0),
                     at[1] + 4.5,
                     anchor,
                 ),
@@ -1544,6 +1556,12 @@ mod tests {
         );
         let legend_count = with_class(&elements, "legend").len();
         assert_eq!(legend_count, expected.len(), "each leaf once");
+        // The cycle counts form a column: one x for every entry (the legend has one column here).
+        let count_xs: BTreeSet<String> = with_class(&elements, "legend-cycles")
+            .iter()
+            .map(|e| e.get("x").to_string())
+            .collect();
+        assert_eq!(count_xs.len(), 1, "cycle counts at {count_xs:?}");
     }
 
     #[test]
