@@ -456,13 +456,15 @@ pub fn replay_svg(
             )
         })
         .collect();
-    let widest_of = |width: &dyn Fn(&(Option<u16>, String, String)) -> f64| {
-        legend_entries.iter().map(width).fold(0.0, f64::max)
-    };
-    let widest_entry = 40.0
-        + widest_of(&|(_, name, _)| text_width(name, LEGEND_FONT))
-        + 16.0
-        + widest_of(&|(_, _, count)| text_width(count, LABEL_FONT));
+    let widest_name = legend_entries
+        .iter()
+        .map(|(_, name, _)| text_width(name, LEGEND_FONT))
+        .fold(0.0, f64::max);
+    let widest_count = legend_entries
+        .iter()
+        .map(|(_, _, count)| text_width(count, LABEL_FONT))
+        .fold(0.0, f64::max);
+    let widest_entry = 40.0 + widest_name + 16.0 + widest_count;
     let legend_columns = if legend_entries.len() > 3 && widest_entry < 0.5 * (WIDTH - 2.0 * PAD) {
         2
     } else {
