@@ -22,6 +22,7 @@ const SHIPPED: &[(&str, &str, f64)] = &[
     ("turn_right.json", "turn_right", 0.9),
     ("solve_maze.json", "solve_maze", 0.95),
     ("return_room.json", "return_room", 0.85),
+    ("rescue.json", "rescue", 0.75),
 ];
 
 fn controllers_dir() -> PathBuf {
