@@ -201,6 +201,8 @@ pub fn main() -> std::process::ExitCode {
     init_tracing();
     match execute(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // The reader of our output has gone (`| head`): it has what it wanted.
+        Err(error) if error.is::<crate::output::StdoutClosed>() => std::process::ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
             std::process::ExitCode::FAILURE
@@ -279,7 +281,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Report(args) => {
             let n = crate::report::write_report(&args.runs_dirs, &args.out)
                 .map_err(anyhow::Error::msg)?;
-            println!("{n} node(s) reported -> {}", args.out.display());
+            crate::outln!("{n} node(s) reported -> {}", args.out.display());
             Ok(())
         }
     }
@@ -333,9 +335,9 @@ fn run(args: RunArgs) -> Result<()> {
     let summaries = with_local_workers(threads, async |dispatcher| {
         runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()).await
     })?;
-    println!("results in {}", args.out.display());
+    crate::outln!("results in {}", args.out.display());
     for summary in &summaries {
-        println!(
+        crate::outln!(
             "  {:<14} {:<12} runs {:>2}  best run {:>2}: {:>5.1}% solved   mean over runs {:>5.1}%   -> {}",
             summary.node,
             summary.task,
@@ -369,14 +371,14 @@ fn eval(args: EvalArgs) -> Result<()> {
             report: &report,
             failures: args.failures.then_some(failures.as_slice()),
         };
-        println!("{}", serde_json::to_string(&output)?);
+        crate::outln!("{}", serde_json::to_string(&output)?);
         return Ok(());
     }
-    println!("{}", evaluation::describe(&report));
+    crate::outln!("{}", evaluation::describe(&report));
     if args.failures {
-        println!("unsolved samples: {}", failures.len());
+        crate::outln!("{}", evaluation::describe_failures(kind, &failures));
         for failure in &failures {
-            println!("  {}", describe_failure(failure, &args));
+            crate::outln!("  {}", describe_failure(failure, &args));
         }
     }
     Ok(())
@@ -431,9 +433,9 @@ fn bench_command(args: BenchArgs) -> Result<()> {
         bench::simulator(kind, threads, args.seconds).map_err(anyhow::Error::msg)?
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        crate::outln!("{}", serde_json::to_string(&report)?);
     } else {
-        println!(
+        crate::outln!(
             "{} ({}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
             report.task,
             report.mode,
@@ -480,7 +482,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let svg = viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
     crate::store::write_atomic(&args.out, svg.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!(
+    crate::outln!(
         "{}: {:?} after {} cycles, fitness {:.3} -> {}",
         kind.name(),
         trace.outcome.ending,
@@ -543,6 +545,6 @@ fn plot(args: PlotArgs) -> Result<()> {
     let svg = viz::fitness_plot_svg(&title, &runs);
     crate::store::write_atomic(&args.out, svg.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!("{} runs plotted -> {}", runs.len(), args.out.display());
+    crate::outln!("{} runs plotted -> {}", runs.len(), args.out.display());
     Ok(())
 }

@@ -212,9 +212,53 @@ pub fn describe(report: &EvalReport) -> String {
     text
 }
 
+/// How many samples failed and how many of those touched a wall, and for the rescue where
+/// they stopped (in the room, in the maze, on the way back): where a researcher starts looking.
+pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
+    let count = |group: &[&FailedSample]| {
+        let collided = group.iter().filter(|f| f.collided).count();
+        format!("{} ({collided} touched a wall)", group.len())
+    };
+    let all: Vec<&FailedSample> = failures.iter().collect();
+    let mut text = format!("unsolved samples: {}", count(&all));
+    if kind == TaskKind::Rescue {
+        const STAGES: [&str; 3] = ["still in the room", "in the maze", "on the way back"];
+        for (stage, place) in STAGES.iter().enumerate() {
+            let group: Vec<&FailedSample> = failures
+                .iter()
+                .filter(|f| usize::from(f.stage) == stage)
+                .collect();
+            text.push_str(&format!("\n  {place}: {}", count(&group)));
+        }
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn failures_are_counted_by_ending_and_rescue_stage() {
+        let failed = |stage, collided| FailedSample {
+            seed: 1,
+            variant: None,
+            collided,
+            stage,
+            cycles: 10,
+        };
+        let failures = [failed(0, true), failed(0, false), failed(2, false)];
+        let rescue = describe_failures(TaskKind::Rescue, &failures);
+        assert_eq!(
+            rescue,
+            "unsolved samples: 3 (1 touched a wall)\n  still in the room: 2 (1 touched a wall)\n  \
+             in the maze: 0 (0 touched a wall)\n  on the way back: 1 (0 touched a wall)"
+        );
+        assert_eq!(
+            describe_failures(TaskKind::ExitRoom, &failures[..1]),
+            "unsolved samples: 1 (1 touched a wall)"
+        );
+    }
 
     #[test]
     fn maze_post_evaluation_balances_light_configurations() {

@@ -10,6 +10,7 @@ pub mod ea;
 pub mod evaluation;
 pub mod experiment;
 pub mod local;
+pub mod output;
 pub mod progress;
 pub mod report;
 pub mod runner;

@@ -482,7 +482,7 @@ fn eval_and_bench_report_what_they_measured() {
     let text = eval_maze(&["--failures"]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
-        text.contains(&format!("unsolved samples: {}", failures.len()))
+        text.contains(&format!("unsolved samples: {} (", failures.len()))
             && text.contains("hevo replay")
             && text.contains("--light-config"),
         "{text}"
@@ -530,4 +530,25 @@ fn eval_and_bench_report_what_they_measured() {
     assert_eq!(report["task"], "follow_wall");
     assert_eq!(report["threads"], 1);
     assert!(report["cycles_per_second"].as_f64().unwrap() > 0.0);
+}
+
+/// `hevo eval ... | head` closes the pipe before hevo has printed everything: hevo stops
+/// quietly and successfully instead of panicking on the failed write.
+#[test]
+fn a_closed_stdout_ends_a_command_quietly() {
+    let controller =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../controllers/exit_room.json");
+    let mut child = Command::new(HEVO)
+        .args(["eval", controller.to_str().unwrap(), "--task", "exit_room"])
+        .args(["--samples", "20", "--threads", "1", "--failures"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("hevo starts");
+    // The reader goes away before the evaluation has printed anything.
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("hevo ends");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{:?}: {stderr}", output.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
 }

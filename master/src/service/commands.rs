@@ -120,7 +120,7 @@ pub fn submit(args: SubmitArgs) -> Result<()> {
         seed: args.seed,
     };
     let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
-    println!("{job}");
+    crate::outln!("{job}");
     Ok(())
 }
 
@@ -153,7 +153,7 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
             args.job
         );
     }
-    println!(
+    crate::outln!(
         "{files} files of job {} ({state}) -> {}",
         args.job,
         args.out.display()
@@ -165,7 +165,7 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
 pub fn cancel(args: JobArgs) -> Result<()> {
     let options = args.master.options().map_err(anyhow::Error::msg)?;
     let info = runtime()?.block_on(client::cancel(&options, &args.job))?;
-    println!("{}: {}", args.job, client::state_name(info.state));
+    crate::outln!("{}: {}", args.job, client::state_name(info.state));
     Ok(())
 }
 
@@ -189,10 +189,10 @@ pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: boo
         .block_on(super::load::run(config))
         .map_err(anyhow::Error::msg)?;
     if json {
-        println!("{}", serde_json::to_string(&report)?);
+        crate::outln!("{}", serde_json::to_string(&report)?);
     } else {
         let [p50, p90, p99, max] = report.lease_latency_ms;
-        println!(
+        crate::outln!(
             "dispatch load: {} fake workers, {:.0} ms per batch, {:.1} s: {:.0} batches/s (ideal {:.0}), {:.0} evaluations/s; \
              lease latency p50 {p50:.2} ms, p90 {p90:.2} ms, p99 {p99:.2} ms, max {max:.2} ms over {} leases; {} reconnects",
             report.workers,
