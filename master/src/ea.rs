@@ -4,7 +4,7 @@
 //! `mutation_probability` by a Gaussian offset and clamped to the gene range. Pure: every
 //! random draw comes from the seeds passed in, so a run is reproducible from its seed alone.
 
-use crate::experiment::EvolutionParams;
+use crate::experiment::{EvolutionParams, TrainingVariants};
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use sim_core::rng::{SimRng, derive_seed};
@@ -21,6 +21,8 @@ pub enum RunStream {
     Samples = 13,
     /// The post-evaluation samples.
     PostEvaluation = 14,
+    /// The light configurations of a generation's samples, when drawn at random.
+    Variants = 15,
 }
 
 /// The seed of one run of one node: from the experiment's seed, the node's name and the run
@@ -119,6 +121,30 @@ pub fn generation_seeds(run_seed: u64, generation: u32, n_samples: u32) -> Vec<u
         .collect()
 }
 
+/// The light configuration (or start branch) of each of a generation's samples, for a task with
+/// `n_variants` of them: in turn (equal shares) or, with [`TrainingVariants::Random`], each drawn
+/// uniformly from the run's own stream.
+pub fn generation_variants(
+    allocation: TrainingVariants,
+    run_seed: u64,
+    generation: u32,
+    n_samples: u32,
+    n_variants: u32,
+) -> Vec<Option<u32>> {
+    if n_variants <= 1 {
+        return vec![None; n_samples as usize];
+    }
+    match allocation {
+        TrainingVariants::Balanced => (0..n_samples).map(|i| Some(i % n_variants)).collect(),
+        TrainingVariants::Random => {
+            let mut rng = stream(run_seed, RunStream::Variants, &[u64::from(generation)]);
+            (0..n_samples)
+                .map(|_| Some(rng.random_range(0..n_variants)))
+                .collect()
+        }
+    }
+}
+
 /// The post-evaluation seeds of a run: disjoint from every generation's.
 pub fn post_evaluation_seeds(run_seed: u64, n_samples: u32) -> Vec<u64> {
     (0..n_samples)
@@ -134,6 +160,49 @@ pub fn post_evaluation_seeds(run_seed: u64, n_samples: u32) -> Vec<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn training_variants_come_in_turn_or_at_random() {
+        let balanced = generation_variants(TrainingVariants::Balanced, 7, 3, 50, 4);
+        let shares = |variants: &[Option<u32>]| {
+            (0..4)
+                .map(|v| variants.iter().filter(|&&x| x == Some(v)).count())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(shares(&balanced), [13, 13, 12, 12]);
+        assert_eq!(
+            generation_variants(TrainingVariants::Random, 7, 3, 5, 1),
+            vec![None; 5]
+        );
+
+        let random = generation_variants(TrainingVariants::Random, 7, 3, 50, 4);
+        assert_eq!(
+            random,
+            generation_variants(TrainingVariants::Random, 7, 3, 50, 4)
+        );
+        assert_ne!(
+            random,
+            generation_variants(TrainingVariants::Random, 7, 4, 50, 4)
+        );
+        assert!(random.iter().all(|v| v.is_some_and(|v| v < 4)));
+        // Over many generations every configuration gets about a quarter, but single
+        // generations are uneven.
+        let mut total = [0usize; 4];
+        let mut uneven = 0;
+        for generation in 0..200 {
+            let variants = generation_variants(TrainingVariants::Random, 7, generation, 50, 4);
+            let counts = shares(&variants);
+            uneven += usize::from(counts.iter().any(|&c| !(12..=13).contains(&c)));
+            for (sum, count) in total.iter_mut().zip(counts) {
+                *sum += count;
+            }
+        }
+        assert!(
+            total.iter().all(|&t| (2250..=2750).contains(&t)),
+            "{total:?}"
+        );
+        assert!(uneven > 150, "{uneven} of 200 generations uneven");
+    }
 
     fn params() -> EvolutionParams {
         EvolutionParams::default()

@@ -76,6 +76,29 @@ pub struct EvolutionParams {
     pub gene_range: [f64; 2],
     /// Post-evaluation samples per controller (per light configuration for maze tasks).
     pub post_evaluation_samples: u32,
+    /// How a generation's samples spread over the task's light configurations or start branches.
+    /// Left out of the serialized form when balanced, so the fingerprints of runs made before
+    /// the choice existed stay valid.
+    #[serde(default, skip_serializing_if = "TrainingVariants::is_balanced")]
+    pub training_variants: TrainingVariants,
+}
+
+/// How the samples of a generation meet a task's light configurations (or start branches). The
+/// paper says only that the samples' initial conditions vary; see ARCHITECTURE.md.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrainingVariants {
+    /// In turn, so each gets an equal share of every generation.
+    #[default]
+    Balanced,
+    /// Each sample draws its own, uniformly at random (seeded per run and generation).
+    Random,
+}
+
+impl TrainingVariants {
+    fn is_balanced(&self) -> bool {
+        *self == TrainingVariants::Balanced
+    }
 }
 
 impl Default for EvolutionParams {
@@ -88,6 +111,7 @@ impl Default for EvolutionParams {
             initial_sigma: 2.0,
             gene_range: [-10.0, 10.0],
             post_evaluation_samples: 100,
+            training_variants: TrainingVariants::Balanced,
         }
     }
 }
@@ -110,6 +134,8 @@ pub struct EvolutionOverrides {
     gene_range: Option<[f64; 2]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     post_evaluation_samples: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    training_variants: Option<TrainingVariants>,
 }
 
 impl EvolutionOverrides {
@@ -126,6 +152,7 @@ impl EvolutionOverrides {
             post_evaluation_samples: self
                 .post_evaluation_samples
                 .unwrap_or(base.post_evaluation_samples),
+            training_variants: self.training_variants.unwrap_or(base.training_variants),
         }
     }
 }
@@ -586,6 +613,59 @@ mutation_sigma = 0.5
 
     fn error_of(text: &str) -> String {
         parse(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn every_shipped_experiment_file_is_valid() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments");
+        let mut n_files = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                Experiment::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                n_files += 1;
+            }
+        }
+        assert!(
+            n_files >= 3,
+            "{n_files} experiment files in {}",
+            dir.display()
+        );
+    }
+
+    #[test]
+    fn training_variants_are_balanced_unless_asked_and_absent_from_old_fingerprints() {
+        let experiment = parse(GOOD).unwrap();
+        let maze = experiment.node("maze").unwrap();
+        assert_eq!(maze.evolution.training_variants, TrainingVariants::Balanced);
+        // The runner's fingerprint hashes this JSON: balanced must serialize as before the
+        // choice existed, or every finished run would be refused.
+        let json = serde_json::to_string(&maze.evolution).unwrap();
+        assert!(!json.contains("training_variants"), "{json}");
+
+        let random = parse(&GOOD.replace(
+            "mutation_sigma = 0.5",
+            "mutation_sigma = 0.5\ntraining_variants = \"random\"",
+        ))
+        .unwrap();
+        let tl = random.node("tl").unwrap();
+        assert_eq!(tl.evolution.training_variants, TrainingVariants::Random);
+        assert!(
+            serde_json::to_string(&tl.evolution)
+                .unwrap()
+                .contains("\"random\"")
+        );
+        assert_eq!(
+            random.node("maze").unwrap().evolution.training_variants,
+            TrainingVariants::Balanced
+        );
+
+        let err =
+            error_of(&GOOD.replace("mutation_sigma = 0.5", "training_variants = \"shuffled\""));
+        assert!(
+            err.contains("training_variants") && err.contains("shuffled"),
+            "{err}"
+        );
     }
 
     #[test]

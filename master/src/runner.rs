@@ -517,14 +517,18 @@ async fn run_one(
     while checkpoint.generation < generations {
         let generation = checkpoint.generation;
         // Every genome of a generation meets the same samples; tasks with light
-        // configurations get them in equal shares.
+        // configurations get them in equal shares unless the experiment asks for random ones.
+        let variants = ea::generation_variants(
+            plan.evolution.training_variants,
+            run_seed,
+            generation,
+            plan.decl.samples,
+            n_variants,
+        );
         let samples: Arc<[Sample]> = ea::generation_seeds(run_seed, generation, plan.decl.samples)
             .into_iter()
-            .enumerate()
-            .map(|(i, seed)| Sample {
-                seed,
-                variant: (n_variants > 1).then_some(i as u32 % n_variants),
-            })
+            .zip(variants)
+            .map(|(seed, variant)| Sample { seed, variant })
             .collect();
         let request = EvaluationRequest {
             job: settings.job.clone(),
