@@ -138,7 +138,8 @@ pub fn watch(args: JobArgs) -> Result<()> {
 /// `hevo jobs`.
 pub fn jobs(args: MasterArgs) -> Result<()> {
     let options = args.options().map_err(anyhow::Error::msg)?;
-    print!("{}", runtime()?.block_on(client::jobs(&options))?);
+    let table = runtime()?.block_on(client::jobs(&options))?;
+    crate::outln!("{}", table.trim_end_matches('\n'));
     Ok(())
 }
 
