@@ -32,6 +32,19 @@ struct NodeResult {
     dir: PathBuf,
 }
 
+impl NodeResult {
+    /// The paper's "avg" and "best": the mean and the highest post-evaluation solve rate over
+    /// the finished runs; `None` before any run has finished.
+    fn avg_and_best(&self) -> Option<(f64, f64)> {
+        if self.runs.is_empty() {
+            return None;
+        }
+        let rates = self.runs.iter().map(|r| r.post_evaluation.solve_rate);
+        let avg = rates.clone().sum::<f64>() / self.runs.len() as f64;
+        Some((avg, rates.fold(0.0, f64::max)))
+    }
+}
+
 fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     let name = dir
         .file_name()
@@ -169,16 +182,7 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             );
             continue;
         };
-        let rates: Vec<f64> = node
-            .runs
-            .iter()
-            .map(|r| r.post_evaluation.solve_rate)
-            .collect();
-        let (ours, samples, generations) = if rates.is_empty() {
-            ("-".to_string(), "-".to_string(), "-".to_string())
-        } else {
-            let avg = rates.iter().sum::<f64>() / rates.len() as f64;
-            let best = rates.iter().copied().fold(0.0, f64::max);
+        let (ours, samples, generations) = if let Some((avg, best)) = node.avg_and_best() {
             let generations: Vec<String> = {
                 let mut g: Vec<u32> = node.runs.iter().map(|r| r.generations).collect();
                 g.dedup();
@@ -189,6 +193,8 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
                 node.runs[0].post_evaluation.samples.to_string(),
                 generations.join(", "),
             )
+        } else {
+            ("-".to_string(), "-".to_string(), "-".to_string())
         };
         let status = if node.complete {
             "complete".to_string()
@@ -278,31 +284,28 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
 
 /// The composed maze controller against the single network: both rates, the difference, and
 /// the number of runs behind each, since one lucky or unlucky run can carry a difference.
-fn composition_paragraph(maze: Option<&NodeResult>, single: Option<&NodeResult>) -> String {
-    let has_runs = |n: &&NodeResult| !n.runs.is_empty();
-    let (Some(maze), Some(single)) = (maze.filter(has_runs), single.filter(has_runs)) else {
+fn composition_paragraph<'a>(
+    maze: Option<&'a NodeResult>,
+    single: Option<&'a NodeResult>,
+) -> String {
+    let finished = |node: Option<&'a NodeResult>| node.and_then(|n| Some((n, n.avg_and_best()?)));
+    let (Some((maze, (maze_avg, maze_best))), Some((single, (single_avg, single_best)))) =
+        (finished(maze), finished(single))
+    else {
         return "Not available yet: both `solve_maze` and `maze_single` need finished runs.".into();
     };
-    let rates = |n: &NodeResult| -> Vec<f64> {
-        n.runs
-            .iter()
-            .map(|r| r.post_evaluation.solve_rate)
-            .collect()
-    };
-    let avg = |n: &NodeResult| rates(n).iter().sum::<f64>() / n.runs.len() as f64;
-    let best = |n: &NodeResult| rates(n).into_iter().fold(0.0, f64::max);
     format!(
         "The composed maze controller (arbitrator over three primitives) solves {} on average and {} at best \
          over {} run(s); the single 6-10-2 network {} and {} over {} run(s): {:+.1} and {:+.1} percentage points \
          for composition (paper, 10 runs each: 93% / 99.5% against 40% / 83%).",
-        percent(avg(maze)),
-        percent(best(maze)),
+        percent(maze_avg),
+        percent(maze_best),
         maze.runs.len(),
-        percent(avg(single)),
-        percent(best(single)),
+        percent(single_avg),
+        percent(single_best),
         single.runs.len(),
-        100.0 * (avg(maze) - avg(single)),
-        100.0 * (best(maze) - best(single))
+        100.0 * (maze_avg - single_avg),
+        100.0 * (maze_best - single_best)
     )
 }
 
