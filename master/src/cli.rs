@@ -61,6 +61,10 @@ pub struct ReportArgs {
     /// Run output directories (as given to `hevo run --out`).
     #[arg(required = true)]
     pub runs_dirs: Vec<PathBuf>,
+    /// A run output directory of an ablation (repeatable): its nodes evolved under another
+    /// setup than the same nodes in RUNS_DIRS get a section of their own, beside them.
+    #[arg(long = "ablation", value_name = "DIR")]
+    pub ablation_dirs: Vec<PathBuf>,
     /// The Markdown file to write; pictures go to `reproduction/` beside it.
     #[arg(long, default_value = "REPRODUCTION.md")]
     pub out: PathBuf,
@@ -279,7 +283,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Fetch(args) => service::commands::fetch(args),
         Command::Cancel(args) => service::commands::cancel(args),
         Command::Report(args) => {
-            let n = crate::report::write_report(&args.runs_dirs, &args.out)
+            let n = crate::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)
                 .map_err(anyhow::Error::msg)?;
             crate::outln!("{n} node(s) reported -> {}", args.out.display());
             Ok(())

@@ -1,7 +1,9 @@
 //! `hevo report`: writes REPRODUCTION.md from run outputs: per controller the paper's average
 //! and best solve rates beside ours, how many runs and generations and post-evaluation samples
-//! ours rest on, the rescue controller's stage rates, the baseline comparison, and fitness-curve
-//! pictures. Generated, never hand-written: rerun it after more runs finish.
+//! ours rest on, the rescue controller's stage rates, the baseline comparison (with each maze
+//! run's rate per light configuration), ablations (nodes evolved under another setup, beside
+//! the main results), and fitness-curve pictures. Generated, never hand-written: rerun it after
+//! more runs finish.
 
 use crate::runner::{NodeSummary, RunSummary};
 use crate::store::{read_json, write_atomic};
@@ -30,6 +32,15 @@ struct NodeResult {
     complete: bool,
     runs_in_progress: usize,
     dir: PathBuf,
+    /// The setup fingerprints of its finished runs and checkpoints: an ablation's node is one
+    /// whose fingerprints the main results' node of the same name does not share.
+    fingerprints: Vec<String>,
+}
+
+/// The one field of a checkpoint the report needs.
+#[derive(serde::Deserialize)]
+struct CheckpointFingerprint {
+    fingerprint: String,
 }
 
 impl NodeResult {
@@ -51,24 +62,33 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     if let Some(summary) = read_json::<NodeSummary>(&dir.join("summary.json"))? {
+        let mut fingerprints = vec![summary.fingerprint];
+        fingerprints.extend(summary.runs.iter().map(|r| r.fingerprint.clone()));
         return Ok(Some(NodeResult {
             name,
             runs: summary.runs,
             complete: true,
             runs_in_progress: 0,
             dir: dir.to_path_buf(),
+            fingerprints,
         }));
     }
     let mut runs = Vec::new();
     let mut in_progress = 0;
+    let mut fingerprints = Vec::new();
     let Ok(entries) = std::fs::read_dir(dir) else {
         return Ok(None);
     };
     let run_dirs = sorted_subdirectories(entries);
     for run_dir in run_dirs {
         if let Some(run) = read_json::<RunSummary>(&run_dir.join("summary.json"))? {
+            fingerprints.push(run.fingerprint.clone());
             runs.push(run);
-        } else if run_dir.join("checkpoint.json").exists() {
+        } else if let Some(checkpoint) =
+            read_json::<CheckpointFingerprint>(&run_dir.join("checkpoint.json"))
+                .map_err(|e| format!("{}: {e}", run_dir.join("checkpoint.json").display()))?
+        {
+            fingerprints.push(checkpoint.fingerprint);
             in_progress += 1;
         }
     }
@@ -82,7 +102,35 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
         complete: false,
         runs_in_progress: in_progress,
         dir: dir.to_path_buf(),
+        fingerprints,
     }))
+}
+
+/// Every node found in `runs_dir`, in name order.
+fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, String> {
+    let entries =
+        std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
+    let mut nodes = Vec::new();
+    for dir in sorted_subdirectories(entries) {
+        if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+            nodes.push(node);
+        }
+    }
+    Ok(nodes)
+}
+
+/// The nodes of an ablation directory that were evolved under another setup than the main
+/// results' node of the same name (or that the main results lack). Nodes copied from the main
+/// results so that the ablation reuses them share its fingerprint and are left out.
+fn ablation_nodes(found: Vec<NodeResult>, main: &[NodeResult]) -> Vec<NodeResult> {
+    found
+        .into_iter()
+        .filter(|node| {
+            main.iter()
+                .filter(|m| m.name == node.name)
+                .all(|m| !m.fingerprints.iter().any(|f| node.fingerprints.contains(f)))
+        })
+        .collect()
 }
 
 /// One result per node name when several run directories hold the same node: the first
@@ -117,20 +165,25 @@ fn percent(x: f64) -> String {
 }
 
 /// Writes `out_file` (REPRODUCTION.md) and its pictures (beside it, in `reproduction/`) from
-/// one or more run output directories. Returns the number of nodes reported.
-pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, String> {
+/// one or more run output directories, and a section per ablation directory. Returns the
+/// number of nodes reported.
+pub fn write_report(
+    runs_dirs: &[PathBuf],
+    ablation_dirs: &[PathBuf],
+    out_file: &Path,
+) -> Result<usize, String> {
     let mut found: Vec<NodeResult> = Vec::new();
     for runs_dir in runs_dirs {
-        let entries =
-            std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
-        let dirs = sorted_subdirectories(entries);
-        for dir in dirs {
-            if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
-                found.push(node);
-            }
-        }
+        found.extend(load_nodes(runs_dir)?);
     }
     let nodes = preferred_nodes(found);
+    let mut ablations = Vec::new();
+    for ablation_dir in ablation_dirs {
+        ablations.push((
+            ablation_dir,
+            ablation_nodes(load_nodes(ablation_dir)?, &nodes),
+        ));
+    }
     let base = out_file
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -144,7 +197,7 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     let _ = writeln!(md, "# Reproduction of the paper's results\n");
     let _ = writeln!(
         md,
-        "Generated by `hevo report {} --out {}` from the run outputs; do not edit by hand. \
+        "Generated by `hevo report {}{} --out {}` from the run outputs; do not edit by hand. \
          Rerun the command after more runs finish. Solve rates are post-evaluation rates on fresh samples \
          (100 per controller; 100 per light configuration or start branch for maze tasks), as in the paper. \
          \"avg\" is the mean over runs of each run's best controller, \"best\" the best run's controller.\n",
@@ -153,6 +206,10 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
             .map(|d| d.display().to_string())
             .collect::<Vec<_>>()
             .join(" "),
+        ablation_dirs
+            .iter()
+            .map(|d| format!(" --ablation {}", d.display()))
+            .collect::<String>(),
         out_file.display()
     );
     let _ = writeln!(
@@ -196,15 +253,7 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         } else {
             ("-".to_string(), "-".to_string(), "-".to_string())
         };
-        let status = if node.complete {
-            "complete".to_string()
-        } else {
-            format!(
-                "{} run(s) finished, {} in progress",
-                node.runs.len(),
-                node.runs_in_progress
-            )
-        };
+        let status = status(node);
         let _ = writeln!(
             md,
             "| {name} | {task} | {} / {} | {ours} | {} ({paper_runs}) | {generations} ({paper_generations}) | {samples} | {status} | `{}` |",
@@ -246,6 +295,12 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
     let single = nodes.iter().find(|n| n.name == "maze_single");
     let _ = writeln!(md, "\n## Composition versus one network\n");
     let _ = writeln!(md, "{}", composition_paragraph(maze, single));
+    let _ = write!(md, "{}", variant_table(maze.into_iter().chain(single)));
+
+    for (ablation_dir, ablation) in &ablations {
+        let _ = writeln!(md, "\n## Ablation: `{}`\n", ablation_dir.display());
+        let _ = write!(md, "{}", ablation_section(ablation, &nodes));
+    }
 
     let _ = writeln!(md, "\n## Fitness curves\n");
     let _ = writeln!(
@@ -253,33 +308,155 @@ pub fn write_report(runs_dirs: &[PathBuf], out_file: &Path) -> Result<usize, Str
         "Best (solid) and mean (dashed) fitness per generation of every run, with the mean across runs.\n"
     );
     for node in &nodes {
-        let mut logs = Vec::new();
-        let Ok(entries) = std::fs::read_dir(&node.dir) else {
-            continue;
-        };
-        let run_dirs = sorted_subdirectories(entries);
-        for run_dir in run_dirs {
-            if let Ok(text) = std::fs::read_to_string(run_dir.join("fitness.csv"))
-                && let Ok(rows) = viz::parse_fitness_csv(&text)
-            {
-                let label = run_dir
-                    .file_name()
-                    .map(|n| n.to_string_lossy().replace('-', " "))
-                    .unwrap_or_default();
-                logs.push(viz::RunLog { label, rows });
+        if let Some(picture) = fitness_picture(node, &node.name, &pictures, base)? {
+            let _ = writeln!(md, "{picture}\n");
+        }
+    }
+    for (ablation_dir, ablation) in &ablations {
+        let dir_name = ablation_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        for node in ablation {
+            let stem = format!("{dir_name}-{}", node.name);
+            if let Some(picture) = fitness_picture(node, &stem, &pictures, base)? {
+                let _ = writeln!(md, "{picture}\n");
             }
         }
-        if logs.is_empty() {
-            continue;
-        }
-        let svg = viz::fitness_plot_svg(&format!("{}: fitness per generation", node.name), &logs);
-        let file = pictures.join(format!("{}-fitness.svg", node.name));
-        write_atomic(&file, svg.as_bytes()).map_err(|e| format!("{}: {e}", file.display()))?;
-        let relative = file.strip_prefix(base).unwrap_or(&file);
-        let _ = writeln!(md, "![{} fitness]({})\n", node.name, relative.display());
     }
     write_atomic(out_file, md.as_bytes()).map_err(|e| format!("{}: {e}", out_file.display()))?;
-    Ok(nodes.len())
+    Ok(nodes.len() + ablations.iter().map(|(_, a)| a.len()).sum::<usize>())
+}
+
+/// Draws `node`'s fitness curves (every run's, and their mean) to `pictures/{stem}-fitness.svg`
+/// and returns the Markdown that shows it, or `None` when no run has logged a generation.
+fn fitness_picture(
+    node: &NodeResult,
+    stem: &str,
+    pictures: &Path,
+    base: &Path,
+) -> Result<Option<String>, String> {
+    let mut logs = Vec::new();
+    let Ok(entries) = std::fs::read_dir(&node.dir) else {
+        return Ok(None);
+    };
+    for run_dir in sorted_subdirectories(entries) {
+        if let Ok(text) = std::fs::read_to_string(run_dir.join("fitness.csv"))
+            && let Ok(rows) = viz::parse_fitness_csv(&text)
+        {
+            let label = run_dir
+                .file_name()
+                .map(|n| n.to_string_lossy().replace('-', " "))
+                .unwrap_or_default();
+            logs.push(viz::RunLog { label, rows });
+        }
+    }
+    if logs.is_empty() {
+        return Ok(None);
+    }
+    let svg = viz::fitness_plot_svg(&format!("{stem}: fitness per generation"), &logs);
+    let file = pictures.join(format!("{stem}-fitness.svg"));
+    write_atomic(&file, svg.as_bytes()).map_err(|e| format!("{}: {e}", file.display()))?;
+    let relative = file.strip_prefix(base).unwrap_or(&file);
+    Ok(Some(format!("![{stem} fitness]({})", relative.display())))
+}
+
+/// Each finished run's solve rate per variant (light configuration, or start branch), for the
+/// nodes whose task has variants: a memory-less or half-remembering maze controller shows as
+/// configurations it never solves. Empty when no such run has finished.
+fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String {
+    let rows: Vec<(&NodeResult, &RunSummary)> = nodes
+        .into_iter()
+        .flat_map(|node| node.runs.iter().map(move |run| (node, run)))
+        .filter(|(_, run)| !run.post_evaluation.per_variant.is_empty())
+        .collect();
+    let Some(n_variants) = rows
+        .iter()
+        .map(|(_, run)| run.post_evaluation.per_variant.len())
+        .max()
+    else {
+        return String::new();
+    };
+    let mut md = String::from(
+        "\nPer run, the solve rate in each light configuration, named by the turns it asks for at the \
+         first and second junction: 0 right then left, 1 right then right, 2 left then right, 3 left \
+         then left (for return_room, the start branch, in the same order).\n\n",
+    );
+    let headers: String = (0..n_variants).map(|v| format!(" {v} |")).collect();
+    let _ = writeln!(md, "| controller | run | solved |{headers}");
+    let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(n_variants));
+    for (node, run) in rows {
+        let mut cells: Vec<String> = vec!["-".to_string(); n_variants];
+        for variant in &run.post_evaluation.per_variant {
+            if let Some(cell) = cells.get_mut(variant.variant as usize) {
+                *cell = percent(variant.solve_rate);
+            }
+        }
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} |",
+            node.name,
+            run.run,
+            percent(run.post_evaluation.solve_rate),
+            cells.join(" | ")
+        );
+    }
+    md
+}
+
+/// An ablation directory's nodes beside the main results' nodes of the same name: avg / best
+/// on both sides, the runs behind each, the maze composition comparison when both maze
+/// controllers are there, and the per-configuration table.
+fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
+    if ablation.is_empty() {
+        return "No node here was evolved under a setup different from the results above.\n".into();
+    }
+    let mut md = String::from(
+        "Nodes evolved under another setup than the results above (another fingerprint; the \
+         experiment file that wrote this directory says what differs), beside the same node above.\n\n",
+    );
+    let _ = writeln!(
+        md,
+        "| controller | this setup avg / best | runs | status | above avg / best | runs above |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    let rates = |node: &NodeResult| match node.avg_and_best() {
+        Some((avg, best)) => format!("{} / {}", percent(avg), percent(best)),
+        None => "-".to_string(),
+    };
+    for node in ablation {
+        let above = main.iter().find(|m| m.name == node.name);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} |",
+            node.name,
+            rates(node),
+            node.runs.len(),
+            status(node),
+            above.map_or("-".to_string(), rates),
+            above.map_or(0, |m| m.runs.len()),
+        );
+    }
+    let maze = ablation.iter().find(|n| n.name == "solve_maze");
+    let single = ablation.iter().find(|n| n.name == "maze_single");
+    if maze.is_some() || single.is_some() {
+        let _ = writeln!(md, "\n{}", composition_paragraph(maze, single));
+    }
+    md.push_str(&variant_table(ablation));
+    md
+}
+
+/// "complete", or how many runs have finished and how many are under way.
+fn status(node: &NodeResult) -> String {
+    if node.complete {
+        "complete".to_string()
+    } else {
+        format!(
+            "{} run(s) finished, {} in progress",
+            node.runs.len(),
+            node.runs_in_progress
+        )
+    }
 }
 
 /// The composed maze controller against the single network: both rates, the difference, and
@@ -327,6 +504,7 @@ mod tests {
             complete: false,
             runs_in_progress: 1,
             dir: Path::new(source).join(name),
+            fingerprints: vec![format!("{source}-fingerprint")],
         }
     }
 
@@ -365,5 +543,53 @@ mod tests {
         assert_eq!(source("follow_wall"), Path::new("old"));
         assert_eq!(source("exit_room"), Path::new("new"));
         assert_eq!(source("turn_left"), Path::new("old"));
+    }
+
+    #[test]
+    fn ablation_nodes_are_those_evolved_under_another_setup() {
+        let main = vec![
+            node("follow_wall", "main", 3),
+            node("maze_single", "main", 3),
+        ];
+        let mut copied = node("follow_wall", "ablation", 3);
+        copied.fingerprints = main[0].fingerprints.clone();
+        let found = vec![
+            copied,
+            node("maze_single", "ablation", 1),
+            node("solve_maze", "ablation", 0),
+        ];
+        let names: Vec<String> = ablation_nodes(found, &main)
+            .into_iter()
+            .map(|n| n.name)
+            .collect();
+        assert_eq!(names, ["maze_single", "solve_maze"]);
+    }
+
+    #[test]
+    fn the_variant_table_shows_each_runs_rate_per_light_configuration() {
+        let mut single = node("maze_single", "main", 2);
+        single.runs[1].run = 1;
+        single.runs[1].post_evaluation.solve_rate = 0.75;
+        single.runs[1].post_evaluation.per_variant = [0.99, 1.0, 0.0, 1.0]
+            .iter()
+            .enumerate()
+            .map(|(variant, &solve_rate)| crate::evaluation::VariantReport {
+                variant: variant as u32,
+                samples: 100,
+                solve_rate,
+            })
+            .collect();
+        let table = variant_table([&single]);
+        assert!(
+            table.contains("| controller | run | solved | 0 | 1 | 2 | 3 |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| maze_single | 1 | 75.0% | 99.0% | 100.0% | 0.0% | 100.0% |"),
+            "{table}"
+        );
+        // Run 0 has no per-configuration rates (a task without variants): no row.
+        assert!(!table.contains("| maze_single | 0 |"), "{table}");
+        assert_eq!(variant_table([&node("follow_wall", "main", 2)]), "");
     }
 }
