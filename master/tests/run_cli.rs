@@ -516,6 +516,51 @@ fn eval_and_bench_report_what_they_measured() {
             .exists()
     );
 
+    // An ablation directory: its node evolved under another setup (here another seed) gets a
+    // section beside the main results; a node copied from the main results does not.
+    let ablation_dir = dir.path().join("ablation");
+    hevo_ok(&[
+        "run",
+        experiment.to_str().unwrap(),
+        "--seed",
+        "8",
+        "--out",
+        ablation_dir.to_str().unwrap(),
+    ]);
+    let copied_dir = dir.path().join("copied");
+    copy_dir(&out_dir, &copied_dir);
+    hevo_ok(&[
+        "report",
+        out_dir.to_str().unwrap(),
+        "--ablation",
+        ablation_dir.to_str().unwrap(),
+        "--ablation",
+        copied_dir.to_str().unwrap(),
+        "--out",
+        report_file.to_str().unwrap(),
+    ]);
+    let markdown = std::fs::read_to_string(&report_file).unwrap();
+    let ablation_section = markdown
+        .split("## Ablation: ")
+        .nth(1)
+        .expect("an ablation section");
+    assert!(
+        ablation_section.contains("| exit_room | ")
+            && ablation_section.contains(" | 1 | complete | "),
+        "{markdown}"
+    );
+    let copied_section = markdown.split("## Ablation: ").nth(2).unwrap();
+    assert!(
+        copied_section.contains("No node here was evolved under a setup different"),
+        "{markdown}"
+    );
+    assert!(markdown.contains("--ablation"), "{markdown}");
+    assert!(
+        dir.path()
+            .join("doc/reproduction/ablation-exit_room-fitness.svg")
+            .exists()
+    );
+
     let out = hevo_ok(&[
         "bench",
         "--task",
