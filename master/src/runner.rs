@@ -355,6 +355,20 @@ async fn run_node(
     summarize_node(plan, &node_dir, fingerprint, run_summaries, progress)
 }
 
+/// Refuses a file written under another setup than the one being run: resuming or reusing it
+/// would mix two experiments' results.
+fn check_fingerprint(path: &Path, found: &str, expected: &str) -> Result<(), RunError> {
+    if found == expected {
+        Ok(())
+    } else {
+        Err(RunError::Fingerprint {
+            path: path.to_path_buf(),
+            found: found.to_string(),
+            expected: expected.to_string(),
+        })
+    }
+}
+
 /// The finished runs of a node numbered after the ones its summary lists, in order, up to the
 /// first run that is missing or unfinished (runs are evolved in order, so later ones cannot be
 /// finished). A finished run of another setup is an error, as it is when resuming.
@@ -368,13 +382,7 @@ fn finished_runs_after(
         let Some(found) = read_json::<RunSummary>(&path).map_err(|e| io_error(&path, e))? else {
             break;
         };
-        if found.fingerprint != summary.fingerprint {
-            return Err(RunError::Fingerprint {
-                path,
-                found: found.fingerprint,
-                expected: summary.fingerprint.clone(),
-            });
-        }
+        check_fingerprint(&path, &found.fingerprint, &summary.fingerprint)?;
         unlisted.push(found);
     }
     Ok(unlisted)
@@ -453,21 +461,10 @@ async fn run_one(
     let name = &plan.decl.name;
     let summary_path = run_dir.join("summary.json");
     let checkpoint_path = run_dir.join("checkpoint.json");
-    let check = |path: &Path, found: &str| {
-        if found == fingerprint {
-            Ok(())
-        } else {
-            Err(RunError::Fingerprint {
-                path: path.to_path_buf(),
-                found: found.to_string(),
-                expected: fingerprint.to_string(),
-            })
-        }
-    };
     if let Some(summary) =
         read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
     {
-        check(&summary_path, &summary.fingerprint)?;
+        check_fingerprint(&summary_path, &summary.fingerprint, fingerprint)?;
         return Ok(summary);
     }
     let run_seed = ea::run_seed(seed, name, run);
@@ -479,7 +476,7 @@ async fn run_one(
         .map_err(|e| io_error(&checkpoint_path, e))?
     {
         Some(found) => {
-            check(&checkpoint_path, &found.fingerprint)?;
+            check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint)?;
             if found.format != CHECKPOINT_FORMAT
                 || found.population.iter().any(|g| g.len() != n_genes)
             {
