@@ -296,6 +296,12 @@ pub fn write_report(
     let _ = writeln!(md, "\n## Composition versus one network\n");
     let _ = writeln!(md, "{}", composition_paragraph(maze, single));
     let _ = write!(md, "{}", variant_table(maze.into_iter().chain(single)));
+    if !ablations.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nThe ablation section(s) below repeat this comparison under other training setups."
+        );
+    }
 
     for (ablation_dir, ablation) in &ablations {
         let _ = writeln!(md, "\n## Ablation: `{}`\n", ablation_dir.display());
