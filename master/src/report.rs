@@ -314,7 +314,7 @@ pub fn write_report(
         "Best (solid) and mean (dashed) fitness per generation of every run, with the mean across runs.\n"
     );
     for node in &nodes {
-        if let Some(picture) = fitness_picture(node, &node.name, &pictures, base)? {
+        if let Some(picture) = fitness_picture(node, &node.name, &node.name, &pictures, base)? {
             let _ = writeln!(md, "{picture}\n");
         }
     }
@@ -325,7 +325,8 @@ pub fn write_report(
             .unwrap_or_default();
         for node in ablation {
             let stem = format!("{dir_name}-{}", node.name);
-            if let Some(picture) = fitness_picture(node, &stem, &pictures, base)? {
+            let title = format!("{} ({dir_name})", node.name);
+            if let Some(picture) = fitness_picture(node, &stem, &title, &pictures, base)? {
                 let _ = writeln!(md, "{picture}\n");
             }
         }
@@ -335,10 +336,12 @@ pub fn write_report(
 }
 
 /// Draws `node`'s fitness curves (every run's, and their mean) to `pictures/{stem}-fitness.svg`
-/// and returns the Markdown that shows it, or `None` when no run has logged a generation.
+/// under `title` and returns the Markdown that shows it, or `None` when no run has logged a
+/// generation.
 fn fitness_picture(
     node: &NodeResult,
     stem: &str,
+    title: &str,
     pictures: &Path,
     base: &Path,
 ) -> Result<Option<String>, String> {
@@ -360,11 +363,11 @@ fn fitness_picture(
     if logs.is_empty() {
         return Ok(None);
     }
-    let svg = viz::fitness_plot_svg(&format!("{stem}: fitness per generation"), &logs);
+    let svg = viz::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
     let file = pictures.join(format!("{stem}-fitness.svg"));
     write_atomic(&file, svg.as_bytes()).map_err(|e| format!("{}: {e}", file.display()))?;
     let relative = file.strip_prefix(base).unwrap_or(&file);
-    Ok(Some(format!("![{stem} fitness]({})", relative.display())))
+    Ok(Some(format!("![{title} fitness]({})", relative.display())))
 }
 
 /// Each finished run's solve rate per variant (light configuration, or start branch), for the
