@@ -56,31 +56,26 @@ impl NodeResult {
     }
 }
 
+/// A node directory's results: its finished runs (each run's own `summary.json`), the runs
+/// still under way (a checkpoint, no summary yet), and whether the node is complete (it has a
+/// node summary and no run under way, so a node whose runs are being extended with `--runs`
+/// shows its new runs as they finish, and as not complete until they all have).
 fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    if let Some(summary) = read_json::<NodeSummary>(&dir.join("summary.json"))? {
-        let mut fingerprints = vec![summary.fingerprint];
-        fingerprints.extend(summary.runs.iter().map(|r| r.fingerprint.clone()));
-        return Ok(Some(NodeResult {
-            name,
-            runs: summary.runs,
-            complete: true,
-            runs_in_progress: 0,
-            dir: dir.to_path_buf(),
-            fingerprints,
-        }));
-    }
+    let node_summary = read_json::<NodeSummary>(&dir.join("summary.json"))?;
     let mut runs = Vec::new();
     let mut in_progress = 0;
-    let mut fingerprints = Vec::new();
+    let mut fingerprints: Vec<String> = node_summary
+        .iter()
+        .map(|summary| summary.fingerprint.clone())
+        .collect();
     let Ok(entries) = std::fs::read_dir(dir) else {
         return Ok(None);
     };
-    let run_dirs = sorted_subdirectories(entries);
-    for run_dir in run_dirs {
+    for run_dir in sorted_subdirectories(entries) {
         if let Some(run) = read_json::<RunSummary>(&run_dir.join("summary.json"))? {
             fingerprints.push(run.fingerprint.clone());
             runs.push(run);
@@ -92,6 +87,12 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
             in_progress += 1;
         }
     }
+    if runs.is_empty()
+        && let Some(summary) = &node_summary
+    {
+        // A node directory whose run directories were removed still has its summary.
+        runs.clone_from(&summary.runs);
+    }
     runs.sort_by_key(|r| r.run);
     if runs.is_empty() && in_progress == 0 {
         return Ok(None);
@@ -99,7 +100,7 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
     Ok(Some(NodeResult {
         name,
         runs,
-        complete: false,
+        complete: node_summary.is_some() && in_progress == 0,
         runs_in_progress: in_progress,
         dir: dir.to_path_buf(),
         fingerprints,
@@ -600,5 +601,40 @@ mod tests {
         // Run 0 has no per-configuration rates (a task without variants): no row.
         assert!(!table.contains("| maze_single | 0 |"), "{table}");
         assert_eq!(variant_table([&node("follow_wall", "main", 2)]), "");
+    }
+
+    #[test]
+    fn a_node_being_extended_shows_its_runs_under_way_and_is_not_complete() {
+        let dir = tempfile::tempdir().unwrap();
+        let node_dir = dir.path().join("maze_single");
+        let finished = node("maze_single", "main", 1).runs.remove(0);
+        std::fs::create_dir_all(node_dir.join("run-0")).unwrap();
+        std::fs::create_dir_all(node_dir.join("run-1")).unwrap();
+        let write = |path: PathBuf, value: serde_json::Value| {
+            std::fs::write(path, value.to_string()).unwrap();
+        };
+        write(
+            node_dir.join("run-0/summary.json"),
+            serde_json::to_value(&finished).unwrap(),
+        );
+        write(
+            node_dir.join("summary.json"),
+            serde_json::json!({
+                "node": "maze_single", "task": "solve_maze", "fingerprint": "f",
+                "runs": [finished], "best_run": 0, "mean_solve_rate": 1.0, "best_solve_rate": 1.0
+            }),
+        );
+        let loaded = load_node(&node_dir).unwrap().unwrap();
+        assert!(loaded.complete);
+        assert_eq!((loaded.runs.len(), loaded.runs_in_progress), (1, 0));
+
+        write(
+            node_dir.join("run-1/checkpoint.json"),
+            serde_json::json!({"format": "hevo.checkpoint/1", "fingerprint": "f", "generation": 3}),
+        );
+        let loaded = load_node(&node_dir).unwrap().unwrap();
+        assert!(!loaded.complete);
+        assert_eq!((loaded.runs.len(), loaded.runs_in_progress), (1, 1));
+        assert_eq!(status(&loaded), "1 run(s) finished, 1 in progress");
     }
 }
