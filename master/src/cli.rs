@@ -502,35 +502,7 @@ fn plot(args: PlotArgs) -> Result<()> {
         Some(node) => args.runs_dir.join(node),
         None => args.runs_dir.clone(),
     };
-    let mut runs = Vec::new();
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(&node_dir)
-        .with_context(|| format!("cannot read {}", node_dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .is_some_and(|n| n.to_string_lossy().starts_with("run-"))
-        })
-        .collect();
-    entries.sort_by_key(|p| {
-        p.file_name().and_then(|n| {
-            n.to_string_lossy()
-                .trim_start_matches("run-")
-                .parse::<u32>()
-                .ok()
-        })
-    });
-    for run_dir in entries {
-        let csv = run_dir.join("fitness.csv");
-        if let Ok(text) = std::fs::read_to_string(&csv) {
-            let rows =
-                viz::parse_fitness_csv(&text).with_context(|| format!("{}", csv.display()))?;
-            let label = run_dir
-                .file_name()
-                .map(|n| n.to_string_lossy().replace('-', " "))
-                .unwrap_or_default();
-            runs.push(viz::RunLog { label, rows });
-        }
-    }
+    let runs = viz::read_run_logs(&node_dir).map_err(anyhow::Error::msg)?;
     if runs.is_empty() {
         let hint = if args.node.is_none() {
             " (pass --node NAME to plot a node of a run directory)"

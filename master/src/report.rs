@@ -346,21 +346,7 @@ fn fitness_picture(
     pictures: &Path,
     base: &Path,
 ) -> Result<Option<String>, String> {
-    let mut logs = Vec::new();
-    let Ok(entries) = std::fs::read_dir(&node.dir) else {
-        return Ok(None);
-    };
-    for run_dir in sorted_subdirectories(entries) {
-        if let Ok(text) = std::fs::read_to_string(run_dir.join("fitness.csv"))
-            && let Ok(rows) = viz::parse_fitness_csv(&text)
-        {
-            let label = run_dir
-                .file_name()
-                .map(|n| n.to_string_lossy().replace('-', " "))
-                .unwrap_or_default();
-            logs.push(viz::RunLog { label, rows });
-        }
-    }
+    let logs = viz::read_run_logs(&node.dir)?;
     if logs.is_empty() {
         return Ok(None);
     }

@@ -7,5 +7,5 @@ pub mod plot;
 pub mod replay;
 pub mod svg;
 
-pub use plot::{FitnessRow, PlotError, RunLog, fitness_plot_svg, parse_fitness_csv};
+pub use plot::{FitnessRow, PlotError, RunLog, fitness_plot_svg, parse_fitness_csv, read_run_logs};
 pub use replay::{IrCone, ReplayOptions, replay_svg};

@@ -6,6 +6,7 @@
 
 use super::svg::{INK, PALETTE, SvgDocument, Tag, num_with};
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 /// One generation's line of a `fitness.csv` log (also kept in run checkpoints).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -101,6 +102,40 @@ pub enum PlotError {
         /// The previous row's generation.
         previous: u32,
     },
+}
+
+/// Every run's fitness log under a node directory: the `run-<k>/fitness.csv` files, in run
+/// order (run 10 after run 9), each labelled `run <k>`. A run without a log yet is left out; a
+/// log that does not parse is an error naming its file.
+pub fn read_run_logs(node_dir: &Path) -> Result<Vec<RunLog>, String> {
+    let entries = std::fs::read_dir(node_dir)
+        .map_err(|e| format!("cannot read {}: {e}", node_dir.display()))?;
+    let mut run_dirs: Vec<(u32, PathBuf)> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter_map(|path| {
+            let index = path
+                .file_name()?
+                .to_str()?
+                .strip_prefix("run-")?
+                .parse::<u32>()
+                .ok()?;
+            Some((index, path))
+        })
+        .collect();
+    run_dirs.sort();
+    let mut logs = Vec::new();
+    for (index, run_dir) in run_dirs {
+        let csv = run_dir.join("fitness.csv");
+        let Ok(text) = std::fs::read_to_string(&csv) else {
+            continue;
+        };
+        let rows = parse_fitness_csv(&text).map_err(|e| format!("{}: {e}", csv.display()))?;
+        logs.push(RunLog {
+            label: format!("run {index}"),
+            rows,
+        });
+    }
+    Ok(logs)
 }
 
 /// Parses a `fitness.csv` log. The header must name the six columns of
@@ -1003,5 +1038,33 @@ mod tests {
             fitness_plot_svg("solve_maze: fitness by generation", &runs),
         )
         .expect("write");
+    }
+
+    #[test]
+    fn run_logs_are_read_in_run_order_and_a_broken_log_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let log = format!("{FITNESS_CSV_HEADER}\n0,1,0.5,0,1,0.1\n");
+        for run in [10, 2, 9] {
+            let run_dir = dir.path().join(format!("run-{run}"));
+            std::fs::create_dir_all(&run_dir).unwrap();
+            std::fs::write(run_dir.join("fitness.csv"), &log).unwrap();
+        }
+        // A run that has not logged a generation yet, and a directory that is not a run.
+        std::fs::create_dir_all(dir.path().join("run-11")).unwrap();
+        std::fs::create_dir_all(dir.path().join("plots")).unwrap();
+        let labels: Vec<String> = read_run_logs(dir.path())
+            .unwrap()
+            .into_iter()
+            .map(|log| log.label)
+            .collect();
+        assert_eq!(labels, ["run 2", "run 9", "run 10"]);
+
+        std::fs::write(dir.path().join("run-9/fitness.csv"), "generation,best\n").unwrap();
+        let err = read_run_logs(dir.path()).unwrap_err();
+        assert!(
+            err.contains("run-9") && err.contains("fitness.csv"),
+            "{err}"
+        );
+        assert!(read_run_logs(&dir.path().join("missing")).is_err());
     }
 }
