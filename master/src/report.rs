@@ -56,6 +56,11 @@ impl NodeResult {
     }
 }
 
+/// [`read_json`], with an error that names the file.
+fn read_named<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Option<T>, String> {
+    read_json(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// A node directory's results: its finished runs (each run's own `summary.json`), the runs
 /// still under way (a checkpoint, no summary yet), and whether the node is complete (it has a
 /// node summary and no run under way, so a node whose runs are being extended with `--runs`
@@ -65,7 +70,7 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let node_summary = read_json::<NodeSummary>(&dir.join("summary.json"))?;
+    let node_summary = read_named::<NodeSummary>(&dir.join("summary.json"))?;
     let mut runs = Vec::new();
     let mut in_progress = 0;
     let mut fingerprints: Vec<String> = node_summary
@@ -76,12 +81,11 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
         return Ok(None);
     };
     for run_dir in sorted_subdirectories(entries) {
-        if let Some(run) = read_json::<RunSummary>(&run_dir.join("summary.json"))? {
+        if let Some(run) = read_named::<RunSummary>(&run_dir.join("summary.json"))? {
             fingerprints.push(run.fingerprint.clone());
             runs.push(run);
         } else if let Some(checkpoint) =
-            read_json::<CheckpointFingerprint>(&run_dir.join("checkpoint.json"))
-                .map_err(|e| format!("{}: {e}", run_dir.join("checkpoint.json").display()))?
+            read_named::<CheckpointFingerprint>(&run_dir.join("checkpoint.json"))?
         {
             fingerprints.push(checkpoint.fingerprint);
             in_progress += 1;
@@ -113,7 +117,7 @@ fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, String> {
         std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
     let mut nodes = Vec::new();
     for dir in sorted_subdirectories(entries) {
-        if let Some(node) = load_node(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+        if let Some(node) = load_node(&dir)? {
             nodes.push(node);
         }
     }
