@@ -778,6 +778,7 @@ mod tests {
                         stage: 0,
                         variant: 0,
                         cycles: 10,
+                        ..SampleSummary::default()
                     })
                     .collect()
             })

@@ -54,6 +54,48 @@ pub struct StageReport {
     pub reached_teammate: f64,
     /// Brought it back into the room.
     pub returned: f64,
+    /// How often the arbitrator chose the right child in each sub-task: the terms of the
+    /// derived fitness f3, which a run's evolution maximised. Absent in reports written before
+    /// hevo counted them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub right_choice: Option<RightChoice>,
+}
+
+/// Per rescue sub-task, the share of its cycles in which the arbitrator chose that sub-task's
+/// child, averaged over the samples that reached the sub-task (as f3 scores one sample);
+/// `None` when no sample reached it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RightChoice {
+    /// In the room: exit room.
+    pub exit_room: Option<f64>,
+    /// In the maze before the teammate is found: solve maze.
+    pub solve_maze: Option<f64>,
+    /// Once the teammate follows: return to room.
+    pub return_room: Option<f64>,
+}
+
+impl RightChoice {
+    /// Averages each sub-task's share over the samples that reached it.
+    fn of(summaries: &[SampleSummary]) -> RightChoice {
+        let mean = |sub_task: usize| {
+            let shares: Vec<f64> = summaries
+                .iter()
+                .filter_map(|s| s.sub_task_choices.shares()[sub_task])
+                .map(f64::from)
+                .collect();
+            (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
+        };
+        RightChoice {
+            exit_room: mean(0),
+            solve_maze: mean(1),
+            return_room: mean(2),
+        }
+    }
+
+    /// The three shares in sub-task order, for tables.
+    pub fn shares(&self) -> [Option<f64>; 3] {
+        [self.exit_room, self.solve_maze, self.return_room]
+    }
 }
 
 /// The samples of a post-evaluation: `per_variant` samples of each variant of the task (one
@@ -105,6 +147,7 @@ pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
             exited_room: share(&|s| s.stage >= 1),
             reached_teammate: share(&|s| s.stage >= 2),
             returned: share(&|s| s.stage >= 3),
+            right_choice: Some(RightChoice::of(summaries)),
         }),
     }
 }
@@ -208,8 +251,25 @@ pub fn describe(report: &EvalReport) -> String {
             100.0 * stages.reached_teammate,
             100.0 * stages.returned
         ));
+        if let Some(right_choice) = &stages.right_choice {
+            let [room, maze, back] = right_choice.shares().map(percent_or_dash);
+            text.push_str(&format!(
+                "\n  right child chosen (the terms of f3): in the room {room}, in the maze {maze}, \
+                 on the way back {back}"
+            ));
+        }
     }
     text
+}
+
+/// A share as a percentage with one decimal.
+pub fn percent(share: f64) -> String {
+    format!("{:.1}%", 100.0 * share)
+}
+
+/// A share as a percentage with one decimal, or a dash when there is none.
+pub fn percent_or_dash(share: Option<f64>) -> String {
+    share.map_or_else(|| "-".to_string(), percent)
 }
 
 /// How many samples failed and how many of those touched a wall, and for the rescue where
@@ -237,6 +297,7 @@ pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sim_core::SubTaskChoices;
 
     #[test]
     fn failures_are_counted_by_ending_and_rescue_stage() {
@@ -285,6 +346,7 @@ mod tests {
                 stage: 0,
                 variant: sample.variant.unwrap_or(0),
                 cycles: 100 + i as u32,
+                ..SampleSummary::default()
             })
             .collect();
         let failures = failed_samples(&samples, &summaries);
@@ -307,6 +369,7 @@ mod tests {
             stage,
             variant,
             cycles: 10,
+            ..SampleSummary::default()
         };
         let summaries = [
             s(true, 3, 0),
@@ -322,5 +385,30 @@ mod tests {
             (0.75, 0.5, 0.25)
         );
         assert_eq!(r.per_variant[0].solve_rate, 0.5);
+        // No sample carried sub-task counts, so no sub-task was reached.
+        assert_eq!(stages.right_choice.unwrap().shares(), [None; 3]);
+    }
+
+    #[test]
+    fn right_choices_average_each_sub_task_over_the_samples_that_reached_it() {
+        let s = |cycles, correct| SampleSummary {
+            sub_task_choices: SubTaskChoices { cycles, correct },
+            ..SampleSummary::default()
+        };
+        // Two samples reach the maze; one chose right in half its maze cycles, one never.
+        // Only the first reaches the teammate.
+        let summaries = [
+            s([100, 200, 50], [100, 100, 50]),
+            s([300, 100, 0], [150, 0, 0]),
+        ];
+        let r = report(TaskKind::Rescue, &summaries);
+        let right_choice = r.stages.as_ref().unwrap().right_choice.clone().unwrap();
+        assert_eq!(right_choice.shares(), [Some(0.75), Some(0.25), Some(1.0)]);
+        // The same counts give each sample's f3.
+        assert_eq!(summaries[0].sub_task_choices.derived_fitness(), 2.5);
+        assert_eq!(summaries[1].sub_task_choices.derived_fitness(), 0.5);
+        assert!(
+            describe(&r).contains("in the room 75.0%, in the maze 25.0%, on the way back 100.0%")
+        );
     }
 }

@@ -5,6 +5,7 @@
 //! the main results), and fitness-curve pictures. Generated, never hand-written: rerun it after
 //! more runs finish.
 
+use crate::evaluation::{percent, percent_or_dash};
 use crate::runner::{NodeSummary, RunSummary};
 use crate::store::{read_json, write_atomic};
 use crate::viz;
@@ -165,8 +166,42 @@ fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
     dirs
 }
 
-fn percent(x: f64) -> String {
-    format!("{:.1}%", 100.0 * x)
+/// Per rescue run: the stage rates, the training f3 and f3's terms over the post-evaluation
+/// (dashes for summaries written before hevo counted them).
+fn rescue_stage_table(rescue: &NodeResult) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "The last four columns are what the arbitrator was evolved on: the derived fitness f3 \
+         of the run's best genome in its last generation (at most 3), and f3's terms over the \
+         post-evaluation, how often the arbitrator chose the child that the sub-task in force \
+         asks for. f3 rewards the choice, not the outcome, so a run can solve the rescue with \
+         a low term when another child does that sub-task's job.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| run | exited room | reached teammate | brought back | f3 | right child: room | maze | way back |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    for run in &rescue.runs {
+        if let Some(stages) = &run.post_evaluation.stages {
+            let [room, maze, back] = stages
+                .right_choice
+                .as_ref()
+                .map_or([None; 3], |right_choice| right_choice.shares())
+                .map(percent_or_dash);
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {:.3} | {room} | {maze} | {back} |",
+                run.run,
+                percent(stages.exited_room),
+                percent(stages.reached_teammate),
+                percent(stages.returned),
+                run.final_best_fitness
+            );
+        }
+    }
+    md
 }
 
 /// Writes `out_file` (REPRODUCTION.md) and its pictures (beside it, in `reproduction/`) from
@@ -277,23 +312,7 @@ pub fn write_report(
             md,
             "Paper (mean over 10 runs): 91% exit the room, 88% reach the teammate, 85% bring it back.\n"
         );
-        let _ = writeln!(
-            md,
-            "| run | exited room | reached teammate | brought back |"
-        );
-        let _ = writeln!(md, "|---|---|---|---|");
-        for run in &rescue.runs {
-            if let Some(stages) = &run.post_evaluation.stages {
-                let _ = writeln!(
-                    md,
-                    "| {} | {} | {} | {} |",
-                    run.run,
-                    percent(stages.exited_room),
-                    percent(stages.reached_teammate),
-                    percent(stages.returned)
-                );
-            }
-        }
+        let _ = write!(md, "{}", rescue_stage_table(rescue));
     }
 
     let maze = nodes.iter().find(|n| n.name == "solve_maze");
@@ -489,6 +508,7 @@ fn composition_paragraph<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::evaluation::{RightChoice, StageReport};
 
     fn node(name: &str, source: &str, finished_runs: usize) -> NodeResult {
         let run: RunSummary = serde_json::from_value(serde_json::json!({
@@ -506,6 +526,37 @@ mod tests {
             dir: Path::new(source).join(name),
             fingerprints: vec![format!("{source}-fingerprint")],
         }
+    }
+
+    #[test]
+    fn the_rescue_table_shows_stages_f3_and_its_terms_with_dashes_for_old_summaries() {
+        let mut rescue = node("rescue", "new", 2);
+        for (run_idx, run) in rescue.runs.iter_mut().enumerate() {
+            run.run = run_idx as u32;
+            run.final_best_fitness = 2.0 + run_idx as f64 / 2.0;
+            run.post_evaluation.stages = Some(StageReport {
+                exited_room: 0.99,
+                reached_teammate: 0.9,
+                returned: 0.855,
+                right_choice: None,
+            });
+        }
+        // Run 1 was post-evaluated after hevo counted the choices; it never chose solve maze.
+        if let Some(stages) = rescue.runs[1].post_evaluation.stages.as_mut() {
+            stages.right_choice = Some(RightChoice {
+                exit_room: Some(1.0),
+                solve_maze: Some(0.0),
+                return_room: Some(0.998),
+            });
+        }
+        let table = rescue_stage_table(&rescue);
+        let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| ")).collect();
+        assert_eq!(rows.len(), 3, "{table}");
+        assert_eq!(rows[1], "| 0 | 99.0% | 90.0% | 85.5% | 2.000 | - | - | - |");
+        assert_eq!(
+            rows[2],
+            "| 1 | 99.0% | 90.0% | 85.5% | 2.500 | 100.0% | 0.0% | 99.8% |"
+        );
     }
 
     #[test]

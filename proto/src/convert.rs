@@ -10,6 +10,7 @@ use sim_core::Sample;
 use sim_core::TaskConfig;
 use sim_core::batch::{SampleSummary, task_content_hash};
 use sim_core::controller::ControllerFile;
+use sim_core::evaluate::{N_SUB_TASKS, SubTaskChoices};
 
 /// Why a message could not be turned into sim-core values.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -49,6 +50,7 @@ pub fn sample_from_proto(sample: &v1::SampleSpec) -> Sample {
 
 /// One (genome, sample) outcome for the wire.
 pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
+    let choices = summary.sub_task_choices;
     v1::SampleResult {
         fitness: summary.fitness,
         solved: summary.solved,
@@ -56,7 +58,51 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
         stage: u32::from(summary.stage),
         variant: summary.variant,
         cycles: summary.cycles,
+        // Other tasks send nothing rather than six zeros per sample.
+        sub_task_cycles: if choices == SubTaskChoices::default() {
+            Vec::new()
+        } else {
+            choices.cycles.to_vec()
+        },
+        sub_task_correct: if choices == SubTaskChoices::default() {
+            Vec::new()
+        } else {
+            choices.correct.to_vec()
+        },
     }
+}
+
+/// The rescue sub-task counts from the wire: both empty, or three each with no sub-task
+/// counting more correct cycles than it had.
+fn sub_task_choices_from_proto(
+    result: &v1::SampleResult,
+    field: &str,
+) -> Result<SubTaskChoices, ConvertError> {
+    if result.sub_task_cycles.is_empty() && result.sub_task_correct.is_empty() {
+        return Ok(SubTaskChoices::default());
+    }
+    let counts = |values: &[u32], name: &str| -> Result<[u32; N_SUB_TASKS], ConvertError> {
+        <[u32; N_SUB_TASKS]>::try_from(values).map_err(|_| {
+            field_error(
+                format!("{field}.{name}"),
+                format!("{} values, expected {N_SUB_TASKS}", values.len()),
+            )
+        })
+    };
+    let choices = SubTaskChoices {
+        cycles: counts(&result.sub_task_cycles, "sub_task_cycles")?,
+        correct: counts(&result.sub_task_correct, "sub_task_correct")?,
+    };
+    if let Some(s) = (0..N_SUB_TASKS).find(|&s| choices.correct[s] > choices.cycles[s]) {
+        return Err(field_error(
+            format!("{field}.sub_task_correct[{s}]"),
+            format!(
+                "{} correct cycles of {}",
+                choices.correct[s], choices.cycles[s]
+            ),
+        ));
+    }
+    Ok(choices)
 }
 
 /// One outcome from the wire; `field` names it in errors.
@@ -83,6 +129,7 @@ pub fn summary_from_proto(
         stage,
         variant: result.variant,
         cycles: result.cycles,
+        sub_task_choices: sub_task_choices_from_proto(result, field)?,
     })
 }
 
@@ -235,11 +282,32 @@ mod tests {
             stage: 3,
             variant: 2,
             cycles: 777,
+            sub_task_choices: SubTaskChoices {
+                cycles: [300, 400, 77],
+                correct: [300, 0, 70],
+            },
         };
-        let wire = results_to_proto(&[vec![s, s], vec![s]]);
+        let plain = SampleSummary {
+            sub_task_choices: SubTaskChoices::default(),
+            ..s
+        };
+        let wire = results_to_proto(&[vec![s, plain], vec![s]]);
+        assert!(wire[0].samples[1].sub_task_cycles.is_empty());
         assert_eq!(
             results_from_proto(&wire).unwrap(),
-            vec![vec![s, s], vec![s]]
+            vec![vec![s, plain], vec![s]]
+        );
+        let mut short = wire.clone();
+        short[0].samples[0].sub_task_correct.pop();
+        assert_eq!(
+            results_from_proto(&short).unwrap_err().to_string(),
+            "genomes[0].samples[0].sub_task_correct: 2 values, expected 3"
+        );
+        let mut too_many = wire.clone();
+        too_many[1].samples[0].sub_task_correct[2] = 78;
+        assert_eq!(
+            results_from_proto(&too_many).unwrap_err().to_string(),
+            "genomes[1].samples[0].sub_task_correct[2]: 78 correct cycles of 77"
         );
         let mut bad = wire.clone();
         bad[1].samples[0].stage = 300;

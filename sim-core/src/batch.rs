@@ -4,7 +4,7 @@
 //! Built once per batch and shared by reference between the worker's threads.
 
 use crate::controller::{Controller, ControllerError, ControllerFile};
-use crate::evaluate::{Evaluator, Outcome, Policy, Sample, TaskError};
+use crate::evaluate::{Evaluator, Outcome, Policy, Sample, SubTaskChoices, TaskError};
 use crate::frame::SensorFrame;
 use crate::task::TaskConfig;
 
@@ -97,7 +97,7 @@ impl BatchEvaluator {
 
 /// The part of an [`Outcome`] that evolution and post-evaluation need, small enough to send
 /// for every (genome, sample) pair.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SampleSummary {
     /// The task's fitness.
     pub fitness: f32,
@@ -111,6 +111,9 @@ pub struct SampleSummary {
     pub variant: u32,
     /// Cycles run.
     pub cycles: u32,
+    /// Rescue only: the root's choices per sub-task (f3's counts); zero for other tasks.
+    #[serde(default)]
+    pub sub_task_choices: SubTaskChoices,
 }
 
 impl From<&Outcome> for SampleSummary {
@@ -122,6 +125,7 @@ impl From<&Outcome> for SampleSummary {
             stage: outcome.stage,
             variant: outcome.variant,
             cycles: outcome.cycles,
+            sub_task_choices: outcome.sub_task_choices,
         }
     }
 }

@@ -88,6 +88,37 @@ pub struct Outcome {
     pub variant: u32,
     /// Cycles each controller node was active, indexed like the policy's nodes.
     pub active_cycles: Vec<u32>,
+    /// Rescue only: how the root chose in each sub-task (all zero for other tasks).
+    pub sub_task_choices: SubTaskChoices,
+}
+
+/// Rescue's sub-tasks, in the order of the rescue arbitrator's children: exit the room, solve
+/// the maze, return to the room.
+pub const N_SUB_TASKS: usize = 3;
+
+/// How often the rescue arbitrator chose the sub-controller that the environment's ground truth
+/// asks for, per sub-task: the raw counts behind the derived fitness f3.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SubTaskChoices {
+    /// Cycles spent in each sub-task.
+    pub cycles: [u32; N_SUB_TASKS],
+    /// Of those, cycles in which the root chose that sub-task's child.
+    pub correct: [u32; N_SUB_TASKS],
+}
+
+impl SubTaskChoices {
+    /// Each sub-task's share of correct choices; `None` for a sub-task the sample never
+    /// reached (the teammate never found, say), which f3 leaves out of its sum.
+    pub fn shares(&self) -> [Option<f32>; N_SUB_TASKS] {
+        std::array::from_fn(|s| {
+            (self.cycles[s] > 0).then(|| self.correct[s] as f32 / self.cycles[s] as f32)
+        })
+    }
+
+    /// f3, the derived fitness: the sum of the shares of the sub-tasks reached (at most 3).
+    pub fn derived_fitness(&self) -> f32 {
+        self.shares().into_iter().flatten().sum()
+    }
 }
 
 /// A sensor cone for drawing: sensor position, the two boundary ray directions, the range.
@@ -303,7 +334,7 @@ impl Evaluator {
         let mut collided_ever = false;
         let mut ending = Ending::Timeout;
         let mut cycles_run = 0;
-        let (mut stage_total, mut stage_correct) = ([0u32; 3], [0u32; 3]);
+        let mut sub_task_choices = SubTaskChoices::default();
 
         for cycle in 0..max_cycles {
             cycles_run = cycle + 1;
@@ -363,9 +394,9 @@ impl Evaluator {
                 }
             }
             if let Some(sub_task) = sub_task {
-                stage_total[sub_task as usize] += 1;
+                sub_task_choices.cycles[sub_task as usize] += 1;
                 if policy.root_choice() == Some(sub_task as usize) {
-                    stage_correct[sub_task as usize] += 1;
+                    sub_task_choices.correct[sub_task as usize] += 1;
                 }
             }
 
@@ -414,7 +445,7 @@ impl Evaluator {
             }
         }
 
-        let fitness = judge.fitness(task, ending, cycles_run, &robot, stage_total, stage_correct);
+        let fitness = judge.fitness(task, ending, cycles_run, &robot, &sub_task_choices);
         let stage = judge.stage(ending);
         let outcome = Outcome {
             fitness,
@@ -425,6 +456,7 @@ impl Evaluator {
             stage,
             variant: env.variant,
             active_cycles,
+            sub_task_choices,
         };
         (outcome, env, robot)
     }
@@ -597,8 +629,7 @@ impl<'a> Judge<'a> {
         ending: Ending,
         cycles: u32,
         robot: &Pose,
-        stage_total: [u32; 3],
-        stage_correct: [u32; 3],
+        sub_task_choices: &SubTaskChoices,
     ) -> f32 {
         let max_cycles = task.max_cycles() as f32;
         let time_bonus = (max_cycles - cycles as f32) / max_cycles;
@@ -614,10 +645,7 @@ impl<'a> Judge<'a> {
                 }
             }
             // f3, derived: the share of correct sub-controller choices in each sub-task.
-            Judge::Rescue { .. } => (0..3)
-                .filter(|&s| stage_total[s] > 0)
-                .map(|s| stage_correct[s] as f32 / stage_total[s] as f32)
-                .sum(),
+            Judge::Rescue { .. } => sub_task_choices.derived_fitness(),
             Judge::Cells { goal } => {
                 if ending == Ending::Solved {
                     return 1.0 + time_bonus;

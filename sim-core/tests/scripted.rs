@@ -378,6 +378,18 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
             o.cycles,
             "{sample:?}"
         );
+        // Every cycle falls in one sub-task, the fitness is f3 of the counts, and a solved
+        // sample went through all three sub-tasks.
+        let choices = o.sub_task_choices;
+        assert_eq!(choices.cycles.iter().sum::<u32>(), o.cycles, "{sample:?}");
+        assert!(
+            (0..3).all(|s| choices.correct[s] <= choices.cycles[s]),
+            "{sample:?}"
+        );
+        assert_eq!(o.fitness, choices.derived_fitness(), "{sample:?}");
+        if o.solved {
+            assert!(choices.cycles.iter().all(|&c| c > 0), "{sample:?}");
+        }
     }
     // Every light configuration is met and solved.
     for configuration in 0..4 {

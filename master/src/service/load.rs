@@ -307,12 +307,14 @@ async fn lease_and_complete(
         stage: 0,
         variant: 0,
         cycles: 100,
+        sub_task_cycles: Vec::new(),
+        sub_task_correct: Vec::new(),
     };
     let genomes = batch
         .genomes
         .iter()
         .map(|_| v1::GenomeResult {
-            samples: vec![result; batch.samples.len()],
+            samples: vec![result.clone(); batch.samples.len()],
         })
         .collect();
     let request = v1::CompleteBatchRequest {
