@@ -176,7 +176,9 @@ fn rescue_stage_table(rescue: &NodeResult) -> String {
          of the run's best genome in its last generation (at most 3), and f3's terms over the \
          post-evaluation, how often the arbitrator chose the child that the sub-task in force \
          asks for. f3 rewards the choice, not the outcome, so a run can solve the rescue with \
-         a low term when another child does that sub-task's job.\n"
+         a low term when another child does that sub-task's job. A dash: the run was \
+         post-evaluated before hevo counted the choices; `hevo eval` of its `best.json` prints \
+         them.\n"
     );
     let _ = writeln!(
         md,
