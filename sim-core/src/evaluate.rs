@@ -614,7 +614,11 @@ impl<'a> Judge<'a> {
                 exited,
                 found,
             } => {
-                *exited |= maze.map.cell_at(robot.position()).is_some();
+                let cell = maze.map.cell_at(robot.position());
+                *exited |= cell.is_some();
+                if task.end_on_wrong_branch && cell.is_some_and(|cell| !maze.on_path[cell]) {
+                    return Some(Ending::WrongBranch);
+                }
                 let mate = teammate?;
                 *found |= mate.following;
                 (*found && room.depth_beyond_exit(mate.pose.position()) < -task.robot.radius)

@@ -163,6 +163,12 @@ pub struct TaskConfig {
     /// Whether touching a wall ends the sample (SPEC: most tasks do).
     #[serde(default = "default_true")]
     pub end_on_collision: bool,
+    /// Rescue only: whether entering a maze cell off the teammate's path ends the sample, as a
+    /// wrong branch ends a solve-maze sample. Off by default: the paper does not say, and a
+    /// rescuer may turn round and search on (see ARCHITECTURE.md, "Goals"). Left out of the
+    /// serialised task when off, so existing task hashes and run fingerprints stay valid.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub end_on_wrong_branch: bool,
     /// Robot body and motors.
     #[serde(default)]
     pub robot: RobotConfig,
@@ -187,6 +193,10 @@ fn default_true() -> bool {
     true
 }
 
+fn is_false(value: &bool) -> bool {
+    !value
+}
+
 impl TaskConfig {
     /// The paper's settings for a task.
     pub fn new(kind: TaskKind) -> TaskConfig {
@@ -194,6 +204,7 @@ impl TaskConfig {
             kind,
             max_cycles: None,
             end_on_collision: true,
+            end_on_wrong_branch: false,
             robot: RobotConfig::default(),
             ir: IrConfig::default(),
             light: LightConfig::default(),
@@ -239,6 +250,13 @@ impl TaskConfig {
         self.room.validate()?;
         if self.max_cycles() == 0 {
             return Err("max_cycles must be at least 1".into());
+        }
+        if self.end_on_wrong_branch && self.kind != TaskKind::Rescue {
+            return Err(format!(
+                "end_on_wrong_branch applies to the rescue only ({} always ends on a wrong branch \
+                 or has none)",
+                self.kind.name()
+            ));
         }
         if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
             return Err(format!(
@@ -311,6 +329,27 @@ impl TaskConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ending_on_wrong_branches_is_a_rescue_option_that_older_tasks_do_not_see() {
+        // Off, the field is not serialised, so task hashes (and run fingerprints) written
+        // before it existed stay valid.
+        let rescue = TaskConfig::new(TaskKind::Rescue);
+        let json = serde_json::to_string(&rescue).unwrap();
+        assert!(!json.contains("end_on_wrong_branch"), "{json}");
+        let mut strict = rescue.clone();
+        strict.end_on_wrong_branch = true;
+        assert!(strict.validate().is_ok());
+        let json = serde_json::to_string(&strict).unwrap();
+        assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), strict);
+        let mut maze = TaskConfig::new(TaskKind::SolveMaze);
+        maze.end_on_wrong_branch = true;
+        assert_eq!(
+            maze.validate().unwrap_err(),
+            "end_on_wrong_branch applies to the rescue only (solve_maze always ends on a wrong \
+             branch or has none)"
+        );
+    }
 
     #[test]
     fn names_round_trip_and_alias_works() {

@@ -696,3 +696,44 @@ fn the_default_configuration_is_solvable_too() {
         assert_share(kind, &outcomes, at_least);
     }
 }
+
+#[test]
+fn a_rescue_that_ends_on_wrong_branches_stops_a_wall_following_search() {
+    // The room exiter follows walls, so past the exit it searches the maze branch after branch,
+    // turning round at each dead end. By default a rescue sample lets it.
+    let open = run(TaskKind::Rescue, &mut exiter(), None);
+    let searched_on = |outcomes: &[(Sample, Outcome)]| {
+        outcomes
+            .iter()
+            .filter(|(_, o)| o.ending == Ending::WrongBranch)
+            .count()
+    };
+    assert_eq!(
+        searched_on(&open),
+        0,
+        "the default rescue has no wrong branch"
+    );
+    let reached_open = open.iter().filter(|(_, o)| o.stage >= 2).count();
+
+    let mut strict_task = spec_task(TaskKind::Rescue);
+    strict_task.end_on_wrong_branch = true;
+    let strict = run_on(&strict_task, &mut exiter(), None);
+    let reached_strict = strict.iter().filter(|(_, o)| o.stage >= 2).count();
+    let wrong = searched_on(&strict);
+    // Measured: 79 of 200 end in a wrong branch, and 12 samples reach the teammate against
+    // 40 with the search allowed.
+    assert!(
+        wrong >= 60,
+        "only {wrong} of {SEEDS} searches ended in a wrong branch"
+    );
+    assert!(
+        reached_strict * 2 <= reached_open,
+        "the teammate was reached {reached_strict} times with wrong branches ending the \
+         sample, {reached_open} times without"
+    );
+
+    // The scripted rescuer reads the flashes and takes no wrong branch, so it still solves.
+    let rescued = run_on(&strict_task, &mut rescuer(), None);
+    assert_coherent(TaskKind::Rescue, &rescued);
+    assert_share(TaskKind::Rescue, &rescued, 0.80);
+}
