@@ -50,7 +50,13 @@ pub fn sample_from_proto(sample: &v1::SampleSpec) -> Sample {
 
 /// One (genome, sample) outcome for the wire.
 pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
+    // Other tasks send nothing rather than six zeros per sample.
     let choices = summary.sub_task_choices;
+    let (sub_task_cycles, sub_task_correct) = if choices == SubTaskChoices::default() {
+        (Vec::new(), Vec::new())
+    } else {
+        (choices.cycles.to_vec(), choices.correct.to_vec())
+    };
     v1::SampleResult {
         fitness: summary.fitness,
         solved: summary.solved,
@@ -58,17 +64,8 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
         stage: u32::from(summary.stage),
         variant: summary.variant,
         cycles: summary.cycles,
-        // Other tasks send nothing rather than six zeros per sample.
-        sub_task_cycles: if choices == SubTaskChoices::default() {
-            Vec::new()
-        } else {
-            choices.cycles.to_vec()
-        },
-        sub_task_correct: if choices == SubTaskChoices::default() {
-            Vec::new()
-        } else {
-            choices.correct.to_vec()
-        },
+        sub_task_cycles,
+        sub_task_correct,
     }
 }
 
