@@ -6,7 +6,7 @@
 //! more runs finish.
 
 use crate::evaluation::{percent, percent_or_dash};
-use crate::runner::{NodeSummary, RunSummary};
+use crate::runner::{NodeSummary, RunSummary, run_dirs};
 use crate::store::{read_json, write_atomic};
 use crate::viz;
 use std::fmt::Write as _;
@@ -78,10 +78,10 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
         .iter()
         .map(|summary| summary.fingerprint.clone())
         .collect();
-    let Ok(entries) = std::fs::read_dir(dir) else {
+    let Ok(run_dirs) = run_dirs(dir) else {
         return Ok(None);
     };
-    for run_dir in sorted_subdirectories(entries) {
+    for (_, run_dir) in run_dirs {
         if let Some(run) = read_named::<RunSummary>(&run_dir.join("summary.json"))? {
             fingerprints.push(run.fingerprint.clone());
             runs.push(run);
@@ -155,8 +155,8 @@ fn preferred_nodes(found: Vec<NodeResult>) -> Vec<NodeResult> {
     nodes
 }
 
-/// The directories among `entries`, in name order, so nodes and runs are reported in a stable
-/// order whatever order the file system lists them in.
+/// The directories among `entries`, in name order, so nodes are reported in a stable order
+/// whatever order the file system lists them in.
 fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
     let mut dirs: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))

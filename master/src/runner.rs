@@ -212,6 +212,25 @@ pub async fn run_experiment(
     Ok(summaries)
 }
 
+/// A node directory's run directories (`run-<k>`), in run order (run 10 after run 9), each
+/// with its run index. Other entries are left out.
+pub fn run_dirs(node_dir: &Path) -> std::io::Result<Vec<(u32, PathBuf)>> {
+    let mut runs: Vec<(u32, PathBuf)> = std::fs::read_dir(node_dir)?
+        .filter_map(Result::ok)
+        .filter_map(|entry| {
+            let run = entry
+                .file_name()
+                .to_str()?
+                .strip_prefix("run-")?
+                .parse::<u32>()
+                .ok()?;
+            Some((run, entry.path()))
+        })
+        .collect();
+    runs.sort();
+    Ok(runs)
+}
+
 fn io_error(path: &Path, error: impl std::fmt::Display) -> RunError {
     RunError::Io {
         path: path.to_path_buf(),

@@ -432,19 +432,7 @@ impl JobManager {
                     results.files.push((format!("{node}/{name}"), read(&path)?));
                 }
             }
-            let mut runs: Vec<(u32, PathBuf)> = match std::fs::read_dir(&node_dir) {
-                Ok(entries) => entries
-                    .filter_map(Result::ok)
-                    .filter_map(|e| {
-                        let name = e.file_name().to_string_lossy().into_owned();
-                        name.strip_prefix("run-")
-                            .and_then(|k| k.parse().ok())
-                            .map(|k| (k, e.path()))
-                    })
-                    .collect(),
-                Err(_) => Vec::new(),
-            };
-            runs.sort();
+            let runs = crate::runner::run_dirs(&node_dir).unwrap_or_default();
             for (run, run_dir) in runs {
                 for name in ["fitness.csv", "best.json", "summary.json"] {
                     let path = run_dir.join(name);

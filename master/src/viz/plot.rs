@@ -6,7 +6,7 @@
 
 use super::svg::{INK, PALETTE, SvgDocument, Tag, num_with};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// One generation's line of a `fitness.csv` log (also kept in run checkpoints).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -108,21 +108,8 @@ pub enum PlotError {
 /// order (run 10 after run 9), each labelled `run <k>`. A run without a log yet is left out; a
 /// log that does not parse is an error naming its file.
 pub fn read_run_logs(node_dir: &Path) -> Result<Vec<RunLog>, String> {
-    let entries = std::fs::read_dir(node_dir)
+    let run_dirs = crate::runner::run_dirs(node_dir)
         .map_err(|e| format!("cannot read {}: {e}", node_dir.display()))?;
-    let mut run_dirs: Vec<(u32, PathBuf)> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter_map(|path| {
-            let index = path
-                .file_name()?
-                .to_str()?
-                .strip_prefix("run-")?
-                .parse::<u32>()
-                .ok()?;
-            Some((index, path))
-        })
-        .collect();
-    run_dirs.sort();
     let mut logs = Vec::new();
     for (index, run_dir) in run_dirs {
         let csv = run_dir.join("fitness.csv");
