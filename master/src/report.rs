@@ -463,6 +463,18 @@ fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
     if maze.is_some() || single.is_some() {
         let _ = writeln!(md, "\n{}", composition_paragraph(maze, single));
     }
+    // Under a rescue ablation the question is what the arbitrator chose, not only how often
+    // it solved: the stage table carries f3's terms.
+    if let Some(rescue) = ablation
+        .iter()
+        .find(|n| n.name == "rescue" && !n.runs.is_empty())
+    {
+        let _ = write!(
+            md,
+            "\nThe rescue's stages under this setup, as in \"Rescue stages\" above. {}",
+            rescue_stage_table(rescue)
+        );
+    }
     md.push_str(&variant_table(ablation));
     md
 }
@@ -559,6 +571,28 @@ mod tests {
             rows[2],
             "| 1 | 99.0% | 90.0% | 85.5% | 2.500 | 100.0% | 0.0% | 99.8% |"
         );
+    }
+
+    #[test]
+    fn a_rescue_ablation_shows_its_stages_and_f3_terms() {
+        let mut rescue = node("rescue", "ablation", 1);
+        rescue.runs[0].post_evaluation.stages = Some(StageReport {
+            exited_room: 0.93,
+            reached_teammate: 0.89,
+            returned: 0.75,
+            right_choice: Some(RightChoice {
+                exit_room: Some(0.955),
+                solve_maze: Some(0.923),
+                return_room: Some(0.946),
+            }),
+        });
+        let section = ablation_section(&[rescue], &[node("rescue", "main", 3)]);
+        assert!(
+            section.contains("| 0 | 93.0% | 89.0% | 75.0% | 1.000 | 95.5% | 92.3% | 94.6% |"),
+            "{section}"
+        );
+        let without_rescue = ablation_section(&[node("maze_single", "ablation", 1)], &[]);
+        assert!(!without_rescue.contains("right child"), "{without_rescue}");
     }
 
     #[test]
