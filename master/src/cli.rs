@@ -104,9 +104,8 @@ pub struct RunArgs {
 pub struct EvalArgs {
     /// The controller file (JSON).
     pub controller: PathBuf,
-    /// The task.
-    #[arg(long)]
-    pub task: String,
+    #[command(flatten)]
+    pub task: TaskArgs,
     /// Samples (per light configuration / start branch for tasks that have them).
     #[arg(long, default_value_t = 100)]
     pub samples: u32,
@@ -161,14 +160,75 @@ pub struct BenchArgs {
     pub batch_cost_ms: f64,
 }
 
+/// The task `hevo eval` and `hevo replay` run a controller on: a task at the paper's settings,
+/// or the task a node of an experiment file trains on, with its `task_config` overrides and
+/// cycle limit (so a controller evolved under an ablation's rules is judged by them).
+#[derive(Debug, Args)]
+pub struct TaskArgs {
+    /// The task, at the paper's settings.
+    #[arg(
+        long,
+        required_unless_present = "experiment",
+        conflicts_with = "experiment"
+    )]
+    pub task: Option<String>,
+    /// Instead of --task: the task of a node of this experiment file (with --node).
+    #[arg(long, requires = "node")]
+    pub experiment: Option<PathBuf>,
+    /// With --experiment: the node whose task to use.
+    #[arg(long, requires = "experiment")]
+    pub node: Option<String>,
+}
+
+impl TaskArgs {
+    /// The task configuration these flags name.
+    pub fn task_config(&self) -> Result<TaskConfig> {
+        match (&self.task, &self.experiment, &self.node) {
+            (Some(task), _, _) => Ok(TaskConfig::new(parse_task(task)?)),
+            (None, Some(file), Some(node)) => {
+                let experiment = Experiment::load(file)?;
+                let plan = experiment
+                    .nodes
+                    .iter()
+                    .find(|plan| plan.decl.name == *node)
+                    .with_context(|| {
+                        let names: Vec<&str> = experiment
+                            .nodes
+                            .iter()
+                            .map(|plan| plan.decl.name.as_str())
+                            .collect();
+                        format!(
+                            "{}: no node named '{node}'; its nodes are {}",
+                            file.display(),
+                            names.join(", ")
+                        )
+                    })?;
+                Ok(plan.task.clone())
+            }
+            // clap requires --task or both of --experiment and --node.
+            _ => bail!("give --task, or --experiment FILE with --node NAME"),
+        }
+    }
+
+    /// These flags as they are typed, for a command line printed for the user.
+    fn flags(&self) -> String {
+        match (&self.task, &self.experiment, &self.node) {
+            (Some(task), _, _) => format!("--task {task}"),
+            (None, Some(file), Some(node)) => {
+                format!("--experiment {} --node {node}", file.display())
+            }
+            _ => String::new(),
+        }
+    }
+}
+
 /// `hevo replay`.
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
     /// The controller file (JSON).
     pub controller: PathBuf,
-    /// The task.
-    #[arg(long)]
-    pub task: String,
+    #[command(flatten)]
+    pub task: TaskArgs,
     /// The sample's seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -356,13 +416,13 @@ fn run(args: RunArgs) -> Result<()> {
 }
 
 fn eval(args: EvalArgs) -> Result<()> {
-    let kind = parse_task(&args.task)?;
+    let task = args.task.task_config()?;
+    let kind = task.kind;
     let controller = load_controller(&args.controller)?;
     if args.samples == 0 {
         bail!("--samples must be at least 1");
     }
     let threads = default_threads(args.threads);
-    let task = TaskConfig::new(kind);
     Evaluator::new(task.clone())?;
     let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
     let summaries = with_local_workers(threads, async |dispatcher| {
@@ -382,21 +442,21 @@ fn eval(args: EvalArgs) -> Result<()> {
     if args.failures {
         crate::outln!("{}", evaluation::describe_failures(kind, &failures));
         for failure in &failures {
-            crate::outln!("  {}", describe_failure(failure, &args));
+            crate::outln!("  {}", describe_failure(failure, kind, &args));
         }
     }
     Ok(())
 }
 
 /// One failed sample as a line: how far it got, and the command that replays it.
-fn describe_failure(failure: &evaluation::FailedSample, args: &EvalArgs) -> String {
+fn describe_failure(failure: &evaluation::FailedSample, kind: TaskKind, args: &EvalArgs) -> String {
     let wall = if failure.collided {
         ", touched a wall"
     } else {
         ""
     };
     // Stages mean something only in rescue (left the room, reached the teammate, returned).
-    let stage = if args.task == TaskKind::Rescue.name() {
+    let stage = if kind == TaskKind::Rescue {
         format!(", stage {}", failure.stage)
     } else {
         String::new()
@@ -406,10 +466,10 @@ fn describe_failure(failure: &evaluation::FailedSample, args: &EvalArgs) -> Stri
         .map(|v| format!(" --light-config {v}"))
         .unwrap_or_default();
     format!(
-        "{} cycles{stage}{wall}: hevo replay {} --task {} --seed {}{variant} --out failure-{}.svg",
+        "{} cycles{stage}{wall}: hevo replay {} {} --seed {}{variant} --out failure-{}.svg",
         failure.cycles,
         args.controller.display(),
-        args.task,
+        args.task.flags(),
         failure.seed,
         failure.seed
     )
@@ -453,10 +513,11 @@ fn bench_command(args: BenchArgs) -> Result<()> {
 }
 
 fn replay(args: ReplayArgs) -> Result<()> {
-    let kind = parse_task(&args.task)?;
+    let task = args.task.task_config()?;
+    let kind = task.kind;
     let file = load_controller(&args.controller)?;
     let mut controller = Controller::new(&file, None)?;
-    let evaluator = Evaluator::new(TaskConfig::new(kind))?;
+    let evaluator = Evaluator::new(task)?;
     if let Some(k) = args.light_config {
         let n = sim_core::env::n_variants(kind);
         if k >= n {

@@ -14,12 +14,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum ExperimentError {
     /// The file could not be read.
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read: {reason}")]
     Read {
         /// The file.
         file: PathBuf,
-        /// Why.
-        source: std::io::Error,
+        /// Why. Not a `source`: the message says it already, and error chains would repeat it.
+        reason: std::io::Error,
     },
     /// The TOML is malformed or a key has the wrong type or is unknown.
     #[error("{file}: at `{path}`: {message}")]
@@ -229,9 +229,9 @@ pub struct Experiment {
 impl Experiment {
     /// Reads and validates an experiment file.
     pub fn load(file: &Path) -> Result<Experiment, ExperimentError> {
-        let text = std::fs::read_to_string(file).map_err(|source| ExperimentError::Read {
+        let text = std::fs::read_to_string(file).map_err(|reason| ExperimentError::Read {
             file: file.to_path_buf(),
-            source,
+            reason,
         })?;
         Experiment::parse(&text, file)
     }

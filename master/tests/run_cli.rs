@@ -396,7 +396,12 @@ fn bad_experiment_files_are_rejected_with_the_key_path() {
     }
     let out = hevo(&["run", dir.path().join("missing.toml").to_str().unwrap()]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    // The reason is said once, not again by the error chain.
+    assert!(
+        stderr.contains("missing.toml: cannot read: ") && stderr.matches("os error").count() == 1,
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -596,4 +601,84 @@ fn a_closed_stdout_ends_a_command_quietly() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{:?}: {stderr}", output.status);
     assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// `hevo eval --experiment FILE --node NAME` judges a controller by the task that node trains
+/// on, its overrides and cycle limit included (how an ablation's controllers are judged by its
+/// own rules), and the replay commands it prints name the same task.
+#[test]
+fn eval_and_replay_take_a_nodes_task_from_an_experiment_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // The shipped exit room controller needs a few hundred cycles to leave a room; this node
+    // gives it 60.
+    let experiment = write_experiment(
+        dir.path(),
+        &SMALL.replace("generations = 10", "cycles = 60\ngenerations = 10"),
+    );
+    let experiment = experiment.to_str().unwrap();
+    let controller =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../controllers/exit_room.json");
+    let controller = controller.to_str().unwrap();
+    let eval = |task_flags: &[&str]| {
+        let mut args = vec!["eval", controller, "--samples", "4", "--threads", "1"];
+        args.extend_from_slice(task_flags);
+        hevo_ok(&args)
+    };
+    let json = |task_flags: &[&str]| -> serde_json::Value {
+        let mut flags = task_flags.to_vec();
+        flags.extend_from_slice(&["--json", "--failures"]);
+        serde_json::from_slice(&eval(&flags).stdout).unwrap()
+    };
+    let node_flags = ["--experiment", experiment, "--node", "exit_room"];
+
+    let paper = json(&["--task", "exit_room"]);
+    assert!(paper["solve_rate"].as_f64().unwrap() >= 0.75, "{paper}");
+    assert!(paper["mean_cycles"].as_f64().unwrap() > 60.0, "{paper}");
+    let short = json(&node_flags);
+    assert_eq!(short["solve_rate"].as_f64(), Some(0.0), "{short}");
+    let failures = short["failures"].as_array().unwrap();
+    assert_eq!(failures.len(), 4);
+    assert!(
+        failures.iter().all(|f| f["cycles"].as_u64().unwrap() <= 60),
+        "{short}"
+    );
+
+    let text = eval(&[&node_flags[..], &["--failures"]].concat());
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains(&format!(
+            "--experiment {experiment} --node exit_room --seed"
+        )),
+        "{text}"
+    );
+    let failure = &failures[0];
+    let replay = dir.path().join("short.svg");
+    let seed = failure["seed"].as_u64().unwrap().to_string();
+    let mut args = vec!["replay", controller, "--seed", &seed];
+    args.extend_from_slice(&node_flags);
+    args.extend_from_slice(&["--out", replay.to_str().unwrap()]);
+    let replay_line = String::from_utf8_lossy(&hevo_ok(&args).stdout).into_owned();
+    assert!(
+        replay_line.contains(&format!(" after {} cycles", failure["cycles"])),
+        "{replay_line} vs {failure}"
+    );
+
+    let out = hevo(&[
+        "eval",
+        controller,
+        "--experiment",
+        experiment,
+        "--node",
+        "exit_rom",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && stderr.contains("no node named 'exit_rom'")
+            && stderr.contains("its nodes are exit_room"),
+        "{stderr}"
+    );
+    let out = hevo(&["eval", controller, "--experiment", experiment]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--node"));
 }
