@@ -187,22 +187,7 @@ impl TaskArgs {
             (Some(task), _, _) => Ok(TaskConfig::new(parse_task(task)?)),
             (None, Some(file), Some(node)) => {
                 let experiment = Experiment::load(file)?;
-                let plan = experiment
-                    .nodes
-                    .iter()
-                    .find(|plan| plan.decl.name == *node)
-                    .with_context(|| {
-                        let names: Vec<&str> = experiment
-                            .nodes
-                            .iter()
-                            .map(|plan| plan.decl.name.as_str())
-                            .collect();
-                        format!(
-                            "{}: no node named '{node}'; its nodes are {}",
-                            file.display(),
-                            names.join(", ")
-                        )
-                    })?;
+                let plan = experiment.named_node(node).map_err(anyhow::Error::msg)?;
                 Ok(plan.task.clone())
             }
             // clap requires --task or both of --experiment and --node.

@@ -405,21 +405,27 @@ impl Experiment {
         self.nodes.iter().find(|n| n.decl.name == name)
     }
 
+    /// The node a user named: an unknown name is refused with one message, naming the file
+    /// and the known nodes, whichever command (run, submit, eval, replay) asked.
+    pub fn named_node(&self, name: &str) -> Result<&NodePlan, String> {
+        self.node(name).ok_or_else(|| {
+            let known: Vec<&str> = self.nodes.iter().map(|n| n.decl.name.as_str()).collect();
+            format!(
+                "no node named '{name}' in {}; nodes: {}",
+                self.file.display(),
+                known.join(", ")
+            )
+        })
+    }
+
     /// The names of the nodes to evolve, in dependency order: `node` and everything below it,
     /// or every node when no node is named. The runner and the service both ask this, so an
-    /// unknown node is refused with the same message (naming the known nodes) either way.
+    /// unknown node is refused with the same message either way.
     pub fn nodes_to_run(&self, node: Option<&str>) -> Result<Vec<String>, String> {
         let Some(node) = node else {
             return Ok(self.nodes.iter().map(|n| n.decl.name.clone()).collect());
         };
-        if self.node(node).is_none() {
-            let known: Vec<&str> = self.nodes.iter().map(|n| n.decl.name.as_str()).collect();
-            return Err(format!(
-                "no node named '{node}' in {}; nodes: {}",
-                self.file.display(),
-                known.join(", ")
-            ));
-        }
+        self.named_node(node)?;
         Ok(self.subtree(node))
     }
 

@@ -212,7 +212,12 @@ pub async fn run_experiment(
     Ok(summaries)
 }
 
-/// A node directory's run directories (`run-<k>`), in run order (run 10 after run 9), each
+/// The directory of run `run` of a node: the one place the `run-<k>` name is written.
+pub fn run_dir(node_dir: &Path, run: u32) -> PathBuf {
+    node_dir.join(format!("run-{run}"))
+}
+
+/// A node directory's run directories (`run-<k>`, see [`run_dir`]), in run order (run 10 after run 9), each
 /// with its run index. Other entries are left out.
 pub fn run_dirs(node_dir: &Path) -> std::io::Result<Vec<(u32, PathBuf)>> {
     let mut runs: Vec<(u32, PathBuf)> = std::fs::read_dir(node_dir)?
@@ -353,7 +358,7 @@ async fn run_node(
 
     let mut run_summaries = Vec::new();
     for run in 0..runs {
-        let run_dir = node_dir.join(format!("run-{run}"));
+        let run_dir = run_dir(&node_dir, run);
         run_summaries.push(
             run_one(
                 plan,
@@ -397,7 +402,7 @@ fn finished_runs_after(
 ) -> Result<Vec<RunSummary>, RunError> {
     let mut unlisted = Vec::new();
     for run in summary.runs.len().. {
-        let path = node_dir.join(format!("run-{run}")).join("summary.json");
+        let path = run_dir(node_dir, run as u32).join("summary.json");
         let Some(found) = read_json::<RunSummary>(&path).map_err(|e| io_error(&path, e))? else {
             break;
         };
@@ -435,7 +440,7 @@ fn summarize_node(
         })
         .map(|(i, _)| i)
         .expect("at least one run");
-    let best_controller_path = node_dir.join(format!("run-{best}")).join("best.json");
+    let best_controller_path = run_dir(node_dir, best as u32).join("best.json");
     let best_controller =
         std::fs::read(&best_controller_path).map_err(|e| io_error(&best_controller_path, e))?;
     write_atomic(&node_dir.join("best.json"), &best_controller)

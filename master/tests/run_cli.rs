@@ -674,8 +674,8 @@ fn eval_and_replay_take_a_nodes_task_from_an_experiment_file() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success()
-            && stderr.contains("no node named 'exit_rom'")
-            && stderr.contains("its nodes are exit_room"),
+            && stderr.contains(&format!("no node named 'exit_rom' in {experiment}"))
+            && stderr.contains("; nodes: exit_room"),
         "{stderr}"
     );
     let out = hevo(&["eval", controller, "--experiment", experiment]);
