@@ -14,6 +14,7 @@ pub mod output;
 pub mod progress;
 pub mod report;
 pub mod runner;
+pub mod sampling;
 pub mod service;
 pub mod store;
 pub mod viz;
