@@ -220,8 +220,8 @@ pub struct ReplayArgs {
     /// Fix the light configuration (or start branch) instead of drawing it from the seed.
     #[arg(long)]
     pub light_config: Option<u32>,
-    /// Where to write the SVG.
-    #[arg(long)]
+    /// Where to write the SVG (a `.svg` file).
+    #[arg(long, value_parser = svg_path)]
     pub out: PathBuf,
     /// Draw the IR cones at these cycles (comma-separated).
     #[arg(long, value_delimiter = ',')]
@@ -239,9 +239,23 @@ pub struct PlotArgs {
     /// The node to plot.
     #[arg(long)]
     pub node: Option<String>,
-    /// Where to write the SVG.
-    #[arg(long)]
+    /// Where to write the SVG (a `.svg` file).
+    #[arg(long, value_parser = svg_path)]
     pub out: PathBuf,
+}
+
+/// hevo draws SVG only; a picture asked for as `trace.png` would be an SVG under a PNG name,
+/// which image viewers refuse, so the name is checked before anything is simulated.
+fn svg_path(value: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(value);
+    let is_svg = path
+        .extension()
+        .is_some_and(|extension| extension.eq_ignore_ascii_case("svg"));
+    if is_svg {
+        Ok(path)
+    } else {
+        Err("hevo draws SVG only: name the file *.svg (any SVG viewer or converter turns it into PNG)".into())
+    }
 }
 
 /// Parses the command line and runs it; the exit code of `hevo`.

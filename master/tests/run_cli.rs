@@ -493,6 +493,23 @@ fn eval_and_bench_report_what_they_measured() {
         "{text}"
     );
 
+    // Pictures are SVG; another name is refused before anything runs, not written as SVG.
+    let png = dir.path().join("trace.png");
+    let out = hevo(&[
+        "replay",
+        controller.to_str().unwrap(),
+        "--task",
+        "exit_room",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("trace.png") && stderr.contains("*.svg"),
+        "{stderr}"
+    );
+    assert!(!png.exists());
+
     let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "teleport"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown task 'teleport'"));
