@@ -546,9 +546,10 @@ fn best_under_the_papers_protocol(nodes: &[NodeResult]) -> String {
     let mut md = String::from("\n## The paper's \"best\" under its own protocol\n\n");
     md.push_str(
         "The paper's \"best\" is the highest of its runs' solve rates, each measured on 100 samples \
-         (400, 100 per light configuration or start branch, for the tasks in the maze, rescue included). Chance alone lifts such a maximum above the runs' true rates, and hevo \
-         has fewer runs per node or more samples per run, so the two \"best\" columns above do not measure \
-         the same thing. Here hevo's finished runs go through the paper's protocol: as many runs as the \
+         (400, 100 per light configuration or start branch, for the tasks in the maze, rescue \
+         included). Chance alone lifts such a maximum above the runs' true rates, and hevo has \
+         fewer runs per node or more samples per run, so the two \"best\" columns above do not \
+         measure the same thing. Here hevo's finished runs go through the paper's protocol: as many runs as the \
          paper had, each one of hevo's runs drawn at random (its post-evaluation rate taken as its true \
          rate), each measured on the paper's number of samples, and the highest kept. The distribution is \
          computed exactly, not simulated. The last column is the range that the paper's own best \

@@ -217,8 +217,8 @@ pub fn run_dir(node_dir: &Path, run: u32) -> PathBuf {
     node_dir.join(format!("run-{run}"))
 }
 
-/// A node directory's run directories (`run-<k>`, see [`run_dir`]), in run order (run 10 after run 9), each
-/// with its run index. Other entries are left out.
+/// A node directory's run directories (`run-<k>`, see [`run_dir`]), in run order (run 10
+/// after run 9), each with its run index. Other entries are left out.
 pub fn run_dirs(node_dir: &Path) -> std::io::Result<Vec<(u32, PathBuf)>> {
     let mut runs: Vec<(u32, PathBuf)> = std::fs::read_dir(node_dir)?
         .filter_map(Result::ok)
