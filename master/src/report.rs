@@ -242,6 +242,77 @@ fn rescue_stage_table(rescue: &NodeResult) -> String {
     md
 }
 
+/// The rescue's children bound what its arbitrator can do, so their own solve rates are set
+/// beside the best rescue run's stage by stage: the reader sees how much of the gap to the
+/// paper is the children's and how much the arbitrator's. Empty when a child or the stage
+/// rates are missing.
+fn what_the_children_allow(rescue: &NodeResult, nodes: &[NodeResult]) -> String {
+    const STAGES: [(&str, &str); 3] = [
+        ("leave the room", "exit_room"),
+        ("reach the teammate", "solve_maze"),
+        ("bring it back", "return_room"),
+    ];
+    let child_best = |name: &str| {
+        nodes
+            .iter()
+            .find(|n| n.name == name)
+            .and_then(NodeResult::avg_and_best)
+            .map(|(_, best)| best)
+    };
+    let Some(child_rates) = STAGES
+        .iter()
+        .map(|(_, child)| child_best(child))
+        .collect::<Option<Vec<f64>>>()
+    else {
+        return String::new();
+    };
+    let Some((best_run, stages)) = rescue
+        .runs
+        .iter()
+        .filter_map(|run| Some((run, run.post_evaluation.stages.as_ref()?)))
+        .reduce(|best, next| {
+            if next.0.post_evaluation.solve_rate > best.0.post_evaluation.solve_rate {
+                next
+            } else {
+                best
+            }
+        })
+    else {
+        return String::new();
+    };
+    // Each stage's pass rate among the samples that reached it, as the children's own rates
+    // are among the samples that start where their task starts.
+    let reached = [1.0, stages.exited_room, stages.reached_teammate];
+    let passed = [stages.exited_room, stages.reached_teammate, stages.returned];
+    let mut md = String::from(
+        "\n**What the children allow.** The rescue arbitrator can only choose among its children, so \
+         their own solve rates (each child's best run, on its own task) limit what it can do. \
+         Multiplied, they are about what an arbitrator that always chose the right child would \
+         solve if the three sub-tasks failed independently: a reference rather than a strict \
+         bound, since in the rescue each child starts where the one before left the robot, not \
+         where its own task starts. Beside them, the best rescue run's pass rate at each stage, \
+         among the samples that reached the stage.\n\n",
+    );
+    md.push_str(&format!(
+        "| stage | child | the child on its own task | rescue run {}: passed the stage |\n|---|---|---|---|\n",
+        best_run.run
+    ));
+    for (stage_idx, (stage, child)) in STAGES.iter().enumerate() {
+        let pass_rate = (reached[stage_idx] > 0.0).then(|| passed[stage_idx] / reached[stage_idx]);
+        md.push_str(&format!(
+            "| {stage} | {child} | {} | {} |\n",
+            percent(child_rates[stage_idx]),
+            percent_or_dash(pass_rate)
+        ));
+    }
+    md.push_str(&format!(
+        "| the whole rescue | all three | {} (multiplied) | {} |\n",
+        percent(child_rates.iter().product()),
+        percent(best_run.post_evaluation.solve_rate)
+    ));
+    md
+}
+
 /// Writes `out_file` (REPRODUCTION.md) and its pictures (beside it, in `reproduction/`) from
 /// one or more run output directories, and a section per ablation directory. Returns the
 /// number of nodes reported.
@@ -362,6 +433,7 @@ pub fn write_report(
             "Paper (mean over 10 runs): 91% exit the room, 88% reach the teammate, 85% bring it back.\n"
         );
         let _ = write!(md, "{}", rescue_stage_table(rescue));
+        let _ = write!(md, "{}", what_the_children_allow(rescue, &nodes));
     }
 
     let maze = nodes.iter().find(|n| n.name == "solve_maze");
@@ -695,6 +767,54 @@ mod tests {
         );
         let without_rescue = ablation_section(&[node("maze_single", "ablation", 1)], &[]);
         assert!(!without_rescue.contains("right child"), "{without_rescue}");
+    }
+
+    #[test]
+    fn the_childrens_own_rates_stand_beside_the_best_rescue_runs_stages() {
+        let mut rescue = node("rescue", "runs", 2);
+        for (run_idx, run) in rescue.runs.iter_mut().enumerate() {
+            run.run = run_idx as u32;
+            run.post_evaluation.solve_rate = [0.8, 0.9][run_idx];
+            run.post_evaluation.stages = Some(StageReport {
+                exited_room: 0.96,
+                reached_teammate: 0.96 * 0.95,
+                returned: 0.9,
+                right_choice: None,
+            });
+        }
+        let mut children: Vec<NodeResult> = [
+            ("exit_room", 1.0),
+            ("solve_maze", 0.995),
+            ("return_room", 0.94),
+        ]
+        .into_iter()
+        .map(|(name, rate)| {
+            let mut child = node(name, "runs", 1);
+            child.runs[0].post_evaluation.solve_rate = rate;
+            child
+        })
+        .collect();
+        let section = what_the_children_allow(&rescue, &children);
+        let rows: Vec<&str> = section.lines().filter(|l| l.starts_with("| ")).collect();
+        assert_eq!(
+            rows[1..],
+            [
+                "| leave the room | exit_room | 100.0% | 96.0% |",
+                "| reach the teammate | solve_maze | 99.5% | 95.0% |",
+                // 0.9 / (0.96 * 0.95) = 0.98684...
+                "| bring it back | return_room | 94.0% | 98.7% |",
+                // 1.0 * 0.995 * 0.94 = 0.9353; the best run is run 1 (90 %).
+                "| the whole rescue | all three | 93.5% (multiplied) | 90.0% |",
+            ],
+            "{section}"
+        );
+        assert!(
+            section.contains("rescue run 1: passed the stage"),
+            "{section}"
+        );
+        // Without one of the children there is nothing to set beside the stages.
+        children.pop();
+        assert_eq!(what_the_children_allow(&rescue, &children), "");
     }
 
     #[test]
