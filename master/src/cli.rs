@@ -62,7 +62,8 @@ pub struct ReportArgs {
     #[arg(required = true)]
     pub runs_dirs: Vec<PathBuf>,
     /// A run output directory of an ablation (repeatable): its nodes evolved under another
-    /// setup than the same nodes in RUNS_DIRS get a section of their own, beside them.
+    /// setup than the same nodes in RUNS_DIRS, or given more runs of the same setup, get a
+    /// section of their own, beside them.
     #[arg(long = "ablation", value_name = "DIR")]
     pub ablation_dirs: Vec<PathBuf>,
     /// The Markdown file to write; pictures go to `reproduction/` beside it.

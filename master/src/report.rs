@@ -161,16 +161,28 @@ fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, String> {
     Ok(nodes)
 }
 
+/// Whether `node` was evolved under the same setup as the main results' node of its name
+/// (they share a fingerprint), as a node copied from the main results is.
+fn same_setup_as_main(node: &NodeResult, main: &[NodeResult]) -> bool {
+    main.iter()
+        .filter(|m| m.name == node.name)
+        .any(|m| m.fingerprints.iter().any(|f| node.fingerprints.contains(f)))
+}
+
 /// The nodes of an ablation directory that were evolved under another setup than the main
-/// results' node of the same name (or that the main results lack). Nodes copied from the main
-/// results so that the ablation reuses them share its fingerprint and are left out.
+/// results' node of the same name (or that the main results lack), and those of the same
+/// setup with more finished runs (a node given more runs in a copy, which cannot join the
+/// main results without changing the controller their parents were composed over). Nodes
+/// copied from the main results unchanged are left out.
 fn ablation_nodes(found: Vec<NodeResult>, main: &[NodeResult]) -> Vec<NodeResult> {
     found
         .into_iter()
         .filter(|node| {
-            main.iter()
-                .filter(|m| m.name == node.name)
-                .all(|m| !m.fingerprints.iter().any(|f| node.fingerprints.contains(f)))
+            !same_setup_as_main(node, main)
+                || main
+                    .iter()
+                    .filter(|m| m.name == node.name)
+                    .all(|m| node.runs.len() > m.runs.len())
         })
         .collect()
 }
@@ -549,26 +561,34 @@ fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String 
 /// controllers are there, and the per-configuration table.
 fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
     if ablation.is_empty() {
-        return "No node here was evolved under a setup different from the results above.\n".into();
+        return "No node here was evolved under a setup different from the results above, or \
+                given more runs.\n"
+            .into();
     }
     let mut md = String::from(
         "Nodes evolved under another setup than the results above (another fingerprint; the \
-         experiment file that wrote this directory says what differs), beside the same node above.\n\n",
+         experiment file that wrote this directory says what differs), or under the same setup \
+         with more runs, beside the same node above.\n\n",
     );
     let _ = writeln!(
         md,
-        "| controller | this setup avg / best | runs | status | above avg / best | runs above |"
+        "| controller | setup | here avg / best | runs | status | above avg / best | runs above |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|");
     let rates = |node: &NodeResult| match node.avg_and_best() {
         Some((avg, best)) => format!("{} / {}", percent(avg), percent(best)),
         None => "-".to_string(),
     };
     for node in ablation {
         let above = main.iter().find(|m| m.name == node.name);
+        let setup = if same_setup_as_main(node, main) {
+            "same, more runs"
+        } else {
+            "another"
+        };
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {setup} | {} | {} | {} | {} | {} |",
             node.name,
             rates(node),
             node.runs.len(),
@@ -883,16 +903,28 @@ mod tests {
         ];
         let mut copied = node("follow_wall", "ablation", 3);
         copied.fingerprints = main[0].fingerprints.clone();
+        // The same setup given more runs in a copy is shown; a plain copy is not.
+        let mut extended = node("maze_single", "extended", 5);
+        extended.fingerprints = main[1].fingerprints.clone();
         let found = vec![
             copied,
             node("maze_single", "ablation", 1),
             node("solve_maze", "ablation", 0),
+            extended,
         ];
-        let names: Vec<String> = ablation_nodes(found, &main)
-            .into_iter()
-            .map(|n| n.name)
-            .collect();
-        assert_eq!(names, ["maze_single", "solve_maze"]);
+        let ablation = ablation_nodes(found, &main);
+        let names: Vec<&str> = ablation.iter().map(|n| n.name.as_str()).collect();
+        assert_eq!(names, ["maze_single", "solve_maze", "maze_single"]);
+        let section = ablation_section(&ablation[2..], &main);
+        assert!(
+            section.contains("| maze_single | same, more runs | 100.0% / 100.0% | 5 |"),
+            "{section}"
+        );
+        let section = ablation_section(&ablation[..1], &main);
+        assert!(
+            section.contains("| maze_single | another | 100.0% / 100.0% | 1 |"),
+            "{section}"
+        );
     }
 
     #[test]
