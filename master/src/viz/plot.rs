@@ -233,12 +233,19 @@ const LEGEND_FONT: f64 = 14.0;
 const GRID_COLOUR: &str = "#e6e6e6";
 const AGGREGATE_COLOUR: &str = "#000000";
 
-/// Run colours: the shared palette without black, which marks the across-run mean.
+/// Colours for runs beyond the shared palette (Paul Tol's indigo, wine and olive): the paper
+/// runs most nodes 10 times, and a tenth run drawn in the first run's colour would be one
+/// line in the legend.
+const EXTRA_RUN_COLOURS: [&str; 3] = ["#332288", "#882255", "#999933"];
+
+/// Run colours: the shared palette without black, which marks the across-run mean, then the
+/// extra colours, so ten runs get ten colours; more wrap around.
 fn run_colour(run: usize) -> &'static str {
     let colours: Vec<&'static str> = PALETTE
         .iter()
         .copied()
         .filter(|c| *c != AGGREGATE_COLOUR)
+        .chain(EXTRA_RUN_COLOURS)
         .collect();
     colours[run % colours.len()]
 }
@@ -738,6 +745,14 @@ pub fn fitness_plot_svg(title: &str, runs: &[RunLog]) -> String {
 mod tests {
     use super::super::svg::read_back::{Element, parse, with_class};
     use super::*;
+
+    #[test]
+    fn ten_runs_get_ten_colours_none_of_them_the_means_black() {
+        let colours: std::collections::BTreeSet<&str> = (0..10).map(run_colour).collect();
+        assert_eq!(colours.len(), 10, "{colours:?}");
+        assert!(!colours.contains(AGGREGATE_COLOUR));
+        assert_eq!(run_colour(10), run_colour(0));
+    }
 
     fn synthetic_run(label: &str, generations: u32, seed: u32) -> RunLog {
         let rows = (0..generations)
