@@ -597,9 +597,21 @@ fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
             above.map_or(0, |m| m.runs.len()),
         );
     }
-    let maze = ablation.iter().find(|n| n.name == "solve_maze");
-    let single = ablation.iter().find(|n| n.name == "maze_single");
-    if maze.is_some() || single.is_some() {
+    // A maze controller given more runs under the main setup is compared with the other maze
+    // controller of the main results when this directory lacks it: same setup on both sides.
+    // Under another setup the comparison needs both sides from here.
+    let counterpart = |name: &str, other: Option<&NodeResult>| {
+        ablation.iter().find(|n| n.name == name).or_else(|| {
+            other
+                .filter(|other| same_setup_as_main(other, main))
+                .and_then(|_| main.iter().find(|m| m.name == name))
+        })
+    };
+    let maze_here = ablation.iter().find(|n| n.name == "solve_maze");
+    let single_here = ablation.iter().find(|n| n.name == "maze_single");
+    let maze = counterpart("solve_maze", single_here);
+    let single = counterpart("maze_single", maze_here);
+    if maze_here.is_some() || single_here.is_some() {
         let _ = writeln!(md, "\n{}", composition_paragraph(maze, single));
     }
     // Under a rescue ablation the question is what the arbitrator chose, not only how often
@@ -923,6 +935,17 @@ mod tests {
         let section = ablation_section(&ablation[..1], &main);
         assert!(
             section.contains("| maze_single | another | 100.0% / 100.0% | 1 |"),
+            "{section}"
+        );
+        // Another setup is not compared with the main composition; more runs of the same
+        // setup are, when the main results have it.
+        assert!(section.contains("Not available yet"), "{section}");
+        let main_with_maze = [main.clone(), vec![node("solve_maze", "main", 3)]].concat();
+        let section = ablation_section(&ablation[2..], &main_with_maze);
+        assert!(
+            section.contains(
+                "over 3 run(s); the single 6-10-2 network 100.0% and 100.0% over 5 run(s)"
+            ),
             "{section}"
         );
     }
