@@ -14,7 +14,7 @@ use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShare
 use crate::ea;
 use crate::evaluation::{self, EvalReport};
 use crate::experiment::{Experiment, NodePlan};
-use crate::store::{read_json, write_atomic, write_json_atomic};
+use crate::store::{read_json, remove_leftover_temporaries, write_atomic, write_json_atomic};
 use crate::viz::plot::{FITNESS_CSV_HEADER, FitnessRow};
 use serde::{Deserialize, Serialize};
 use sim_core::Sample;
@@ -298,6 +298,8 @@ async fn run_node(
 ) -> Result<NodeSummary, RunError> {
     let name = &plan.decl.name;
     let node_dir = settings.out_dir.join(name);
+    // The node's own files (best.json, summary.json) are written atomically too.
+    remove_leftover_temporaries(&node_dir).map_err(|e| io_error(&node_dir, e))?;
     let seed = settings.seed.unwrap_or(experiment.header.seed);
     let runs = settings.runs.unwrap_or(plan.decl.runs);
     let generations = settings.generations.unwrap_or(plan.decl.generations);
@@ -483,6 +485,8 @@ async fn run_one(
     progress: &dyn Progress,
 ) -> Result<RunSummary, RunError> {
     let name = &plan.decl.name;
+    // A run killed in the middle of an atomic write left its temporary file here.
+    remove_leftover_temporaries(run_dir).map_err(|e| io_error(run_dir, e))?;
     let summary_path = run_dir.join("summary.json");
     let checkpoint_path = run_dir.join("checkpoint.json");
     if let Some(summary) =

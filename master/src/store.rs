@@ -32,6 +32,36 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Whether `name` is a temporary file of `write_atomic`: `.<file>.tmp-<pid>`.
+fn is_temporary(name: &str) -> bool {
+    name.starts_with('.')
+        && name
+            .rsplit_once(".tmp-")
+            .is_some_and(|(_, pid)| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Removes the temporary files that `write_atomic` leaves in `dir` when its process is killed
+/// between creating one and renaming it, and returns how many it removed. A kill costs time,
+/// not results, and should not leave litter either. Call it only where this process is the
+/// directory's one writer (the directory of a run or node it is about to continue): another
+/// live writer's temporary would be removed from under it. A missing directory has none.
+pub fn remove_leftover_temporaries(dir: &Path) -> std::io::Result<usize> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(e),
+    };
+    let mut n_removed = 0;
+    for entry in entries {
+        let entry = entry?;
+        if entry.file_type()?.is_file() && is_temporary(&entry.file_name().to_string_lossy()) {
+            std::fs::remove_file(entry.path())?;
+            n_removed += 1;
+        }
+    }
+    Ok(n_removed)
+}
+
 /// Writes a value as pretty JSON, atomically.
 pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Result<()> {
     let mut text = serde_json::to_string_pretty(value).map_err(std::io::Error::other)?;
@@ -54,6 +84,31 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<Option<T>, String> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_killed_writers_temporaries_are_removed_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            ".fitness.csv.tmp-4277",
+            ".checkpoint.json.tmp-12",
+            "fitness.csv",
+            ".hidden",
+            ".notes.tmp-abc",
+        ] {
+            std::fs::write(dir.path().join(name), "x").unwrap();
+        }
+        assert_eq!(remove_leftover_temporaries(dir.path()).unwrap(), 2);
+        let mut left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, [".hidden", ".notes.tmp-abc", "fitness.csv"]);
+        assert_eq!(
+            remove_leftover_temporaries(&dir.path().join("missing")).unwrap(),
+            0
+        );
+    }
 
     #[test]
     fn atomic_writes_replace_and_read_back() {
