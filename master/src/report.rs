@@ -600,17 +600,15 @@ fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
     // A maze controller given more runs under the main setup is compared with the other maze
     // controller of the main results when this directory lacks it: same setup on both sides.
     // Under another setup the comparison needs both sides from here.
-    let counterpart = |name: &str, other: Option<&NodeResult>| {
-        ablation.iter().find(|n| n.name == name).or_else(|| {
-            other
-                .filter(|other| same_setup_as_main(other, main))
-                .and_then(|_| main.iter().find(|m| m.name == name))
-        })
+    let here = |name: &str| ablation.iter().find(|n| n.name == name);
+    let from_main_beside = |name: &str, other: Option<&NodeResult>| {
+        other
+            .filter(|other| same_setup_as_main(other, main))
+            .and_then(|_| main.iter().find(|m| m.name == name))
     };
-    let maze_here = ablation.iter().find(|n| n.name == "solve_maze");
-    let single_here = ablation.iter().find(|n| n.name == "maze_single");
-    let maze = counterpart("solve_maze", single_here);
-    let single = counterpart("maze_single", maze_here);
+    let (maze_here, single_here) = (here("solve_maze"), here("maze_single"));
+    let maze = maze_here.or_else(|| from_main_beside("solve_maze", single_here));
+    let single = single_here.or_else(|| from_main_beside("maze_single", maze_here));
     if maze_here.is_some() || single_here.is_some() {
         let _ = writeln!(md, "\n{}", composition_paragraph(maze, single));
     }

@@ -7,6 +7,9 @@ use serde::de::DeserializeOwned;
 use std::io::Write;
 use std::path::Path;
 
+/// What marks a temporary file: `write_atomic` writes `<dir>/.<file>.tmp-<pid>` first.
+const TEMPORARY_INFIX: &str = ".tmp-";
+
 /// Writes `bytes` to `path` atomically, creating the parent directory.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
@@ -18,7 +21,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{file_name}.tmp-{}", std::process::id()));
+    let tmp = dir.join(format!(
+        ".{file_name}{TEMPORARY_INFIX}{}",
+        std::process::id()
+    ));
     {
         let mut file = std::fs::File::create(&tmp)?;
         file.write_all(bytes)?;
@@ -36,7 +42,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 fn is_temporary(name: &str) -> bool {
     name.starts_with('.')
         && name
-            .rsplit_once(".tmp-")
+            .rsplit_once(TEMPORARY_INFIX)
             .is_some_and(|(_, pid)| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
 }
 
