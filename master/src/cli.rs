@@ -425,10 +425,11 @@ fn eval(args: EvalArgs) -> Result<()> {
     let threads = default_threads(args.threads);
     Evaluator::new(task.clone())?;
     let samples = evaluation::post_evaluation_samples(kind, args.samples, args.seed);
+    let node_paths = controller.node_paths();
     let summaries = with_local_workers(threads, async |dispatcher| {
         evaluation::evaluate_samples(dispatcher, "eval", controller, task, samples.clone()).await
     })?;
-    let report = evaluation::report(kind, &summaries);
+    let report = evaluation::report(kind, &summaries, &node_paths);
     let failures = evaluation::failed_samples(&samples, &summaries);
     if args.json {
         let output = EvalOutput {

@@ -587,11 +587,11 @@ impl Dispatcher {
             let Some(request) = state.requests.get_mut(&request_id) else {
                 return Ok(Completion::Ignored);
             };
-            for (genome_results, &genome_idx) in results.iter().zip(&genome_indices) {
-                for (summary, sample_idx) in genome_results.iter().zip(range.clone()) {
-                    request.results[genome_idx as usize][sample_idx] = Some(*summary);
+            for (genome_results, &genome_idx) in results.into_iter().zip(&genome_indices) {
+                for (summary, sample_idx) in genome_results.into_iter().zip(range.clone()) {
                     cycles += u64::from(summary.cycles);
                     evaluations += 1;
+                    request.results[genome_idx as usize][sample_idx] = Some(summary);
                 }
             }
             request.remaining_batches -= 1;
@@ -602,10 +602,10 @@ impl Dispatcher {
         state.stats.batches_completed += 1;
         if finished {
             let request = state.requests.get_mut(&request_id).expect("present");
-            let results: Option<Vec<Vec<SampleSummary>>> = request
-                .results
-                .iter()
-                .map(|genome| genome.iter().copied().collect::<Option<Vec<_>>>())
+            // The request is finished, so its results can move out rather than be copied.
+            let results: Option<Vec<Vec<SampleSummary>>> = std::mem::take(&mut request.results)
+                .into_iter()
+                .map(|genome| genome.into_iter().collect::<Option<Vec<_>>>())
                 .collect();
             let outcome = results.ok_or_else(|| {
                 DispatchError::Failed("internal: a finished request has holes".into())

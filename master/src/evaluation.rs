@@ -43,6 +43,54 @@ pub struct EvalReport {
     /// Rescue only: shares that left the room, reached the teammate, brought it back.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stages: Option<StageReport>,
+    /// How the controller's nodes below the root took turns, in pre-order; empty for a lone
+    /// primitive (and in reports written before hevo counted it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub node_use: Vec<NodeUseReport>,
+}
+
+/// How one controller node was used over a post-evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodeUseReport {
+    /// The node's path in the tree, e.g. `rescue/solve_maze/turn_left`.
+    pub node: String,
+    /// Share of all cycles in which it was active.
+    pub active_share: f64,
+    /// How often it was switched on, per sample.
+    pub activations_per_sample: f64,
+    /// How long it stayed on once switched on, in cycles on average; `None` when never.
+    pub cycles_per_activation: Option<f64>,
+}
+
+impl NodeUseReport {
+    /// One report per node below the root, from the samples' counts, when every sample
+    /// counted `node_paths.len()` nodes; empty otherwise (a lone primitive, or counts missing).
+    fn of(summaries: &[SampleSummary], node_paths: &[String]) -> Vec<NodeUseReport> {
+        let n_nodes = node_paths.len();
+        let complete = summaries.iter().all(|s| {
+            s.node_use.active_cycles.len() == n_nodes && s.node_use.activations.len() == n_nodes
+        });
+        if n_nodes < 2 || summaries.is_empty() || !complete {
+            return Vec::new();
+        }
+        let total_cycles: u64 = summaries.iter().map(|s| u64::from(s.cycles)).sum();
+        let sum_of = |counts: fn(&SampleSummary) -> &[u32], node: usize| -> u64 {
+            summaries.iter().map(|s| u64::from(counts(s)[node])).sum()
+        };
+        (1..n_nodes)
+            .map(|node| {
+                let active = sum_of(|s| &s.node_use.active_cycles, node);
+                let activations = sum_of(|s| &s.node_use.activations, node);
+                NodeUseReport {
+                    node: node_paths[node].clone(),
+                    active_share: active as f64 / total_cycles.max(1) as f64,
+                    activations_per_sample: activations as f64 / summaries.len() as f64,
+                    cycles_per_activation: (activations > 0)
+                        .then(|| active as f64 / activations as f64),
+                }
+            })
+            .collect()
+    }
 }
 
 /// The rescue's stage rates.
@@ -113,8 +161,9 @@ pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> V
         .collect()
 }
 
-/// Summarises sample outcomes.
-pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
+/// Summarises sample outcomes of the controller whose nodes have the paths `node_paths`
+/// ([`ControllerFile::node_paths`]).
+pub fn report(kind: TaskKind, summaries: &[SampleSummary], node_paths: &[String]) -> EvalReport {
     let n = summaries.len().max(1) as f64;
     let share =
         |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
@@ -149,6 +198,7 @@ pub fn report(kind: TaskKind, summaries: &[SampleSummary]) -> EvalReport {
             returned: share(&|s| s.stage >= 3),
             right_choice: Some(RightChoice::of(summaries)),
         }),
+        node_use: NodeUseReport::of(summaries, node_paths),
     }
 }
 
@@ -194,8 +244,9 @@ pub async fn evaluate_controller(
     samples: Vec<Sample>,
 ) -> Result<EvalReport, DispatchError> {
     let kind = task.kind;
+    let node_paths = controller.node_paths();
     let summaries = evaluate_samples(dispatcher, job, controller, task, samples).await?;
-    Ok(report(kind, &summaries))
+    Ok(report(kind, &summaries, &node_paths))
 }
 
 /// Evaluates a complete controller on the given samples: one outcome per sample, in order.
@@ -259,6 +310,30 @@ pub fn describe(report: &EvalReport) -> String {
             ));
         }
     }
+    if !report.node_use.is_empty() {
+        text.push_str(&describe_node_use(&report.node_use));
+    }
+    text
+}
+
+/// The node-use table: per node below the root, its share of the cycles, how often it was
+/// switched on per sample and for how long on average.
+fn describe_node_use(node_use: &[NodeUseReport]) -> String {
+    let width = node_use.iter().map(|n| n.node.len()).max().unwrap_or(0);
+    let mut text =
+        "\n  node use (share of cycles, switched on per sample, cycles per switch-on):".to_string();
+    for node in node_use {
+        let dwell = node
+            .cycles_per_activation
+            .map_or_else(|| "-".to_string(), |c| format!("{c:.1}"));
+        text.push_str(&format!(
+            "\n    {:<width$}  {:>6}  {:>6.1}  {:>6}",
+            node.node,
+            percent(node.active_share),
+            node.activations_per_sample,
+            dwell
+        ));
+    }
     text
 }
 
@@ -298,6 +373,7 @@ pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
 mod tests {
     use super::*;
     use sim_core::SubTaskChoices;
+    use sim_core::batch::NodeUse;
 
     #[test]
     fn failures_are_counted_by_ending_and_rescue_stage() {
@@ -377,7 +453,7 @@ mod tests {
             s(false, 1, 0),
             s(false, 0, 1),
         ];
-        let r = report(TaskKind::Rescue, &summaries);
+        let r = report(TaskKind::Rescue, &summaries, &[]);
         assert_eq!(r.solve_rate, 0.25);
         let stages = r.stages.unwrap();
         assert_eq!(
@@ -401,7 +477,7 @@ mod tests {
             s([100, 200, 50], [100, 100, 50]),
             s([300, 100, 0], [150, 0, 0]),
         ];
-        let r = report(TaskKind::Rescue, &summaries);
+        let r = report(TaskKind::Rescue, &summaries, &[]);
         let right_choice = r.stages.as_ref().unwrap().right_choice.clone().unwrap();
         assert_eq!(right_choice.shares(), [Some(0.75), Some(0.25), Some(1.0)]);
         // The same counts give each sample's f3.
@@ -409,6 +485,61 @@ mod tests {
         assert_eq!(summaries[1].sub_task_choices.derived_fitness(), 0.5);
         assert!(
             describe(&r).contains("in the room 75.0%, in the maze 25.0%, on the way back 100.0%")
+        );
+    }
+
+    #[test]
+    fn node_use_sums_cycles_and_switch_ons_over_samples() {
+        let s = |cycles, active_cycles: [u32; 4], activations: [u32; 4]| SampleSummary {
+            cycles,
+            node_use: NodeUse {
+                active_cycles: active_cycles.to_vec(),
+                activations: activations.to_vec(),
+            },
+            ..SampleSummary::default()
+        };
+        // A root over three children: the second child never runs; the third flicks on and off.
+        let summaries = [
+            s(100, [100, 60, 0, 40], [1, 1, 0, 20]),
+            s(300, [300, 300, 0, 0], [1, 1, 0, 0]),
+        ];
+        let paths: Vec<String> = ["root", "root/a", "root/b", "root/c"]
+            .map(String::from)
+            .to_vec();
+        let r = report(TaskKind::ReturnRoom, &summaries, &paths);
+        let expected = [
+            ("root/a", 0.9, 1.0, Some(180.0)),
+            ("root/b", 0.0, 0.0, None),
+            ("root/c", 0.1, 10.0, Some(2.0)),
+        ];
+        assert_eq!(r.node_use.len(), expected.len());
+        for (node, (path, share, per_sample, dwell)) in r.node_use.iter().zip(expected) {
+            assert_eq!(node.node, path);
+            assert!((node.active_share - share).abs() < 1e-12, "{node:?}");
+            assert_eq!(node.activations_per_sample, per_sample);
+            assert_eq!(node.cycles_per_activation, dwell);
+        }
+        let text = describe(&r);
+        assert!(
+            text.contains("\n    root/b    0.0%     0.0       -"),
+            "{text}"
+        );
+        assert!(
+            text.contains("\n    root/c   10.0%    10.0     2.0"),
+            "{text}"
+        );
+
+        // Counts for another tree, or none at all, give no table rather than a wrong one.
+        assert!(
+            report(TaskKind::ReturnRoom, &summaries, &paths[..3])
+                .node_use
+                .is_empty()
+        );
+        let plain = [SampleSummary::default()];
+        assert!(
+            report(TaskKind::ReturnRoom, &plain, &paths)
+                .node_use
+                .is_empty()
         );
     }
 }

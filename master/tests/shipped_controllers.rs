@@ -66,7 +66,7 @@ fn shipped_controllers_solve_their_tasks() {
                 SampleSummary::from(&evaluator.evaluate(&mut controller, sample))
             })
             .collect();
-        let solve_rate = report(kind, &summaries).solve_rate;
+        let solve_rate = report(kind, &summaries, &controller_file.node_paths()).solve_rate;
         eprintln!("{file}: {:.1}% on {task}", 100.0 * solve_rate);
         if solve_rate < floor {
             failures.push(format!(

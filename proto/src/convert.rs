@@ -8,7 +8,7 @@
 use crate::v1;
 use sim_core::Sample;
 use sim_core::TaskConfig;
-use sim_core::batch::{SampleSummary, task_content_hash};
+use sim_core::batch::{NodeUse, SampleSummary, task_content_hash};
 use sim_core::controller::ControllerFile;
 use sim_core::evaluate::{N_SUB_TASKS, SubTaskChoices};
 
@@ -66,7 +66,39 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
         cycles: summary.cycles,
         sub_task_cycles,
         sub_task_correct,
+        node_active_cycles: summary.node_use.active_cycles.clone(),
+        node_activations: summary.node_use.activations.clone(),
     }
+}
+
+/// The node use from the wire: as many activation counts as active-cycle counts, and no node
+/// switched on more often than it was active.
+fn node_use_from_proto(result: &v1::SampleResult, field: &str) -> Result<NodeUse, ConvertError> {
+    let active_cycles = &result.node_active_cycles;
+    let activations = &result.node_activations;
+    if active_cycles.len() != activations.len() {
+        return Err(field_error(
+            format!("{field}.node_activations"),
+            format!(
+                "{} values, expected {} (one per node_active_cycles)",
+                activations.len(),
+                active_cycles.len()
+            ),
+        ));
+    }
+    if let Some(node) = (0..activations.len()).find(|&n| activations[n] > active_cycles[n]) {
+        return Err(field_error(
+            format!("{field}.node_activations[{node}]"),
+            format!(
+                "{} activations in {} active cycles",
+                activations[node], active_cycles[node]
+            ),
+        ));
+    }
+    Ok(NodeUse {
+        active_cycles: active_cycles.clone(),
+        activations: activations.clone(),
+    })
 }
 
 /// The rescue sub-task counts from the wire: both empty, or three each with no sub-task
@@ -127,6 +159,7 @@ pub fn summary_from_proto(
         variant: result.variant,
         cycles: result.cycles,
         sub_task_choices: sub_task_choices_from_proto(result, field)?,
+        node_use: node_use_from_proto(result, field)?,
     })
 }
 
@@ -283,17 +316,20 @@ mod tests {
                 cycles: [300, 400, 77],
                 correct: [300, 0, 70],
             },
+            node_use: NodeUse {
+                active_cycles: vec![777, 300, 400, 77],
+                activations: vec![1, 2, 2, 1],
+            },
         };
         let plain = SampleSummary {
             sub_task_choices: SubTaskChoices::default(),
-            ..s
+            node_use: NodeUse::default(),
+            ..s.clone()
         };
-        let wire = results_to_proto(&[vec![s, plain], vec![s]]);
+        let results = vec![vec![s.clone(), plain], vec![s]];
+        let wire = results_to_proto(&results);
         assert!(wire[0].samples[1].sub_task_cycles.is_empty());
-        assert_eq!(
-            results_from_proto(&wire).unwrap(),
-            vec![vec![s, plain], vec![s]]
-        );
+        assert_eq!(results_from_proto(&wire).unwrap(), results);
         let mut short = wire.clone();
         short[0].samples[0].sub_task_correct.pop();
         assert_eq!(
@@ -305,6 +341,21 @@ mod tests {
         assert_eq!(
             results_from_proto(&too_many).unwrap_err().to_string(),
             "genomes[1].samples[0].sub_task_correct[2]: 78 correct cycles of 77"
+        );
+        let mut uneven = wire.clone();
+        uneven[0].samples[0].node_activations.pop();
+        assert_eq!(
+            results_from_proto(&uneven).unwrap_err().to_string(),
+            "genomes[0].samples[0].node_activations: 3 values, expected 4 (one per \
+             node_active_cycles)"
+        );
+        let mut switched_on_too_often = wire.clone();
+        switched_on_too_often[1].samples[0].node_activations[3] = 78;
+        assert_eq!(
+            results_from_proto(&switched_on_too_often)
+                .unwrap_err()
+                .to_string(),
+            "genomes[1].samples[0].node_activations[3]: 78 activations in 77 active cycles"
         );
         let mut bad = wire.clone();
         bad[1].samples[0].stage = 300;

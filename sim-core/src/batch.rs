@@ -97,7 +97,7 @@ impl BatchEvaluator {
 
 /// The part of an [`Outcome`] that evolution and post-evaluation need, small enough to send
 /// for every (genome, sample) pair.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SampleSummary {
     /// The task's fitness.
     pub fitness: f32,
@@ -114,6 +114,21 @@ pub struct SampleSummary {
     /// Rescue only: the root's choices per sub-task (f3's counts); zero for other tasks.
     #[serde(default)]
     pub sub_task_choices: SubTaskChoices,
+    /// How the controller's nodes took turns; empty when not known.
+    #[serde(default)]
+    pub node_use: NodeUse,
+}
+
+/// How a controller's nodes took turns in one sample, per node in pre-order (the root first):
+/// the cycles each was active and how often it was switched on. An arbitrator that keeps a
+/// child on for hundreds of cycles and one that flicks between two children every few cycles
+/// can score alike; these counts tell them apart.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct NodeUse {
+    /// Cycles each node was active.
+    pub active_cycles: Vec<u32>,
+    /// How often each node became active; never more than its active cycles.
+    pub activations: Vec<u32>,
 }
 
 impl From<&Outcome> for SampleSummary {
@@ -126,6 +141,10 @@ impl From<&Outcome> for SampleSummary {
             variant: outcome.variant,
             cycles: outcome.cycles,
             sub_task_choices: outcome.sub_task_choices,
+            node_use: NodeUse {
+                active_cycles: outcome.active_cycles.clone(),
+                activations: outcome.activations.clone(),
+            },
         }
     }
 }

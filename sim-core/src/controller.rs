@@ -407,6 +407,15 @@ impl ControllerFile {
         hasher.write_node_tree(&self.root);
         format!("{:016x}", hasher.finish())
     }
+
+    /// Every node's path (`rescue/solve_maze/turn_left`) in pre-order, the order of node
+    /// indices in a [`Controller`] built from this file.
+    pub fn node_paths(&self) -> Vec<String> {
+        walk_pre_order(&self.root)
+            .into_iter()
+            .map(|node| node.path)
+            .collect()
+    }
 }
 
 /// The 64-bit FNV-1a hash, used for content hashes because it is tiny, needs no dependency and
@@ -1317,6 +1326,16 @@ mod tests {
         );
         assert_eq!(controller.node_path(3), Some("root/middle/leaf_b"));
         assert_eq!(controller.node_path(5), None);
+        let paths: Vec<Option<&str>> = (0..5).map(|idx| controller.node_path(idx)).collect();
+        let file_paths = file.node_paths();
+        assert_eq!(
+            paths,
+            file_paths
+                .iter()
+                .map(|p| Some(p.as_str()))
+                .collect::<Vec<_>>(),
+            "the file's paths come in node-index order"
+        );
         assert_eq!(controller.node_children(0), Some(&[1, 4][..]));
         assert_eq!(controller.node_children(1), Some(&[2, 3][..]));
         let topologies: Vec<String> = (0..5)

@@ -88,6 +88,9 @@ pub struct Outcome {
     pub variant: u32,
     /// Cycles each controller node was active, indexed like the policy's nodes.
     pub active_cycles: Vec<u32>,
+    /// How often each node became active (was active in a cycle but not in the one before),
+    /// indexed like `active_cycles`: with it, how long a node stays on once switched on.
+    pub activations: Vec<u32>,
     /// Rescue only: how the root chose in each sub-task (all zero for other tasks).
     pub sub_task_choices: SubTaskChoices,
 }
@@ -331,6 +334,10 @@ impl Evaluator {
             .collect();
         let mut judge = Judge::new(&env.ground, robot);
         let mut active_cycles = vec![0u32; policy.n_nodes()];
+        let mut activations = vec![0u32; policy.n_nodes()];
+        // Which nodes were active in the previous cycle, to count activations.
+        let mut was_active = vec![false; policy.n_nodes()];
+        let mut is_active = vec![false; policy.n_nodes()];
         let mut collided_ever = false;
         let mut ending = Ending::Timeout;
         let mut cycles_run = 0;
@@ -388,11 +395,20 @@ impl Evaluator {
             // Decide.
             let sub_task = judge.sub_task(&robot, teammate.as_ref());
             let wheels = policy.step(&frame, dt);
+            is_active.fill(false);
             for &node in policy.active_path() {
-                if let Some(count) = active_cycles.get_mut(node) {
+                if let (Some(count), Some(active)) =
+                    (active_cycles.get_mut(node), is_active.get_mut(node))
+                {
                     *count += 1;
+                    *active = true;
                 }
             }
+            for ((count, &now), &before) in activations.iter_mut().zip(&is_active).zip(&was_active)
+            {
+                *count += u32::from(now && !before);
+            }
+            std::mem::swap(&mut was_active, &mut is_active);
             if let Some(sub_task) = sub_task {
                 sub_task_choices.cycles[sub_task as usize] += 1;
                 if policy.root_choice() == Some(sub_task as usize) {
@@ -456,6 +472,7 @@ impl Evaluator {
             stage,
             variant: env.variant,
             active_cycles,
+            activations,
             sub_task_choices,
         };
         (outcome, env, robot)

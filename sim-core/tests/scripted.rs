@@ -378,6 +378,10 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
             o.cycles,
             "{sample:?}"
         );
+        // The rescuer's phases only go forward: the root is switched on once, each child at
+        // most once, and exactly the children that ran.
+        let ran: Vec<u32> = o.active_cycles.iter().map(|&c| u32::from(c > 0)).collect();
+        assert_eq!(o.activations, ran, "{sample:?}");
         // Every cycle falls in one sub-task, the fitness is f3 of the counts, and a solved
         // sample went through all three sub-tasks.
         let choices = o.sub_task_choices;

@@ -5,7 +5,8 @@
 //! sample's environment depends on its seed only, never on the policy. The policies are random
 //! piecewise-constant wheel commands drawn by proptest, plus the scripted reference policies.
 //! The IR sensors must read an empty cone as 0 and never read a nearer wall as farther, with
-//! every measured curve (SPEC section 2: "1 at contact, 0 at 12 cm or beyond").
+//! every measured curve (SPEC section 2: "1 at contact, 0 at 12 cm or beyond"). The counts of
+//! how long and how often each controller node drove match a known switching schedule.
 //! Case counts keep the file well under half a minute in release.
 
 use proptest::prelude::*;
@@ -391,4 +392,67 @@ fn nothing_in_reach_reads_zero_with_the_linear_raw_mapping() {
 fn nothing_in_reach_reads_zero_with_the_default_mapping() {
     let bad = empty_room_start_readings(IrMapping::default());
     assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Stands still while claiming, cycle by cycle, that a given child of a three-child root
+/// drives: a stand-in for an arbitrator with a known switching schedule.
+#[derive(Debug, Clone)]
+struct Flicker {
+    /// The child (1, 2 or 3) active in each cycle, repeated.
+    schedule: Vec<usize>,
+    cycle: usize,
+    path: [usize; 2],
+}
+
+impl Policy for Flicker {
+    fn reset(&mut self) {
+        self.cycle = 0;
+    }
+
+    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+        self.path = [0, self.schedule[self.cycle % self.schedule.len()]];
+        self.cycle += 1;
+        [0.5, 0.5]
+    }
+
+    fn active_path(&self) -> &[usize] {
+        &self.path
+    }
+
+    fn n_nodes(&self) -> usize {
+        4
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Activations count the cycles in which a node is active and was not in the cycle
+    /// before: the root once, each child once per stretch of the schedule it drives.
+    #[test]
+    fn activations_count_each_stretch_a_node_drives(
+        stretches in prop::collection::vec((1usize..4, 1usize..30), 1..40),
+    ) {
+        let schedule: Vec<usize> = stretches
+            .iter()
+            .flat_map(|&(child, length)| std::iter::repeat_n(child, length))
+            .collect();
+        let mut task = TaskConfig::new(TaskKind::FollowWall);
+        task.max_cycles = Some(schedule.len() as u32);
+        let evaluator = Evaluator::new(task).unwrap();
+        let mut policy = Flicker { schedule: schedule.clone(), cycle: 0, path: [0, 0] };
+        let outcome = evaluator.evaluate(&mut policy, Sample::seeded(3));
+        prop_assert_eq!(outcome.cycles as usize, schedule.len(), "standing still never ends early");
+
+        let mut expected_cycles = vec![schedule.len() as u32, 0, 0, 0];
+        let mut expected_activations = vec![1u32, 0, 0, 0];
+        for (cycle, &child) in schedule.iter().enumerate() {
+            expected_cycles[child] += 1;
+            if cycle == 0 || schedule[cycle - 1] != child {
+                expected_activations[child] += 1;
+            }
+        }
+        prop_assert_eq!(outcome.active_cycles, expected_cycles);
+        prop_assert_eq!(outcome.activations, expected_activations);
+    }
 }

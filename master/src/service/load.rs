@@ -309,6 +309,8 @@ async fn lease_and_complete(
         cycles: 100,
         sub_task_cycles: Vec::new(),
         sub_task_correct: Vec::new(),
+        node_active_cycles: vec![100],
+        node_activations: vec![1],
     };
     let genomes = batch
         .genomes
