@@ -31,6 +31,7 @@ fn node(
         hidden,
         genome: None,
         children,
+        min_active_cycles: 0,
     };
     let n_genes = spec.topology().n_genes();
     spec.genome = Some(

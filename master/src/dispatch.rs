@@ -745,6 +745,7 @@ mod tests {
             hidden: 1,
             genome: None,
             children: vec![],
+            min_active_cycles: 0,
         });
         let task = TaskConfig::new(TaskKind::FollowWall);
         EvaluationRequest {

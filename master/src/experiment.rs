@@ -172,6 +172,10 @@ pub struct NodeDecl {
     /// For arbitrators: the names of the sub-controllers, one output each, in output order.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub children: Vec<String>,
+    /// For arbitrators: the fewest cycles a child stays on once switched on; 0 (the default)
+    /// is the paper's activator, which may switch in any cycle.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_active_cycles: u32,
     /// The task the node is evolved on (`exit_room`, `follow_wall`, `turn_left`, `turn_right`,
     /// `solve_maze`, `maze_single`, `return_room`, `rescue`).
     pub task: String,
@@ -191,6 +195,10 @@ pub struct NodeDecl {
     /// end_on_collision), as in sim-core's `TaskConfig`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub task_config: Option<toml::Table>,
+}
+
+fn is_zero(value: &u32) -> bool {
+    *value == 0
 }
 
 /// The file as written.
@@ -290,6 +298,13 @@ impl Experiment {
                     return Err(invalid(
                         at("children"),
                         "an arbitrator needs at least one child".into(),
+                    ));
+                }
+                NodeKind::Primitive if node.min_active_cycles > 0 => {
+                    return Err(invalid(
+                        at("min_active_cycles"),
+                        "only an arbitrator switches children; a primitive has none to keep on"
+                            .into(),
                     ));
                 }
                 _ => {}
@@ -687,6 +702,22 @@ mutation_sigma = 0.5
         let err = error_of(&GOOD.replace("robot = { v_max = 0.12 }", "robot = { vmax = 0.12 }"));
         assert!(
             err.contains("node[1].task_config.robot") && err.contains("vmax"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn only_arbitrators_keep_children_on() {
+        let held = GOOD.replace(
+            "children = [\"fw\", \"tl\"]",
+            "children = [\"fw\", \"tl\"]\nmin_active_cycles = 10",
+        );
+        let experiment = parse(&held).unwrap();
+        assert_eq!(experiment.node("maze").unwrap().decl.min_active_cycles, 10);
+        assert_eq!(experiment.node("fw").unwrap().decl.min_active_cycles, 0);
+        let err = error_of(&GOOD.replace("cycles = 300", "cycles = 300\nmin_active_cycles = 4"));
+        assert!(
+            err.contains("node[1].min_active_cycles") && err.contains("only an arbitrator"),
             "{err}"
         );
     }

@@ -266,6 +266,7 @@ pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, 
         hidden: plan.decl.hidden,
         genome: None,
         children,
+        min_active_cycles: plan.decl.min_active_cycles,
     }))
 }
 

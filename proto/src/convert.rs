@@ -256,6 +256,7 @@ mod tests {
             hidden: 2,
             genome: genes,
             children: vec![],
+            min_active_cycles: 0,
         })
     }
 

@@ -23,6 +23,7 @@ fn primitive(name: &str, rng: &mut SimRng) -> NodeSpec {
         hidden: 3,
         genome: Some(random_genes(rng, 35)),
         children: vec![],
+        min_active_cycles: 0,
     }
 }
 
@@ -39,6 +40,7 @@ fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
             primitive("turn_left", &mut rng),
             primitive("turn_right", &mut rng),
         ],
+        min_active_cycles: 0,
     };
     let genes = random_genes(&mut rng, 213);
     (ControllerFile::new(root), genes)

@@ -75,6 +75,18 @@ pub struct NodeSpec {
     /// Sub-controllers of an arbitrator, in output order; empty for a primitive.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub children: Vec<NodeSpec>,
+    /// Arbitrators only: once the activator has switched a child on, it keeps it on for at
+    /// least this many cycles, whatever the network's outputs say. 0 (the default, and the
+    /// paper's activator) lets it switch in any cycle. The paper notes that other activators
+    /// could be used; this one stops an arbitrator from steering by flicking between
+    /// freshly reset children (ARCHITECTURE.md, "How the evolved arbitrators use their
+    /// children").
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_active_cycles: u32,
+}
+
+fn is_zero(value: &u32) -> bool {
+    *value == 0
 }
 
 /// What is wrong with one node of a controller tree. [`ControllerError::Node`] pairs it with the
@@ -105,6 +117,9 @@ pub enum NodeProblem {
     /// An arbitrator has no children.
     #[error("an arbitrator needs at least one child")]
     ArbitratorWithoutChildren,
+    /// A primitive asks to keep a child on: only arbitrators have children to keep.
+    #[error("min_active_cycles is {min_active_cycles}, but only an arbitrator switches children")]
+    MinActiveOnPrimitive { min_active_cycles: u32 },
     /// The stored genome has the wrong length.
     #[error("genome has {found} genes, topology {topology} needs {needed}")]
     GenomeLength {
@@ -301,6 +316,11 @@ fn check_node(spec: &NodeSpec) -> Result<(), NodeProblem> {
         NodeKind::Arbitrator if spec.children.is_empty() => {
             return Err(NodeProblem::ArbitratorWithoutChildren);
         }
+        NodeKind::Primitive if spec.min_active_cycles > 0 => {
+            return Err(NodeProblem::MinActiveOnPrimitive {
+                min_active_cycles: spec.min_active_cycles,
+            });
+        }
         _ => {}
     }
     if let Some(genes) = &spec.genome {
@@ -475,6 +495,12 @@ impl Fnv1a {
                 }
             }
             self.write_u64(node.children.len() as u64);
+            // Written only when set, so every tree with the paper's activator keeps the hash
+            // (and so the run fingerprints) it had before the option existed.
+            if node.min_active_cycles > 0 {
+                self.write_bytes(b"min_active_cycles");
+                self.write_u64(u64::from(node.min_active_cycles));
+            }
             stack.extend(node.children.iter().rev());
         }
     }
@@ -512,6 +538,10 @@ struct RuntimeNode {
     /// Position (0-based, among this node's children) of the child activated in this node's
     /// last step since its last reset.
     active_child: Option<usize>,
+    /// Arbitrators: the fewest cycles a child stays on once switched on (0: no minimum).
+    min_active_cycles: u32,
+    /// Arbitrators: consecutive steps the active child has been on, counting the last one.
+    active_for: u32,
 }
 
 /// A runnable controller tree. Node index 0 is the root and indices follow pre-order.
@@ -594,6 +624,8 @@ impl Controller {
                 subtree_end: 0,
                 output_offset,
                 active_child: None,
+                min_active_cycles: spec.min_active_cycles,
+                active_for: 0,
             });
             output_offset += topology.n_outputs;
             max_inputs = max_inputs.max(topology.n_inputs);
@@ -630,6 +662,7 @@ impl Controller {
         for node in self.nodes.get_mut(start..end).unwrap_or_default() {
             node.net.reset();
             node.active_child = None;
+            node.active_for = 0;
             let n_outputs = node.net.topology().n_outputs;
             if let Some(outputs) = self
                 .outputs
@@ -679,8 +712,19 @@ impl Controller {
                     };
                 }
                 NodeKind::Arbitrator => {
-                    let chosen = argmax(outputs);
+                    let mut chosen = argmax(outputs);
+                    // A child switched on fewer than `min_active_cycles` steps ago stays on.
+                    if let Some(active) = node.active_child
+                        && node.active_for < node.min_active_cycles
+                    {
+                        chosen = active;
+                    }
                     let previous = node.active_child.replace(chosen);
+                    node.active_for = if previous == Some(chosen) {
+                        node.active_for.saturating_add(1)
+                    } else {
+                        1
+                    };
                     let Some(&chosen_node) = node.children.get(chosen) else {
                         break;
                     };
@@ -812,6 +856,7 @@ mod tests {
             hidden,
             genome: None,
             children: Vec::new(),
+            min_active_cycles: 0,
         };
         spec.genome = Some(random_genes(spec.topology(), seed));
         spec
@@ -831,6 +876,7 @@ mod tests {
             hidden,
             genome: None,
             children,
+            min_active_cycles: 0,
         };
         spec.genome = Some(random_genes(spec.topology(), seed));
         spec
@@ -1108,6 +1154,14 @@ mod tests {
         let mut renamed = file.clone();
         renamed.root.children[0].name = "leave_room".to_owned();
         assert_ne!(renamed.content_hash(), hash);
+        // The activator's minimum counts, and survives the file; left at 0 it is not written.
+        let mut held = file.clone();
+        held.root.children[1].min_active_cycles = 5;
+        assert_ne!(held.content_hash(), hash);
+        let held_json = held.to_json_pretty().unwrap();
+        assert_eq!(held_json.matches("min_active_cycles").count(), 1);
+        assert_eq!(ControllerFile::from_json_str(&held_json).unwrap(), held);
+        assert!(!file.to_json_pretty().unwrap().contains("min_active_cycles"));
 
         // A pinned value: FNV-1a over the documented encoding must never change, or caches keyed
         // by it across versions and machines would silently miss.
@@ -1118,6 +1172,7 @@ mod tests {
             hidden: 1,
             genome: Some(vec![0.0; CtrnnTopology::new(1, 1, 2).n_genes()]),
             children: Vec::new(),
+            min_active_cycles: 0,
         });
         assert_eq!(tiny.content_hash(), PINNED_TINY_HASH);
         assert_eq!(tiny.root.content_hash().len(), 16);
@@ -1168,6 +1223,7 @@ mod tests {
             hidden: 1,
             genome: Some(genes),
             children: Vec::new(),
+            min_active_cycles: 0,
         }
     }
 
@@ -1181,6 +1237,7 @@ mod tests {
             children: (0..n_children)
                 .map(|idx| integrator(&format!("child{idx}")))
                 .collect(),
+            min_active_cycles: 0,
         })
     }
 
@@ -1213,6 +1270,46 @@ mod tests {
         controller.step(&frame(ir, [1.0, 0.0], 0.0), 0.1);
         assert_eq!(controller.root_choice(), Some(2));
         assert_eq!(controller.active_path(), &[0, 3]);
+    }
+
+    #[test]
+    fn a_minimum_keeps_a_switched_on_child_on() {
+        let ir = [1.0, 0.0, 0.0, 0.0];
+        let to_child0 = frame(ir, [1.0, 0.0], 0.0);
+        let to_child1 = frame(ir, [0.0, 1.0], 0.0);
+        let mut file = switch_tree(2, -10.0);
+        file.root.min_active_cycles = 3;
+        let mut controller = Controller::new(&file, None).unwrap();
+        let mut choices = Vec::new();
+        // Child 0 on, then asked for child 1 at once: it gets it after child 0's three cycles;
+        // asked back for child 0 at once, it waits for child 1's three.
+        for sensors in [&to_child0, &to_child1, &to_child1, &to_child1, &to_child0]
+            .into_iter()
+            .chain([&to_child0; 3])
+        {
+            controller.step(sensors, 0.1);
+            choices.push(controller.root_choice().unwrap());
+        }
+        assert_eq!(choices, [0, 0, 0, 1, 1, 1, 0, 0]);
+        // A reset forgets the count: the first choice after it is free.
+        controller.reset();
+        controller.step(&to_child1, 0.1);
+        assert_eq!(controller.root_choice(), Some(1));
+        // The paper's activator (0) switches in the very next cycle.
+        file.root.min_active_cycles = 0;
+        let mut free = Controller::new(&file, None).unwrap();
+        free.step(&to_child0, 0.1);
+        free.step(&to_child1, 0.1);
+        assert_eq!(free.root_choice(), Some(1));
+
+        // Only arbitrators have children to keep on.
+        let mut primitive_file = switch_tree(2, -10.0);
+        primitive_file.root.children[1].min_active_cycles = 2;
+        let err = Controller::new(&primitive_file, None).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "switch/child1: min_active_cycles is 2, but only an arbitrator switches children"
+        );
     }
 
     #[test]

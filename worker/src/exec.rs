@@ -198,6 +198,7 @@ mod tests {
             hidden: 3,
             genome: None,
             children: vec![],
+            min_active_cycles: 0,
         })
     }
 

@@ -462,6 +462,7 @@ mod tests {
             hidden: 2,
             genome: None,
             children: vec![],
+            min_active_cycles: 0,
         });
         let mut task = sim_core::TaskConfig::new(sim_core::TaskKind::FollowWall);
         task.max_cycles = Some(30);

@@ -70,6 +70,7 @@ fn template() -> (ControllerFile, TaskConfig) {
         hidden: 3,
         genome: None,
         children: vec![],
+        min_active_cycles: 0,
     });
     (template, TaskConfig::new(TaskKind::FollowWall))
 }
