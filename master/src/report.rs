@@ -460,9 +460,16 @@ pub fn write_report(
         );
     }
 
+    // Nodes given more runs under the main setup, from any ablation directory: the widest
+    // same-setup base for a comparison in another directory.
+    let more_runs: Vec<&NodeResult> = ablations
+        .iter()
+        .flat_map(|(_, ablation)| ablation.iter())
+        .filter(|node| same_setup_as_main(node, &nodes))
+        .collect();
     for (ablation_dir, ablation) in &ablations {
         let _ = writeln!(md, "\n## Ablation: `{}`\n", ablation_dir.display());
-        let _ = write!(md, "{}", ablation_section(ablation, &nodes));
+        let _ = write!(md, "{}", ablation_section(ablation, &nodes, &more_runs));
     }
 
     let _ = writeln!(md, "\n## Fitness curves\n");
@@ -558,8 +565,13 @@ fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String 
 
 /// An ablation directory's nodes beside the main results' nodes of the same name: avg / best
 /// on both sides, the runs behind each, the maze composition comparison when both maze
-/// controllers are there, and the per-configuration table.
-fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
+/// controllers are there, and the per-configuration table. `more_runs` are nodes of other
+/// ablation directories given more runs under the main setup.
+fn ablation_section(
+    ablation: &[NodeResult],
+    main: &[NodeResult],
+    more_runs: &[&NodeResult],
+) -> String {
     if ablation.is_empty() {
         return "No node here was evolved under a setup different from the results above, or \
                 given more runs.\n"
@@ -598,13 +610,21 @@ fn ablation_section(ablation: &[NodeResult], main: &[NodeResult]) -> String {
         );
     }
     // A maze controller given more runs under the main setup is compared with the other maze
-    // controller of the main results when this directory lacks it: same setup on both sides.
-    // Under another setup the comparison needs both sides from here.
+    // controller of the main setup when this directory lacks it: the main results' or another
+    // directory's, whichever has more runs (the main results' on a tie). Under another setup
+    // the comparison needs both sides from here.
     let here = |name: &str| ablation.iter().find(|n| n.name == name);
     let from_main_beside = |name: &str, other: Option<&NodeResult>| {
         other
             .filter(|other| same_setup_as_main(other, main))
-            .and_then(|_| main.iter().find(|m| m.name == name))
+            .and_then(|_| {
+                more_runs
+                    .iter()
+                    .copied()
+                    .chain(main)
+                    .filter(|m| m.name == name && same_setup_as_main(m, main))
+                    .max_by_key(|m| m.runs.len())
+            })
     };
     let (maze_here, single_here) = (here("solve_maze"), here("maze_single"));
     let maze = maze_here.or_else(|| from_main_beside("solve_maze", single_here));
@@ -790,12 +810,12 @@ mod tests {
                 return_room: Some(0.946),
             }),
         });
-        let section = ablation_section(&[rescue], &[node("rescue", "main", 3)]);
+        let section = ablation_section(&[rescue], &[node("rescue", "main", 3)], &[]);
         assert!(
             section.contains("| 0 | 93.0% | 89.0% | 75.0% | 1.000 | 95.5% | 92.3% | 94.6% |"),
             "{section}"
         );
-        let without_rescue = ablation_section(&[node("maze_single", "ablation", 1)], &[]);
+        let without_rescue = ablation_section(&[node("maze_single", "ablation", 1)], &[], &[]);
         assert!(!without_rescue.contains("right child"), "{without_rescue}");
     }
 
@@ -925,12 +945,12 @@ mod tests {
         let ablation = ablation_nodes(found, &main);
         let names: Vec<&str> = ablation.iter().map(|n| n.name.as_str()).collect();
         assert_eq!(names, ["maze_single", "solve_maze", "maze_single"]);
-        let section = ablation_section(&ablation[2..], &main);
+        let section = ablation_section(&ablation[2..], &main, &[]);
         assert!(
             section.contains("| maze_single | same, more runs | 100.0% / 100.0% | 5 |"),
             "{section}"
         );
-        let section = ablation_section(&ablation[..1], &main);
+        let section = ablation_section(&ablation[..1], &main, &[]);
         assert!(
             section.contains("| maze_single | another | 100.0% / 100.0% | 1 |"),
             "{section}"
@@ -939,11 +959,32 @@ mod tests {
         // setup are, when the main results have it.
         assert!(section.contains("Not available yet"), "{section}");
         let main_with_maze = [main.clone(), vec![node("solve_maze", "main", 3)]].concat();
-        let section = ablation_section(&ablation[2..], &main_with_maze);
+        let section = ablation_section(&ablation[2..], &main_with_maze, &[]);
         assert!(
             section.contains(
                 "over 3 run(s); the single 6-10-2 network 100.0% and 100.0% over 5 run(s)"
             ),
+            "{section}"
+        );
+        // A maze controller given more runs in one directory is compared with the other maze
+        // controller's largest same-setup set, here the 5 runs of another directory.
+        let mut more_mazes = node("solve_maze", "more-mazes", 7);
+        more_mazes.fingerprints = main_with_maze[2].fingerprints.clone();
+        let section = ablation_section(
+            std::slice::from_ref(&more_mazes),
+            &main_with_maze,
+            &[&ablation[2]],
+        );
+        assert!(
+            section.contains(
+                "over 7 run(s); the single 6-10-2 network 100.0% and 100.0% over 5 run(s)"
+            ),
+            "{section}"
+        );
+        // Without it, the main results' 3.
+        let section = ablation_section(std::slice::from_ref(&more_mazes), &main_with_maze, &[]);
+        assert!(
+            section.contains("network 100.0% and 100.0% over 3 run(s):"),
             "{section}"
         );
     }
