@@ -78,9 +78,9 @@ pub struct NodeSpec {
     /// Arbitrators only: once the activator has switched a child on, it keeps it on for at
     /// least this many cycles, whatever the network's outputs say. 0 (the default, and the
     /// paper's activator) lets it switch in any cycle. The paper notes that other activators
-    /// could be used; this one stops an arbitrator from steering by flicking between
-    /// freshly reset children (ARCHITECTURE.md, "How the evolved arbitrators use their
-    /// children").
+    /// could be used; this one limits how fast an arbitrator can flick between freshly reset
+    /// children (ARCHITECTURE.md, "How the evolved arbitrators use their children", where
+    /// return to room tried it).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub min_active_cycles: u32,
 }
