@@ -372,8 +372,8 @@ pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sim_core::NodeUse;
     use sim_core::SubTaskChoices;
-    use sim_core::batch::NodeUse;
 
     #[test]
     fn failures_are_counted_by_ending_and_rescue_stage() {

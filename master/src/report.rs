@@ -618,11 +618,12 @@ fn ablation_section(
         other
             .filter(|other| same_setup_as_main(other, main))
             .and_then(|_| {
+                // `more_runs` holds same-setup nodes only, and the main results are the setup.
                 more_runs
                     .iter()
                     .copied()
                     .chain(main)
-                    .filter(|m| m.name == name && same_setup_as_main(m, main))
+                    .filter(|m| m.name == name)
                     .max_by_key(|m| m.runs.len())
             })
     };

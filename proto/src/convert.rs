@@ -8,9 +8,9 @@
 use crate::v1;
 use sim_core::Sample;
 use sim_core::TaskConfig;
-use sim_core::batch::{NodeUse, SampleSummary, task_content_hash};
+use sim_core::batch::{SampleSummary, task_content_hash};
 use sim_core::controller::ControllerFile;
-use sim_core::evaluate::{N_SUB_TASKS, SubTaskChoices};
+use sim_core::evaluate::{N_SUB_TASKS, NodeUse, SubTaskChoices};
 
 /// Why a message could not be turned into sim-core values.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -4,7 +4,7 @@
 //! Built once per batch and shared by reference between the worker's threads.
 
 use crate::controller::{Controller, ControllerError, ControllerFile};
-use crate::evaluate::{Evaluator, Outcome, Policy, Sample, SubTaskChoices, TaskError};
+use crate::evaluate::{Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, TaskError};
 use crate::frame::SensorFrame;
 use crate::task::TaskConfig;
 
@@ -119,18 +119,6 @@ pub struct SampleSummary {
     pub node_use: NodeUse,
 }
 
-/// How a controller's nodes took turns in one sample, per node in pre-order (the root first):
-/// the cycles each was active and how often it was switched on. An arbitrator that keeps a
-/// child on for hundreds of cycles and one that flicks between two children every few cycles
-/// can score alike; these counts tell them apart.
-#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct NodeUse {
-    /// Cycles each node was active.
-    pub active_cycles: Vec<u32>,
-    /// How often each node became active; never more than its active cycles.
-    pub activations: Vec<u32>,
-}
-
 impl From<&Outcome> for SampleSummary {
     fn from(outcome: &Outcome) -> SampleSummary {
         SampleSummary {
@@ -141,10 +129,7 @@ impl From<&Outcome> for SampleSummary {
             variant: outcome.variant,
             cycles: outcome.cycles,
             sub_task_choices: outcome.sub_task_choices,
-            node_use: NodeUse {
-                active_cycles: outcome.active_cycles.clone(),
-                activations: outcome.activations.clone(),
-            },
+            node_use: outcome.node_use.clone(),
         }
     }
 }

@@ -86,13 +86,22 @@ pub struct Outcome {
     /// The variant the sample ran (light configuration or start branch; 0 for other tasks,
     /// except corridors: 1 for a T-junction turn, 0 for an L-bend).
     pub variant: u32,
-    /// Cycles each controller node was active, indexed like the policy's nodes.
-    pub active_cycles: Vec<u32>,
-    /// How often each node became active (was active in a cycle but not in the one before),
-    /// indexed like `active_cycles`: with it, how long a node stays on once switched on.
-    pub activations: Vec<u32>,
+    /// How long and how often each controller node drove, indexed like the policy's nodes.
+    pub node_use: NodeUse,
     /// Rescue only: how the root chose in each sub-task (all zero for other tasks).
     pub sub_task_choices: SubTaskChoices,
+}
+
+/// How a controller's nodes took turns in one sample, per node in pre-order (the root first):
+/// the cycles each was active and how often it was switched on (active in a cycle but not in
+/// the one before). An arbitrator that keeps a child on for hundreds of cycles and one that
+/// flicks between two children every few cycles can score alike; these counts tell them apart.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NodeUse {
+    /// Cycles each node was active.
+    pub active_cycles: Vec<u32>,
+    /// How often each node became active; never more than its active cycles.
+    pub activations: Vec<u32>,
 }
 
 /// Rescue's sub-tasks, in the order of the rescue arbitrator's children: exit the room, solve
@@ -471,8 +480,10 @@ impl Evaluator {
             cycles: cycles_run,
             stage,
             variant: env.variant,
-            active_cycles,
-            activations,
+            node_use: NodeUse {
+                active_cycles,
+                activations,
+            },
             sub_task_choices,
         };
         (outcome, env, robot)

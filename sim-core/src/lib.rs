@@ -22,5 +22,7 @@ pub mod task;
 /// an older model are refused instead of being silently continued with a different one.
 pub const MODEL_VERSION: u32 = 4;
 
-pub use evaluate::{Ending, Evaluator, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle};
+pub use evaluate::{
+    Ending, Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle,
+};
 pub use task::{TaskConfig, TaskKind};

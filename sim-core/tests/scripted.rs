@@ -371,17 +371,22 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
     assert_share(TaskKind::Rescue, &outcomes, 0.80);
     for (sample, o) in &outcomes {
         // Four nodes, the root always active and exactly one child with it.
-        assert_eq!(o.active_cycles.len(), 4, "{sample:?}");
-        assert_eq!(o.active_cycles[0], o.cycles, "{sample:?}");
+        assert_eq!(o.node_use.active_cycles.len(), 4, "{sample:?}");
+        assert_eq!(o.node_use.active_cycles[0], o.cycles, "{sample:?}");
         assert_eq!(
-            o.active_cycles[1..].iter().sum::<u32>(),
+            o.node_use.active_cycles[1..].iter().sum::<u32>(),
             o.cycles,
             "{sample:?}"
         );
         // The rescuer's phases only go forward: the root is switched on once, each child at
         // most once, and exactly the children that ran.
-        let ran: Vec<u32> = o.active_cycles.iter().map(|&c| u32::from(c > 0)).collect();
-        assert_eq!(o.activations, ran, "{sample:?}");
+        let ran: Vec<u32> = o
+            .node_use
+            .active_cycles
+            .iter()
+            .map(|&c| u32::from(c > 0))
+            .collect();
+        assert_eq!(o.node_use.activations, ran, "{sample:?}");
         // Every cycle falls in one sub-task, the fitness is f3 of the counts, and a solved
         // sample went through all three sub-tasks.
         let choices = o.sub_task_choices;

@@ -452,7 +452,7 @@ proptest! {
                 expected_activations[child] += 1;
             }
         }
-        prop_assert_eq!(outcome.active_cycles, expected_cycles);
-        prop_assert_eq!(outcome.activations, expected_activations);
+        prop_assert_eq!(outcome.node_use.active_cycles, expected_cycles);
+        prop_assert_eq!(outcome.node_use.activations, expected_activations);
     }
 }
