@@ -24,22 +24,15 @@ fn node(
     children: Vec<NodeSpec>,
     rng: &mut SimRng,
 ) -> NodeSpec {
-    let mut spec = NodeSpec {
-        name: name.into(),
-        kind,
-        inputs,
-        hidden,
-        genome: None,
-        children,
-        min_active_cycles: 0,
+    let spec = match kind {
+        NodeKind::Primitive => NodeSpec::primitive(name, inputs, hidden),
+        NodeKind::Arbitrator => NodeSpec::arbitrator(name, inputs, hidden, children),
     };
     let n_genes = spec.topology().n_genes();
-    spec.genome = Some(
-        (0..n_genes)
-            .map(|_| rng.random_range(-3.0f32..3.0))
-            .collect(),
-    );
-    spec
+    let genes = (0..n_genes)
+        .map(|_| rng.random_range(-3.0f32..3.0))
+        .collect();
+    spec.with_genome(genes)
 }
 
 fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {

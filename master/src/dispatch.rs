@@ -733,20 +733,12 @@ fn split(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim_core::controller::{NodeKind, NodeSpec};
+    use sim_core::controller::NodeSpec;
     use sim_core::frame::InputGroup;
     use sim_core::{TaskConfig, TaskKind};
 
     fn request(job: &str, n_genomes: usize, n_samples: usize) -> EvaluationRequest {
-        let template = ControllerFile::new(NodeSpec {
-            name: "p".into(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::Ir],
-            hidden: 1,
-            genome: None,
-            children: vec![],
-            min_active_cycles: 0,
-        });
+        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 1));
         let task = TaskConfig::new(TaskKind::FollowWall);
         EvaluationRequest {
             job: job.into(),

@@ -245,18 +245,13 @@ pub fn cache_key(template_hash: &str, task_hash: &str) -> String {
 mod tests {
     use super::*;
     use sim_core::TaskKind;
-    use sim_core::controller::{NodeKind, NodeSpec};
+    use sim_core::controller::NodeSpec;
     use sim_core::frame::InputGroup;
 
     fn template(genes: Option<Vec<f32>>) -> ControllerFile {
         ControllerFile::new(NodeSpec {
-            name: "p".into(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::Ir],
-            hidden: 2,
             genome: genes,
-            children: vec![],
-            min_active_cycles: 0,
+            ..NodeSpec::primitive("p", vec![InputGroup::Ir], 2)
         })
     }
 

@@ -6,7 +6,7 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rand::{RngExt, SeedableRng};
 use sim_core::batch::BatchEvaluator;
-use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use sim_core::controller::{ControllerFile, NodeSpec};
 use sim_core::frame::InputGroup;
 use sim_core::rng::SimRng;
 use sim_core::{Sample, TaskConfig, TaskKind};
@@ -16,32 +16,22 @@ fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
 }
 
 fn primitive(name: &str, rng: &mut SimRng) -> NodeSpec {
-    NodeSpec {
-        name: name.into(),
-        kind: NodeKind::Primitive,
-        inputs: vec![InputGroup::Ir],
-        hidden: 3,
-        genome: Some(random_genes(rng, 35)),
-        children: vec![],
-        min_active_cycles: 0,
-    }
+    NodeSpec::primitive(name, vec![InputGroup::Ir], 3).with_genome(random_genes(rng, 35))
 }
 
 fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
     let mut rng = SimRng::seed_from_u64(7);
-    let root = NodeSpec {
-        name: "solve_maze".into(),
-        kind: NodeKind::Arbitrator,
-        inputs: vec![InputGroup::Ir, InputGroup::Light],
-        hidden: 10,
-        genome: None,
-        children: vec![
-            primitive("follow_wall", &mut rng),
-            primitive("turn_left", &mut rng),
-            primitive("turn_right", &mut rng),
-        ],
-        min_active_cycles: 0,
-    };
+    let children = vec![
+        primitive("follow_wall", &mut rng),
+        primitive("turn_left", &mut rng),
+        primitive("turn_right", &mut rng),
+    ];
+    let root = NodeSpec::arbitrator(
+        "solve_maze",
+        vec![InputGroup::Ir, InputGroup::Light],
+        10,
+        children,
+    );
     let genes = random_genes(&mut rng, 213);
     (ControllerFile::new(root), genes)
 }

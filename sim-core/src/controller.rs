@@ -185,6 +185,46 @@ impl ControllerError {
 }
 
 impl NodeSpec {
+    /// A free primitive (no genome yet) that reads `inputs` and drives the two wheels.
+    pub fn primitive(name: impl Into<String>, inputs: Vec<InputGroup>, hidden: usize) -> NodeSpec {
+        NodeSpec {
+            name: name.into(),
+            kind: NodeKind::Primitive,
+            inputs,
+            hidden,
+            genome: None,
+            children: Vec::new(),
+            min_active_cycles: 0,
+        }
+    }
+
+    /// A free arbitrator (no genome yet) over `children`, with the paper's activator: no
+    /// minimum time per switch-on.
+    pub fn arbitrator(
+        name: impl Into<String>,
+        inputs: Vec<InputGroup>,
+        hidden: usize,
+        children: Vec<NodeSpec>,
+    ) -> NodeSpec {
+        NodeSpec {
+            name: name.into(),
+            kind: NodeKind::Arbitrator,
+            inputs,
+            hidden,
+            genome: None,
+            children,
+            min_active_cycles: 0,
+        }
+    }
+
+    /// This node with its genes fixed to `genome`.
+    pub fn with_genome(self, genome: Vec<f32>) -> NodeSpec {
+        NodeSpec {
+            genome: Some(genome),
+            ..self
+        }
+    }
+
     /// Number of network inputs: the sum of the widths of the input groups.
     pub fn n_inputs(&self) -> usize {
         self.inputs.iter().map(|group| group.width()).sum()
@@ -849,17 +889,9 @@ mod tests {
     }
 
     fn primitive(name: &str, inputs: &[InputGroup], hidden: usize, seed: u64) -> NodeSpec {
-        let mut spec = NodeSpec {
-            name: name.to_owned(),
-            kind: NodeKind::Primitive,
-            inputs: inputs.to_vec(),
-            hidden,
-            genome: None,
-            children: Vec::new(),
-            min_active_cycles: 0,
-        };
-        spec.genome = Some(random_genes(spec.topology(), seed));
-        spec
+        let spec = NodeSpec::primitive(name, inputs.to_vec(), hidden);
+        let genes = random_genes(spec.topology(), seed);
+        spec.with_genome(genes)
     }
 
     fn arbitrator(
@@ -869,17 +901,9 @@ mod tests {
         seed: u64,
         children: Vec<NodeSpec>,
     ) -> NodeSpec {
-        let mut spec = NodeSpec {
-            name: name.to_owned(),
-            kind: NodeKind::Arbitrator,
-            inputs: inputs.to_vec(),
-            hidden,
-            genome: None,
-            children,
-            min_active_cycles: 0,
-        };
-        spec.genome = Some(random_genes(spec.topology(), seed));
-        spec
+        let spec = NodeSpec::arbitrator(name, inputs.to_vec(), hidden, children);
+        let genes = random_genes(spec.topology(), seed);
+        spec.with_genome(genes)
     }
 
     /// The rescue tree of the paper, with random genes and `solve_maze` free.
@@ -1165,15 +1189,10 @@ mod tests {
 
         // A pinned value: FNV-1a over the documented encoding must never change, or caches keyed
         // by it across versions and machines would silently miss.
-        let tiny = ControllerFile::new(NodeSpec {
-            name: "p".to_owned(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::NearRobot],
-            hidden: 1,
-            genome: Some(vec![0.0; CtrnnTopology::new(1, 1, 2).n_genes()]),
-            children: Vec::new(),
-            min_active_cycles: 0,
-        });
+        let tiny = ControllerFile::new(
+            NodeSpec::primitive("p", vec![InputGroup::NearRobot], 1)
+                .with_genome(vec![0.0; CtrnnTopology::new(1, 1, 2).n_genes()]),
+        );
         assert_eq!(tiny.content_hash(), PINNED_TINY_HASH);
         assert_eq!(tiny.root.content_hash().len(), 16);
     }
@@ -1216,29 +1235,17 @@ mod tests {
         genes[layout.output_weights.start + 1] = -10.0;
         genes[layout.output_biases.start] = -5.0;
         genes[layout.output_biases.start + 1] = 5.0;
-        NodeSpec {
-            name: name.to_owned(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::Ir],
-            hidden: 1,
-            genome: Some(genes),
-            children: Vec::new(),
-            min_active_cycles: 0,
-        }
+        NodeSpec::primitive(name, vec![InputGroup::Ir], 1).with_genome(genes)
     }
 
     fn switch_tree(n_children: usize, other_bias: f32) -> ControllerFile {
-        ControllerFile::new(NodeSpec {
-            name: "switch".to_owned(),
-            kind: NodeKind::Arbitrator,
-            inputs: vec![InputGroup::Light],
-            hidden: 2,
-            genome: Some(light_switch_genes(n_children, other_bias)),
-            children: (0..n_children)
-                .map(|idx| integrator(&format!("child{idx}")))
-                .collect(),
-            min_active_cycles: 0,
-        })
+        let children = (0..n_children)
+            .map(|idx| integrator(&format!("child{idx}")))
+            .collect();
+        ControllerFile::new(
+            NodeSpec::arbitrator("switch", vec![InputGroup::Light], 2, children)
+                .with_genome(light_switch_genes(n_children, other_bias)),
+        )
     }
 
     #[test]

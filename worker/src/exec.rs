@@ -187,19 +187,11 @@ pub fn evaluate_genomes(
 mod tests {
     use super::*;
     use sim_core::TaskKind;
-    use sim_core::controller::{NodeKind, NodeSpec};
+    use sim_core::controller::NodeSpec;
     use sim_core::frame::InputGroup;
 
     fn template() -> ControllerFile {
-        ControllerFile::new(NodeSpec {
-            name: "p".into(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::Ir],
-            hidden: 3,
-            genome: None,
-            children: vec![],
-            min_active_cycles: 0,
-        })
+        ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3))
     }
 
     fn task() -> TaskConfig {

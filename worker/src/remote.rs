@@ -453,17 +453,9 @@ mod tests {
 
     #[test]
     fn the_sim_executor_evaluates_and_refuses_what_it_cannot_trust() {
-        use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+        use sim_core::controller::{ControllerFile, NodeSpec};
         use sim_core::frame::InputGroup;
-        let template = ControllerFile::new(NodeSpec {
-            name: "p".into(),
-            kind: NodeKind::Primitive,
-            inputs: vec![InputGroup::Ir],
-            hidden: 2,
-            genome: None,
-            children: vec![],
-            min_active_cycles: 0,
-        });
+        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 2));
         let mut task = sim_core::TaskConfig::new(sim_core::TaskKind::FollowWall);
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();

@@ -14,7 +14,7 @@ use hevo_proto::client::{ClientOptions, worker_client};
 use hevo_proto::v1;
 use serde::Serialize;
 use sim_core::batch::task_content_hash;
-use sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use sim_core::controller::{ControllerFile, NodeSpec};
 use sim_core::frame::InputGroup;
 use sim_core::{Sample, TaskConfig, TaskKind};
 use std::sync::Arc;
@@ -63,15 +63,7 @@ pub struct LoadReport {
 }
 
 fn template() -> (ControllerFile, TaskConfig) {
-    let template = ControllerFile::new(NodeSpec {
-        name: "p".into(),
-        kind: NodeKind::Primitive,
-        inputs: vec![InputGroup::Ir],
-        hidden: 3,
-        genome: None,
-        children: vec![],
-        min_active_cycles: 0,
-    });
+    let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3));
     (template, TaskConfig::new(TaskKind::FollowWall))
 }
 
