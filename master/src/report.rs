@@ -460,6 +460,12 @@ pub fn write_report(
         );
     }
 
+    let node_use = node_use_table(&nodes);
+    if !node_use.is_empty() {
+        let _ = writeln!(md, "\n## How the arbitrators use their children");
+        md.push_str(&node_use);
+    }
+
     // Nodes given more runs under the main setup, from any ablation directory: the widest
     // same-setup base for a comparison in another directory.
     let more_runs: Vec<&NodeResult> = ablations
@@ -563,6 +569,79 @@ fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String 
     md
 }
 
+/// How each finished run's best controller used the nodes below its root over its
+/// post-evaluation: a table per arbitrator, a cell per node (share of cycles, switch-ons per
+/// sample, cycles per switch-on). An arbitrator can compose its children (few long switch-ons)
+/// or steer with them (many short ones), and the solve rate alone does not say which. Runs
+/// post-evaluated before hevo counted node use are named, not guessed. Empty when no run of
+/// these nodes carries the counts.
+fn node_use_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String {
+    let mut md = String::new();
+    for node in nodes {
+        let (counted, uncounted): (Vec<&RunSummary>, Vec<&RunSummary>) = node
+            .runs
+            .iter()
+            .partition(|run| !run.post_evaluation.node_use.is_empty());
+        let Some(first) = counted.first() else {
+            continue;
+        };
+        if md.is_empty() {
+            md.push_str(
+                "\nHow each run's best controller used its nodes over its post-evaluation: per node, \
+                 the share of cycles it was active, how often it was switched on per sample, and \
+                 for how many cycles per switch-on (few long switch-ons compose the children, many \
+                 short ones steer with them).\n",
+            );
+        }
+        let root_prefix = format!("{}/", node.name);
+        let paths: Vec<&str> = first
+            .post_evaluation
+            .node_use
+            .iter()
+            .map(|n| n.node.strip_prefix(&root_prefix).unwrap_or(&n.node))
+            .collect();
+        let headers: String = paths.iter().map(|path| format!(" {path} |")).collect();
+        let _ = writeln!(md, "\n| controller | run | solved |{headers}");
+        let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(paths.len()));
+        for run in &counted {
+            let cells: Vec<String> = run
+                .post_evaluation
+                .node_use
+                .iter()
+                .map(|n| {
+                    let dwell = n
+                        .cycles_per_activation
+                        .map_or_else(|| "-".to_string(), |c| format!("{c:.1}"));
+                    format!(
+                        "{} · {:.1} · {dwell}",
+                        percent(n.active_share),
+                        n.activations_per_sample
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} |",
+                node.name,
+                run.run,
+                percent(run.post_evaluation.solve_rate),
+                cells.join(" | ")
+            );
+        }
+        if !uncounted.is_empty() {
+            let runs: Vec<String> = uncounted.iter().map(|run| run.run.to_string()).collect();
+            let _ = writeln!(
+                md,
+                "\n{} run(s) {} were post-evaluated before hevo counted node use; `hevo eval` of \
+                 a run's `best.json` prints it.",
+                node.name,
+                runs.join(", ")
+            );
+        }
+    }
+    md
+}
+
 /// An ablation directory's nodes beside the main results' nodes of the same name: avg / best
 /// on both sides, the runs behind each, the maze composition comparison when both maze
 /// controllers are there, and the per-configuration table. `more_runs` are nodes of other
@@ -646,6 +725,7 @@ fn ablation_section(
         );
     }
     md.push_str(&variant_table(ablation));
+    md.push_str(&node_use_table(ablation));
     md
 }
 
@@ -1016,6 +1096,44 @@ mod tests {
         // Run 0 has no per-configuration rates (a task without variants): no row.
         assert!(!table.contains("| maze_single | 0 |"), "{table}");
         assert_eq!(variant_table([&node("follow_wall", "main", 2)]), "");
+    }
+
+    #[test]
+    fn the_node_use_table_shows_counted_runs_and_names_the_others() {
+        use crate::evaluation::NodeUseReport;
+        let mut maze = node("solve_maze", "main", 3);
+        for (run_idx, run) in maze.runs.iter_mut().enumerate() {
+            run.run = run_idx as u32;
+        }
+        maze.runs[2].post_evaluation.node_use = vec![
+            NodeUseReport {
+                node: "solve_maze/follow_wall".into(),
+                active_share: 0.0,
+                activations_per_sample: 0.0,
+                cycles_per_activation: None,
+            },
+            NodeUseReport {
+                node: "solve_maze/turn_left".into(),
+                active_share: 0.25,
+                activations_per_sample: 2.5,
+                cycles_per_activation: Some(40.0),
+            },
+        ];
+        let table = node_use_table([&maze]);
+        assert!(
+            table.contains("| controller | run | solved | follow_wall | turn_left |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| solve_maze | 2 | 100.0% | 0.0% · 0.0 · - | 25.0% · 2.5 · 40.0 |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("solve_maze run(s) 0, 1 were post-evaluated before"),
+            "{table}"
+        );
+        // No run counted: nothing at all.
+        assert_eq!(node_use_table([&node("solve_maze", "main", 2)]), "");
     }
 
     #[test]
