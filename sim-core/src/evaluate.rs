@@ -676,8 +676,16 @@ impl<'a> Judge<'a> {
                     ((to_exit - closest) / to_exit).clamp(0.0, 1.0)
                 }
             }
-            // f3, derived: the share of correct sub-controller choices in each sub-task.
-            Judge::Rescue { .. } => sub_task_choices.derived_fitness(),
+            // f3, derived: the share of correct sub-controller choices in each sub-task, and
+            // optionally (the authors' code) the time bonus of a finished rescue.
+            Judge::Rescue { .. } => {
+                let bonus = if task.rescue_time_bonus && ending == Ending::Solved {
+                    time_bonus
+                } else {
+                    0.0
+                };
+                sub_task_choices.derived_fitness() + bonus
+            }
             Judge::Cells { goal } => {
                 if ending == Ending::Solved {
                     return 1.0 + time_bonus;

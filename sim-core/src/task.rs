@@ -169,6 +169,13 @@ pub struct TaskConfig {
     /// serialised task when off, so existing task hashes and run fingerprints stay valid.
     #[serde(default, skip_serializing_if = "is_false")]
     pub end_on_wrong_branch: bool,
+    /// Rescue only: whether a solved sample's derived fitness f3 also earns the time bonus
+    /// (maxCycles - spentCycles) / maxCycles, so that f3 reaches 4 and rewards finishing the
+    /// rescue, not only choosing the right child. The authors' JBotEvolver code
+    /// (`RoomMazeBackBehaviorsEvaluationFunction`) adds it; the paper's text gives f3 a
+    /// maximum of 3, so it is off by default. Left out of the serialised task when off.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rescue_time_bonus: bool,
     /// Robot body and motors.
     #[serde(default)]
     pub robot: RobotConfig,
@@ -205,6 +212,7 @@ impl TaskConfig {
             max_cycles: None,
             end_on_collision: true,
             end_on_wrong_branch: false,
+            rescue_time_bonus: false,
             robot: RobotConfig::default(),
             ir: IrConfig::default(),
             light: LightConfig::default(),
@@ -250,6 +258,12 @@ impl TaskConfig {
         self.room.validate()?;
         if self.max_cycles() == 0 {
             return Err("max_cycles must be at least 1".into());
+        }
+        if self.rescue_time_bonus && self.kind != TaskKind::Rescue {
+            return Err(format!(
+                "rescue_time_bonus applies to the rescue only ({} has no derived fitness)",
+                self.kind.name()
+            ));
         }
         if self.end_on_wrong_branch && self.kind != TaskKind::Rescue {
             return Err(format!(
@@ -348,6 +362,27 @@ mod tests {
             maze.validate().unwrap_err(),
             "end_on_wrong_branch applies to the rescue only (solve_maze always ends on a wrong \
              branch or has none)"
+        );
+    }
+
+    #[test]
+    fn the_rescue_time_bonus_is_a_rescue_option_that_older_tasks_do_not_see() {
+        let rescue = TaskConfig::new(TaskKind::Rescue);
+        assert!(
+            !serde_json::to_string(&rescue)
+                .unwrap()
+                .contains("rescue_time_bonus")
+        );
+        let mut bonus = rescue.clone();
+        bonus.rescue_time_bonus = true;
+        assert!(bonus.validate().is_ok());
+        let json = serde_json::to_string(&bonus).unwrap();
+        assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), bonus);
+        let mut return_room = TaskConfig::new(TaskKind::ReturnRoom);
+        return_room.rescue_time_bonus = true;
+        assert_eq!(
+            return_room.validate().unwrap_err(),
+            "rescue_time_bonus applies to the rescue only (return_room has no derived fitness)"
         );
     }
 

@@ -746,3 +746,38 @@ fn a_rescue_that_ends_on_wrong_branches_stops_a_wall_following_search() {
     assert_coherent(TaskKind::Rescue, &rescued);
     assert_share(TaskKind::Rescue, &rescued, 0.80);
 }
+
+#[test]
+fn the_rescue_time_bonus_adds_the_time_left_to_solved_samples_only() {
+    let plain_task = spec_task(TaskKind::Rescue);
+    let mut bonus_task = plain_task.clone();
+    bonus_task.rescue_time_bonus = true;
+    let plain = run_on(&plain_task, &mut rescuer(), None);
+    let bonus = run_on(&bonus_task, &mut rescuer(), None);
+    let max_cycles = plain_task.max_cycles() as f32;
+    let mut n_solved = 0;
+    for ((sample, without), (_, with)) in plain.iter().zip(&bonus) {
+        // The bonus changes the score, never the trajectory.
+        assert_eq!(
+            (without.ending, without.cycles),
+            (with.ending, with.cycles),
+            "seed {}",
+            sample.seed
+        );
+        let expected = if without.solved {
+            n_solved += 1;
+            without.fitness + (max_cycles - without.cycles as f32) / max_cycles
+        } else {
+            without.fitness
+        };
+        assert!(
+            (with.fitness - expected).abs() < 1e-5,
+            "seed {}: {} with the bonus, {} without, solved {}",
+            sample.seed,
+            with.fitness,
+            without.fitness,
+            without.solved
+        );
+    }
+    assert!(n_solved > 0 && n_solved < plain.len(), "{n_solved} solved");
+}
