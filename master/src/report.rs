@@ -221,10 +221,11 @@ fn rescue_stage_table(rescue: &NodeResult) -> String {
     let _ = writeln!(
         md,
         "The last four columns are what the arbitrator was evolved on: the derived fitness f3 \
-         of the run's best genome in its last generation (at most 3), and f3's terms over the \
-         post-evaluation, how often the arbitrator chose the child that the sub-task in force \
-         asks for. f3 rewards the choice, not the outcome, so a run can solve the rescue with \
-         a low term when another child does that sub-task's job. A dash: the run was \
+         of the run's best genome in its last generation (at most 3, or 4 where the task adds \
+         the time bonus of `rescue_time_bonus`), and f3's terms over the post-evaluation, \
+         how often the arbitrator chose the child that the sub-task in force asks for. f3 \
+         rewards the choice, not the outcome, so a run can solve the rescue with a low term \
+         when another child does that sub-task's job. A dash: the run was \
          post-evaluated before hevo counted the choices; `hevo eval` of its `best.json` prints \
          them.\n"
     );
