@@ -630,7 +630,11 @@ impl<'a> Judge<'a> {
                 let cell = goal.map.cell_at(robot.position())?;
                 if cell == goal.goal {
                     Some(Ending::Solved)
-                } else if !goal.on_path[cell] {
+                } else if goal.on_path[cell] {
+                    None
+                } else if !task.wrong_branch_at_end_only
+                    || goal.reached_wrong_end(robot.position(), task.robot.radius)
+                {
                     Some(Ending::WrongBranch)
                 } else {
                     None

@@ -176,6 +176,14 @@ pub struct TaskConfig {
     /// maximum of 3, so it is off by default. Left out of the serialised task when off.
     #[serde(default, skip_serializing_if = "is_false")]
     pub rescue_time_bonus: bool,
+    /// Maze tasks (solve maze, return to room) only: whether a wrong branch ends the sample
+    /// only once the robot's bounding box meets the central half of another branch's end
+    /// cell, as in the authors' JBotEvolver code (`TMazeEnvironment`'s forbidden squares), so
+    /// that a robot may drive into a wrong branch and come back out. Off: any cell off the
+    /// path ends the sample, hevo's reading of the paper's "wrong turn". Left out of the
+    /// serialised task when off.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub wrong_branch_at_end_only: bool,
     /// Robot body and motors.
     #[serde(default)]
     pub robot: RobotConfig,
@@ -213,6 +221,7 @@ impl TaskConfig {
             end_on_collision: true,
             end_on_wrong_branch: false,
             rescue_time_bonus: false,
+            wrong_branch_at_end_only: false,
             robot: RobotConfig::default(),
             ir: IrConfig::default(),
             light: LightConfig::default(),
@@ -269,6 +278,14 @@ impl TaskConfig {
             return Err(format!(
                 "end_on_wrong_branch applies to the rescue only ({} always ends on a wrong branch \
                  or has none)",
+                self.kind.name()
+            ));
+        }
+        if self.wrong_branch_at_end_only
+            && !matches!(self.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom)
+        {
+            return Err(format!(
+                "wrong_branch_at_end_only applies to solve_maze and return_room only, not to {}",
                 self.kind.name()
             ));
         }
@@ -383,6 +400,29 @@ mod tests {
         assert_eq!(
             return_room.validate().unwrap_err(),
             "rescue_time_bonus applies to the rescue only (return_room has no derived fitness)"
+        );
+    }
+
+    #[test]
+    fn ending_only_at_branch_ends_is_a_maze_option_that_older_tasks_do_not_see() {
+        for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom] {
+            let task = TaskConfig::new(kind);
+            assert!(
+                !serde_json::to_string(&task)
+                    .unwrap()
+                    .contains("wrong_branch_at_end_only")
+            );
+            let mut lenient = task.clone();
+            lenient.wrong_branch_at_end_only = true;
+            assert!(lenient.validate().is_ok());
+            let json = serde_json::to_string(&lenient).unwrap();
+            assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), lenient);
+        }
+        let mut rescue = TaskConfig::new(TaskKind::Rescue);
+        rescue.wrong_branch_at_end_only = true;
+        assert_eq!(
+            rescue.validate().unwrap_err(),
+            "wrong_branch_at_end_only applies to solve_maze and return_room only, not to rescue"
         );
     }
 

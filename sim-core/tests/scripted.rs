@@ -781,3 +781,49 @@ fn the_rescue_time_bonus_adds_the_time_left_to_solved_samples_only() {
     }
     assert!(n_solved > 0 && n_solved < plain.len(), "{n_solved} solved");
 }
+
+#[test]
+fn with_wrong_branches_judged_at_their_ends_a_wrong_turn_ends_at_the_dead_end() {
+    // Against the lights the solver turns into a wrong branch and drives on to its dead end.
+    // hevo's default ends the sample in the branch's first cell; the authors' rule only once
+    // the robot reaches the central half of that branch's end cell, further on.
+    let strict_task = spec_task(TaskKind::SolveMaze);
+    let mut lenient_task = strict_task.clone();
+    lenient_task.wrong_branch_at_end_only = true;
+    for configuration in 0..4 {
+        let strict = run_on(
+            &strict_task,
+            &mut SwappedLights(solver()),
+            Some(configuration),
+        );
+        let lenient = run_on(
+            &lenient_task,
+            &mut SwappedLights(solver()),
+            Some(configuration),
+        );
+        assert_coherent(TaskKind::SolveMaze, &lenient);
+        let mut n_later = 0;
+        for ((sample, at_entry), (_, at_end)) in strict.iter().zip(&lenient) {
+            assert!(
+                !at_end.solved,
+                "seed {}: solved against the lights",
+                sample.seed
+            );
+            if at_entry.ending == Ending::WrongBranch && at_end.ending == Ending::WrongBranch {
+                assert!(
+                    at_end.cycles > at_entry.cycles,
+                    "seed {}: ended after {} cycles at the branch end, {} at its entry",
+                    sample.seed,
+                    at_end.cycles,
+                    at_entry.cycles
+                );
+                n_later += 1;
+            }
+        }
+        // Measured: every sample of every configuration.
+        assert!(
+            n_later as f64 >= 0.95 * strict.len() as f64,
+            "configuration {configuration}: {n_later} wrong branches ended at their dead end"
+        );
+    }
+}

@@ -58,6 +58,8 @@ pub struct CellGoal {
     pub distances: Vec<f32>,
     /// Corridor distance from the path's start (its first cell's centre) to the goal.
     pub total_distance: f32,
+    /// The dead ends off the path: the other branches' end cells.
+    pub wrong_ends: Vec<usize>,
 }
 
 impl CellGoal {
@@ -69,13 +71,28 @@ impl CellGoal {
             on_path[cell_idx] = true;
         }
         let total_distance = distances[path[0]];
+        let wrong_ends = (0..map.cells.len())
+            .filter(|&cell_idx| !on_path[cell_idx] && map.neighbours(cell_idx).count() == 1)
+            .collect();
         CellGoal {
             map,
             on_path,
             goal,
             distances,
             total_distance,
+            wrong_ends,
         }
+    }
+
+    /// Whether a robot of this radius at `point` has reached another branch's end, as the
+    /// authors' code judges it: its bounding box meets the central half of a dead-end cell
+    /// off the path.
+    pub fn reached_wrong_end(&self, point: [f32; 2], radius: f32) -> bool {
+        let reach = 0.25 * self.map.cell_size + radius;
+        self.wrong_ends.iter().any(|&cell_idx| {
+            let center = self.map.center(cell_idx);
+            (point[0] - center[0]).abs() < reach && (point[1] - center[1]).abs() < reach
+        })
     }
 
     /// Corridor distance from a point to the goal (None outside the cells).
@@ -377,6 +394,36 @@ mod tests {
         // Uniform over one cell: both ends of the range are reached.
         assert!(advances.iter().any(|&a| a < 0.03));
         assert!(advances.iter().any(|&a| a > MAZE_CELL_SIZE - 0.03));
+    }
+
+    #[test]
+    fn the_other_branches_ends_are_the_wrong_ends() {
+        let task = TaskConfig::new(TaskKind::SolveMaze);
+        let statics = Statics::new(&task);
+        let radius = task.robot.radius;
+        for configuration in 0..4 {
+            let env = build(
+                &task,
+                &statics,
+                Some(configuration),
+                &mut stream_rng(0, Stream::Environment),
+            );
+            let Ground::Cells(goal) = &env.ground else {
+                panic!("maze tasks are judged on cells");
+            };
+            // The double T-maze has four branch ends; the goal is one of them.
+            assert_eq!(goal.wrong_ends.len(), 3, "configuration {configuration}");
+            assert!(!goal.reached_wrong_end(goal.map.center(goal.goal), radius));
+            for &end in &goal.wrong_ends {
+                assert!(!goal.on_path[end]);
+                let center = goal.map.center(end);
+                assert!(goal.reached_wrong_end(center, radius));
+                // The bounding box meets the central half (0.075 m either side) or not.
+                let edge = 0.25 * goal.map.cell_size + radius;
+                assert!(goal.reached_wrong_end([center[0] + edge - 0.001, center[1]], radius));
+                assert!(!goal.reached_wrong_end([center[0] + edge + 0.001, center[1]], radius));
+            }
+        }
     }
 
     #[test]
