@@ -361,68 +361,55 @@ impl TaskConfig {
 mod tests {
     use super::*;
 
-    #[test]
-    fn ending_on_wrong_branches_is_a_rescue_option_that_older_tasks_do_not_see() {
-        // Off, the field is not serialised, so task hashes (and run fingerprints) written
-        // before it existed stay valid.
-        let rescue = TaskConfig::new(TaskKind::Rescue);
-        let json = serde_json::to_string(&rescue).unwrap();
-        assert!(!json.contains("end_on_wrong_branch"), "{json}");
-        let mut strict = rescue.clone();
-        strict.end_on_wrong_branch = true;
-        assert!(strict.validate().is_ok());
-        let json = serde_json::to_string(&strict).unwrap();
-        assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), strict);
-        let mut maze = TaskConfig::new(TaskKind::SolveMaze);
-        maze.end_on_wrong_branch = true;
-        assert_eq!(
-            maze.validate().unwrap_err(),
-            "end_on_wrong_branch applies to the rescue only (solve_maze always ends on a wrong \
-             branch or has none)"
-        );
-    }
-
-    #[test]
-    fn the_rescue_time_bonus_is_a_rescue_option_that_older_tasks_do_not_see() {
-        let rescue = TaskConfig::new(TaskKind::Rescue);
-        assert!(
-            !serde_json::to_string(&rescue)
-                .unwrap()
-                .contains("rescue_time_bonus")
-        );
-        let mut bonus = rescue.clone();
-        bonus.rescue_time_bonus = true;
-        assert!(bonus.validate().is_ok());
-        let json = serde_json::to_string(&bonus).unwrap();
-        assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), bonus);
-        let mut return_room = TaskConfig::new(TaskKind::ReturnRoom);
-        return_room.rescue_time_bonus = true;
-        assert_eq!(
-            return_room.validate().unwrap_err(),
-            "rescue_time_bonus applies to the rescue only (return_room has no derived fitness)"
-        );
-    }
-
-    #[test]
-    fn ending_only_at_branch_ends_is_a_maze_option_that_older_tasks_do_not_see() {
-        for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom] {
+    /// A boolean task option, off by default: absent from the serialised task when off (so
+    /// task hashes and run fingerprints written before it existed stay valid), present and
+    /// round-tripping when on, and refused, with a message naming it, where it does not apply.
+    fn assert_optional_flag(
+        name: &str,
+        switch_on: fn(&mut TaskConfig),
+        applies_to: &[TaskKind],
+        refused_on: TaskKind,
+        refusal: &str,
+    ) {
+        for &kind in applies_to {
             let task = TaskConfig::new(kind);
-            assert!(
-                !serde_json::to_string(&task)
-                    .unwrap()
-                    .contains("wrong_branch_at_end_only")
-            );
-            let mut lenient = task.clone();
-            lenient.wrong_branch_at_end_only = true;
-            assert!(lenient.validate().is_ok());
-            let json = serde_json::to_string(&lenient).unwrap();
-            assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), lenient);
+            let json = serde_json::to_string(&task).unwrap();
+            assert!(!json.contains(name), "{json}");
+            let mut on = task.clone();
+            switch_on(&mut on);
+            assert!(on.validate().is_ok(), "{name} on {}", kind.name());
+            let json = serde_json::to_string(&on).unwrap();
+            assert!(json.contains(name), "{json}");
+            assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), on);
         }
-        let mut rescue = TaskConfig::new(TaskKind::Rescue);
-        rescue.wrong_branch_at_end_only = true;
-        assert_eq!(
-            rescue.validate().unwrap_err(),
-            "wrong_branch_at_end_only applies to solve_maze and return_room only, not to rescue"
+        let mut refused = TaskConfig::new(refused_on);
+        switch_on(&mut refused);
+        assert_eq!(refused.validate().unwrap_err(), refusal);
+    }
+
+    #[test]
+    fn optional_flags_are_unseen_when_off_and_refused_where_they_do_not_apply() {
+        assert_optional_flag(
+            "end_on_wrong_branch",
+            |task| task.end_on_wrong_branch = true,
+            &[TaskKind::Rescue],
+            TaskKind::SolveMaze,
+            "end_on_wrong_branch applies to the rescue only (solve_maze always ends on a wrong \
+             branch or has none)",
+        );
+        assert_optional_flag(
+            "rescue_time_bonus",
+            |task| task.rescue_time_bonus = true,
+            &[TaskKind::Rescue],
+            TaskKind::ReturnRoom,
+            "rescue_time_bonus applies to the rescue only (return_room has no derived fitness)",
+        );
+        assert_optional_flag(
+            "wrong_branch_at_end_only",
+            |task| task.wrong_branch_at_end_only = true,
+            &[TaskKind::SolveMaze, TaskKind::ReturnRoom],
+            TaskKind::Rescue,
+            "wrong_branch_at_end_only applies to solve_maze and return_room only, not to rescue",
         );
     }
 
