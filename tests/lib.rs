@@ -48,7 +48,7 @@ pub fn binaries() -> &'static Binaries {
         let mut args = vec![
             "build",
             "-p",
-            "hevo-master",
+            "hevo-cli",
             "-p",
             "hevo-worker",
             "--message-format=json",

@@ -97,7 +97,7 @@ if [[ -n $bin_dir ]]; then
     hevo=$bin_dir/hevo
     hevo_worker=$bin_dir/hevo-worker
 else
-    hevo=$(command -v hevo) || die "hevo is not on PATH; build it (cargo build --release -p hevo-master -p hevo-worker) or pass --bin-dir"
+    hevo=$(command -v hevo) || die "hevo is not on PATH; build it (cargo build --release -p hevo-cli -p hevo-worker) or pass --bin-dir"
     hevo_worker=$(command -v hevo-worker) || die "hevo-worker is not on PATH; pass --bin-dir"
 fi
 [[ -x $hevo ]] || die "not executable: $hevo"

@@ -3,7 +3,7 @@
 //! web PKI roots, or the CA given with `--tls-ca` for a private certificate), the token on
 //! every call, generous message limits, and HTTP/2 keep-alives so a dead master is noticed
 //! even while a worker is busy evaluating. The command-line flags that say where the master is
-//! ([`MasterArgs`]) live here too, so `hevo-worker` and every `hevo` client command spell them,
+//! (`MasterArgs`, with the feature `cli`) live here too, so `hevo-worker` and every `hevo` client command spell them,
 //! their environment variables and their help the same way.
 
 use crate::auth::ClientAuth;
@@ -27,6 +27,7 @@ pub struct ClientOptions {
 
 /// How to reach a master, as command-line flags (flattened into `hevo-worker` and every `hevo`
 /// client command).
+#[cfg(feature = "cli")]
 #[derive(Debug, Clone, clap::Args)]
 pub struct MasterArgs {
     /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
@@ -43,6 +44,7 @@ pub struct MasterArgs {
     pub tls_ca: Option<PathBuf>,
 }
 
+#[cfg(feature = "cli")]
 impl MasterArgs {
     /// The connection options, with the token read from `--token-file` when one was given.
     pub fn options(&self) -> Result<ClientOptions, String> {

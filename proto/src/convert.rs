@@ -6,11 +6,11 @@
 //! (a stage above 255, a hash that does not match) is an error, never a silent truncation.
 
 use crate::v1;
-use sim_core::Sample;
-use sim_core::TaskConfig;
-use sim_core::batch::{SampleSummary, task_content_hash};
-use sim_core::controller::ControllerFile;
-use sim_core::evaluate::{N_SUB_TASKS, NodeUse, SubTaskChoices};
+use hevo_sim_core::Sample;
+use hevo_sim_core::TaskConfig;
+use hevo_sim_core::batch::{SampleSummary, task_content_hash};
+use hevo_sim_core::controller::ControllerFile;
+use hevo_sim_core::evaluate::{N_SUB_TASKS, NodeUse, SubTaskChoices};
 
 /// Why a message could not be turned into sim-core values.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -244,9 +244,9 @@ pub fn cache_key(template_hash: &str, task_hash: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim_core::TaskKind;
-    use sim_core::controller::NodeSpec;
-    use sim_core::frame::InputGroup;
+    use hevo_sim_core::TaskKind;
+    use hevo_sim_core::controller::NodeSpec;
+    use hevo_sim_core::frame::InputGroup;
 
     fn template(genes: Option<Vec<f32>>) -> ControllerFile {
         ControllerFile::new(NodeSpec {

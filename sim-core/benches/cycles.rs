@@ -4,12 +4,12 @@
 //! 1000 cycles and the figure measures the simulator, not how soon a random genome crashes.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use hevo_sim_core::batch::BatchEvaluator;
+use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::rng::SimRng;
+use hevo_sim_core::{Sample, TaskConfig, TaskKind};
 use rand::{RngExt, SeedableRng};
-use sim_core::batch::BatchEvaluator;
-use sim_core::controller::{ControllerFile, NodeSpec};
-use sim_core::frame::InputGroup;
-use sim_core::rng::SimRng;
-use sim_core::{Sample, TaskConfig, TaskKind};
 
 fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
     (0..n).map(|_| rng.random_range(-3.0..3.0)).collect()

@@ -153,8 +153,5 @@ impl BatchEvaluator {
 /// can cache evaluators by (template hash, task hash).
 pub fn task_content_hash(task: &TaskConfig) -> String {
     let json = serde_json::to_string(task).unwrap_or_default();
-    let hash = json.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    });
-    format!("{hash:016x}")
+    crate::hash::fnv1a_hex(json.as_bytes())
 }

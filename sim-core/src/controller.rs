@@ -26,6 +26,7 @@ use thiserror::Error;
 
 use crate::ctrnn::{Ctrnn, CtrnnError, CtrnnTopology, GENE_MAX, GENE_MIN};
 use crate::frame::{InputGroup, SensorFrame};
+use crate::hash::Fnv1a;
 
 /// The schema string of the controller file format this module reads and writes.
 pub const CONTROLLER_SCHEMA: &str = "hevo.controller/1";
@@ -252,7 +253,7 @@ impl NodeSpec {
     /// [`ControllerFile::content_hash`].
     pub fn content_hash(&self) -> String {
         let mut hasher = Fnv1a::new();
-        hasher.write_node_tree(self);
+        hash_node_tree(&mut hasher, self);
         format!("{:016x}", hasher.finish())
     }
 }
@@ -464,7 +465,7 @@ impl ControllerFile {
     pub fn content_hash(&self) -> String {
         let mut hasher = Fnv1a::new();
         hasher.write_str(&self.schema);
-        hasher.write_node_tree(&self.root);
+        hash_node_tree(&mut hasher, &self.root);
         format!("{:016x}", hasher.finish())
     }
 
@@ -478,75 +479,42 @@ impl ControllerFile {
     }
 }
 
-/// The 64-bit FNV-1a hash, used for content hashes because it is tiny, needs no dependency and
-/// is fully specified.
-struct Fnv1a(u64);
-
-impl Fnv1a {
-    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-
-    fn new() -> Self {
-        Self(Self::OFFSET_BASIS)
-    }
-
-    fn write_bytes(&mut self, bytes: &[u8]) {
-        for &byte in bytes {
-            self.0 ^= u64::from(byte);
-            self.0 = self.0.wrapping_mul(Self::PRIME);
-        }
-    }
-
-    fn write_u64(&mut self, value: u64) {
-        self.write_bytes(&value.to_le_bytes());
-    }
-
-    /// Length-prefixed so that adjacent strings cannot run into each other.
-    fn write_str(&mut self, text: &str) {
-        self.write_u64(text.len() as u64);
-        self.write_bytes(text.as_bytes());
-    }
-
-    fn write_node_tree(&mut self, root: &NodeSpec) {
-        let mut stack = vec![root];
-        while let Some(node) = stack.pop() {
-            self.write_str(&node.name);
-            self.write_bytes(&[match node.kind {
-                NodeKind::Primitive => 0,
-                NodeKind::Arbitrator => 1,
+/// Feeds a controller tree into a content hash, in pre-order.
+fn hash_node_tree(hasher: &mut Fnv1a, root: &NodeSpec) {
+    let mut stack = vec![root];
+    while let Some(node) = stack.pop() {
+        hasher.write_str(&node.name);
+        hasher.write_bytes(&[match node.kind {
+            NodeKind::Primitive => 0,
+            NodeKind::Arbitrator => 1,
+        }]);
+        hasher.write_u64(node.inputs.len() as u64);
+        for group in &node.inputs {
+            hasher.write_bytes(&[match group {
+                InputGroup::Ir => 0,
+                InputGroup::Light => 1,
+                InputGroup::NearRobot => 2,
             }]);
-            self.write_u64(node.inputs.len() as u64);
-            for group in &node.inputs {
-                self.write_bytes(&[match group {
-                    InputGroup::Ir => 0,
-                    InputGroup::Light => 1,
-                    InputGroup::NearRobot => 2,
-                }]);
-            }
-            self.write_u64(node.hidden as u64);
-            match &node.genome {
-                None => self.write_bytes(&[0]),
-                Some(genes) => {
-                    self.write_bytes(&[1]);
-                    self.write_u64(genes.len() as u64);
-                    for gene in genes {
-                        self.write_bytes(&gene.to_bits().to_le_bytes());
-                    }
+        }
+        hasher.write_u64(node.hidden as u64);
+        match &node.genome {
+            None => hasher.write_bytes(&[0]),
+            Some(genes) => {
+                hasher.write_bytes(&[1]);
+                hasher.write_u64(genes.len() as u64);
+                for gene in genes {
+                    hasher.write_bytes(&gene.to_bits().to_le_bytes());
                 }
             }
-            self.write_u64(node.children.len() as u64);
-            // Written only when set, so every tree with the paper's activator keeps the hash
-            // (and so the run fingerprints) it had before the option existed.
-            if node.min_active_cycles > 0 {
-                self.write_bytes(b"min_active_cycles");
-                self.write_u64(u64::from(node.min_active_cycles));
-            }
-            stack.extend(node.children.iter().rev());
         }
-    }
-
-    fn finish(&self) -> u64 {
-        self.0
+        hasher.write_u64(node.children.len() as u64);
+        // Written only when set, so every tree with the paper's activator keeps the hash
+        // (and so the run fingerprints) it had before the option existed.
+        if node.min_active_cycles > 0 {
+            hasher.write_bytes(b"min_active_cycles");
+            hasher.write_u64(u64::from(node.min_active_cycles));
+        }
+        stack.extend(node.children.iter().rev());
     }
 }
 

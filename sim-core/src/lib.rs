@@ -7,6 +7,7 @@ pub mod batch;
 pub mod controller;
 pub mod ctrnn;
 pub mod frame;
+pub mod hash;
 pub mod rng;
 pub mod sensors;
 
@@ -14,7 +15,6 @@ pub mod env;
 pub mod evaluate;
 pub mod robot;
 pub mod scene;
-pub mod scripted;
 pub mod task;
 
 /// Version of the simulation model. Bump it whenever a change alters any trajectory or fitness

@@ -15,11 +15,11 @@
 //! `hypot` identically (the same Rust standard library and platform maths); a different
 //! platform may need its own blessing.
 
-use sim_core::robot::Pose;
-use sim_core::scripted::{
+use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
+use hevo_sim_core::robot::Pose;
+use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
 
 /// A pose as the bit patterns of x, y and heading.
 type PoseBits = [u32; 3];

@@ -15,12 +15,12 @@
 //! checks the default configuration with lower bars (see
 //! `the_default_configuration_is_solvable_too`).
 
-use sim_core::frame::SensorFrame;
-use sim_core::scripted::{
+use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use sim_core::sensors::IrMapping;
-use sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, TaskKind, Trace};
+use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::sensors::IrMapping;
+use hevo_sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, TaskKind, Trace};
 
 /// Samples per task (per light configuration for the maze).
 const SEEDS: u64 = 200;

@@ -9,17 +9,17 @@
 //! how long and how often each controller node drove match a known switching schedule.
 //! Case counts keep the file well under half a minute in release.
 
-use proptest::prelude::*;
-use sim_core::frame::{N_IR, SensorFrame};
-use sim_core::rng::{Stream, stream_rng};
-use sim_core::robot::Pose;
-use sim_core::scene::Rect;
-use sim_core::scripted::{
+use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use sim_core::sensors::IrMapping;
-use sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
-use sim_core::{Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
+use hevo_sim_core::frame::{N_IR, SensorFrame};
+use hevo_sim_core::rng::{Stream, stream_rng};
+use hevo_sim_core::robot::Pose;
+use hevo_sim_core::scene::Rect;
+use hevo_sim_core::sensors::IrMapping;
+use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
+use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
+use proptest::prelude::*;
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
 #[derive(Debug, Clone)]

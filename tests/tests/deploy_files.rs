@@ -9,7 +9,7 @@
 //! arguments (health services answering SERVING without a token, the metrics path, the compose
 //! health check, the token being enforced).
 //!
-//! The binaries come from `cargo build -p hevo-master -p hevo-worker` in the tests' profile
+//! The binaries come from `cargo build -p hevo-cli -p hevo-worker` in the tests' profile
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set. `shellcheck` is used when installed.
 
 use hevo_tests::{Proc, Scratch, binaries, http_get, lines_of, repo_root};

@@ -4,7 +4,7 @@
 //! token, leases, submit/watch/fetch) end to end, on one machine. The SLURM script runs too,
 //! with the allocation's environment and a stand-in for srun.
 //!
-//! The binaries come from `cargo build -p hevo-master -p hevo-worker` in the tests' profile
+//! The binaries come from `cargo build -p hevo-cli -p hevo-worker` in the tests' profile
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
 
 use hevo_tests::{Proc, Scratch, binaries, repo_root};

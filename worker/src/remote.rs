@@ -8,12 +8,12 @@
 //! Shutdown comes in two levels: the first SIGTERM/SIGINT lets the current batch finish within
 //! a grace period (and hands it back if it does not), a second one hands it back at once.
 
-use crate::exec::{EvaluatorCache, ExecError, evaluate_genomes};
+use hevo_engine::executor::{EvaluatorCache, ExecError, evaluate_genomes};
 use hevo_proto::client::{AuthChannel, ClientOptions, describe_status, worker_client};
 use hevo_proto::convert;
 use hevo_proto::v1;
 use hevo_proto::v1::worker_service_client::WorkerServiceClient;
-use sim_core::Sample;
+use hevo_sim_core::Sample;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -83,7 +83,11 @@ pub struct SimExecutor {
 
 impl Executor for SimExecutor {
     fn cached(&self) -> Vec<String> {
-        self.cache.keys()
+        self.cache
+            .keys()
+            .iter()
+            .map(|(template, task)| hevo_proto::convert::cache_key(template, task))
+            .collect()
     }
 
     fn execute(
@@ -453,15 +457,15 @@ mod tests {
 
     #[test]
     fn the_sim_executor_evaluates_and_refuses_what_it_cannot_trust() {
-        use sim_core::controller::{ControllerFile, NodeSpec};
-        use sim_core::frame::InputGroup;
+        use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+        use hevo_sim_core::frame::InputGroup;
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 2));
-        let mut task = sim_core::TaskConfig::new(sim_core::TaskKind::FollowWall);
+        let mut task = hevo_sim_core::TaskConfig::new(hevo_sim_core::TaskKind::FollowWall);
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();
         let mut batch = v1::Batch {
             template_hash: template.content_hash(),
-            task_hash: sim_core::batch::task_content_hash(&task),
+            task_hash: hevo_sim_core::batch::task_content_hash(&task),
             template_json: convert::template_to_json(&template),
             task_json: convert::task_to_json(&task),
             genomes: (0..3)

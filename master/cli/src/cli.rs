@@ -1,0 +1,591 @@
+//! The `hevo` command line: argument parsing and the glue from each subcommand to the library.
+//! Every subcommand returns an error with a clear message instead of panicking; `main` prints
+//! it and exits non-zero.
+
+use crate::service_commands as service;
+use hevo_engine::bench;
+use hevo_engine::dispatch::{DispatchConfig, Dispatcher};
+use hevo_engine::experiment::Experiment;
+use hevo_engine::local::LocalPool;
+use hevo_engine::post_evaluation;
+use hevo_engine::rundir;
+use hevo_engine::runner::{self, RunSettings};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use hevo_sim_core::controller::{Controller, ControllerFile};
+use hevo_sim_core::{Evaluator, Sample, TaskConfig, TaskKind};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// hevo: hierarchical evolution of robot controllers.
+#[derive(Debug, Parser)]
+#[command(name = "hevo", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Evolve an experiment's controller tree bottom-up, locally (resumable).
+    Run(RunArgs),
+    /// Post-evaluate a controller file: solve rate, per light configuration, per stage.
+    Eval(EvalArgs),
+    /// Measure simulator throughput on this machine.
+    Bench(BenchArgs),
+    /// Draw one sample of a controller as an SVG picture (or animation).
+    Replay(ReplayArgs),
+    /// Plot the fitness curves of a node's runs as SVG.
+    Plot(PlotArgs),
+    /// Run the master: job and worker services (gRPC), jobs kept in a durable store.
+    Serve(service::ServeArgs),
+    /// Submit an experiment file to a master; prints the job id.
+    Submit(service::SubmitArgs),
+    /// Follow a job's progress until it ends (exit status 0 when it succeeded).
+    Watch(service::JobArgs),
+    /// List a master's jobs.
+    Jobs(hevo_proto::client::MasterArgs),
+    /// Download a job's results (controllers, fitness logs, summaries) into a directory.
+    Fetch(service::FetchArgs),
+    /// Cancel a job.
+    Cancel(service::JobArgs),
+    /// Write REPRODUCTION.md (paper versus hevo) from run output directories.
+    Report(ReportArgs),
+}
+
+/// `hevo report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Run output directories (as given to `hevo run --out`).
+    #[arg(required = true)]
+    pub runs_dirs: Vec<PathBuf>,
+    /// A run output directory of an ablation (repeatable): its nodes evolved under another
+    /// setup than the same nodes in RUNS_DIRS, or given more runs of the same setup, get a
+    /// section of their own, beside them.
+    #[arg(long = "ablation", value_name = "DIR")]
+    pub ablation_dirs: Vec<PathBuf>,
+    /// The Markdown file to write; pictures go to `reproduction/` beside it.
+    #[arg(long, default_value = "REPRODUCTION.md")]
+    pub out: PathBuf,
+}
+
+/// `hevo run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The experiment file (TOML). Without one, the paper's rescue experiment built into hevo
+    /// (a copy of experiments/rescue.toml) is used.
+    pub file: Option<PathBuf>,
+    /// Evolve only this node (after its children, which are reused when already finished,
+    /// whatever their number of runs).
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Override every node's number of runs. A node that already has more finished runs keeps
+    /// them all; with --node, raising it adds runs to that node alone.
+    #[arg(long)]
+    pub runs: Option<u32>,
+    /// Override every node's number of generations (with --node, the nodes below it that
+    /// are already finished are reused as they are).
+    #[arg(long)]
+    pub generations: Option<u32>,
+    /// Output directory (checkpoints, controllers, logs).
+    #[arg(long, default_value = "runs")]
+    pub out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Override the experiment's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+/// `hevo eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The controller file (JSON).
+    pub controller: PathBuf,
+    #[command(flatten)]
+    pub task: TaskArgs,
+    /// Samples (per light configuration / start branch for tasks that have them).
+    #[arg(long, default_value_t = 100)]
+    pub samples: u32,
+    /// Seed of the samples.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Also list the unsolved samples, each with the `hevo replay` command that draws it.
+    #[arg(long)]
+    pub failures: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// What `hevo eval --json` prints: the report, and the failed samples when asked for.
+#[derive(Debug, serde::Serialize)]
+struct EvalOutput<'a> {
+    #[serde(flatten)]
+    report: &'a post_evaluation::EvalReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    failures: Option<&'a [post_evaluation::FailedSample]>,
+}
+
+/// `hevo bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// The task.
+    #[arg(long, default_value = "solve_maze")]
+    pub task: String,
+    /// Seconds to measure.
+    #[arg(long, default_value_t = 5.0)]
+    pub seconds: f64,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Measure the `hevo run` path (dispatcher and worker pool, evaluations per second)
+    /// instead of the raw simulator.
+    #[arg(long)]
+    pub pipeline: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Measure the master's dispatch capacity instead: this many fake workers (fixed-cost
+    /// evaluations) against a real worker service on 127.0.0.1, for --seconds.
+    #[arg(long, value_name = "WORKERS")]
+    pub dispatch_load: Option<usize>,
+    /// With --dispatch-load: what one batch costs a fake worker, milliseconds.
+    #[arg(long, default_value_t = 20.0)]
+    pub batch_cost_ms: f64,
+}
+
+/// The task `hevo eval` and `hevo replay` run a controller on: a task at the paper's settings,
+/// or the task a node of an experiment file trains on, with its `task_config` overrides and
+/// cycle limit (so a controller evolved under an ablation's rules is judged by them).
+#[derive(Debug, Args)]
+pub struct TaskArgs {
+    /// The task, at the paper's settings.
+    #[arg(
+        long,
+        required_unless_present = "experiment",
+        conflicts_with = "experiment"
+    )]
+    pub task: Option<String>,
+    /// Instead of --task: the task of a node of this experiment file (with --node).
+    #[arg(long, requires = "node")]
+    pub experiment: Option<PathBuf>,
+    /// With --experiment: the node whose task to use.
+    #[arg(long, requires = "experiment")]
+    pub node: Option<String>,
+}
+
+impl TaskArgs {
+    /// The task configuration these flags name.
+    pub fn task_config(&self) -> Result<TaskConfig> {
+        match (&self.task, &self.experiment, &self.node) {
+            (Some(task), _, _) => Ok(TaskConfig::new(parse_task(task)?)),
+            (None, Some(file), Some(node)) => {
+                let experiment = Experiment::load(file)?;
+                let plan = experiment.named_node(node).map_err(anyhow::Error::msg)?;
+                Ok(plan.task.clone())
+            }
+            // clap requires --task or both of --experiment and --node.
+            _ => bail!("give --task, or --experiment FILE with --node NAME"),
+        }
+    }
+
+    /// These flags as they are typed, for a command line printed for the user.
+    fn flags(&self) -> String {
+        match (&self.task, &self.experiment, &self.node) {
+            (Some(task), _, _) => format!("--task {task}"),
+            (None, Some(file), Some(node)) => {
+                format!("--experiment {} --node {node}", file.display())
+            }
+            _ => String::new(),
+        }
+    }
+}
+
+/// `hevo replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The controller file (JSON).
+    pub controller: PathBuf,
+    #[command(flatten)]
+    pub task: TaskArgs,
+    /// The sample's seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Fix the light configuration (or start branch) instead of drawing it from the seed.
+    #[arg(long)]
+    pub light_config: Option<u32>,
+    /// Where to write the SVG (a `.svg` file).
+    #[arg(long, value_parser = svg_path)]
+    pub out: PathBuf,
+    /// Draw the IR cones at these cycles (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub rays: Vec<u32>,
+    /// Write an animated SVG.
+    #[arg(long)]
+    pub animate: bool,
+}
+
+/// `hevo plot`.
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// A run output directory (as given to `hevo run --out`), or one node's directory.
+    pub runs_dir: PathBuf,
+    /// The node to plot.
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Where to write the SVG (a `.svg` file).
+    #[arg(long, value_parser = svg_path)]
+    pub out: PathBuf,
+}
+
+/// hevo draws SVG only; a picture asked for as `trace.png` would be an SVG under a PNG name,
+/// which image viewers refuse, so the name is checked before anything is simulated.
+fn svg_path(value: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(value);
+    let is_svg = path
+        .extension()
+        .is_some_and(|extension| extension.eq_ignore_ascii_case("svg"));
+    if is_svg {
+        Ok(path)
+    } else {
+        Err("hevo draws SVG only: name the file *.svg (any SVG viewer or converter turns it into PNG)".into())
+    }
+}
+
+/// Parses the command line and runs it; the exit code of `hevo`.
+pub fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_tracing();
+    match execute(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        // The reader of our output has gone (`| head`): it has what it wanted.
+        Err(error) if error.is::<crate::output::StdoutClosed>() => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// Logs go to stderr; `RUST_LOG` filters them (default: info).
+pub fn init_tracing() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    use std::io::IsTerminal;
+    let ansi = std::io::stderr().is_terminal();
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(ansi)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
+}
+
+/// How long an in-process worker may hold a batch: in effect for ever.
+const LOCAL_LEASE: std::time::Duration = std::time::Duration::from_secs(7 * 24 * 3600);
+
+/// Runs `work` on a new runtime against a dispatcher served by `threads` in-process workers
+/// (local mode), and stops the workers once it is done.
+fn with_local_workers<T, E>(
+    threads: usize,
+    work: impl AsyncFnOnce(&Dispatcher) -> Result<T, E>,
+) -> Result<T>
+where
+    E: std::error::Error + Send + Sync + 'static,
+{
+    Ok(runtime()?.block_on(async {
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+            expected_workers: threads,
+            // In-process workers cannot vanish while the process lives, and they do not
+            // heartbeat: a lease that expired because the process was starved of CPU (a
+            // suspended job, a compile at higher priority) would only make the batch run twice.
+            lease_timeout: LOCAL_LEASE,
+            ..DispatchConfig::default()
+        }));
+        let pool = LocalPool::start(dispatcher.clone(), threads);
+        let result = work(&dispatcher).await;
+        pool.stop().await;
+        result
+    })?)
+}
+
+/// Threads to use: the flag, else every core.
+pub fn default_threads(flag: Option<usize>) -> usize {
+    flag.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
+}
+
+/// Runs one parsed command.
+pub fn execute(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Run(args) => run(args),
+        Command::Eval(args) => eval(args),
+        Command::Bench(args) => bench_command(args),
+        Command::Replay(args) => replay(args),
+        Command::Plot(args) => plot(args),
+        Command::Serve(args) => service::serve(args),
+        Command::Submit(args) => service::submit(args),
+        Command::Watch(args) => service::watch(args),
+        Command::Jobs(args) => service::jobs(args),
+        Command::Fetch(args) => service::fetch(args),
+        Command::Cancel(args) => service::cancel(args),
+        Command::Report(args) => {
+            let n = hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)
+                .map_err(anyhow::Error::msg)?;
+            crate::outln!("{n} node(s) reported -> {}", args.out.display());
+            Ok(())
+        }
+    }
+}
+
+fn parse_task(name: &str) -> Result<TaskKind> {
+    TaskKind::from_name(name).with_context(|| {
+        let names: Vec<&str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
+        format!(
+            "unknown task '{name}'; expected one of {} (or maze_single)",
+            names.join(", ")
+        )
+    })
+}
+
+fn load_controller(path: &Path) -> Result<ControllerFile> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read controller file {}", path.display()))?;
+    let file = ControllerFile::from_json_str(&text)
+        .with_context(|| format!("{}: invalid controller file", path.display()))?;
+    if let Some((node, _)) = file.free_node_topology() {
+        bail!(
+            "{}: node '{node}' has no genome; a controller to evaluate must be complete",
+            path.display()
+        );
+    }
+    Ok(file)
+}
+
+/// The paper's rescue experiment, built in so `hevo run` works without any file.
+pub const EMBEDDED_EXPERIMENT: &str = include_str!("../../../experiments/rescue.toml");
+
+fn run(args: RunArgs) -> Result<()> {
+    let experiment = match &args.file {
+        Some(file) => Experiment::load(file)?,
+        None => Experiment::parse(
+            EMBEDDED_EXPERIMENT,
+            Path::new("<built-in experiments/rescue.toml>"),
+        )?,
+    };
+    let threads = default_threads(args.threads);
+    let settings = RunSettings {
+        out_dir: args.out.clone(),
+        node: args.node.clone(),
+        runs: args.runs,
+        generations: args.generations,
+        seed: args.seed,
+        job: "local".into(),
+    };
+    let progress = crate::progress::for_stderr();
+    let summaries = with_local_workers(threads, async |dispatcher| {
+        runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()).await
+    })?;
+    crate::outln!("results in {}", args.out.display());
+    for summary in &summaries {
+        crate::outln!(
+            "  {:<14} {:<12} runs {:>2}  best run {:>2}: {:>5.1}% solved   mean over runs {:>5.1}%   -> {}",
+            summary.node,
+            summary.task,
+            summary.runs.len(),
+            summary.best_run,
+            100.0 * summary.best_solve_rate,
+            100.0 * summary.mean_solve_rate,
+            rundir::node_dir(&args.out, &summary.node)
+                .join(rundir::BEST)
+                .display()
+        );
+    }
+    Ok(())
+}
+
+fn eval(args: EvalArgs) -> Result<()> {
+    let task = args.task.task_config()?;
+    let kind = task.kind;
+    let controller = load_controller(&args.controller)?;
+    if args.samples == 0 {
+        bail!("--samples must be at least 1");
+    }
+    let threads = default_threads(args.threads);
+    Evaluator::new(task.clone())?;
+    let samples = post_evaluation::post_evaluation_samples(kind, args.samples, args.seed);
+    let node_paths = controller.node_paths();
+    let summaries = with_local_workers(threads, async |dispatcher| {
+        post_evaluation::evaluate_samples(dispatcher, "eval", controller, task, samples.clone())
+            .await
+    })?;
+    let report = post_evaluation::report(kind, &summaries, &node_paths);
+    let failures = post_evaluation::failed_samples(&samples, &summaries);
+    if args.json {
+        let output = EvalOutput {
+            report: &report,
+            failures: args.failures.then_some(failures.as_slice()),
+        };
+        crate::outln!("{}", serde_json::to_string(&output)?);
+        return Ok(());
+    }
+    crate::outln!("{}", post_evaluation::describe(&report));
+    if args.failures {
+        crate::outln!("{}", post_evaluation::describe_failures(kind, &failures));
+        for failure in &failures {
+            crate::outln!("  {}", describe_failure(failure, kind, &args));
+        }
+    }
+    Ok(())
+}
+
+/// One failed sample as a line: how far it got, and the command that replays it.
+fn describe_failure(
+    failure: &post_evaluation::FailedSample,
+    kind: TaskKind,
+    args: &EvalArgs,
+) -> String {
+    let wall = if failure.collided {
+        ", touched a wall"
+    } else {
+        ""
+    };
+    // Stages mean something only in rescue (left the room, reached the teammate, returned).
+    let stage = if kind == TaskKind::Rescue {
+        format!(", stage {}", failure.stage)
+    } else {
+        String::new()
+    };
+    let variant = failure
+        .variant
+        .map(|v| format!(" --light-config {v}"))
+        .unwrap_or_default();
+    format!(
+        "{} cycles{stage}{wall}: hevo replay {} {} --seed {}{variant} --out failure-{}.svg",
+        failure.cycles,
+        args.controller.display(),
+        args.task.flags(),
+        failure.seed,
+        failure.seed
+    )
+}
+
+fn bench_command(args: BenchArgs) -> Result<()> {
+    let kind = parse_task(&args.task)?;
+    let threads = default_threads(args.threads);
+    if !(args.seconds > 0.0 && args.seconds.is_finite()) {
+        bail!("--seconds must be a positive number");
+    }
+    if let Some(workers) = args.dispatch_load {
+        return service::dispatch_load(workers, args.seconds, args.batch_cost_ms, args.json);
+    }
+    let report = if args.pipeline {
+        runtime()?
+            .block_on(bench::pipeline(kind, threads, args.seconds, 10))
+            .map_err(anyhow::Error::msg)?
+    } else {
+        bench::simulator(kind, threads, args.seconds).map_err(anyhow::Error::msg)?
+    };
+    if args.json {
+        crate::outln!("{}", serde_json::to_string(&report)?);
+    } else {
+        crate::outln!(
+            "{} ({}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
+            report.task,
+            report.mode,
+            report.threads,
+            report.cycles_per_second,
+            report.cycles_per_second_per_thread,
+            report.evaluations_per_second
+        );
+    }
+    Ok(())
+}
+
+fn replay(args: ReplayArgs) -> Result<()> {
+    let task = args.task.task_config()?;
+    let kind = task.kind;
+    let file = load_controller(&args.controller)?;
+    let mut controller = Controller::new(&file, None)?;
+    let evaluator = Evaluator::new(task)?;
+    if let Some(k) = args.light_config {
+        let n = hevo_sim_core::env::n_variants(kind);
+        if k >= n {
+            bail!(
+                "--light-config {k} is out of range: task {} has {n} configuration(s) (0..{})",
+                kind.name(),
+                n - 1
+            );
+        }
+    }
+    let trace = evaluator.evaluate_traced(
+        &mut controller,
+        Sample {
+            seed: args.seed,
+            variant: args.light_config,
+        },
+    );
+    let options = hevo_viz::ReplayOptions {
+        node_names: (0..controller.n_nodes())
+            .map(|i| controller.node_path(i).unwrap_or("?").to_string())
+            .collect(),
+        rays_at_cycles: args.rays.clone(),
+        animate: args.animate,
+        title: None,
+        robot_radius: evaluator.task().robot.radius,
+    };
+    let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
+    hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::outln!(
+        "{}: {:?} after {} cycles, fitness {:.3} -> {}",
+        kind.name(),
+        trace.outcome.ending,
+        trace.outcome.cycles,
+        trace.outcome.fitness,
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn plot(args: PlotArgs) -> Result<()> {
+    let node_dir = match &args.node {
+        Some(node) => args.runs_dir.join(node),
+        None => args.runs_dir.clone(),
+    };
+    let runs = hevo_viz::read_run_logs(&node_dir).map_err(anyhow::Error::msg)?;
+    if runs.is_empty() {
+        let hint = if args.node.is_none() {
+            " (pass --node NAME to plot a node of a run directory)"
+        } else {
+            ""
+        };
+        bail!("no run-*/fitness.csv under {}{hint}", node_dir.display());
+    }
+    let title = format!(
+        "{}: fitness per generation",
+        node_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    );
+    let svg = hevo_viz::fitness_plot_svg(&title, &runs);
+    hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::outln!("{} runs plotted -> {}", runs.len(), args.out.display());
+    Ok(())
+}

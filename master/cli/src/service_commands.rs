@@ -1,0 +1,210 @@
+//! The `hevo` subcommands of the service: `serve`, `submit`, `watch`, `jobs`, `fetch`,
+//! `cancel`, and the dispatch load benchmark behind `hevo bench --dispatch-load`. Their
+//! arguments live here (flattened into `cli.rs`'s command enum) so the service's command line
+//! is one module. Every client command takes the master's URL, the token (`--token`,
+//! `--token-file` or `HEVO_TOKEN`) and `--tls-ca`: the flags of `hevo_proto`'s [`MasterArgs`],
+//! which `hevo-worker` shares.
+
+use crate::client;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use hevo_proto::client::MasterArgs;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// `hevo serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Address for the gRPC services, e.g. 0.0.0.0:7700 (port 0: any free port; the bound
+    /// address is printed first on stdout as `listening on ADDR`).
+    #[arg(long)]
+    pub listen: String,
+    /// Directory of the job store (hevo.redb) and the jobs' outputs.
+    #[arg(long)]
+    pub state_dir: PathBuf,
+    /// The shared token clients and workers must send.
+    #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Read the token from this file (wins over --token and HEVO_TOKEN).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
+    /// Run without a token (only on a network you trust).
+    #[arg(long)]
+    pub insecure_no_token: bool,
+    /// TLS certificate chain (PEM); needs --tls-key.
+    #[arg(long, requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// TLS private key (PEM); needs --tls-cert.
+    #[arg(long, requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Serve Prometheus metrics at http://ADDR/metrics (printed as `metrics on ADDR`).
+    #[arg(long)]
+    pub metrics_listen: Option<String>,
+    /// A batch whose worker sends no heartbeat for this long is given to another worker.
+    #[arg(long, default_value_t = 30)]
+    pub lease_seconds: u64,
+}
+
+/// `hevo submit`.
+#[derive(Debug, Args)]
+pub struct SubmitArgs {
+    #[command(flatten)]
+    pub master: MasterArgs,
+    /// The experiment file (TOML).
+    pub file: PathBuf,
+    /// Evolve only this node (after its children).
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Override every node's number of runs.
+    #[arg(long)]
+    pub runs: Option<u32>,
+    /// Override every node's number of generations.
+    #[arg(long)]
+    pub generations: Option<u32>,
+    /// Override the experiment's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+/// A command about one job (`watch`, `cancel`).
+#[derive(Debug, Args)]
+pub struct JobArgs {
+    #[command(flatten)]
+    pub master: MasterArgs,
+    /// The job id (as printed by `hevo submit`).
+    pub job: String,
+}
+
+/// `hevo fetch`.
+#[derive(Debug, Args)]
+pub struct FetchArgs {
+    #[command(flatten)]
+    pub master: MasterArgs,
+    /// The job id.
+    pub job: String,
+    /// Where to write the results (the layout of `hevo run --out`).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
+}
+
+/// `hevo serve`.
+pub fn serve(args: ServeArgs) -> Result<()> {
+    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())
+        .map_err(anyhow::Error::msg)?;
+    let config = hevo_service::ServeConfig {
+        listen: args.listen,
+        state_dir: args.state_dir,
+        token,
+        insecure_no_token: args.insecure_no_token,
+        tls: args.tls_cert.zip(args.tls_key),
+        metrics_listen: args.metrics_listen,
+        lease: Duration::from_secs(args.lease_seconds),
+    };
+    runtime()?.block_on(hevo_service::serve(config))
+}
+
+/// `hevo submit`: prints the job id alone.
+pub fn submit(args: SubmitArgs) -> Result<()> {
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let settings = hevo_service::db::JobSettings {
+        node: args.node,
+        runs: args.runs,
+        generations: args.generations,
+        seed: args.seed,
+    };
+    let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
+    crate::outln!("{job}");
+    Ok(())
+}
+
+/// `hevo watch`: an error unless the job succeeded.
+pub fn watch(args: JobArgs) -> Result<()> {
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let info = runtime()?.block_on(client::watch(&options, &args.job))?;
+    match hevo_proto::v1::JobState::try_from(info.state) {
+        Ok(hevo_proto::v1::JobState::Succeeded) => Ok(()),
+        Ok(hevo_proto::v1::JobState::Cancelled) => bail!("job {} was cancelled", args.job),
+        _ => bail!("job {} failed: {}", args.job, info.error),
+    }
+}
+
+/// `hevo jobs`.
+pub fn jobs(args: MasterArgs) -> Result<()> {
+    let options = args.options().map_err(anyhow::Error::msg)?;
+    let table = runtime()?.block_on(client::jobs(&options))?;
+    crate::outln!("{}", table.trim_end_matches('\n'));
+    Ok(())
+}
+
+/// `hevo fetch`.
+pub fn fetch(args: FetchArgs) -> Result<()> {
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let (info, files) = runtime()?.block_on(client::fetch(&options, &args.job, &args.out))?;
+    let state = client::state_name(info.state);
+    if state != "succeeded" {
+        eprintln!(
+            "warning: job {} is {state}: its results are incomplete",
+            args.job
+        );
+    }
+    crate::outln!(
+        "{files} files of job {} ({state}) -> {}",
+        args.job,
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `hevo cancel`.
+pub fn cancel(args: JobArgs) -> Result<()> {
+    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let info = runtime()?.block_on(client::cancel(&options, &args.job))?;
+    crate::outln!("{}: {}", args.job, client::state_name(info.state));
+    Ok(())
+}
+
+/// `hevo bench --dispatch-load WORKERS`.
+pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: bool) -> Result<()> {
+    if !((1..=5_000).contains(&workers) && seconds > 0.0 && seconds <= 600.0) {
+        bail!("--dispatch-load takes 1 to 5000 workers, for at most 600 seconds");
+    }
+    if !(batch_cost_ms.is_finite() && batch_cost_ms >= 0.0) {
+        bail!("--batch-cost-ms must be a non-negative number");
+    }
+    let config = hevo_service::load::LoadConfig {
+        workers,
+        seconds,
+        batch_cost: Duration::from_secs_f64(batch_cost_ms / 1e3),
+        jobs: 4,
+        genomes: 1_000,
+        samples: 1,
+    };
+    let report = runtime()?
+        .block_on(hevo_service::load::run(config))
+        .map_err(anyhow::Error::msg)?;
+    if json {
+        crate::outln!("{}", serde_json::to_string(&report)?);
+    } else {
+        let [p50, p90, p99, max] = report.lease_latency_ms;
+        crate::outln!(
+            "dispatch load: {} fake workers, {:.0} ms per batch, {:.1} s: {:.0} batches/s (ideal {:.0}), {:.0} evaluations/s; \
+             lease latency p50 {p50:.2} ms, p90 {p90:.2} ms, p99 {p99:.2} ms, max {max:.2} ms over {} leases; {} reconnects",
+            report.workers,
+            report.batch_cost_ms,
+            report.seconds,
+            report.batches_per_second,
+            report.ideal_batches_per_second,
+            report.evaluations_per_second,
+            report.leases,
+            report.reconnects
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,286 @@
+//! `hevo bench`: simulator throughput on this machine. Two modes: the raw simulator (threads
+//! each running samples back to back, control cycles per second), and the pipeline (a
+//! generation-sized request through the dispatcher and the local worker pool, the exact path of
+//! `hevo run`, in evaluations per second), so the scaling from 1 to N threads can be measured.
+
+use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
+use crate::local::LocalPool;
+use hevo_sim_core::batch::{BatchEvaluator, task_content_hash};
+use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::rng::SimRng;
+use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use rand::{RngExt, SeedableRng};
+use serde::Serialize;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+fn node(
+    name: &str,
+    kind: NodeKind,
+    inputs: Vec<InputGroup>,
+    hidden: usize,
+    children: Vec<NodeSpec>,
+    rng: &mut SimRng,
+) -> NodeSpec {
+    let spec = match kind {
+        NodeKind::Primitive => NodeSpec::primitive(name, inputs, hidden),
+        NodeKind::Arbitrator => NodeSpec::arbitrator(name, inputs, hidden, children),
+    };
+    let n_genes = spec.topology().n_genes();
+    let genes = (0..n_genes)
+        .map(|_| rng.random_range(-3.0f32..3.0))
+        .collect();
+    spec.with_genome(genes)
+}
+
+fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {
+    ["follow_wall", "turn_left", "turn_right"]
+        .iter()
+        .map(|name| {
+            node(
+                name,
+                NodeKind::Primitive,
+                vec![InputGroup::Ir],
+                3,
+                vec![],
+                rng,
+            )
+        })
+        .collect()
+}
+
+// The sub-trees below are whole controllers of their own and parts of the rescue controller;
+// the genes are drawn children first, in the order the tree lists them.
+
+fn exit_room_primitive(rng: &mut SimRng) -> NodeSpec {
+    node(
+        "exit_room",
+        NodeKind::Primitive,
+        vec![InputGroup::Ir],
+        10,
+        vec![],
+        rng,
+    )
+}
+
+fn solve_maze_arbitrator(rng: &mut SimRng) -> NodeSpec {
+    let children = maze_primitives(rng);
+    node(
+        "solve_maze",
+        NodeKind::Arbitrator,
+        vec![InputGroup::Ir, InputGroup::Light],
+        10,
+        children,
+        rng,
+    )
+}
+
+fn return_room_arbitrator(children: Vec<NodeSpec>, rng: &mut SimRng) -> NodeSpec {
+    node(
+        "return_room",
+        NodeKind::Arbitrator,
+        vec![InputGroup::Ir],
+        10,
+        children,
+        rng,
+    )
+}
+
+/// The paper's controller for a task (Figure 4 topologies), with random fixed genes: what the
+/// benchmark runs, so each task is measured with the network sizes it is evolved with.
+pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
+    let rng = &mut SimRng::seed_from_u64(seed);
+    let root = match kind {
+        TaskKind::ExitRoom => exit_room_primitive(rng),
+        TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => node(
+            kind.name(),
+            NodeKind::Primitive,
+            vec![InputGroup::Ir],
+            3,
+            vec![],
+            rng,
+        ),
+        TaskKind::SolveMaze => solve_maze_arbitrator(rng),
+        TaskKind::ReturnRoom => return_room_arbitrator(maze_primitives(rng), rng),
+        TaskKind::Rescue => {
+            let exit = exit_room_primitive(rng);
+            let maze = solve_maze_arbitrator(rng);
+            let mut back = maze_primitives(rng);
+            for child in &mut back {
+                child.name = format!("{}_back", child.name);
+            }
+            let ret = return_room_arbitrator(back, rng);
+            node(
+                "rescue",
+                NodeKind::Arbitrator,
+                vec![InputGroup::Ir, InputGroup::NearRobot],
+                10,
+                vec![exit, maze, ret],
+                rng,
+            )
+        }
+    };
+    ControllerFile::new(root)
+}
+
+/// A benchmark's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    /// Task.
+    pub task: String,
+    /// Threads.
+    pub threads: usize,
+    /// `simulator` or `pipeline`.
+    pub mode: String,
+    /// Control cycles simulated per second (all threads).
+    pub cycles_per_second: f64,
+    /// Per thread.
+    pub cycles_per_second_per_thread: f64,
+    /// Samples (evaluations) per second.
+    pub evaluations_per_second: f64,
+    /// Wall time measured, seconds.
+    pub seconds: f64,
+}
+
+/// Raw simulator throughput: `threads` threads run samples for `seconds`.
+pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchReport, String> {
+    let mut task = TaskConfig::new(kind);
+    // Collisions do not end samples, so every sample runs to its limit and the figure measures
+    // the simulator rather than how soon a random genome crashes.
+    task.end_on_collision = false;
+    let evaluator =
+        BatchEvaluator::new(paper_controller(kind, 1), task).map_err(|e| e.to_string())?;
+    let stop = AtomicBool::new(false);
+    let cycles = AtomicU64::new(0);
+    let samples = AtomicU64::new(0);
+    let started = Instant::now();
+    std::thread::scope(|scope| {
+        for thread_idx in 0..threads.max(1) {
+            let (evaluator, stop, cycles, samples) = (&evaluator, &stop, &cycles, &samples);
+            scope.spawn(move || {
+                let mut seed = thread_idx as u64 * 1_000_000;
+                while !stop.load(Ordering::Relaxed) {
+                    seed += 1;
+                    if let Ok(outcomes) =
+                        evaluator.evaluate_summaries(None, &[Sample::seeded(seed)])
+                    {
+                        cycles.fetch_add(
+                            outcomes.iter().map(|o| u64::from(o.cycles)).sum(),
+                            Ordering::Relaxed,
+                        );
+                        samples.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+        std::thread::sleep(Duration::from_secs_f64(seconds));
+        stop.store(true, Ordering::Relaxed);
+    });
+    let elapsed = started.elapsed().as_secs_f64();
+    let cycles = cycles.load(Ordering::Relaxed) as f64;
+    Ok(BenchReport {
+        task: kind.name().into(),
+        threads: threads.max(1),
+        mode: "simulator".into(),
+        cycles_per_second: cycles / elapsed,
+        cycles_per_second_per_thread: cycles / elapsed / threads.max(1) as f64,
+        evaluations_per_second: samples.load(Ordering::Relaxed) as f64 / elapsed,
+        seconds: elapsed,
+    })
+}
+
+/// The `hevo run` path: generations of 100 genomes x `samples` through the dispatcher and a
+/// local pool of `threads` workers, repeated for `seconds`.
+pub async fn pipeline(
+    kind: TaskKind,
+    threads: usize,
+    seconds: f64,
+    samples: u32,
+) -> Result<BenchReport, String> {
+    let mut template = paper_controller(kind, 1);
+    let genes = template.root.genome.take().unwrap_or_default();
+    let mut task = TaskConfig::new(kind);
+    // As in `simulator`: every sample runs to its limit, as most do once a population avoids
+    // walls. Random genomes crash within about 80 cycles, and a benchmark of such samples
+    // measures per-sample set-up rather than the pipeline an evolution run spends its time in.
+    // The same work in both modes also makes pipeline / simulator the pipeline's efficiency.
+    task.end_on_collision = false;
+    let shared = Arc::new(RequestShared {
+        template_hash: template.content_hash(),
+        task_hash: task_content_hash(&task),
+        template,
+        task,
+    });
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+        expected_workers: threads.max(1),
+        ..DispatchConfig::default()
+    }));
+    let pool = LocalPool::start(dispatcher.clone(), threads.max(1));
+    let started = Instant::now();
+    let (mut cycles, mut evaluations, mut generation) = (0u64, 0u64, 0u64);
+    while started.elapsed().as_secs_f64() < seconds {
+        let mut rng = SimRng::seed_from_u64(generation);
+        // Perturbed copies of one genome: a realistic population after a few generations.
+        let genomes: Vec<Arc<[f32]>> = (0..100)
+            .map(|_| {
+                genes
+                    .iter()
+                    .map(|g| g + rng.random_range(-0.5f32..0.5))
+                    .collect::<Vec<_>>()
+                    .into()
+            })
+            .collect();
+        let request = EvaluationRequest {
+            job: "bench".into(),
+            shared: shared.clone(),
+            genomes,
+            samples: (0..samples)
+                .map(|s| Sample::seeded(generation * 1000 + u64::from(s)))
+                .collect(),
+        };
+        let results = dispatcher
+            .evaluate(request)
+            .await
+            .map_err(|e| e.to_string())?;
+        cycles += results
+            .iter()
+            .flatten()
+            .map(|s| u64::from(s.cycles))
+            .sum::<u64>();
+        evaluations += results.iter().map(|g| g.len() as u64).sum::<u64>();
+        generation += 1;
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    pool.stop().await;
+    Ok(BenchReport {
+        task: kind.name().into(),
+        threads: threads.max(1),
+        mode: "pipeline".into(),
+        cycles_per_second: cycles as f64 / elapsed,
+        cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
+        evaluations_per_second: evaluations as f64 / elapsed,
+        seconds: elapsed,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_controllers_have_the_papers_topologies() {
+        let rescue = paper_controller(TaskKind::Rescue, 1);
+        rescue.validate().unwrap();
+        assert_eq!(rescue.root.topology().to_string(), "5-10-3");
+        assert_eq!(rescue.root.children[1].topology().to_string(), "6-10-3");
+        assert_eq!(
+            paper_controller(TaskKind::ExitRoom, 1)
+                .root
+                .topology()
+                .to_string(),
+            "4-10-2"
+        );
+    }
+}

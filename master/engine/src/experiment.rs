@@ -1,0 +1,777 @@
+//! Experiment files: the TOML that declares a controller hierarchy to evolve, node by node,
+//! with each node's kind, topology, inputs, task, samples, cycles, generations and runs.
+//! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
+//! what was expected, because a typo in a week-long experiment must fail in the first second.
+
+use hevo_sim_core::TaskConfig;
+use hevo_sim_core::controller::NodeKind;
+use hevo_sim_core::frame::InputGroup;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// A problem with an experiment file.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {reason}")]
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// Why. Not a `source`: the message says it already, and error chains would repeat it.
+        reason: std::io::Error,
+    },
+    /// The TOML is malformed or a key has the wrong type or is unknown.
+    #[error("{file}: at `{path}`: {message}")]
+    Syntax {
+        /// The file.
+        file: PathBuf,
+        /// Key path, e.g. `node[2].hidden`.
+        path: String,
+        /// What was expected.
+        message: String,
+    },
+    /// The values are inconsistent.
+    #[error("{file}: at `{path}`: {message}")]
+    Invalid {
+        /// The file.
+        file: PathBuf,
+        /// Key path.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// `[experiment]`: name and master seed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentHeader {
+    /// A short name, used in outputs.
+    pub name: String,
+    /// Master seed: every run's seed derives from it, the node's name and the run index.
+    #[serde(default)]
+    pub seed: u64,
+    /// Free-text description.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+}
+
+/// The evolutionary algorithm's parameters (SPEC section 6). Any of them may be set for the
+/// whole experiment in `[evolution]` and overridden per node in `[node.evolution]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvolutionParams {
+    /// Genomes per generation.
+    pub population: u32,
+    /// Best genomes copied unchanged; each also gets `population / elites - 1` mutated copies.
+    pub elites: u32,
+    /// Probability that a gene of a copy is mutated.
+    pub mutation_probability: f64,
+    /// Standard deviation of the Gaussian offset added to a mutated gene.
+    pub mutation_sigma: f64,
+    /// Standard deviation of the initial genes (mean 0).
+    pub initial_sigma: f64,
+    /// Genes are clamped to this range.
+    pub gene_range: [f64; 2],
+    /// Post-evaluation samples per controller (per light configuration for maze tasks).
+    pub post_evaluation_samples: u32,
+    /// How a generation's samples spread over the task's light configurations or start branches.
+    /// Left out of the serialized form when balanced, so the fingerprints of runs made before
+    /// the choice existed stay valid.
+    #[serde(default, skip_serializing_if = "TrainingVariants::is_balanced")]
+    pub training_variants: TrainingVariants,
+}
+
+/// How the samples of a generation meet a task's light configurations (or start branches). The
+/// paper says only that the samples' initial conditions vary; see ARCHITECTURE.md.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrainingVariants {
+    /// In turn, so each gets an equal share of every generation.
+    #[default]
+    Balanced,
+    /// Each sample draws its own, uniformly at random (seeded per run and generation).
+    Random,
+}
+
+impl TrainingVariants {
+    fn is_balanced(&self) -> bool {
+        *self == TrainingVariants::Balanced
+    }
+}
+
+impl Default for EvolutionParams {
+    fn default() -> Self {
+        EvolutionParams {
+            population: 100,
+            elites: 5,
+            mutation_probability: 0.1,
+            mutation_sigma: 1.0,
+            initial_sigma: 2.0,
+            gene_range: [-10.0, 10.0],
+            post_evaluation_samples: 100,
+            training_variants: TrainingVariants::Balanced,
+        }
+    }
+}
+
+/// Partial evolution parameters: what a file sets.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvolutionOverrides {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    population: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    elites: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    mutation_probability: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    mutation_sigma: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    initial_sigma: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    gene_range: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    post_evaluation_samples: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    training_variants: Option<TrainingVariants>,
+}
+
+impl EvolutionOverrides {
+    fn apply(&self, base: &EvolutionParams) -> EvolutionParams {
+        EvolutionParams {
+            population: self.population.unwrap_or(base.population),
+            elites: self.elites.unwrap_or(base.elites),
+            mutation_probability: self
+                .mutation_probability
+                .unwrap_or(base.mutation_probability),
+            mutation_sigma: self.mutation_sigma.unwrap_or(base.mutation_sigma),
+            initial_sigma: self.initial_sigma.unwrap_or(base.initial_sigma),
+            gene_range: self.gene_range.unwrap_or(base.gene_range),
+            post_evaluation_samples: self
+                .post_evaluation_samples
+                .unwrap_or(base.post_evaluation_samples),
+            training_variants: self.training_variants.unwrap_or(base.training_variants),
+        }
+    }
+}
+
+/// One `[[node]]` as written in the file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeDecl {
+    /// Unique name; children refer to it.
+    pub name: String,
+    /// `primitive` (drives the wheels) or `arbitrator` (chooses a child).
+    pub kind: NodeKind,
+    /// Input groups, in order: `ir`, `light`, `near_robot`.
+    pub inputs: Vec<InputGroup>,
+    /// Hidden neurons.
+    pub hidden: usize,
+    /// For arbitrators: the names of the sub-controllers, one output each, in output order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub children: Vec<String>,
+    /// For arbitrators: the fewest cycles a child stays on once switched on; 0 (the default)
+    /// is the paper's activator, which may switch in any cycle.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_active_cycles: u32,
+    /// The task the node is evolved on (`exit_room`, `follow_wall`, `turn_left`, `turn_right`,
+    /// `solve_maze`, `maze_single`, `return_room`, `rescue`).
+    pub task: String,
+    /// Samples per genome per generation.
+    pub samples: u32,
+    /// Cycle limit per sample; the task's default when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cycles: Option<u32>,
+    /// Generations per run.
+    pub generations: u32,
+    /// Independent evolutionary runs.
+    pub runs: u32,
+    /// Overrides of the experiment's `[evolution]` parameters for this node.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evolution: Option<EvolutionOverrides>,
+    /// Overrides of the task's configuration (robot, ir, light, room, corridor, start,
+    /// end_on_collision), as in sim-core's `TaskConfig`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task_config: Option<toml::Table>,
+}
+
+fn is_zero(value: &u32) -> bool {
+    *value == 0
+}
+
+/// The file as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExperimentFile {
+    experiment: ExperimentHeader,
+    #[serde(default)]
+    evolution: EvolutionOverrides,
+    #[serde(rename = "node")]
+    nodes: Vec<NodeDecl>,
+}
+
+/// A node with everything resolved: its evolution parameters and its full task configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodePlan {
+    /// The declaration.
+    pub decl: NodeDecl,
+    /// Evolution parameters in force.
+    pub evolution: EvolutionParams,
+    /// The task configuration in force (cycles applied).
+    pub task: TaskConfig,
+}
+
+/// A parsed, validated experiment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Experiment {
+    /// The file it came from.
+    pub file: PathBuf,
+    /// `[experiment]`.
+    pub header: ExperimentHeader,
+    /// Nodes in dependency order: every node after all its children.
+    pub nodes: Vec<NodePlan>,
+}
+
+impl Experiment {
+    /// Reads and validates an experiment file.
+    pub fn load(file: &Path) -> Result<Experiment, ExperimentError> {
+        let text = std::fs::read_to_string(file).map_err(|reason| ExperimentError::Read {
+            file: file.to_path_buf(),
+            reason,
+        })?;
+        Experiment::parse(&text, file)
+    }
+
+    /// Parses and validates experiment text; `file` is used in messages.
+    pub fn parse(text: &str, file: &Path) -> Result<Experiment, ExperimentError> {
+        let syntax = |path: String, message: String| ExperimentError::Syntax {
+            file: file.to_path_buf(),
+            path,
+            message,
+        };
+        let deserializer = toml::Deserializer::parse(text)
+            .map_err(|e| syntax(String::new(), one_line(&e.to_string())))?;
+        let parsed: ExperimentFile = serde_path_to_error::deserialize(deserializer)
+            .map_err(|e| syntax(e.path().to_string(), one_line(&e.inner().to_string())))?;
+        let invalid = |path: String, message: String| ExperimentError::Invalid {
+            file: file.to_path_buf(),
+            path,
+            message,
+        };
+
+        let base = parsed.evolution.apply(&EvolutionParams::default());
+        let mut index_of: HashMap<&str, usize> = HashMap::new();
+        for (node_idx, node) in parsed.nodes.iter().enumerate() {
+            if node.name.is_empty() || node.name.contains('/') {
+                return Err(invalid(
+                    format!("node[{node_idx}].name"),
+                    "must be non-empty and contain no '/'".into(),
+                ));
+            }
+            if index_of.insert(node.name.as_str(), node_idx).is_some() {
+                return Err(invalid(
+                    format!("node[{node_idx}].name"),
+                    format!("'{}' is declared twice", node.name),
+                ));
+            }
+        }
+        if parsed.nodes.is_empty() {
+            return Err(invalid(
+                "node".into(),
+                "at least one [[node]] is required".into(),
+            ));
+        }
+
+        let mut plans: Vec<Option<NodePlan>> = vec![None; parsed.nodes.len()];
+        for (node_idx, node) in parsed.nodes.iter().enumerate() {
+            let at = |key: &str| format!("node[{node_idx}].{key}");
+            match node.kind {
+                NodeKind::Primitive if !node.children.is_empty() => {
+                    return Err(invalid(
+                        at("children"),
+                        "a primitive drives the wheels and has no children".into(),
+                    ));
+                }
+                NodeKind::Arbitrator if node.children.is_empty() => {
+                    return Err(invalid(
+                        at("children"),
+                        "an arbitrator needs at least one child".into(),
+                    ));
+                }
+                NodeKind::Primitive if node.min_active_cycles > 0 => {
+                    return Err(invalid(
+                        at("min_active_cycles"),
+                        "only an arbitrator switches children; a primitive has none to keep on"
+                            .into(),
+                    ));
+                }
+                _ => {}
+            }
+            for (child_idx, child) in node.children.iter().enumerate() {
+                if !index_of.contains_key(child.as_str()) {
+                    return Err(invalid(
+                        format!("node[{node_idx}].children[{child_idx}]"),
+                        format!("no node is named '{child}'"),
+                    ));
+                }
+            }
+            if node.inputs.is_empty() {
+                return Err(invalid(
+                    at("inputs"),
+                    "at least one input group is required".into(),
+                ));
+            }
+            if node.hidden == 0 || node.hidden > 1000 {
+                return Err(invalid(
+                    at("hidden"),
+                    format!("must be between 1 and 1000, got {}", node.hidden),
+                ));
+            }
+            let kind = hevo_sim_core::TaskKind::from_name(&node.task).ok_or_else(|| {
+                let names: Vec<&str> = hevo_sim_core::TaskKind::ALL
+                    .iter()
+                    .map(|k| k.name())
+                    .collect();
+                invalid(
+                    at("task"),
+                    format!(
+                        "unknown task '{}', expected one of {} or maze_single",
+                        node.task,
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            for (key, value, min) in [
+                ("samples", node.samples, 1),
+                ("generations", node.generations, 1),
+                ("runs", node.runs, 1),
+            ] {
+                if value < min {
+                    return Err(invalid(
+                        at(key),
+                        format!("must be at least {min}, got {value}"),
+                    ));
+                }
+            }
+            let evolution = node
+                .evolution
+                .as_ref()
+                .map_or_else(|| base.clone(), |o| o.apply(&base));
+            validate_evolution(&evolution).map_err(|(key, message)| {
+                let path = if node.evolution.is_some() {
+                    at(&format!("evolution.{key}"))
+                } else {
+                    format!("evolution.{key}")
+                };
+                invalid(path, message)
+            })?;
+            let task =
+                task_config(kind, node).map_err(|(key, message)| invalid(at(&key), message))?;
+            plans[node_idx] = Some(NodePlan {
+                decl: node.clone(),
+                evolution,
+                task,
+            });
+        }
+
+        // Dependency order, and no cycles.
+        let mut order = Vec::with_capacity(parsed.nodes.len());
+        let mut state = vec![0u8; parsed.nodes.len()]; // 0 new, 1 visiting, 2 done
+        fn visit(
+            node_idx: usize,
+            nodes: &[NodeDecl],
+            index_of: &HashMap<&str, usize>,
+            state: &mut [u8],
+            order: &mut Vec<usize>,
+        ) -> Result<(), String> {
+            match state[node_idx] {
+                2 => return Ok(()),
+                1 => return Err(nodes[node_idx].name.clone()),
+                _ => {}
+            }
+            state[node_idx] = 1;
+            for child in &nodes[node_idx].children {
+                visit(index_of[child.as_str()], nodes, index_of, state, order)?;
+            }
+            state[node_idx] = 2;
+            order.push(node_idx);
+            Ok(())
+        }
+        for node_idx in 0..parsed.nodes.len() {
+            visit(node_idx, &parsed.nodes, &index_of, &mut state, &mut order).map_err(|name| {
+                invalid(
+                    "node".into(),
+                    format!("the children of '{name}' form a cycle"),
+                )
+            })?;
+        }
+        let nodes = order
+            .into_iter()
+            .map(|i| plans[i].take().expect("each node planned once"))
+            .collect();
+        Ok(Experiment {
+            file: file.to_path_buf(),
+            header: parsed.experiment,
+            nodes,
+        })
+    }
+
+    /// The node with this name.
+    pub fn node(&self, name: &str) -> Option<&NodePlan> {
+        self.nodes.iter().find(|n| n.decl.name == name)
+    }
+
+    /// The node a user named: an unknown name is refused with one message, naming the file
+    /// and the known nodes, whichever command (run, submit, eval, replay) asked.
+    pub fn named_node(&self, name: &str) -> Result<&NodePlan, String> {
+        self.node(name).ok_or_else(|| {
+            let known: Vec<&str> = self.nodes.iter().map(|n| n.decl.name.as_str()).collect();
+            format!(
+                "no node named '{name}' in {}; nodes: {}",
+                self.file.display(),
+                known.join(", ")
+            )
+        })
+    }
+
+    /// The names of the nodes to evolve, in dependency order: `node` and everything below it,
+    /// or every node when no node is named. The runner and the service both ask this, so an
+    /// unknown node is refused with the same message either way.
+    pub fn nodes_to_run(&self, node: Option<&str>) -> Result<Vec<String>, String> {
+        let Some(node) = node else {
+            return Ok(self.nodes.iter().map(|n| n.decl.name.clone()).collect());
+        };
+        self.named_node(node)?;
+        Ok(self.subtree(node))
+    }
+
+    /// The names of a node and everything below it, in dependency order.
+    pub fn subtree(&self, name: &str) -> Vec<String> {
+        let mut wanted: BTreeMap<String, ()> = BTreeMap::new();
+        let mut stack = vec![name.to_string()];
+        while let Some(current) = stack.pop() {
+            if wanted.insert(current.clone(), ()).is_none()
+                && let Some(plan) = self.node(&current)
+            {
+                stack.extend(plan.decl.children.iter().cloned());
+            }
+        }
+        self.nodes
+            .iter()
+            .map(|n| n.decl.name.clone())
+            .filter(|n| wanted.contains_key(n))
+            .collect()
+    }
+}
+
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> {
+    let fail = |key: &str, message: String| Err((key.to_string(), message));
+    if params.elites == 0
+        || params.population < 2
+        || !params.population.is_multiple_of(params.elites)
+        || params.population == params.elites
+    {
+        return fail(
+            "population",
+            format!(
+                "population ({}) must be a multiple of elites ({}) and larger, so each elite gets the same number of mutated copies",
+                params.population, params.elites
+            ),
+        );
+    }
+    if !(0.0..=1.0).contains(&params.mutation_probability) {
+        return fail(
+            "mutation_probability",
+            format!("must be in [0, 1], got {}", params.mutation_probability),
+        );
+    }
+    if !(params.mutation_sigma.is_finite() && params.mutation_sigma >= 0.0) {
+        return fail(
+            "mutation_sigma",
+            format!("must be >= 0, got {}", params.mutation_sigma),
+        );
+    }
+    if !(params.initial_sigma.is_finite() && params.initial_sigma >= 0.0) {
+        return fail(
+            "initial_sigma",
+            format!("must be >= 0, got {}", params.initial_sigma),
+        );
+    }
+    let [low, high] = params.gene_range;
+    if !(low.is_finite() && high.is_finite() && low < high && low >= -10.0 && high <= 10.0) {
+        return fail(
+            "gene_range",
+            format!("must be [low, high] within [-10, 10] with low < high, got [{low}, {high}]"),
+        );
+    }
+    if params.post_evaluation_samples == 0 {
+        return fail("post_evaluation_samples", "must be at least 1".into());
+    }
+    Ok(())
+}
+
+/// The node's task configuration: the paper's defaults, the node's `task_config` overrides
+/// (checked key by key against sim-core's schema), then `cycles`.
+fn task_config(
+    kind: hevo_sim_core::TaskKind,
+    node: &NodeDecl,
+) -> Result<TaskConfig, (String, String)> {
+    let mut value = serde_json::to_value(TaskConfig::new(kind))
+        .map_err(|e| ("task".to_string(), e.to_string()))?;
+    if let Some(overrides) = &node.task_config {
+        let overrides = serde_json::to_value(overrides)
+            .map_err(|e| ("task_config".to_string(), e.to_string()))?;
+        if overrides.get("kind").is_some() {
+            return Err((
+                "task_config.kind".into(),
+                "set the task with the node's `task` key".into(),
+            ));
+        }
+        merge(&mut value, overrides);
+    }
+    let mut task: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
+        (
+            format!("task_config.{}", e.path()),
+            one_line(&e.inner().to_string()),
+        )
+    })?;
+    if let Some(cycles) = node.cycles {
+        task.max_cycles = Some(cycles);
+    }
+    task.validate()
+        .map_err(|message| ("task_config".to_string(), message))?;
+    Ok(task)
+}
+
+/// Deep-merges `overrides` into `base` (tables merge key by key, anything else replaces).
+fn merge(base: &mut serde_json::Value, overrides: serde_json::Value) {
+    match (base, overrides) {
+        (serde_json::Value::Object(base), serde_json::Value::Object(overrides)) => {
+            for (key, value) in overrides {
+                match base.get_mut(&key) {
+                    Some(slot) => merge(slot, value),
+                    None => {
+                        base.insert(key, value);
+                    }
+                }
+            }
+        }
+        (slot, value) => *slot = value,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+[experiment]
+name = "t"
+seed = 3
+
+[evolution]
+population = 20
+elites = 4
+
+[[node]]
+name = "maze"
+kind = "arbitrator"
+inputs = ["ir", "light"]
+hidden = 10
+children = ["fw", "tl"]
+task = "solve_maze"
+samples = 8
+generations = 2
+runs = 1
+
+[[node]]
+name = "fw"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "follow_wall"
+samples = 4
+cycles = 300
+generations = 3
+runs = 2
+[node.task_config]
+robot = { v_max = 0.12 }
+
+[[node]]
+name = "tl"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "turn_left"
+samples = 4
+generations = 3
+runs = 2
+[node.evolution]
+mutation_sigma = 0.5
+"#;
+
+    fn parse(text: &str) -> Result<Experiment, ExperimentError> {
+        Experiment::parse(text, Path::new("exp.toml"))
+    }
+
+    #[test]
+    fn a_good_file_resolves_in_dependency_order() {
+        let experiment = parse(GOOD).unwrap();
+        let names: Vec<&str> = experiment
+            .nodes
+            .iter()
+            .map(|n| n.decl.name.as_str())
+            .collect();
+        assert_eq!(names, ["fw", "tl", "maze"]);
+        let fw = experiment.node("fw").unwrap();
+        assert_eq!(fw.task.robot.v_max, 0.12);
+        assert_eq!(fw.task.max_cycles(), 300);
+        assert_eq!(fw.evolution.population, 20);
+        assert_eq!(experiment.node("tl").unwrap().evolution.mutation_sigma, 0.5);
+        assert_eq!(experiment.subtree("maze"), ["fw", "tl", "maze"]);
+        assert_eq!(experiment.subtree("tl"), ["tl"]);
+    }
+
+    fn error_of(text: &str) -> String {
+        parse(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn every_shipped_experiment_file_is_valid() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+        let mut n_files = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                Experiment::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                n_files += 1;
+            }
+        }
+        assert!(
+            n_files >= 3,
+            "{n_files} experiment files in {}",
+            dir.display()
+        );
+    }
+
+    #[test]
+    fn training_variants_are_balanced_unless_asked_and_absent_from_old_fingerprints() {
+        let experiment = parse(GOOD).unwrap();
+        let maze = experiment.node("maze").unwrap();
+        assert_eq!(maze.evolution.training_variants, TrainingVariants::Balanced);
+        // The runner's fingerprint hashes this JSON: balanced must serialize as before the
+        // choice existed, or every finished run would be refused.
+        let json = serde_json::to_string(&maze.evolution).unwrap();
+        assert!(!json.contains("training_variants"), "{json}");
+
+        let random = parse(&GOOD.replace(
+            "mutation_sigma = 0.5",
+            "mutation_sigma = 0.5\ntraining_variants = \"random\"",
+        ))
+        .unwrap();
+        let tl = random.node("tl").unwrap();
+        assert_eq!(tl.evolution.training_variants, TrainingVariants::Random);
+        assert!(
+            serde_json::to_string(&tl.evolution)
+                .unwrap()
+                .contains("\"random\"")
+        );
+        assert_eq!(
+            random.node("maze").unwrap().evolution.training_variants,
+            TrainingVariants::Balanced
+        );
+
+        let err =
+            error_of(&GOOD.replace("mutation_sigma = 0.5", "training_variants = \"shuffled\""));
+        assert!(
+            err.contains("training_variants") && err.contains("shuffled"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn unknown_keys_are_errors_with_their_path() {
+        let err = error_of(&GOOD.replace(
+            "hidden = 3\ntask = \"follow_wall\"",
+            "hiden = 3\ntask = \"follow_wall\"",
+        ));
+        assert!(
+            err.contains("exp.toml") && err.contains("node[1]") && err.contains("hiden"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace("robot = { v_max = 0.12 }", "robot = { vmax = 0.12 }"));
+        assert!(
+            err.contains("node[1].task_config.robot") && err.contains("vmax"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn only_arbitrators_keep_children_on() {
+        let held = GOOD.replace(
+            "children = [\"fw\", \"tl\"]",
+            "children = [\"fw\", \"tl\"]\nmin_active_cycles = 10",
+        );
+        let experiment = parse(&held).unwrap();
+        assert_eq!(experiment.node("maze").unwrap().decl.min_active_cycles, 10);
+        assert_eq!(experiment.node("fw").unwrap().decl.min_active_cycles, 0);
+        let err = error_of(&GOOD.replace("cycles = 300", "cycles = 300\nmin_active_cycles = 4"));
+        assert!(
+            err.contains("node[1].min_active_cycles") && err.contains("only an arbitrator"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn wrong_types_and_values_name_the_key() {
+        let err = error_of(&GOOD.replace("hidden = 10", "hidden = \"ten\""));
+        assert!(err.contains("node[0].hidden"), "{err}");
+        let err = error_of(&GOOD.replace("task = \"turn_left\"", "task = \"turn_up\""));
+        assert!(
+            err.contains("node[2].task") && err.contains("turn_up"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace(
+            "children = [\"fw\", \"tl\"]",
+            "children = [\"fw\", \"nope\"]",
+        ));
+        assert!(
+            err.contains("node[0].children[1]") && err.contains("nope"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace("elites = 4", "elites = 3"));
+        assert!(err.contains("evolution.population"), "{err}");
+        let err = error_of(&GOOD.replace("robot = { v_max = 0.12 }", "robot = { v_max = -1.0 }"));
+        assert!(
+            err.contains("node[1].task_config") && err.contains("v_max"),
+            "{err}"
+        );
+        let err = error_of(&GOOD.replace(
+            "inputs = [\"ir\", \"light\"]",
+            "inputs = [\"ir\", \"lidar\"]",
+        ));
+        assert!(err.contains("node[0].inputs"), "{err}");
+    }
+
+    #[test]
+    fn cycles_are_refused() {
+        let text = GOOD.replace(
+            "name = \"tl\"\nkind = \"primitive\"",
+            "name = \"tl\"\nkind = \"arbitrator\"\nchildren = [\"maze\"]",
+        );
+        let err = error_of(&text);
+        assert!(err.contains("cycle"), "{err}");
+    }
+
+    #[test]
+    fn malformed_toml_is_a_syntax_error() {
+        let err = error_of("[experiment\nname = 1");
+        assert!(err.starts_with("exp.toml"), "{err}");
+    }
+}

@@ -1,0 +1,25 @@
+//! hevo's engine: everything that evolves and evaluates controller trees, and nothing that
+//! talks to a network, parses a command line or draws. It reads experiment files
+//! ([`experiment`]), runs the paper's evolutionary algorithm ([`ea`]) node by node with
+//! checkpoints ([`runner`]), hands batches of genome evaluations to workers through the
+//! [`dispatch`]er, evaluates them on the [`executor`] (in-process workers: [`local`]; remote
+//! workers run the same executor), post-evaluates the results ([`post_evaluation`]), and owns
+//! the format of run directories ([`rundir`]), written atomically ([`store`]).
+//!
+//! The service, the worker, the pictures and the `hevo` command are built on it; it depends on
+//! none of them.
+
+pub mod bench;
+pub mod dispatch;
+pub mod ea;
+pub mod executor;
+pub mod experiment;
+pub mod local;
+pub mod post_evaluation;
+pub mod rundir;
+pub mod runner;
+pub mod store;
+
+pub use dispatch::{DispatchConfig, Dispatcher, EvaluationRequest};
+pub use experiment::Experiment;
+pub use runner::{Progress, ProgressEvent, RunSettings, run_experiment};

@@ -1,0 +1,99 @@
+//! Local mode's workers: in-process tasks that lease batches from the dispatcher exactly as
+//! remote workers do, evaluate them on a blocking thread with sim-core, and return the results.
+//! One worker per thread, each evaluating one batch at a time, so `--threads N` keeps N cores
+//! busy. The evaluation itself is the [`crate::executor`], the same code remote workers run, with
+//! evaluators cached by (template hash, task hash): building one validates the tree and
+//! prepares the task's shared geometry, which a generation's batches all reuse.
+
+use crate::dispatch::{Batch, Dispatcher};
+use crate::executor::{EvaluatorCache, ExecError, evaluate_genomes};
+use hevo_sim_core::batch::{BatchEvaluator, SampleSummary};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+
+/// The evaluator for a batch, from the process's cache (built from the batch's template and
+/// task on first use).
+pub fn evaluator_for(cache: &EvaluatorCache, batch: &Batch) -> Result<Arc<BatchEvaluator>, String> {
+    let shared = &batch.shared;
+    cache
+        .get_or_build(&shared.template_hash, &shared.task_hash, || {
+            Ok((shared.template.clone(), shared.task.clone()))
+        })
+        .map_err(|e| e.to_string())
+}
+
+/// Evaluates a whole batch on the calling thread.
+pub fn evaluate_batch(
+    evaluator: &BatchEvaluator,
+    batch: &Batch,
+) -> Result<Vec<Vec<SampleSummary>>, String> {
+    let genomes: Vec<&[f32]> = batch.genomes.iter().map(|(_, genes)| &genes[..]).collect();
+    evaluate_genomes(evaluator, &genomes, &batch.samples, 1, None)
+        .map_err(|e: ExecError| e.to_string())
+}
+
+/// A running pool of in-process workers.
+#[derive(Debug)]
+pub struct LocalPool {
+    stop: watch::Sender<bool>,
+    handles: Vec<JoinHandle<()>>,
+}
+
+impl LocalPool {
+    /// Starts `threads` workers on the dispatcher.
+    pub fn start(dispatcher: Arc<Dispatcher>, threads: usize) -> LocalPool {
+        let (stop, stopped) = watch::channel(false);
+        let cache = Arc::new(EvaluatorCache::default());
+        let handles = (0..threads.max(1))
+            .map(|worker_idx| {
+                let dispatcher = dispatcher.clone();
+                let cache = cache.clone();
+                let mut stopped = stopped.clone();
+                let name = format!("local-{worker_idx}");
+                tokio::spawn(async move {
+                    loop {
+                        if *stopped.borrow() {
+                            break;
+                        }
+                        let batch = tokio::select! {
+                            batch = dispatcher.lease(&name, Duration::from_secs(1)) => batch,
+                            _ = stopped.changed() => break,
+                        };
+                        let Some(batch) = batch else { continue };
+                        let cache = cache.clone();
+                        let work = batch.clone();
+                        let result = tokio::task::spawn_blocking(move || {
+                            let evaluator = evaluator_for(&cache, &work)?;
+                            evaluate_batch(&evaluator, &work)
+                        })
+                        .await
+                        .unwrap_or_else(|join_error| {
+                            Err(format!("evaluation thread failed: {join_error}"))
+                        });
+                        match result {
+                            Ok(results) => {
+                                if let Err(error) =
+                                    dispatcher.complete(batch.lease_id, batch.batch_id, results)
+                                {
+                                    tracing::error!(%error, "local worker result refused");
+                                }
+                            }
+                            Err(message) => dispatcher.fail(batch.lease_id, message),
+                        }
+                    }
+                })
+            })
+            .collect();
+        LocalPool { stop, handles }
+    }
+
+    /// Stops the workers after their current batch.
+    pub async fn stop(self) {
+        let _ = self.stop.send(true);
+        for handle in self.handles {
+            let _ = handle.await;
+        }
+    }
+}

@@ -1,0 +1,545 @@
+//! Post-evaluation: a controller's solve rate over many fresh samples, per light configuration
+//! (or start branch) where the task has them, per stage for rescue, with mean fitness and
+//! collisions. Used after each evolutionary run and by `hevo eval`. Evaluations go through the
+//! dispatcher, so they spread over every worker like a generation does.
+
+use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
+use hevo_sim_core::batch::{SampleSummary, task_content_hash};
+use hevo_sim_core::controller::ControllerFile;
+use hevo_sim_core::rng::derive_seed;
+use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Solve rate of one variant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VariantReport {
+    /// Light configuration or start branch.
+    pub variant: u32,
+    /// Samples run.
+    pub samples: u32,
+    /// Share solved.
+    pub solve_rate: f64,
+}
+
+/// The result of evaluating one controller on many samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    /// The task.
+    pub task: String,
+    /// Samples run.
+    pub samples: u32,
+    /// Share solved.
+    pub solve_rate: f64,
+    /// Mean fitness.
+    pub mean_fitness: f64,
+    /// Share of samples with a collision.
+    pub collision_rate: f64,
+    /// Mean cycles per sample.
+    pub mean_cycles: f64,
+    /// Per light configuration / start branch, when the task has several.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_variant: Vec<VariantReport>,
+    /// Rescue only: shares that left the room, reached the teammate, brought it back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stages: Option<StageReport>,
+    /// How the controller's nodes below the root took turns, in pre-order; empty for a lone
+    /// primitive (and in reports written before hevo counted it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub node_use: Vec<NodeUseReport>,
+}
+
+/// How one controller node was used over a post-evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodeUseReport {
+    /// The node's path in the tree, e.g. `rescue/solve_maze/turn_left`.
+    pub node: String,
+    /// Share of all cycles in which it was active.
+    pub active_share: f64,
+    /// How often it was switched on, per sample.
+    pub activations_per_sample: f64,
+    /// How long it stayed on once switched on, in cycles on average; `None` when never.
+    pub cycles_per_activation: Option<f64>,
+}
+
+impl NodeUseReport {
+    /// One report per node below the root, from the samples' counts, when every sample
+    /// counted `node_paths.len()` nodes; empty otherwise (a lone primitive, or counts missing).
+    fn of(summaries: &[SampleSummary], node_paths: &[String]) -> Vec<NodeUseReport> {
+        let n_nodes = node_paths.len();
+        let complete = summaries.iter().all(|s| {
+            s.node_use.active_cycles.len() == n_nodes && s.node_use.activations.len() == n_nodes
+        });
+        if n_nodes < 2 || summaries.is_empty() || !complete {
+            return Vec::new();
+        }
+        let total_cycles: u64 = summaries.iter().map(|s| u64::from(s.cycles)).sum();
+        let sum_of = |counts: fn(&SampleSummary) -> &[u32], node: usize| -> u64 {
+            summaries.iter().map(|s| u64::from(counts(s)[node])).sum()
+        };
+        (1..n_nodes)
+            .map(|node| {
+                let active = sum_of(|s| &s.node_use.active_cycles, node);
+                let activations = sum_of(|s| &s.node_use.activations, node);
+                NodeUseReport {
+                    node: node_paths[node].clone(),
+                    active_share: active as f64 / total_cycles.max(1) as f64,
+                    activations_per_sample: activations as f64 / summaries.len() as f64,
+                    cycles_per_activation: (activations > 0)
+                        .then(|| active as f64 / activations as f64),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The rescue's stage rates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageReport {
+    /// Left the room (entered the maze).
+    pub exited_room: f64,
+    /// Reached the teammate.
+    pub reached_teammate: f64,
+    /// Brought it back into the room.
+    pub returned: f64,
+    /// How often the arbitrator chose the right child in each sub-task: the terms of the
+    /// derived fitness f3, which a run's evolution maximised. Absent in reports written before
+    /// hevo counted them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub right_choice: Option<RightChoice>,
+}
+
+/// Per rescue sub-task, the share of its cycles in which the arbitrator chose that sub-task's
+/// child, averaged over the samples that reached the sub-task (as f3 scores one sample);
+/// `None` when no sample reached it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RightChoice {
+    /// In the room: exit room.
+    pub exit_room: Option<f64>,
+    /// In the maze before the teammate is found: solve maze.
+    pub solve_maze: Option<f64>,
+    /// Once the teammate follows: return to room.
+    pub return_room: Option<f64>,
+}
+
+impl RightChoice {
+    /// Averages each sub-task's share over the samples that reached it.
+    fn of(summaries: &[SampleSummary]) -> RightChoice {
+        let mean = |sub_task: usize| {
+            let shares: Vec<f64> = summaries
+                .iter()
+                .filter_map(|s| s.sub_task_choices.shares()[sub_task])
+                .map(f64::from)
+                .collect();
+            (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
+        };
+        RightChoice {
+            exit_room: mean(0),
+            solve_maze: mean(1),
+            return_room: mean(2),
+        }
+    }
+
+    /// The three shares in sub-task order, for tables.
+    pub fn shares(&self) -> [Option<f64>; 3] {
+        [self.exit_room, self.solve_maze, self.return_room]
+    }
+}
+
+/// The samples of a post-evaluation: `per_variant` samples of each variant of the task (one
+/// variant for tasks without), seeds derived from `seed` alone.
+pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> Vec<Sample> {
+    let n_variants = hevo_sim_core::env::n_variants(kind);
+    let variant_fixed = n_variants > 1;
+    (0..per_variant)
+        .flat_map(|i| {
+            (0..n_variants).map(move |v| Sample {
+                seed: derive_seed(seed, &[u64::from(i), u64::from(v)]),
+                variant: variant_fixed.then_some(v),
+            })
+        })
+        .collect()
+}
+
+/// Summarises sample outcomes of the controller whose nodes have the paths `node_paths`
+/// ([`ControllerFile::node_paths`]).
+pub fn report(kind: TaskKind, summaries: &[SampleSummary], node_paths: &[String]) -> EvalReport {
+    let n = summaries.len().max(1) as f64;
+    let share =
+        |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
+    let n_variants = hevo_sim_core::env::n_variants(kind);
+    let per_variant = if n_variants > 1 {
+        (0..n_variants)
+            .map(|variant| {
+                let of: Vec<&SampleSummary> =
+                    summaries.iter().filter(|s| s.variant == variant).collect();
+                VariantReport {
+                    variant,
+                    samples: of.len() as u32,
+                    solve_rate: of.iter().filter(|s| s.solved).count() as f64
+                        / of.len().max(1) as f64,
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    EvalReport {
+        task: kind.name().to_string(),
+        samples: summaries.len() as u32,
+        solve_rate: share(&|s| s.solved),
+        mean_fitness: summaries.iter().map(|s| f64::from(s.fitness)).sum::<f64>() / n,
+        collision_rate: share(&|s| s.collided),
+        mean_cycles: summaries.iter().map(|s| f64::from(s.cycles)).sum::<f64>() / n,
+        per_variant,
+        stages: (kind == TaskKind::Rescue).then(|| StageReport {
+            exited_room: share(&|s| s.stage >= 1),
+            reached_teammate: share(&|s| s.stage >= 2),
+            returned: share(&|s| s.stage >= 3),
+            right_choice: Some(RightChoice::of(summaries)),
+        }),
+        node_use: NodeUseReport::of(summaries, node_paths),
+    }
+}
+
+/// A sample the controller did not solve, with what it takes to replay it
+/// (`hevo replay --seed SEED --light-config VARIANT`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FailedSample {
+    /// The sample's seed.
+    pub seed: u64,
+    /// The light configuration or start branch, when the post-evaluation fixed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variant: Option<u32>,
+    /// Whether the robot touched a wall.
+    pub collided: bool,
+    /// Furthest stage reached (rescue 0..3).
+    pub stage: u8,
+    /// Cycles run before the sample ended.
+    pub cycles: u32,
+}
+
+/// The unsolved samples among `samples`, whose outcomes are `summaries` in the same order.
+pub fn failed_samples(samples: &[Sample], summaries: &[SampleSummary]) -> Vec<FailedSample> {
+    samples
+        .iter()
+        .zip(summaries)
+        .filter(|(_, summary)| !summary.solved)
+        .map(|(sample, summary)| FailedSample {
+            seed: sample.seed,
+            variant: sample.variant,
+            collided: summary.collided,
+            stage: summary.stage,
+            cycles: summary.cycles,
+        })
+        .collect()
+}
+
+/// Evaluates a complete controller (no free node) on the given samples through the dispatcher.
+pub async fn evaluate_controller(
+    dispatcher: &Dispatcher,
+    job: &str,
+    controller: ControllerFile,
+    task: TaskConfig,
+    samples: Vec<Sample>,
+) -> Result<EvalReport, DispatchError> {
+    let kind = task.kind;
+    let node_paths = controller.node_paths();
+    let summaries = evaluate_samples(dispatcher, job, controller, task, samples).await?;
+    Ok(report(kind, &summaries, &node_paths))
+}
+
+/// Evaluates a complete controller on the given samples: one outcome per sample, in order.
+pub async fn evaluate_samples(
+    dispatcher: &Dispatcher,
+    job: &str,
+    controller: ControllerFile,
+    task: TaskConfig,
+    samples: Vec<Sample>,
+) -> Result<Vec<SampleSummary>, DispatchError> {
+    let shared = Arc::new(RequestShared {
+        template_hash: controller.content_hash(),
+        task_hash: task_content_hash(&task),
+        template: controller,
+        task,
+    });
+    let request = EvaluationRequest {
+        job: job.to_string(),
+        shared,
+        genomes: vec![Arc::from(Vec::new())],
+        samples: samples.into(),
+    };
+    let mut results = dispatcher.evaluate(request).await?;
+    Ok(results.swap_remove(0))
+}
+
+/// A one-line human summary of a report.
+pub fn describe(report: &EvalReport) -> String {
+    let mut text = format!(
+        "{}: solved {:.1}% of {} samples, mean fitness {:.3}, collisions {:.1}%, mean cycles {:.0}",
+        report.task,
+        100.0 * report.solve_rate,
+        report.samples,
+        report.mean_fitness,
+        100.0 * report.collision_rate,
+        report.mean_cycles
+    );
+    if !report.per_variant.is_empty() {
+        let parts: Vec<String> = report
+            .per_variant
+            .iter()
+            .map(|v| format!("{}: {:.1}%", v.variant, 100.0 * v.solve_rate))
+            .collect();
+        text.push_str(&format!(
+            "\n  per light configuration / branch: {}",
+            parts.join(", ")
+        ));
+    }
+    if let Some(stages) = &report.stages {
+        text.push_str(&format!(
+            "\n  stages: exited room {:.1}%, reached teammate {:.1}%, brought back {:.1}%",
+            100.0 * stages.exited_room,
+            100.0 * stages.reached_teammate,
+            100.0 * stages.returned
+        ));
+        if let Some(right_choice) = &stages.right_choice {
+            let [room, maze, back] = right_choice.shares().map(percent_or_dash);
+            text.push_str(&format!(
+                "\n  right child chosen (the terms of f3): in the room {room}, in the maze {maze}, \
+                 on the way back {back}"
+            ));
+        }
+    }
+    if !report.node_use.is_empty() {
+        text.push_str(&describe_node_use(&report.node_use));
+    }
+    text
+}
+
+/// The node-use table: per node below the root, its share of the cycles, how often it was
+/// switched on per sample and for how long on average.
+fn describe_node_use(node_use: &[NodeUseReport]) -> String {
+    let width = node_use.iter().map(|n| n.node.len()).max().unwrap_or(0);
+    let mut text =
+        "\n  node use (share of cycles, switched on per sample, cycles per switch-on):".to_string();
+    for node in node_use {
+        let dwell = node
+            .cycles_per_activation
+            .map_or_else(|| "-".to_string(), |c| format!("{c:.1}"));
+        text.push_str(&format!(
+            "\n    {:<width$}  {:>6}  {:>6.1}  {:>6}",
+            node.node,
+            percent(node.active_share),
+            node.activations_per_sample,
+            dwell
+        ));
+    }
+    text
+}
+
+/// A share as a percentage with one decimal.
+pub fn percent(share: f64) -> String {
+    format!("{:.1}%", 100.0 * share)
+}
+
+/// A share as a percentage with one decimal, or a dash when there is none.
+pub fn percent_or_dash(share: Option<f64>) -> String {
+    share.map_or_else(|| "-".to_string(), percent)
+}
+
+/// How many samples failed and how many of those touched a wall, and for the rescue where
+/// they stopped (in the room, in the maze, on the way back): where a researcher starts looking.
+pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
+    let count = |group: &[&FailedSample]| {
+        let collided = group.iter().filter(|f| f.collided).count();
+        format!("{} ({collided} touched a wall)", group.len())
+    };
+    let all: Vec<&FailedSample> = failures.iter().collect();
+    let mut text = format!("unsolved samples: {}", count(&all));
+    if kind == TaskKind::Rescue {
+        const STAGES: [&str; 3] = ["still in the room", "in the maze", "on the way back"];
+        for (stage, place) in STAGES.iter().enumerate() {
+            let group: Vec<&FailedSample> = failures
+                .iter()
+                .filter(|f| usize::from(f.stage) == stage)
+                .collect();
+            text.push_str(&format!("\n  {place}: {}", count(&group)));
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hevo_sim_core::NodeUse;
+    use hevo_sim_core::SubTaskChoices;
+
+    #[test]
+    fn failures_are_counted_by_ending_and_rescue_stage() {
+        let failed = |stage, collided| FailedSample {
+            seed: 1,
+            variant: None,
+            collided,
+            stage,
+            cycles: 10,
+        };
+        let failures = [failed(0, true), failed(0, false), failed(2, false)];
+        let rescue = describe_failures(TaskKind::Rescue, &failures);
+        assert_eq!(
+            rescue,
+            "unsolved samples: 3 (1 touched a wall)\n  still in the room: 2 (1 touched a wall)\n  \
+             in the maze: 0 (0 touched a wall)\n  on the way back: 1 (0 touched a wall)"
+        );
+        assert_eq!(
+            describe_failures(TaskKind::ExitRoom, &failures[..1]),
+            "unsolved samples: 1 (1 touched a wall)"
+        );
+    }
+
+    #[test]
+    fn maze_post_evaluation_balances_light_configurations() {
+        let samples = post_evaluation_samples(TaskKind::SolveMaze, 100, 1);
+        assert_eq!(samples.len(), 400);
+        for v in 0..4 {
+            assert_eq!(samples.iter().filter(|s| s.variant == Some(v)).count(), 100);
+        }
+        let room = post_evaluation_samples(TaskKind::ExitRoom, 100, 1);
+        assert_eq!(room.len(), 100);
+        assert!(room.iter().all(|s| s.variant.is_none()));
+    }
+
+    #[test]
+    fn failed_samples_keep_the_seed_and_variant_that_replay_them() {
+        let samples = post_evaluation_samples(TaskKind::SolveMaze, 2, 7);
+        let summaries: Vec<SampleSummary> = samples
+            .iter()
+            .enumerate()
+            .map(|(i, sample)| SampleSummary {
+                fitness: 1.0,
+                solved: i % 3 != 1,
+                collided: i == 4,
+                stage: 0,
+                variant: sample.variant.unwrap_or(0),
+                cycles: 100 + i as u32,
+                ..SampleSummary::default()
+            })
+            .collect();
+        let failures = failed_samples(&samples, &summaries);
+        let indices = [1usize, 4, 7];
+        assert_eq!(failures.len(), indices.len());
+        for (failure, &i) in failures.iter().zip(&indices) {
+            assert_eq!(failure.seed, samples[i].seed);
+            assert_eq!(failure.variant, samples[i].variant);
+            assert_eq!(failure.cycles, 100 + i as u32);
+            assert_eq!(failure.collided, i == 4);
+        }
+    }
+
+    #[test]
+    fn reports_count_stages_and_variants() {
+        let s = |solved, stage, variant| SampleSummary {
+            fitness: 1.0,
+            solved,
+            collided: false,
+            stage,
+            variant,
+            cycles: 10,
+            ..SampleSummary::default()
+        };
+        let summaries = [
+            s(true, 3, 0),
+            s(false, 2, 1),
+            s(false, 1, 0),
+            s(false, 0, 1),
+        ];
+        let r = report(TaskKind::Rescue, &summaries, &[]);
+        assert_eq!(r.solve_rate, 0.25);
+        let stages = r.stages.unwrap();
+        assert_eq!(
+            (stages.exited_room, stages.reached_teammate, stages.returned),
+            (0.75, 0.5, 0.25)
+        );
+        assert_eq!(r.per_variant[0].solve_rate, 0.5);
+        // No sample carried sub-task counts, so no sub-task was reached.
+        assert_eq!(stages.right_choice.unwrap().shares(), [None; 3]);
+    }
+
+    #[test]
+    fn right_choices_average_each_sub_task_over_the_samples_that_reached_it() {
+        let s = |cycles, correct| SampleSummary {
+            sub_task_choices: SubTaskChoices { cycles, correct },
+            ..SampleSummary::default()
+        };
+        // Two samples reach the maze; one chose right in half its maze cycles, one never.
+        // Only the first reaches the teammate.
+        let summaries = [
+            s([100, 200, 50], [100, 100, 50]),
+            s([300, 100, 0], [150, 0, 0]),
+        ];
+        let r = report(TaskKind::Rescue, &summaries, &[]);
+        let right_choice = r.stages.as_ref().unwrap().right_choice.clone().unwrap();
+        assert_eq!(right_choice.shares(), [Some(0.75), Some(0.25), Some(1.0)]);
+        // The same counts give each sample's f3.
+        assert_eq!(summaries[0].sub_task_choices.derived_fitness(), 2.5);
+        assert_eq!(summaries[1].sub_task_choices.derived_fitness(), 0.5);
+        assert!(
+            describe(&r).contains("in the room 75.0%, in the maze 25.0%, on the way back 100.0%")
+        );
+    }
+
+    #[test]
+    fn node_use_sums_cycles_and_switch_ons_over_samples() {
+        let s = |cycles, active_cycles: [u32; 4], activations: [u32; 4]| SampleSummary {
+            cycles,
+            node_use: NodeUse {
+                active_cycles: active_cycles.to_vec(),
+                activations: activations.to_vec(),
+            },
+            ..SampleSummary::default()
+        };
+        // A root over three children: the second child never runs; the third flicks on and off.
+        let summaries = [
+            s(100, [100, 60, 0, 40], [1, 1, 0, 20]),
+            s(300, [300, 300, 0, 0], [1, 1, 0, 0]),
+        ];
+        let paths: Vec<String> = ["root", "root/a", "root/b", "root/c"]
+            .map(String::from)
+            .to_vec();
+        let r = report(TaskKind::ReturnRoom, &summaries, &paths);
+        let expected = [
+            ("root/a", 0.9, 1.0, Some(180.0)),
+            ("root/b", 0.0, 0.0, None),
+            ("root/c", 0.1, 10.0, Some(2.0)),
+        ];
+        assert_eq!(r.node_use.len(), expected.len());
+        for (node, (path, share, per_sample, dwell)) in r.node_use.iter().zip(expected) {
+            assert_eq!(node.node, path);
+            assert!((node.active_share - share).abs() < 1e-12, "{node:?}");
+            assert_eq!(node.activations_per_sample, per_sample);
+            assert_eq!(node.cycles_per_activation, dwell);
+        }
+        let text = describe(&r);
+        assert!(
+            text.contains("\n    root/b    0.0%     0.0       -"),
+            "{text}"
+        );
+        assert!(
+            text.contains("\n    root/c   10.0%    10.0     2.0"),
+            "{text}"
+        );
+
+        // Counts for another tree, or none at all, give no table rather than a wrong one.
+        assert!(
+            report(TaskKind::ReturnRoom, &summaries, &paths[..3])
+                .node_use
+                .is_empty()
+        );
+        let plain = [SampleSummary::default()];
+        assert!(
+            report(TaskKind::ReturnRoom, &plain, &paths)
+                .node_use
+                .is_empty()
+        );
+    }
+}

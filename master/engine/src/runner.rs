@@ -1,0 +1,584 @@
+//! The run driver behind `hevo run` and every service job: evolves an experiment's controller
+//! tree bottom-up. For each node: its independent runs, each checkpointed after every
+//! generation; post-evaluation of each run's best controller; then the best run's controller
+//! becomes the fixed child of the parent nodes. Rerunning the same command resumes where it
+//! stopped and gives exactly the result an uninterrupted run would, because every random draw
+//! derives from (experiment seed, node, run, generation, genome, sample) and checkpoints store
+//! the whole population exactly.
+//!
+//! What it writes, and where, is the run-directory format of [`crate::rundir`].
+
+use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
+use crate::ea;
+use crate::experiment::{Experiment, NodePlan};
+use crate::post_evaluation;
+use crate::rundir::{
+    self, BEST, CHECKPOINT, CHECKPOINT_FORMAT, Checkpoint, FITNESS_CSV, FitnessRow, NodeSummary,
+    RunSummary, SUMMARY, run_dir,
+};
+use crate::store::{read_json, remove_leftover_temporaries, write_atomic, write_json_atomic};
+use hevo_sim_core::Sample;
+use hevo_sim_core::batch::task_content_hash;
+use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// What to run, and where.
+#[derive(Debug, Clone)]
+pub struct RunSettings {
+    /// Output directory.
+    pub out_dir: PathBuf,
+    /// Only this node (after its children).
+    pub node: Option<String>,
+    /// Override every node's number of runs.
+    pub runs: Option<u32>,
+    /// Override every node's number of generations.
+    pub generations: Option<u32>,
+    /// Override the experiment's seed.
+    pub seed: Option<u64>,
+    /// The dispatcher's job key (fair sharing between concurrent jobs).
+    pub job: String,
+}
+
+/// What the driver reports as it goes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum ProgressEvent {
+    /// A node starts (or is found finished).
+    NodeStarted {
+        /// Node.
+        node: String,
+        /// Runs.
+        runs: u32,
+        /// Generations per run.
+        generations: u32,
+    },
+    /// A generation was evaluated.
+    Generation {
+        /// Node.
+        node: String,
+        /// Run.
+        run: u32,
+        /// Generation just evaluated (0-based).
+        generation: u32,
+        /// Generations per run.
+        generations: u32,
+        /// Best fitness of the generation.
+        best: f64,
+        /// Mean fitness of the generation.
+        mean: f64,
+        /// Control cycles simulated for this generation.
+        cycles: u64,
+    },
+    /// A run finished post-evaluation.
+    RunFinished {
+        /// Node.
+        node: String,
+        /// Run.
+        run: u32,
+        /// Post-evaluation solve rate.
+        solve_rate: f64,
+    },
+    /// A node finished.
+    NodeFinished {
+        /// Node.
+        node: String,
+        /// Best run.
+        best_run: u32,
+        /// Its solve rate.
+        best_solve_rate: f64,
+        /// Mean solve rate over runs.
+        mean_solve_rate: f64,
+    },
+    /// A log line for the user.
+    Note {
+        /// Text.
+        message: String,
+    },
+}
+
+/// Receives progress events.
+pub trait Progress: Send + Sync {
+    /// Called for each event, in order.
+    fn event(&self, event: &ProgressEvent);
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Reading or writing an output failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The output directory holds results of a different experiment.
+    #[error(
+        "{path} was produced by a different experiment setup (fingerprint {found}, this one is {expected}): \
+         the node's settings, seed, overrides or children changed. Use another --out directory, or delete {path} to start it again."
+    )]
+    Fingerprint {
+        /// The file.
+        path: PathBuf,
+        /// Found.
+        found: String,
+        /// Expected.
+        expected: String,
+    },
+    /// The dispatcher could not evaluate.
+    #[error(transparent)]
+    Dispatch(#[from] DispatchError),
+    /// Inconsistent experiment (a node named with --node does not exist, a child has no result).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Runs an experiment (or one node of it, after its children) to completion.
+pub async fn run_experiment(
+    experiment: &Experiment,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<Vec<NodeSummary>, RunError> {
+    let names = experiment
+        .nodes_to_run(settings.node.as_deref())
+        .map_err(RunError::Invalid)?;
+    let mut summaries = Vec::new();
+    for name in names {
+        let plan = experiment
+            .node(&name)
+            .expect("names come from the experiment");
+        summaries.push(run_node(experiment, plan, settings, dispatcher, progress).await?);
+    }
+    Ok(summaries)
+}
+
+fn io_error(path: &Path, error: impl std::fmt::Display) -> RunError {
+    RunError::Io {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    }
+}
+
+/// The controller template of a node: the node itself free, its children the fixed best
+/// controllers of their nodes.
+pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, RunError> {
+    let mut children = Vec::new();
+    for child in &plan.decl.children {
+        let path = out_dir.join(child).join(BEST);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            RunError::Invalid(format!(
+                "{}: the child '{child}' of '{}' has no result yet ({e}); run it first",
+                path.display(),
+                plan.decl.name
+            ))
+        })?;
+        let file = ControllerFile::from_json_str(&text).map_err(|e| io_error(&path, e))?;
+        children.push(file.root);
+    }
+    Ok(ControllerFile::new(NodeSpec {
+        name: plan.decl.name.clone(),
+        kind: plan.decl.kind,
+        inputs: plan.decl.inputs.clone(),
+        hidden: plan.decl.hidden,
+        genome: None,
+        children,
+        min_active_cycles: plan.decl.min_active_cycles,
+    }))
+}
+
+/// Everything that determines a node's results, hashed: changing any of it under existing
+/// checkpoints is refused.
+fn fingerprint(plan: &NodePlan, template: &ControllerFile, seed: u64, generations: u32) -> String {
+    let material = serde_json::json!({
+        "format": 1,
+        "model": hevo_sim_core::MODEL_VERSION,
+        "seed": seed,
+        "generations": generations,
+        "samples": plan.decl.samples,
+        "evolution": plan.evolution,
+        "task": task_content_hash(&plan.task),
+        "template": template.content_hash(),
+    });
+    hevo_sim_core::hash::fnv1a_hex(material.to_string().as_bytes())
+}
+
+async fn run_node(
+    experiment: &Experiment,
+    plan: &NodePlan,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<NodeSummary, RunError> {
+    let name = &plan.decl.name;
+    let node_dir = settings.out_dir.join(name);
+    // The node's own files (best.json, summary.json) are written atomically too.
+    remove_leftover_temporaries(&node_dir).map_err(|e| io_error(&node_dir, e))?;
+    let seed = settings.seed.unwrap_or(experiment.header.seed);
+    let runs = settings.runs.unwrap_or(plan.decl.runs);
+    let generations = settings.generations.unwrap_or(plan.decl.generations);
+    let template = node_template(plan, &settings.out_dir)?;
+    let fingerprint_for = |generations| fingerprint(plan, &template, seed, generations);
+    let fingerprint = fingerprint_for(generations);
+
+    // A finished node is reused when it has at least the runs asked for: finished runs are
+    // never thrown away, and throwing them away would change the node's best controller under
+    // its parents' checkpoints. Below the node named by --node, a finished result is reused
+    // whatever its number of runs and generations (everything else must match), so
+    // `--node solve_maze --runs 5 --generations 300` changes solve_maze alone.
+    let below_named_node = settings.node.as_ref().is_some_and(|named| named != name);
+    let summary_path = node_dir.join(SUMMARY);
+    let reusable = |summary: &NodeSummary| {
+        if below_named_node {
+            summary
+                .runs
+                .first()
+                .is_some_and(|run| summary.fingerprint == fingerprint_for(run.generations))
+        } else {
+            summary.fingerprint == fingerprint && summary.runs.len() >= runs as usize
+        }
+    };
+    if let Some(summary) =
+        read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+        && reusable(&summary)
+    {
+        // A `--runs` extension stopped after some of its runs finished leaves finished runs the
+        // summary does not list. They are results, and may hold the node's best controller, so
+        // they are folded in before any parent composes from `best.json`.
+        let unlisted = finished_runs_after(&node_dir, &summary)?;
+        if !unlisted.is_empty() {
+            progress.event(&ProgressEvent::Note {
+                message: format!(
+                    "{name}: {} finished run(s) were missing from its summary (an interrupted --runs extension); summary and best controller refreshed",
+                    unlisted.len()
+                ),
+            });
+            let fingerprint = summary.fingerprint.clone();
+            let mut run_summaries = summary.runs;
+            run_summaries.extend(unlisted);
+            return summarize_node(plan, &node_dir, fingerprint, run_summaries, progress);
+        }
+        progress.event(&ProgressEvent::Note {
+            message: format!(
+                "{name}: already finished, {} runs (skipped)",
+                summary.runs.len()
+            ),
+        });
+        return Ok(summary);
+    }
+    progress.event(&ProgressEvent::NodeStarted {
+        node: name.clone(),
+        runs,
+        generations,
+    });
+
+    let mut run_summaries = Vec::new();
+    for run in 0..runs {
+        let run_dir = run_dir(&node_dir, run);
+        run_summaries.push(
+            run_one(
+                plan,
+                &template,
+                &fingerprint,
+                seed,
+                run,
+                generations,
+                &run_dir,
+                settings,
+                dispatcher,
+                progress,
+            )
+            .await?,
+        );
+    }
+
+    summarize_node(plan, &node_dir, fingerprint, run_summaries, progress)
+}
+
+/// Refuses a file written under another setup than the one being run: resuming or reusing it
+/// would mix two experiments' results.
+fn check_fingerprint(path: &Path, found: &str, expected: &str) -> Result<(), RunError> {
+    if found == expected {
+        Ok(())
+    } else {
+        Err(RunError::Fingerprint {
+            path: path.to_path_buf(),
+            found: found.to_string(),
+            expected: expected.to_string(),
+        })
+    }
+}
+
+/// The finished runs of a node numbered after the ones its summary lists, in order, up to the
+/// first run that is missing or unfinished (runs are evolved in order, so later ones cannot be
+/// finished). A finished run of another setup is an error, as it is when resuming.
+fn finished_runs_after(
+    node_dir: &Path,
+    summary: &NodeSummary,
+) -> Result<Vec<RunSummary>, RunError> {
+    let mut unlisted = Vec::new();
+    for run in summary.runs.len().. {
+        let path = run_dir(node_dir, run as u32).join(SUMMARY);
+        let Some(found) = read_json::<RunSummary>(&path).map_err(|e| io_error(&path, e))? else {
+            break;
+        };
+        check_fingerprint(&path, &found.fingerprint, &summary.fingerprint)?;
+        unlisted.push(found);
+    }
+    Ok(unlisted)
+}
+
+/// Chooses a node's best run, copies its controller to `<node>/best.json` and writes the node
+/// summary. The best run has the highest post-evaluation solve rate, then mean fitness; a tie
+/// keeps the earlier run, so adding runs changes the node's controller only for a better one.
+fn summarize_node(
+    plan: &NodePlan,
+    node_dir: &Path,
+    fingerprint: String,
+    run_summaries: Vec<RunSummary>,
+    progress: &dyn Progress,
+) -> Result<NodeSummary, RunError> {
+    let name = &plan.decl.name;
+    let summary_path = node_dir.join(SUMMARY);
+    let best = run_summaries
+        .iter()
+        .enumerate()
+        .max_by(|(ia, a), (ib, b)| {
+            a.post_evaluation
+                .solve_rate
+                .total_cmp(&b.post_evaluation.solve_rate)
+                .then(
+                    a.post_evaluation
+                        .mean_fitness
+                        .total_cmp(&b.post_evaluation.mean_fitness),
+                )
+                .then(ib.cmp(ia))
+        })
+        .map(|(i, _)| i)
+        .expect("at least one run");
+    let best_controller_path = run_dir(node_dir, best as u32).join(BEST);
+    let best_controller =
+        std::fs::read(&best_controller_path).map_err(|e| io_error(&best_controller_path, e))?;
+    write_atomic(&node_dir.join(BEST), &best_controller)
+        .map_err(|e| io_error(&node_dir.join(BEST), e))?;
+    let mean_solve_rate = run_summaries
+        .iter()
+        .map(|r| r.post_evaluation.solve_rate)
+        .sum::<f64>()
+        / run_summaries.len() as f64;
+    let summary = NodeSummary {
+        node: name.clone(),
+        task: plan.task.kind.name().to_string(),
+        fingerprint,
+        best_run: best as u32,
+        best_solve_rate: run_summaries[best].post_evaluation.solve_rate,
+        mean_solve_rate,
+        runs: run_summaries,
+    };
+    write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
+    progress.event(&ProgressEvent::NodeFinished {
+        node: name.clone(),
+        best_run: summary.best_run,
+        best_solve_rate: summary.best_solve_rate,
+        mean_solve_rate,
+    });
+    Ok(summary)
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn run_one(
+    plan: &NodePlan,
+    template: &ControllerFile,
+    fingerprint: &str,
+    seed: u64,
+    run: u32,
+    generations: u32,
+    run_dir: &Path,
+    settings: &RunSettings,
+    dispatcher: &Dispatcher,
+    progress: &dyn Progress,
+) -> Result<RunSummary, RunError> {
+    let name = &plan.decl.name;
+    // A run killed in the middle of an atomic write left its temporary file here.
+    remove_leftover_temporaries(run_dir).map_err(|e| io_error(run_dir, e))?;
+    let summary_path = run_dir.join(SUMMARY);
+    let checkpoint_path = run_dir.join(CHECKPOINT);
+    if let Some(summary) =
+        read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+    {
+        check_fingerprint(&summary_path, &summary.fingerprint, fingerprint)?;
+        return Ok(summary);
+    }
+    let run_seed = ea::run_seed(seed, name, run);
+    let n_genes = template
+        .free_node_topology()
+        .map(|(_, t)| t.n_genes())
+        .unwrap_or(0);
+    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path)
+        .map_err(|e| io_error(&checkpoint_path, e))?
+    {
+        Some(found) => {
+            check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint)?;
+            if found.format != CHECKPOINT_FORMAT
+                || found.population.iter().any(|g| g.len() != n_genes)
+            {
+                return Err(io_error(
+                    &checkpoint_path,
+                    "checkpoint is not in the expected format; delete it to restart the run",
+                ));
+            }
+            progress.event(&ProgressEvent::Note {
+                message: format!(
+                    "{name} run {run}: resuming at generation {}",
+                    found.generation
+                ),
+            });
+            found
+        }
+        None => Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            fingerprint: fingerprint.to_string(),
+            generation: 0,
+            population: ea::initial_population(n_genes, &plan.evolution, run_seed),
+            best: None,
+            log: Vec::new(),
+        },
+    };
+    std::fs::create_dir_all(run_dir).map_err(|e| io_error(run_dir, e))?;
+
+    let shared = Arc::new(RequestShared {
+        template_hash: template.content_hash(),
+        task_hash: task_content_hash(&plan.task),
+        template: template.clone(),
+        task: plan.task.clone(),
+    });
+    let n_variants = hevo_sim_core::env::n_variants(plan.task.kind);
+    while checkpoint.generation < generations {
+        let generation = checkpoint.generation;
+        // Every genome of a generation meets the same samples; tasks with light
+        // configurations get them in equal shares unless the experiment asks for random ones.
+        let variants = ea::generation_variants(
+            plan.evolution.training_variants,
+            run_seed,
+            generation,
+            plan.decl.samples,
+            n_variants,
+        );
+        let samples: Arc<[Sample]> = ea::generation_seeds(run_seed, generation, plan.decl.samples)
+            .into_iter()
+            .zip(variants)
+            .map(|(seed, variant)| Sample { seed, variant })
+            .collect();
+        let request = EvaluationRequest {
+            job: settings.job.clone(),
+            shared: shared.clone(),
+            genomes: checkpoint
+                .population
+                .iter()
+                .map(|g| Arc::from(g.as_slice()))
+                .collect(),
+            samples,
+        };
+        let results = dispatcher.evaluate(request).await?;
+        let fitness: Vec<f64> = results
+            .iter()
+            .map(|genome| {
+                genome.iter().map(|s| f64::from(s.fitness)).sum::<f64>()
+                    / genome.len().max(1) as f64
+            })
+            .collect();
+        let cycles: u64 = results.iter().flatten().map(|s| u64::from(s.cycles)).sum();
+        let row = log_row(generation, &fitness);
+        progress.event(&ProgressEvent::Generation {
+            node: name.clone(),
+            run,
+            generation,
+            generations,
+            best: row.best,
+            mean: row.mean,
+            cycles,
+        });
+        checkpoint.log.push(row);
+        if generation + 1 == generations {
+            let best_idx = ea::ranking(&fitness)[0];
+            checkpoint.best = Some(checkpoint.population[best_idx].clone());
+        } else {
+            checkpoint.population = ea::next_generation(
+                &checkpoint.population,
+                &fitness,
+                &plan.evolution,
+                run_seed,
+                generation,
+            );
+        }
+        checkpoint.generation = generation + 1;
+        write_fitness_csv(&run_dir.join(FITNESS_CSV), &checkpoint.log)?;
+        write_json_atomic(&checkpoint_path, &checkpoint)
+            .map_err(|e| io_error(&checkpoint_path, e))?;
+    }
+
+    let best_genes = checkpoint.best.clone().ok_or_else(|| {
+        io_error(
+            &checkpoint_path,
+            "finished checkpoint without a best genome",
+        )
+    })?;
+    let controller = template
+        .with_free_genome(&best_genes)
+        .map_err(|e| io_error(&checkpoint_path, e))?;
+    let best_path = run_dir.join(BEST);
+    let json = controller
+        .to_json_pretty()
+        .map_err(|e| io_error(&best_path, e))?;
+    write_atomic(&best_path, json.as_bytes()).map_err(|e| io_error(&best_path, e))?;
+    let samples = post_evaluation::post_evaluation_samples(
+        plan.task.kind,
+        plan.evolution.post_evaluation_samples,
+        ea::post_evaluation_seeds(run_seed, 1)[0],
+    );
+    let post_evaluation = post_evaluation::evaluate_controller(
+        dispatcher,
+        &settings.job,
+        controller,
+        plan.task.clone(),
+        samples,
+    )
+    .await?;
+    let summary = RunSummary {
+        node: name.clone(),
+        run,
+        fingerprint: fingerprint.to_string(),
+        run_seed,
+        generations,
+        final_best_fitness: checkpoint.log.last().map_or(0.0, |r| r.best),
+        post_evaluation,
+    };
+    write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
+    progress.event(&ProgressEvent::RunFinished {
+        node: name.clone(),
+        run,
+        solve_rate: summary.post_evaluation.solve_rate,
+    });
+    Ok(summary)
+}
+
+fn log_row(generation: u32, fitness: &[f64]) -> FitnessRow {
+    let n = fitness.len().max(1) as f64;
+    let mean = fitness.iter().sum::<f64>() / n;
+    let var = fitness.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / n;
+    FitnessRow {
+        generation,
+        best: fitness.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        mean,
+        min: fitness.iter().copied().fold(f64::INFINITY, f64::min),
+        max: fitness.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        std: var.sqrt(),
+    }
+}
+
+fn write_fitness_csv(path: &Path, log: &[FitnessRow]) -> Result<(), RunError> {
+    write_atomic(path, rundir::fitness_csv(log).as_bytes()).map_err(|e| io_error(path, e))
+}

@@ -1,0 +1,611 @@
+//! The job manager: owns the job store, starts a run driver task per job on the shared
+//! dispatcher (the same `runner::run_experiment` as `hevo run`, writing the same files under
+//! `<state-dir>/jobs/<id>/runs/`), validates submissions, cancels, and publishes each job's
+//! progress to watchers. On start every job that had not finished is started again; the run
+//! driver's checkpoints make that a resume from the last finished generation, with the same
+//! results as an uninterrupted run.
+//!
+//! Records live in memory while the master runs and every change is written through to the
+//! store; state changes durably, progress without waiting for the disk.
+
+use crate::convert::{event_to_proto, job_info, status_event};
+use crate::db::{JobRecord, JobSettings, JobState, JobStore, StoreError};
+use hevo_engine::dispatch::{DispatchError, Dispatcher};
+use hevo_engine::experiment::Experiment;
+use hevo_engine::rundir::{self, NodeSummary};
+use hevo_engine::runner::{self, Progress, ProgressEvent, RunError, RunSettings};
+use hevo_proto::v1;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{SystemTime, UNIX_EPOCH};
+use tokio::sync::{broadcast, watch};
+use tokio::task::JoinHandle;
+
+/// Limits on what one submission may ask for, so one job cannot exhaust the master.
+pub mod limits {
+    /// Experiment file size.
+    pub const EXPERIMENT_BYTES: usize = 1024 * 1024;
+    /// File name length.
+    pub const FILE_NAME_CHARS: usize = 255;
+    /// Runs per node.
+    pub const RUNS: u32 = 1_000;
+    /// Generations per run.
+    pub const GENERATIONS: u32 = 1_000_000;
+    /// Genomes x samples in one generation (and post-evaluation samples).
+    pub const EVALUATIONS_PER_GENERATION: u64 = 10_000_000;
+    /// Job id length accepted in requests.
+    pub const JOB_ID_CHARS: usize = 64;
+}
+
+/// Why a request about jobs failed.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// A field of the request is invalid; the message starts with the field's name.
+    #[error("{field}: {message}")]
+    Invalid {
+        /// The field.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// No such job.
+    #[error("no job {0}")]
+    NotFound(String),
+    /// The master is stopping.
+    #[error("the master is shutting down")]
+    ShuttingDown,
+    /// The store failed.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// Reading results failed.
+    #[error("{0}")]
+    Io(String),
+}
+
+fn invalid(field: &str, message: impl Into<String>) -> JobError {
+    JobError::Invalid {
+        field: field.to_string(),
+        message: message.into(),
+    }
+}
+
+/// A submission, as received.
+#[derive(Debug, Clone, Default)]
+pub struct Submission {
+    /// Experiment file text.
+    pub experiment_toml: String,
+    /// File name for messages.
+    pub file_name: String,
+    /// Overrides.
+    pub settings: JobSettings,
+}
+
+/// A job's results: its finished nodes and its files.
+#[derive(Debug, Clone, Default)]
+pub struct JobResults {
+    /// Finished nodes, in plan order.
+    pub nodes: Vec<v1::NodeResult>,
+    /// (path relative to the output directory, content).
+    pub files: Vec<(String, Vec<u8>)>,
+}
+
+struct Live {
+    events: broadcast::Sender<v1::JobEvent>,
+    task: Option<JoinHandle<()>>,
+}
+
+struct Inner {
+    store: JobStore,
+    dispatcher: Arc<Dispatcher>,
+    state_dir: PathBuf,
+    records: Mutex<BTreeMap<String, JobRecord>>,
+    live: Mutex<HashMap<String, Live>>,
+    stopping: watch::Sender<bool>,
+}
+
+/// The job manager. Cheap to clone.
+#[derive(Clone)]
+pub struct JobManager {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for JobManager {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JobManager")
+            .field("state_dir", &self.inner.state_dir)
+            .finish_non_exhaustive()
+    }
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    // Every update replaces whole values, so a poisoned map is still consistent.
+    mutex
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn now_ms() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
+}
+
+/// The output directory of a job.
+pub fn job_out_dir(state_dir: &Path, id: &str) -> PathBuf {
+    state_dir.join("jobs").join(id).join("runs")
+}
+
+impl JobManager {
+    /// Opens the manager on a store and resumes every unfinished job. Must run inside a tokio
+    /// runtime.
+    pub fn start(
+        store: JobStore,
+        dispatcher: Arc<Dispatcher>,
+        state_dir: PathBuf,
+    ) -> Result<JobManager, JobError> {
+        let records: BTreeMap<String, JobRecord> = store
+            .list()?
+            .into_iter()
+            .map(|r| (r.id.clone(), r))
+            .collect();
+        let unfinished: Vec<String> = records
+            .values()
+            .filter(|r| !r.state.is_final())
+            .map(|r| r.id.clone())
+            .collect();
+        let manager = JobManager {
+            inner: Arc::new(Inner {
+                store,
+                dispatcher,
+                state_dir,
+                records: Mutex::new(records),
+                live: Mutex::new(HashMap::new()),
+                stopping: watch::channel(false).0,
+            }),
+        };
+        for id in unfinished {
+            tracing::info!(job = %id, "resuming job");
+            manager.spawn(id);
+        }
+        Ok(manager)
+    }
+
+    /// The dispatcher the jobs run on.
+    pub fn dispatcher(&self) -> &Arc<Dispatcher> {
+        &self.inner.dispatcher
+    }
+
+    /// Validates and stores a job, then starts it; returns its record.
+    pub fn submit(&self, submission: Submission) -> Result<JobRecord, JobError> {
+        if *self.inner.stopping.borrow() {
+            return Err(JobError::ShuttingDown);
+        }
+        let (experiment, plan, file_name) = validate(&submission)?;
+        let record = self.inner.store.insert_new(|id| JobRecord {
+            id,
+            experiment_name: experiment.header.name.clone(),
+            file_name,
+            experiment_toml: submission.experiment_toml.clone(),
+            settings: submission.settings.clone(),
+            plan,
+            state: JobState::Queued,
+            error: None,
+            created_unix_ms: now_ms(),
+            finished_unix_ms: None,
+            generations_done: 0,
+            last_event: None,
+        })?;
+        tracing::info!(job = %record.id, experiment = %record.experiment_name, generations = record.generations_total(), "job submitted");
+        lock(&self.inner.records).insert(record.id.clone(), record.clone());
+        self.spawn(record.id.clone());
+        Ok(record)
+    }
+
+    /// A job's record.
+    pub fn get(&self, id: &str) -> Result<JobRecord, JobError> {
+        check_id(id)?;
+        lock(&self.inner.records)
+            .get(id)
+            .cloned()
+            .ok_or_else(|| JobError::NotFound(id.to_string()))
+    }
+
+    /// Every job, newest first.
+    pub fn list(&self) -> Vec<JobRecord> {
+        lock(&self.inner.records).values().rev().cloned().collect()
+    }
+
+    /// Jobs per state.
+    pub fn counts(&self) -> BTreeMap<JobState, usize> {
+        let mut counts: BTreeMap<JobState, usize> = JobState::ALL.iter().map(|&s| (s, 0)).collect();
+        for record in lock(&self.inner.records).values() {
+            *counts.entry(record.state).or_default() += 1;
+        }
+        counts
+    }
+
+    /// Cancels a job (a no-op for a finished one); returns its record.
+    pub async fn cancel(&self, id: &str) -> Result<JobRecord, JobError> {
+        let record = self.get(id)?;
+        if record.state.is_final() {
+            return Ok(record);
+        }
+        let record = self.finish(id, JobState::Cancelled, None)?;
+        // Stop the driver before dropping the job's batches, so it cannot queue new ones after.
+        let task = lock(&self.inner.live)
+            .get_mut(id)
+            .and_then(|live| live.task.take());
+        if let Some(task) = task {
+            task.abort();
+            let _ = task.await;
+        }
+        self.inner.dispatcher.cancel_job(id);
+        tracing::info!(job = %id, "job cancelled");
+        Ok(record)
+    }
+
+    /// Subscribes to a job's events (before reading its status, so nothing is missed).
+    pub fn subscribe(
+        &self,
+        id: &str,
+    ) -> Result<(broadcast::Receiver<v1::JobEvent>, watch::Receiver<bool>), JobError> {
+        self.get(id)?;
+        let receiver = self.sender(id).subscribe();
+        Ok((receiver, self.inner.stopping.subscribe()))
+    }
+
+    fn sender(&self, id: &str) -> broadcast::Sender<v1::JobEvent> {
+        lock(&self.inner.live)
+            .entry(id.to_string())
+            .or_insert_with(|| Live {
+                events: broadcast::channel(256).0,
+                task: None,
+            })
+            .events
+            .clone()
+    }
+
+    /// Stops every job where it is (their state stays running, so the next start resumes
+    /// them) and ends the watch streams.
+    pub fn shut_down(&self) {
+        let _ = self.inner.stopping.send(true);
+        self.inner.dispatcher.shut_down();
+    }
+
+    /// Sets a final state (unless the job already has one), durably, and tells watchers.
+    fn finish(
+        &self,
+        id: &str,
+        state: JobState,
+        error: Option<String>,
+    ) -> Result<JobRecord, JobError> {
+        let record = {
+            let mut records = lock(&self.inner.records);
+            let record = records
+                .get_mut(id)
+                .ok_or_else(|| JobError::NotFound(id.to_string()))?;
+            if record.state.is_final() {
+                return Ok(record.clone());
+            }
+            record.state = state;
+            record.error = error;
+            record.finished_unix_ms = Some(now_ms());
+            self.inner.store.put(record, true)?;
+            record.clone()
+        };
+        let _ = self.sender(id).send(status_event(&record));
+        Ok(record)
+    }
+
+    fn set_running(&self, id: &str) -> Result<Option<JobRecord>, JobError> {
+        let mut records = lock(&self.inner.records);
+        let Some(record) = records.get_mut(id) else {
+            return Ok(None);
+        };
+        if record.state.is_final() {
+            return Ok(None);
+        }
+        if record.state != JobState::Running {
+            record.state = JobState::Running;
+            self.inner.store.put(record, true)?;
+        }
+        Ok(Some(record.clone()))
+    }
+
+    fn spawn(&self, id: String) {
+        let manager = self.clone();
+        let events = self.sender(&id);
+        let job = id.clone();
+        let task = tokio::spawn(async move { manager.drive(job).await });
+        lock(&self.inner.live).insert(
+            id,
+            Live {
+                events,
+                task: Some(task),
+            },
+        );
+    }
+
+    async fn drive(&self, id: String) {
+        let record = match self.set_running(&id) {
+            Ok(Some(record)) => record,
+            Ok(None) => return,
+            Err(error) => {
+                tracing::error!(job = %id, %error, "cannot start job");
+                return;
+            }
+        };
+        let _ = self.sender(&id).send(status_event(&record));
+        let experiment =
+            match Experiment::parse(&record.experiment_toml, Path::new(&record.file_name)) {
+                Ok(experiment) => experiment,
+                Err(error) => {
+                    let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
+                    return;
+                }
+            };
+        let settings = RunSettings {
+            out_dir: job_out_dir(&self.inner.state_dir, &id),
+            node: record.settings.node.clone(),
+            runs: record.settings.runs,
+            generations: record.settings.generations,
+            seed: record.settings.seed,
+            job: id.clone(),
+        };
+        let progress = JobProgress::new(self.clone(), &record);
+        tracing::info!(job = %id, "job started");
+        let outcome =
+            runner::run_experiment(&experiment, &settings, &self.inner.dispatcher, &progress).await;
+        let result = match outcome {
+            Ok(_) => {
+                tracing::info!(job = %id, "job succeeded");
+                self.finish(&id, JobState::Succeeded, None)
+            }
+            // Stopping with the master: the job stays running and resumes on the next start.
+            Err(RunError::Dispatch(DispatchError::ShuttingDown)) => return,
+            Err(RunError::Dispatch(DispatchError::Cancelled(_))) => {
+                self.finish(&id, JobState::Cancelled, None)
+            }
+            Err(error) => {
+                tracing::warn!(job = %id, %error, "job failed");
+                self.finish(&id, JobState::Failed, Some(error.to_string()))
+            }
+        };
+        if let Err(error) = result {
+            tracing::error!(job = %id, %error, "cannot record the job's end");
+        }
+    }
+
+    fn record_progress(
+        &self,
+        id: &str,
+        event: &ProgressEvent,
+        done: Option<u64>,
+    ) -> Option<v1::JobEvent> {
+        let mut records = lock(&self.inner.records);
+        let record = records.get_mut(id)?;
+        if let Some(done) = done {
+            record.generations_done = done;
+        }
+        record.last_event = Some(event.clone());
+        // Progress is recomputed on resume, so it need not wait for the disk.
+        if let Err(error) = self.inner.store.put(record, false) {
+            tracing::warn!(job = %id, %error, "cannot store progress");
+        }
+        Some(event_to_proto(
+            id,
+            event,
+            record.generations_done,
+            record.generations_total(),
+        ))
+    }
+
+    /// The job's finished nodes and, with `files`, its result files.
+    pub fn results(&self, id: &str, files: bool) -> Result<JobResults, JobError> {
+        let record = self.get(id)?;
+        let out_dir = job_out_dir(&self.inner.state_dir, id);
+        let mut results = JobResults::default();
+        let read = |path: &Path| {
+            std::fs::read(path).map_err(|e| JobError::Io(format!("{}: {e}", path.display())))
+        };
+        for (node, _, _) in &record.plan {
+            let node_dir = rundir::node_dir(&out_dir, node);
+            let summary_path = node_dir.join(rundir::SUMMARY);
+            if let Ok(Some(summary)) = hevo_engine::store::read_json::<NodeSummary>(&summary_path) {
+                let best = std::fs::read_to_string(node_dir.join(rundir::BEST)).unwrap_or_default();
+                results.nodes.push(v1::NodeResult {
+                    node: summary.node.clone(),
+                    task: summary.task.clone(),
+                    runs: summary.runs.len() as u32,
+                    best_run: summary.best_run,
+                    best_solve_rate: summary.best_solve_rate,
+                    mean_solve_rate: summary.mean_solve_rate,
+                    best_controller_json: best,
+                });
+            }
+            if !files {
+                continue;
+            }
+            for name in rundir::FINISHED_NODE_FILES {
+                let path = node_dir.join(name);
+                if path.is_file() {
+                    results.files.push((format!("{node}/{name}"), read(&path)?));
+                }
+            }
+            let runs = rundir::run_dirs(&node_dir).unwrap_or_default();
+            for (run, run_dir) in runs {
+                for name in rundir::FINISHED_RUN_FILES {
+                    let path = run_dir.join(name);
+                    if path.is_file() {
+                        results.files.push((
+                            format!("{node}/{}/{name}", rundir::run_dir_name(run)),
+                            read(&path)?,
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(results)
+    }
+}
+
+fn check_id(id: &str) -> Result<(), JobError> {
+    if id.is_empty() || id.len() > limits::JOB_ID_CHARS {
+        return Err(invalid(
+            "job_id",
+            format!("must be 1 to {} characters", limits::JOB_ID_CHARS),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks every field of a submission; on success, the parsed experiment, the plan (node,
+/// runs, generations in run order) and the file name to use.
+#[allow(clippy::type_complexity)]
+pub fn validate(
+    submission: &Submission,
+) -> Result<(Experiment, Vec<(String, u32, u32)>, String), JobError> {
+    let file_name = if submission.file_name.is_empty() {
+        "experiment.toml".to_string()
+    } else {
+        submission.file_name.clone()
+    };
+    if file_name.chars().count() > limits::FILE_NAME_CHARS
+        || file_name.chars().any(char::is_control)
+    {
+        return Err(invalid(
+            "file_name",
+            format!(
+                "must be at most {} characters without control characters",
+                limits::FILE_NAME_CHARS
+            ),
+        ));
+    }
+    let text = &submission.experiment_toml;
+    if text.trim().is_empty() {
+        return Err(invalid("experiment_toml", "is empty"));
+    }
+    if text.len() > limits::EXPERIMENT_BYTES {
+        return Err(invalid(
+            "experiment_toml",
+            format!(
+                "is {} bytes, at most {} are accepted",
+                text.len(),
+                limits::EXPERIMENT_BYTES
+            ),
+        ));
+    }
+    let experiment = Experiment::parse(text, Path::new(&file_name))
+        .map_err(|e| invalid("experiment_toml", e.to_string()))?;
+    let settings = &submission.settings;
+    if let Some(runs) = settings.runs
+        && !(1..=limits::RUNS).contains(&runs)
+    {
+        return Err(invalid(
+            "runs",
+            format!("must be between 1 and {}, got {runs}", limits::RUNS),
+        ));
+    }
+    if let Some(generations) = settings.generations
+        && !(1..=limits::GENERATIONS).contains(&generations)
+    {
+        return Err(invalid(
+            "generations",
+            format!(
+                "must be between 1 and {}, got {generations}",
+                limits::GENERATIONS
+            ),
+        ));
+    }
+    let names = experiment
+        .nodes_to_run(settings.node.as_deref())
+        .map_err(|message| invalid("node", message))?;
+    let mut plan = Vec::new();
+    for name in names {
+        let node = experiment
+            .node(&name)
+            .expect("names come from the experiment");
+        let runs = settings.runs.unwrap_or(node.decl.runs);
+        let generations = settings.generations.unwrap_or(node.decl.generations);
+        if runs > limits::RUNS || generations > limits::GENERATIONS {
+            return Err(invalid(
+                "experiment_toml",
+                format!(
+                    "node '{name}': at most {} runs of {} generations on a service",
+                    limits::RUNS,
+                    limits::GENERATIONS
+                ),
+            ));
+        }
+        let per_generation = u64::from(node.evolution.population) * u64::from(node.decl.samples);
+        let post = u64::from(node.evolution.post_evaluation_samples)
+            * u64::from(hevo_sim_core::env::n_variants(node.task.kind));
+        if per_generation.max(post) > limits::EVALUATIONS_PER_GENERATION {
+            return Err(invalid(
+                "experiment_toml",
+                format!(
+                    "node '{name}': {} evaluations in one generation, at most {} on a service",
+                    per_generation.max(post),
+                    limits::EVALUATIONS_PER_GENERATION
+                ),
+            ));
+        }
+        plan.push((name, runs, generations));
+    }
+    Ok((experiment, plan, file_name))
+}
+
+/// Receives a job's progress from its run driver: keeps the record's progress and tells
+/// watchers.
+struct JobProgress {
+    manager: JobManager,
+    id: String,
+    /// Per node: generations of the job before it, and its generations per run.
+    offsets: HashMap<String, (u64, u32)>,
+}
+
+impl JobProgress {
+    fn new(manager: JobManager, record: &JobRecord) -> JobProgress {
+        let mut offsets = HashMap::new();
+        let mut before = 0u64;
+        for (node, runs, generations) in &record.plan {
+            offsets.insert(node.clone(), (before, *generations));
+            before += u64::from(*runs) * u64::from(*generations);
+        }
+        JobProgress {
+            manager,
+            id: record.id.clone(),
+            offsets,
+        }
+    }
+}
+
+impl Progress for JobProgress {
+    fn event(&self, event: &ProgressEvent) {
+        // Progress is a position, not a count: a resumed run that repeats a generation does not
+        // count it twice.
+        let done = match event {
+            ProgressEvent::Generation {
+                node,
+                run,
+                generation,
+                ..
+            } => self.offsets.get(node).map(|(before, per_run)| {
+                before + u64::from(*run) * u64::from(*per_run) + u64::from(*generation) + 1
+            }),
+            _ => None,
+        };
+        if let ProgressEvent::Note { message } = event {
+            tracing::info!(job = %self.id, "{message}");
+        }
+        if let Some(proto) = self.manager.record_progress(&self.id, event, done) {
+            let _ = self.manager.sender(&self.id).send(proto);
+        }
+    }
+}
+
+/// A job's status for the wire.
+pub fn info(record: &JobRecord) -> v1::JobInfo {
+    job_info(record)
+}

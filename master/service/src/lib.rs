@@ -1,0 +1,244 @@
+//! `hevo serve`: the master as a service. One port carries the job service (clients), the
+//! worker service (workers connect out to it), the standard gRPC health service and server
+//! reflection; an optional second port serves Prometheus metrics. Jobs run on one shared
+//! dispatcher, so concurrent jobs share the workers round-robin, and live in a durable store
+//! in the state directory, so a restarted master resumes them.
+//!
+//! Health and reflection need no token (load balancers and `grpcurl` probe them); the job and
+//! worker services refuse calls without it. A master without a token refuses to start unless
+//! told `--insecure-no-token`.
+
+pub mod convert;
+pub mod db;
+pub mod grpc;
+pub mod jobs;
+pub mod load;
+pub mod metrics;
+
+use anyhow::{Context, Result, bail};
+use hevo_engine::dispatch::{DispatchConfig, Dispatcher};
+use hevo_proto::auth::ServerAuth;
+use hevo_proto::v1::job_service_server::JobServiceServer;
+use hevo_proto::v1::worker_service_server::WorkerServiceServer;
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio_stream::StreamExt;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Identity, Server, ServerTlsConfig};
+
+/// How `hevo serve` runs.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    /// The gRPC address (port 0 picks a free port).
+    pub listen: String,
+    /// Where the job store and job outputs live.
+    pub state_dir: PathBuf,
+    /// The shared token; `None` only with `insecure_no_token`.
+    pub token: Option<String>,
+    /// Run without a token.
+    pub insecure_no_token: bool,
+    /// PEM certificate chain and key for TLS.
+    pub tls: Option<(PathBuf, PathBuf)>,
+    /// Where to serve metrics.
+    pub metrics_listen: Option<String>,
+    /// Lease duration without a heartbeat.
+    pub lease: Duration,
+}
+
+/// The longest a worker's lease request is held open.
+pub const MAX_LEASE_WAIT: Duration = Duration::from_secs(20);
+
+/// The worker service and its dispatcher, with hevo's limits (also used by the load benchmark).
+pub fn worker_service(
+    api: grpc::WorkerApi,
+    auth: ServerAuth,
+) -> InterceptedService<WorkerServiceServer<grpc::WorkerApi>, ServerAuth> {
+    let server = WorkerServiceServer::new(api)
+        .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES);
+    InterceptedService::new(server, auth)
+}
+
+/// Accepted connections with Nagle's algorithm off: leases and results are small messages
+/// whose latency matters more than packet count.
+pub fn incoming(
+    listener: tokio::net::TcpListener,
+) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
+    tokio_stream::wrappers::TcpListenerStream::new(listener).map(|stream| {
+        if let Ok(stream) = &stream {
+            let _ = stream.set_nodelay(true);
+        }
+        stream
+    })
+}
+
+/// Runs the master until SIGTERM/SIGINT.
+pub async fn serve(config: ServeConfig) -> Result<()> {
+    let auth = match (&config.token, config.insecure_no_token) {
+        (Some(token), _) => ServerAuth::new(token),
+        (None, true) => {
+            tracing::warn!(
+                "running without a token: anyone who can reach the port can submit jobs and act as a worker"
+            );
+            ServerAuth::open()
+        }
+        (None, false) => bail!(
+            "no token: pass --token, --token-file or HEVO_TOKEN (or --insecure-no-token on a trusted network)"
+        ),
+    };
+    if config.lease < Duration::from_secs(1) {
+        bail!("--lease-seconds must be at least 1");
+    }
+    std::fs::create_dir_all(&config.state_dir).with_context(|| {
+        format!(
+            "cannot create the state directory {}",
+            config.state_dir.display()
+        )
+    })?;
+    let store = db::JobStore::open(&config.state_dir.join("hevo.redb"))?;
+    let tls = match &config.tls {
+        Some((cert, key)) => {
+            let cert = std::fs::read(cert)
+                .with_context(|| format!("cannot read the TLS certificate {}", cert.display()))?;
+            let key = std::fs::read(key)
+                .with_context(|| format!("cannot read the TLS key {}", key.display()))?;
+            Some(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
+        }
+        None => None,
+    };
+
+    let listener = tokio::net::TcpListener::bind(&config.listen)
+        .await
+        .with_context(|| format!("cannot listen on {}", config.listen))?;
+    let address = listener.local_addr()?;
+    let metrics_listener = match &config.metrics_listen {
+        Some(listen) => Some(
+            tokio::net::TcpListener::bind(listen)
+                .await
+                .with_context(|| format!("cannot listen on {listen} for metrics"))?,
+        ),
+        None => None,
+    };
+    // The first lines on stdout tell scripts (and tests binding port 0) where we are.
+    {
+        let mut stdout = std::io::stdout().lock();
+        writeln!(stdout, "listening on {address}")?;
+        if let Some(metrics) = &metrics_listener {
+            writeln!(stdout, "metrics on {}", metrics.local_addr()?)?;
+        }
+        stdout.flush()?;
+    }
+
+    let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+        lease_timeout: config.lease,
+        ..DispatchConfig::default()
+    }));
+    let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
+    let worker_api = grpc::WorkerApi::new(dispatcher.clone(), config.lease, MAX_LEASE_WAIT);
+    let metrics = metrics::Metrics::new(
+        dispatcher.clone(),
+        Some(manager.clone()),
+        worker_api.counters(),
+    );
+    tokio::spawn(metrics.clone().sample_rates());
+
+    let (health_reporter, health_service) = tonic_health::server::health_reporter();
+    for name in ["", hevo_proto::JOB_SERVICE, hevo_proto::WORKER_SERVICE] {
+        health_reporter
+            .set_service_status(name, tonic_health::ServingStatus::Serving)
+            .await;
+    }
+    let reflection_v1 = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(hevo_proto::FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+        .build_v1()?;
+    let reflection_v1alpha = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(hevo_proto::FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+        .build_v1alpha()?;
+    let job_service = InterceptedService::new(
+        JobServiceServer::new(grpc::JobApi::new(manager.clone()))
+            .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
+            .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES),
+        auth.clone(),
+    );
+
+    let (stop, stopped) = tokio::sync::watch::channel(false);
+    tokio::spawn(async move {
+        wait_for_signal().await;
+        let _ = stop.send(true);
+    });
+    let until_stopped = |mut stopped: tokio::sync::watch::Receiver<bool>| async move {
+        let _ = stopped.wait_for(|&s| s).await;
+    };
+    if let Some(listener) = metrics_listener {
+        let metrics = metrics.clone();
+        let stopped = until_stopped(stopped.clone());
+        tokio::spawn(async move {
+            if let Err(error) = metrics::serve(listener, metrics, stopped).await {
+                tracing::error!(%error, "metrics server failed");
+            }
+        });
+    }
+
+    let mut builder = Server::builder()
+        .http2_keepalive_interval(Some(Duration::from_secs(20)))
+        .http2_keepalive_timeout(Some(Duration::from_secs(10)));
+    if let Some(tls) = tls {
+        builder = builder
+            .tls_config(tls)
+            .context("invalid TLS certificate or key")?;
+    }
+    let router = builder
+        .add_service(health_service)
+        .add_service(reflection_v1)
+        .add_service(reflection_v1alpha)
+        .add_service(job_service)
+        .add_service(worker_service(worker_api, auth));
+    tracing::info!(%address, state_dir = %config.state_dir.display(), tls = config.tls.is_some(), "master started");
+
+    let shutdown_manager = manager.clone();
+    let shutdown = {
+        let stopped = stopped.clone();
+        async move {
+            until_stopped(stopped).await;
+            tracing::info!("shutting down: unfinished jobs resume on the next start");
+            // Ends long polls and watch streams, so the server can drain.
+            shutdown_manager.shut_down();
+            health_reporter
+                .set_service_status("", tonic_health::ServingStatus::NotServing)
+                .await;
+        }
+    };
+    let serving = router.serve_with_incoming_shutdown(incoming(listener), shutdown);
+    tokio::pin!(serving);
+    tokio::select! {
+        result = &mut serving => result.context("the server failed")?,
+        // Streams of clients that do not go away must not hold the master up for long.
+        _ = async { until_stopped(stopped.clone()).await; tokio::time::sleep(Duration::from_secs(10)).await } => {
+            tracing::warn!("connections still open 10 s after the shutdown request; closing");
+        }
+    }
+    Ok(())
+}
+
+/// Resolves on the first SIGTERM or SIGINT.
+async fn wait_for_signal() {
+    use tokio::signal::unix::{SignalKind, signal};
+    match (
+        signal(SignalKind::terminate()),
+        signal(SignalKind::interrupt()),
+    ) {
+        (Ok(mut term), Ok(mut int)) => {
+            tokio::select! {
+                _ = term.recv() => {}
+                _ = int.recv() => {}
+            }
+        }
+        _ => {
+            let _ = tokio::signal::ctrl_c().await;
+        }
+    }
+}

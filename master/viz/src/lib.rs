@@ -1,0 +1,15 @@
+//! Pictures and reports of what evolved, read from run directories through the engine's
+//! run-directory format: SVG replays of single traced samples (the robot's path through the
+//! world, coloured by the controller that drove it), fitness plots of evolutionary runs, and
+//! REPRODUCTION.md ([`report`]), the paper's figures beside hevo's, with what chance does to
+//! a solve rate measured on finite samples ([`sampling`]). The pictures share one small SVG
+//! writer, so escaping, number formatting, palette and fonts are decided in one place.
+
+pub mod plot;
+pub mod replay;
+pub mod report;
+pub mod sampling;
+pub mod svg;
+
+pub use plot::{RunLog, fitness_plot_svg, read_run_logs};
+pub use replay::{IrCone, ReplayOptions, replay_svg};

@@ -1,0 +1,1778 @@
+//! Replays of one evaluated sample as an SVG picture: the world drawn to scale (walls,
+//! obstacles, the room's exit, the maze's lights and goal), the teammate's path, and the
+//! robot's trajectory coloured by which leaf controller of the tree was driving at each moment,
+//! with a legend naming those controllers, markers for the start, collisions and the final
+//! pose, optional IR sensor cones at chosen cycles, and an optional looping animation. It reads
+//! only a recorded [`Trace`]; the sensor cones come from the caller, so drawing needs no
+//! simulator.
+
+use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour};
+use hevo_sim_core::robot::Pose;
+use hevo_sim_core::scene::RectKind;
+use hevo_sim_core::{Ending, TaskKind, Trace};
+use std::collections::BTreeMap;
+
+/// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
+/// directions of its first and last ray (unit vectors, world frame) and the range, metres.
+pub use hevo_sim_core::evaluate::IrCone;
+
+/// What to draw besides the trace itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayOptions {
+    /// Name of each controller node, indexed like the trace's active paths, with `/` between
+    /// levels (e.g. `rescue/solve_maze/follow_wall`). Missing names are shown as `node N`.
+    pub node_names: Vec<String>,
+    /// Cycles at which to draw the robot with its four IR cones; cycles past the end of the
+    /// trace are ignored.
+    pub rays_at_cycles: Vec<u32>,
+    /// Whether to add a looping animation of the robot along its trajectory.
+    pub animate: bool,
+    /// Title above the picture; a default naming the task when absent.
+    pub title: Option<String>,
+    /// Robot body radius, metres.
+    pub robot_radius: f32,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            node_names: Vec::new(),
+            rays_at_cycles: Vec::new(),
+            animate: false,
+            title: None,
+            robot_radius: 0.0375,
+        }
+    }
+}
+
+/// Seconds per control cycle. The trace does not carry it, and every task of the paper uses
+/// the e-puck's 0.1 s cycle, so captions and the animation assume it.
+pub const CYCLE_SECONDS: f64 = 0.1;
+/// How much faster than real time the animation runs.
+pub const ANIMATION_SPEEDUP: f64 = 10.0;
+/// Pause at the end of each loop of the animation, seconds, so the final pose can be seen.
+const ANIMATION_PAUSE_SECONDS: f64 = 1.0;
+
+/// Picture width, pixels: READMEs show it at about 700 px, so fonts are sized for that.
+const WIDTH: f64 = 800.0;
+/// Outer padding, pixels.
+const PAD: f64 = 16.0;
+/// Height reserved above the scene for the title.
+const TITLE_HEIGHT: f64 = 44.0;
+/// The tallest the scene may be, pixels; tall scenes are fitted to this and centred.
+const MAX_SCENE_HEIGHT: f64 = 820.0;
+/// Empty world margin around everything drawn, metres.
+const WORLD_MARGIN: f64 = 0.06;
+/// Font sizes, pixels.
+const TITLE_FONT: f64 = 20.0;
+const CAPTION_FONT: f64 = 15.0;
+const LEGEND_FONT: f64 = 14.0;
+const LABEL_FONT: f64 = 13.0;
+/// Trajectory stroke width, pixels.
+const TRAJECTORY_WIDTH: f64 = 3.0;
+
+const WALL_COLOUR: &str = "#4d4d4d";
+const OBSTACLE_COLOUR: &str = "#a68a64";
+const TEAMMATE_COLOUR: &str = "#6e6e6e";
+const LIGHT_ON_COLOUR: &str = "#F0E442";
+const CONE_COLOUR: &str = "#56B4E9";
+/// Colour for cycles whose active path was empty (a policy that reports no nodes).
+const NO_NODE_COLOUR: &str = "#999999";
+
+/// Maps world metres (y up) to picture pixels (y down): `px = origin_x + scale * x`,
+/// `py = origin_y - scale * y`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneTransform {
+    /// Pixels per metre.
+    pub scale: f64,
+    /// Pixel position of the world origin.
+    pub origin: [f64; 2],
+}
+
+impl SceneTransform {
+    /// The pixel position of a world point.
+    pub fn apply(&self, point: [f32; 2]) -> [f64; 2] {
+        [
+            self.origin[0] + self.scale * point[0] as f64,
+            self.origin[1] - self.scale * point[1] as f64,
+        ]
+    }
+
+    /// A world length in pixels.
+    pub fn length(&self, metres: f64) -> f64 {
+        self.scale * metres
+    }
+}
+
+/// The world rectangle that holds everything the picture draws: `[min_x, min_y, max_x, max_y]`.
+fn world_bounds(trace: &Trace, robot_radius: f64) -> [f64; 4] {
+    let mut bounds = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut include = |p: [f32; 2], pad: f64| {
+        let [x, y] = [p[0] as f64, p[1] as f64];
+        if x.is_finite() && y.is_finite() {
+            bounds[0] = bounds[0].min(x - pad);
+            bounds[1] = bounds[1].min(y - pad);
+            bounds[2] = bounds[2].max(x + pad);
+            bounds[3] = bounds[3].max(y + pad);
+        }
+    };
+    for rect in &trace.rects {
+        for corner in rect.corners() {
+            include(corner, 0.0);
+        }
+    }
+    for (position, _) in &trace.lights {
+        include(*position, 0.03);
+    }
+    if let Some(goal) = trace.goal {
+        include(goal, 0.07);
+    }
+    if let Some((centre, outward)) = trace.exit {
+        include(
+            [centre[0] + 0.16 * outward[0], centre[1] + 0.16 * outward[1]],
+            0.02,
+        );
+    }
+    for cycle in &trace.cycles {
+        include(cycle.robot.position(), robot_radius);
+        if let Some(mate) = cycle.teammate {
+            include(mate.position(), robot_radius);
+        }
+    }
+    include(trace.final_robot.position(), robot_radius);
+    if !bounds.iter().all(|v| v.is_finite()) {
+        // Nothing finite to draw: show a metre around the origin rather than fail.
+        return [-1.0, -1.0, 1.0, 1.0];
+    }
+    [
+        bounds[0] - WORLD_MARGIN,
+        bounds[1] - WORLD_MARGIN,
+        bounds[2] + WORLD_MARGIN,
+        bounds[3] + WORLD_MARGIN,
+    ]
+}
+
+/// Fits the world bounds into the scene area below the title.
+fn fit(bounds: [f64; 4]) -> (SceneTransform, f64) {
+    let world_width = (bounds[2] - bounds[0]).max(1e-3);
+    let world_height = (bounds[3] - bounds[1]).max(1e-3);
+    let area_width = WIDTH - 2.0 * PAD;
+    let scale = (area_width / world_width).min(MAX_SCENE_HEIGHT / world_height);
+    let left = PAD + 0.5 * (area_width - scale * world_width);
+    let origin = [left - scale * bounds[0], TITLE_HEIGHT + scale * bounds[3]];
+    (
+        SceneTransform { scale, origin },
+        TITLE_HEIGHT + scale * world_height,
+    )
+}
+
+/// The node that drove the robot in a cycle: the last (leaf-most) entry of the active path.
+fn leaf_of(path: &[u16]) -> Option<u16> {
+    path.last().copied()
+}
+
+/// Display name of a node: its path with spaced separators, or `node N` without a name.
+fn display_name(names: &[String], node: Option<u16>) -> String {
+    match node {
+        None => "no controller reported".to_string(),
+        Some(index) => match names.get(index as usize).filter(|n| !n.trim().is_empty()) {
+            Some(name) => name
+                .split('/')
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join(" / "),
+            None => format!("node {index}"),
+        },
+    }
+}
+
+/// A colour for each leaf that drove the robot. Colours follow the tree, not the trace: the
+/// k-th leaf of the tree (a named node no other name extends) always gets the k-th palette
+/// colour, so pictures of different samples of one controller agree. Nodes outside that list
+/// (unnamed, or arbitrators reported as leaves) get the following colours in order of use.
+fn leaf_colours(names: &[String], used: &[Option<u16>]) -> BTreeMap<Option<u16>, &'static str> {
+    let tree_leaves: Vec<u16> = (0..names.len())
+        .filter(|&i| {
+            let prefix = format!("{}/", names[i]);
+            !names.iter().any(|other| other.starts_with(&prefix))
+        })
+        .filter_map(|i| u16::try_from(i).ok())
+        .collect();
+    let mut colours = BTreeMap::new();
+    let mut next_extra = tree_leaves.len();
+    for &node in used {
+        if colours.contains_key(&node) {
+            continue;
+        }
+        let colour = match node {
+            None => NO_NODE_COLOUR,
+            Some(index) => match tree_leaves.iter().position(|&leaf| leaf == index) {
+                Some(rank) => palette_colour(rank),
+                None => {
+                    next_extra += 1;
+                    palette_colour(next_extra - 1)
+                }
+            },
+        };
+        colours.insert(node, colour);
+    }
+    colours
+}
+
+/// Approximate text width for layout: DejaVu Sans averages about 0.6 em per character.
+fn text_width(text: &str, font_size: f64) -> f64 {
+    text.chars().count() as f64 * font_size * 0.6
+}
+
+/// A text label drawn over the scene: a white halo keeps it legible over walls and paths.
+fn halo_label(class: &str, x: f64, y: f64, anchor: &str) -> Tag {
+    Tag::new("text")
+        .class(class)
+        .num("x", x)
+        .num("y", y)
+        .num("font-size", LABEL_FONT)
+        .attr("text-anchor", anchor)
+        .attr("fill", INK)
+        .attr("stroke", "#ffffff")
+        .attr("stroke-width", "3.5")
+        .attr("stroke-linejoin", "round")
+        .attr("paint-order", "stroke")
+}
+
+/// How a robot disc is painted.
+#[derive(Debug, Clone, Copy)]
+struct RobotStyle<'a> {
+    fill: &'a str,
+    outline: &'a str,
+    outline_width: f64,
+    heading: &'a str,
+}
+
+/// The final pose: solid dark, so it stands apart from every path colour.
+const FINAL_ROBOT: RobotStyle<'static> = RobotStyle {
+    fill: INK,
+    outline: INK,
+    outline_width: 1.5,
+    heading: "#ffffff",
+};
+/// The teammate: light grey.
+const TEAMMATE_ROBOT: RobotStyle<'static> = RobotStyle {
+    fill: "#cccccc",
+    outline: TEAMMATE_COLOUR,
+    outline_width: 1.5,
+    heading: INK,
+};
+
+/// A robot disc with a heading line from its centre to its rim, heading in world radians.
+fn draw_robot(
+    doc: &mut SvgDocument,
+    group: Tag,
+    centre: [f64; 2],
+    heading: f32,
+    radius_px: f64,
+    style: RobotStyle<'_>,
+) {
+    doc.open(group);
+    doc.leaf(
+        Tag::new("circle")
+            .num("cx", centre[0])
+            .num("cy", centre[1])
+            .num("r", radius_px)
+            .attr("fill", style.fill)
+            .attr("stroke", style.outline)
+            .num("stroke-width", style.outline_width),
+    );
+    let heading = heading as f64;
+    let tip = [
+        centre[0] + radius_px * heading.cos(),
+        centre[1] - radius_px * heading.sin(),
+    ];
+    doc.leaf(
+        Tag::new("line")
+            .class("heading")
+            .num("x1", centre[0])
+            .num("y1", centre[1])
+            .num("x2", tip[0])
+            .num("y2", tip[1])
+            .attr("stroke", style.heading)
+            .attr("stroke-width", "2")
+            .attr("stroke-linecap", "round"),
+    );
+    doc.close();
+}
+
+/// Whether a world point is finite, so it can be drawn.
+fn finite(point: [f32; 2]) -> bool {
+    point[0].is_finite() && point[1].is_finite()
+}
+
+/// The robot's position at the start of cycle `index`, or its final position when `index` is
+/// the number of cycles: the trajectory's points.
+fn trajectory_point(trace: &Trace, index: usize) -> [f32; 2] {
+    trace
+        .cycles
+        .get(index)
+        .map_or(trace.final_robot.position(), |c| c.robot.position())
+}
+
+/// The caption's words for the sample's variant, when the task has variants.
+fn variant_text(task: TaskKind, variant: u32) -> Option<String> {
+    match task {
+        TaskKind::SolveMaze | TaskKind::Rescue => Some(format!("light configuration {variant}")),
+        TaskKind::ReturnRoom => Some(format!("start branch {variant}")),
+        TaskKind::TurnLeft | TaskKind::TurnRight => Some(if variant == 1 {
+            "T-junction".to_string()
+        } else {
+            "L-bend".to_string()
+        }),
+        TaskKind::ExitRoom | TaskKind::FollowWall => None,
+    }
+}
+
+/// The caption's words for how the sample ended.
+fn ending_text(ending: Ending) -> &'static str {
+    match ending {
+        Ending::Solved => "solved",
+        Ending::Collision => "ended by a collision",
+        Ending::WrongBranch => "ended in a wrong branch",
+        Ending::Timeout => "timed out",
+    }
+}
+
+/// The rescue stages' names, by the outcome's stage number.
+fn rescue_stage_text(stage: u8) -> &'static str {
+    match stage {
+        0 => "still in the room",
+        1 => "left the room",
+        2 => "found the teammate",
+        _ => "brought the teammate back",
+    }
+}
+
+/// Two caption lines: what was run, and how it went.
+fn caption_lines(trace: &Trace) -> [String; 2] {
+    let outcome = &trace.outcome;
+    let mut first = format!("task {} · seed {}", trace.task, trace.sample.seed);
+    if let Some(variant) = variant_text(trace.task, outcome.variant) {
+        first.push_str(&format!(" · {variant}"));
+    }
+    let mut second = format!(
+        "{} after {} cycles ({:.1} s) · fitness {:.3}",
+        ending_text(outcome.ending),
+        outcome.cycles,
+        outcome.cycles as f64 * CYCLE_SECONDS,
+        outcome.fitness
+    );
+    if trace.task == TaskKind::Rescue {
+        second.push_str(&format!(
+            " · stage {}/3, {}",
+            outcome.stage.min(3),
+            rescue_stage_text(outcome.stage)
+        ));
+    }
+    if outcome.collided && outcome.ending != Ending::Collision {
+        second.push_str(" · touched a wall");
+    }
+    [first, second]
+}
+
+/// Unwraps headings so that consecutive values differ by less than half a turn, so an
+/// interpolating animation turns the short way.
+fn unwrapped_degrees(headings: &[f32]) -> Vec<f64> {
+    let mut out: Vec<f64> = Vec::with_capacity(headings.len());
+    for &heading in headings {
+        let degrees = (heading as f64).to_degrees();
+        let value = match out.last() {
+            Some(&previous) => {
+                let mut delta = (degrees - previous) % 360.0;
+                if delta > 180.0 {
+                    delta -= 360.0;
+                } else if delta < -180.0 {
+                    delta += 360.0;
+                }
+                previous + delta
+            }
+            None => degrees,
+        };
+        out.push(value);
+    }
+    out
+}
+
+/// Draws a replay of one traced sample. `cones` gives the IR cones at a pose (for example
+/// `|pose| evaluator.ir_cones(pose)`); it is only called for `options.rays_at_cycles`.
+///
+/// Bad data never panics: non-finite positions are left out of the drawing, unknown node
+/// indices are named `node N`, and requested ray cycles past the end are ignored.
+pub fn replay_svg(
+    trace: &Trace,
+    options: &ReplayOptions,
+    cones: &dyn Fn(&Pose) -> Vec<IrCone>,
+) -> String {
+    let robot_radius = if options.robot_radius.is_finite() && options.robot_radius > 0.0 {
+        options.robot_radius as f64
+    } else {
+        0.0375
+    };
+    let (transform, scene_bottom) = fit(world_bounds(trace, robot_radius));
+    let radius_px = transform.length(robot_radius);
+
+    // Consecutive cycles driven by the same leaf form one run, drawn as one polyline.
+    let leaves: Vec<Option<u16>> = trace
+        .cycles
+        .iter()
+        .map(|c| leaf_of(&c.active_path))
+        .collect();
+    let colours = leaf_colours(&options.node_names, &leaves);
+    let mut runs: Vec<(usize, usize, Option<u16>)> = Vec::new();
+    for (index, &leaf) in leaves.iter().enumerate() {
+        match runs.last_mut() {
+            Some((_, end, run_leaf)) if *run_leaf == leaf => *end = index + 1,
+            _ => runs.push((index, index + 1, leaf)),
+        }
+    }
+    let mut active_counts: BTreeMap<Option<u16>, usize> = BTreeMap::new();
+    for &leaf in &leaves {
+        *active_counts.entry(leaf).or_default() += 1;
+    }
+
+    // Everything below the scene is laid out first, so the document's height is known.
+    let legend_entries: Vec<(Option<u16>, String, String)> = active_counts
+        .iter()
+        .map(|(&node, &count)| {
+            let share = 100.0 * count as f64 / trace.cycles.len().max(1) as f64;
+            (
+                node,
+                display_name(&options.node_names, node),
+                format!(
+                    "{count} {}, {share:.0}%",
+                    if count == 1 { "cycle" } else { "cycles" }
+                ),
+            )
+        })
+        .collect();
+    let widest_name = legend_entries
+        .iter()
+        .map(|(_, name, _)| text_width(name, LEGEND_FONT))
+        .fold(0.0, f64::max);
+    let widest_count = legend_entries
+        .iter()
+        .map(|(_, _, count)| text_width(count, LABEL_FONT))
+        .fold(0.0, f64::max);
+    let widest_entry = 40.0 + widest_name + 16.0 + widest_count;
+    let legend_columns = if legend_entries.len() > 3 && widest_entry < 0.5 * (WIDTH - 2.0 * PAD) {
+        2
+    } else {
+        1
+    };
+    let legend_rows = legend_entries.len().div_ceil(legend_columns);
+    let caption_top = scene_bottom + 26.0;
+    let legend_title_y = caption_top + 2.0 * 22.0 + 10.0;
+    let legend_top = legend_title_y + 24.0;
+    let key_items = key_items(trace, options);
+    let key_top = legend_top + legend_rows as f64 * 22.0 + 8.0;
+    let key_rows = layout_key(&key_items).last().map_or(0, |item| item.row + 1);
+    let height = key_top + key_rows as f64 * 24.0 + PAD;
+
+    let mut doc = SvgDocument::new(WIDTH, height, "replay");
+    let title = options
+        .title
+        .clone()
+        .unwrap_or_else(|| format!("Replay: {}", trace.task));
+    doc.title(&title);
+    doc.text(
+        Tag::new("text")
+            .class("title")
+            .num("x", PAD)
+            .num("y", 30.0)
+            .num("font-size", TITLE_FONT)
+            .attr("font-weight", "bold")
+            .attr("fill", INK),
+        &title,
+    );
+
+    doc.open(
+        Tag::new("g")
+            .class("scene")
+            .attr("data-px-per-m", num_with(transform.scale, 4))
+            .attr("data-origin-x", num_with(transform.origin[0], 4))
+            .attr("data-origin-y", num_with(transform.origin[1], 4)),
+    );
+    draw_world(&mut doc, trace, &transform);
+    draw_teammate(&mut doc, trace, &transform, radius_px);
+    let faint = options.animate;
+    doc.open(
+        Tag::new("g")
+            .class("trajectories")
+            .attr("fill", "none")
+            .num("stroke-width", TRAJECTORY_WIDTH)
+            .attr("stroke-linejoin", "round")
+            .attr("stroke-linecap", "round")
+            .attr("opacity", if faint { "0.4" } else { "1" }),
+    );
+    for &(first, end, leaf) in &runs {
+        // A run's polyline ends where the next run starts, so the drawn path has no gaps.
+        let points: Vec<[f64; 2]> = (first..=end)
+            .map(|i| trajectory_point(trace, i))
+            .filter(|&p| finite(p))
+            .map(|p| transform.apply(p))
+            .collect();
+        let colour = colours.get(&leaf).copied().unwrap_or(NO_NODE_COLOUR);
+        doc.leaf(
+            Tag::new("polyline")
+                .class("trajectory")
+                .attr(
+                    "data-node",
+                    leaf.map_or("none".to_string(), |n| n.to_string()),
+                )
+                .attr("data-first-cycle", first.to_string())
+                .attr("data-last-cycle", end.to_string())
+                .attr("stroke", colour)
+                .points(&points),
+        );
+    }
+    doc.close();
+    draw_rays(
+        &mut doc, trace, options, &transform, radius_px, cones, &colours,
+    );
+    draw_start(&mut doc, trace, &transform, radius_px);
+    if finite(trace.final_robot.position()) {
+        draw_robot(
+            &mut doc,
+            Tag::new("g").class("final-robot"),
+            transform.apply(trace.final_robot.position()),
+            trace.final_robot.heading,
+            radius_px,
+            FINAL_ROBOT,
+        );
+    }
+    // Collisions go over the final robot: a sample that ends on a collision ends there.
+    draw_collisions(&mut doc, trace, &transform);
+    if options.animate {
+        draw_animation(&mut doc, trace, &transform, radius_px);
+    }
+    doc.close();
+
+    // Caption, legend and key.
+    let [first_line, second_line] = caption_lines(trace);
+    for (i, line) in [first_line, second_line].iter().enumerate() {
+        doc.text(
+            Tag::new("text")
+                .class("caption")
+                .num("x", PAD)
+                .num("y", caption_top + i as f64 * 22.0)
+                .num("font-size", CAPTION_FONT)
+                .attr("fill", INK),
+            line,
+        );
+    }
+    let legend_title = if trace.cycles.is_empty() {
+        "No cycles recorded"
+    } else {
+        "Path colour: the controller driving the robot (leaf of the active path)"
+    };
+    doc.text(
+        Tag::new("text")
+            .class("legend-title")
+            .num("x", PAD)
+            .num("y", legend_title_y)
+            .num("font-size", LEGEND_FONT)
+            .attr("font-weight", "bold")
+            .attr("fill", INK),
+        legend_title,
+    );
+    let column_width = (WIDTH - 2.0 * PAD) / legend_columns as f64;
+    // The cycle counts of a legend column line up after its longest name, so they read as a
+    // column of numbers rather than trailing each name at a different place.
+    let names_width = |column: usize| {
+        legend_entries
+            .iter()
+            .skip(column * legend_rows)
+            .take(legend_rows)
+            .map(|(_, name, _)| text_width(name, LEGEND_FONT))
+            .fold(0.0, f64::max)
+    };
+    for (i, (node, name, count)) in legend_entries.iter().enumerate() {
+        let x = PAD + (i / legend_rows) as f64 * column_width;
+        let y = legend_top + (i % legend_rows) as f64 * 22.0;
+        let colour = colours.get(node).copied().unwrap_or(NO_NODE_COLOUR);
+        let node_attr = node.map_or("none".to_string(), |n| n.to_string());
+        doc.leaf(
+            Tag::new("line")
+                .class("legend-swatch")
+                .attr("data-node", &node_attr)
+                .num("x1", x)
+                .num("y1", y - 5.0)
+                .num("x2", x + 30.0)
+                .num("y2", y - 5.0)
+                .attr("stroke", colour)
+                .num("stroke-width", 5.0)
+                .attr("stroke-linecap", "round"),
+        );
+        doc.text(
+            Tag::new("text")
+                .class("legend")
+                .attr("data-node", &node_attr)
+                .num("x", x + 40.0)
+                .num("y", y)
+                .num("font-size", LEGEND_FONT)
+                .attr("fill", INK),
+            name,
+        );
+        doc.text(
+            Tag::new("text")
+                .class("legend-cycles")
+                .attr("data-node", &node_attr)
+                .num("x", x + 40.0 + names_width(i / legend_rows) + 16.0)
+                .num("y", y)
+                .num("font-size", LABEL_FONT)
+                .attr("fill", "#666666"),
+            count,
+        );
+    }
+    draw_key(&mut doc, &key_items, key_top);
+    doc.finish()
+}
+
+/// Walls, obstacles, the exit, the goal and the lights.
+fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) {
+    doc.open(Tag::new("g").class("world"));
+    for rect in &trace.rects {
+        let corners: Vec<[f64; 2]> = rect.corners().iter().map(|&c| transform.apply(c)).collect();
+        if !corners.iter().flatten().all(|v| v.is_finite()) {
+            continue;
+        }
+        let (class, colour) = match rect.kind {
+            RectKind::Wall => ("wall", WALL_COLOUR),
+            RectKind::Obstacle => ("obstacle", OBSTACLE_COLOUR),
+        };
+        // Polygons rather than rotated rects: one form for every angle, and a thin stroke of
+        // the same colour closes hairline seams between touching walls.
+        doc.leaf(
+            Tag::new("polygon")
+                .class(class)
+                .points(&corners)
+                .attr("fill", colour)
+                .attr("stroke", colour)
+                .attr("stroke-width", "0.75"),
+        );
+    }
+    if let Some((centre, outward)) = trace.exit.filter(|(c, o)| finite(*c) && finite(*o)) {
+        let from = transform.apply([centre[0] - 0.05 * outward[0], centre[1] - 0.05 * outward[1]]);
+        let to = transform.apply([centre[0] + 0.14 * outward[0], centre[1] + 0.14 * outward[1]]);
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        let length = dx.hypot(dy).max(1e-6);
+        let (ux, uy) = (dx / length, dy / length);
+        let head = 10.0;
+        doc.open(Tag::new("g").class("exit"));
+        doc.leaf(
+            Tag::new("line")
+                .num("x1", from[0])
+                .num("y1", from[1])
+                .num("x2", to[0] - ux * head * 0.8)
+                .num("y2", to[1] - uy * head * 0.8)
+                .attr("stroke", "#009E73")
+                .attr("stroke-width", "3"),
+        );
+        doc.leaf(
+            Tag::new("polygon")
+                .points(&[
+                    to,
+                    [
+                        to[0] - ux * head - uy * head * 0.55,
+                        to[1] - uy * head + ux * head * 0.55,
+                    ],
+                    [
+                        to[0] - ux * head + uy * head * 0.55,
+                        to[1] - uy * head - ux * head * 0.55,
+                    ],
+                ])
+                .attr("fill", "#009E73"),
+        );
+        // The label sits beside the arrow, on the side away from the robot's start, where
+        // there is usually open floor or empty page.
+        let side = [-uy, ux];
+        let label_at = [
+            to[0] + side[0] * 14.0 - ux * 6.0,
+            to[1] + side[1] * 14.0 - uy * 6.0 + 4.0,
+        ];
+        let anchor = if side[0] < -0.3 {
+            "end"
+        } else if side[0] > 0.3 {
+            "start"
+        } else {
+            "middle"
+        };
+        doc.text(
+            halo_label("exit-label", label_at[0], label_at[1], anchor),
+            "exit",
+        );
+        doc.close();
+    }
+    if let Some(goal) = trace.goal.filter(|g| finite(*g)) {
+        let at = transform.apply(goal);
+        let outer = transform.length(0.06).max(8.0);
+        doc.open(Tag::new("g").class("goal"));
+        doc.leaf(
+            Tag::new("circle")
+                .num("cx", at[0])
+                .num("cy", at[1])
+                .num("r", outer)
+                .attr("fill", "none")
+                .attr("stroke", "#009E73")
+                .attr("stroke-width", "2.5"),
+        );
+        doc.leaf(
+            Tag::new("circle")
+                .num("cx", at[0])
+                .num("cy", at[1])
+                .num("r", outer * 0.4)
+                .attr("fill", "#009E73"),
+        );
+        doc.close();
+    }
+    let scene_centre_x = transform.origin[0]
+        + transform.scale
+            * (trace.lights.iter().map(|(p, _)| p[0] as f64).sum::<f64>()
+                / trace.lights.len().max(1) as f64);
+    for (index, &(position, flashes)) in trace.lights.iter().enumerate() {
+        if !finite(position) {
+            continue;
+        }
+        let at = transform.apply(position);
+        let lit_cycle = trace
+            .cycles
+            .iter()
+            .position(|c| index < 32 && c.lit_lights & (1 << index) != 0);
+        let radius = transform.length(0.02).max(5.0);
+        let mut group = Tag::new("g")
+            .class("light")
+            .attr("data-flashes", flashes.to_string());
+        if let Some(cycle) = lit_cycle {
+            group = group.attr("data-lit-cycle", cycle.to_string());
+        }
+        doc.open(group);
+        if lit_cycle.is_some() {
+            doc.leaf(
+                Tag::new("circle")
+                    .class("light-glow")
+                    .num("cx", at[0])
+                    .num("cy", at[1])
+                    .num("r", radius * 2.0)
+                    .attr("fill", LIGHT_ON_COLOUR)
+                    .attr("opacity", "0.55"),
+            );
+        }
+        doc.leaf(
+            Tag::new("circle")
+                .num("cx", at[0])
+                .num("cy", at[1])
+                .num("r", radius)
+                .attr("fill", if flashes { LIGHT_ON_COLOUR } else { "#ffffff" })
+                .attr("stroke", if flashes { INK } else { "#888888" })
+                .attr("stroke-width", "1.5"),
+        );
+        if let Some(cycle) = lit_cycle {
+            // Labels go on the outer side of the stem, away from the corridor and the path, and clear
+            // of the wall the light is mounted on.
+            let outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
+            let anchor = if outward > 0.0 { "start" } else { "end" };
+            doc.text(
+                halo_label(
+                    "light-label",
+                    at[0] + outward * (radius * 2.0 + 16.0),
+                    at[1] + 4.5,
+                    anchor,
+                ),
+                &format!("lit at cycle {cycle}"),
+            );
+        }
+        doc.close();
+    }
+    doc.close();
+}
+
+/// The teammate's path (dashed), where it started, and where it was last.
+fn draw_teammate(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, radius_px: f64) {
+    let poses: Vec<Pose> = trace
+        .cycles
+        .iter()
+        .filter_map(|c| c.teammate)
+        .filter(|p| finite(p.position()))
+        .collect();
+    let (Some(first), Some(last)) = (poses.first(), poses.last()) else {
+        return;
+    };
+    doc.open(Tag::new("g").class("teammate-group"));
+    let points: Vec<[f64; 2]> = poses
+        .iter()
+        .map(|p| transform.apply(p.position()))
+        .collect();
+    doc.leaf(
+        Tag::new("polyline")
+            .class("teammate-path")
+            .points(&points)
+            .attr("fill", "none")
+            .attr("stroke", TEAMMATE_COLOUR)
+            .attr("stroke-width", "2")
+            .attr("stroke-dasharray", "6 4"),
+    );
+    let start = transform.apply(first.position());
+    doc.leaf(
+        Tag::new("circle")
+            .class("teammate-start")
+            .num("cx", start[0])
+            .num("cy", start[1])
+            .num("r", radius_px)
+            .attr("fill", "none")
+            .attr("stroke", TEAMMATE_COLOUR)
+            .attr("stroke-width", "1.5")
+            .attr("stroke-dasharray", "3 2"),
+    );
+    draw_robot(
+        doc,
+        Tag::new("g").class("teammate"),
+        transform.apply(last.position()),
+        last.heading,
+        radius_px,
+        TEAMMATE_ROBOT,
+    );
+    doc.close();
+}
+
+/// A cross at the robot's position in every cycle whose move was undone by a collision,
+/// leaving out crosses that would land on the previous one.
+fn draw_collisions(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) {
+    let mut previous: Option<[f64; 2]> = None;
+    let size = 6.0;
+    for (index, cycle) in trace.cycles.iter().enumerate() {
+        if !cycle.collided || !finite(cycle.robot.position()) {
+            continue;
+        }
+        let at = transform.apply(cycle.robot.position());
+        if previous.is_some_and(|p| (p[0] - at[0]).hypot(p[1] - at[1]) < 3.0) {
+            continue;
+        }
+        previous = Some(at);
+        let cross = PathData::new()
+            .move_to(at[0] - size, at[1] - size)
+            .line_to(at[0] + size, at[1] + size)
+            .move_to(at[0] - size, at[1] + size)
+            .line_to(at[0] + size, at[1] - size);
+        doc.open(
+            Tag::new("g")
+                .class("collision")
+                .attr("data-cycle", index.to_string()),
+        );
+        doc.leaf(
+            Tag::new("path")
+                .attr("d", cross.as_str())
+                .attr("stroke", "#ffffff")
+                .attr("stroke-width", "6")
+                .attr("stroke-linecap", "round"),
+        );
+        doc.leaf(
+            Tag::new("path")
+                .attr("d", cross.as_str())
+                .attr("stroke", "#000000")
+                .attr("stroke-width", "3")
+                .attr("stroke-linecap", "round"),
+        );
+        doc.close();
+    }
+}
+
+/// The robot and its four IR cones at each requested cycle; a cone's shade grows with the
+/// reading the sensor gave in that cycle.
+fn draw_rays(
+    doc: &mut SvgDocument,
+    trace: &Trace,
+    options: &ReplayOptions,
+    transform: &SceneTransform,
+    radius_px: f64,
+    cones: &dyn Fn(&Pose) -> Vec<IrCone>,
+    colours: &BTreeMap<Option<u16>, &'static str>,
+) {
+    for &cycle_index in &options.rays_at_cycles {
+        let Some(cycle) = trace.cycles.get(cycle_index as usize) else {
+            continue;
+        };
+        if !finite(cycle.robot.position()) {
+            continue;
+        }
+        doc.open(
+            Tag::new("g")
+                .class("ray-snapshot")
+                .attr("data-cycle", cycle_index.to_string()),
+        );
+        for (sensor, &(origin, first, last, range)) in cones(&cycle.robot).iter().enumerate() {
+            if !(finite(origin)
+                && finite(first)
+                && finite(last)
+                && range.is_finite()
+                && range > 0.0)
+            {
+                continue;
+            }
+            let at = |direction: [f32; 2]| {
+                transform.apply([
+                    origin[0] + range * direction[0],
+                    origin[1] + range * direction[1],
+                ])
+            };
+            let centre = transform.apply(origin);
+            let (a, b) = (at(first), at(last));
+            // On screen (y down) the arc turns the positive way, SVG's sweep flag 1, when the
+            // cross product of the two screen directions is positive.
+            let cross =
+                (a[0] - centre[0]) * (b[1] - centre[1]) - (a[1] - centre[1]) * (b[0] - centre[0]);
+            let dot =
+                (a[0] - centre[0]) * (b[0] - centre[0]) + (a[1] - centre[1]) * (b[1] - centre[1]);
+            let large = cross.abs() < 1e-9 && dot < 0.0;
+            let wedge = PathData::new()
+                .move_to(centre[0], centre[1])
+                .line_to(a[0], a[1])
+                .arc_to(
+                    transform.length(range as f64),
+                    large,
+                    cross > 0.0,
+                    b[0],
+                    b[1],
+                )
+                .close();
+            let reading = cycle
+                .frame
+                .ir
+                .get(sensor)
+                .copied()
+                .unwrap_or(0.0)
+                .clamp(0.0, 1.0) as f64;
+            let reading = if reading.is_finite() { reading } else { 0.0 };
+            doc.leaf(
+                Tag::new("path")
+                    .class("ir-cone")
+                    .attr("data-sensor", sensor.to_string())
+                    .attr("data-reading", num_with(reading, 3))
+                    .attr("d", wedge.as_str())
+                    .attr("fill", CONE_COLOUR)
+                    .attr("fill-opacity", num_with(0.18 + 0.6 * reading, 3))
+                    .attr("stroke", "#0072B2")
+                    .attr("stroke-width", "1"),
+            );
+        }
+        // The snapshot's outline takes the colour of the controller driving at that cycle.
+        let leaf = leaf_of(&cycle.active_path);
+        let colour = colours.get(&leaf).copied().unwrap_or(INK);
+        let centre = transform.apply(cycle.robot.position());
+        let style = RobotStyle {
+            fill: "#f4f4f4",
+            outline: colour,
+            outline_width: 3.0,
+            heading: INK,
+        };
+        draw_robot(
+            doc,
+            Tag::new("g").class("ray-robot"),
+            centre,
+            cycle.robot.heading,
+            radius_px,
+            style,
+        );
+        // Above the disc, so it never meets the start label, which sits below the start.
+        doc.text(
+            halo_label(
+                "ray-label",
+                centre[0],
+                centre[1] - radius_px - 7.0,
+                "middle",
+            ),
+            &format!("cycle {cycle_index}"),
+        );
+        doc.close();
+    }
+}
+
+/// A ring where the robot started, labelled.
+fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, radius_px: f64) {
+    let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
+    if !finite(start.position()) {
+        return;
+    }
+    let at = transform.apply(start.position());
+    doc.open(Tag::new("g").class("start"));
+    doc.leaf(
+        Tag::new("circle")
+            .num("cx", at[0])
+            .num("cy", at[1])
+            .num("r", radius_px)
+            .attr("fill", "#ffffff")
+            .attr("fill-opacity", "0.7")
+            .attr("stroke", INK)
+            .attr("stroke-width", "2"),
+    );
+    let heading = start.heading as f64;
+    let tip = [
+        at[0] + radius_px * heading.cos(),
+        at[1] - radius_px * heading.sin(),
+    ];
+    doc.leaf(
+        Tag::new("line")
+            .num("x1", at[0])
+            .num("y1", at[1])
+            .num("x2", tip[0])
+            .num("y2", tip[1])
+            .attr("stroke", INK)
+            .attr("stroke-width", "2")
+            .attr("stroke-linecap", "round"),
+    );
+    doc.text(
+        halo_label("start-label", at[0], at[1] + radius_px + 15.0, "middle"),
+        "start",
+    );
+    doc.close();
+}
+
+/// A robot disc that drives the trajectory in a loop at [`ANIMATION_SPEEDUP`] times real
+/// time, pausing at the end. Translation and rotation are separate keyframed transforms
+/// (one value per cycle, evenly spaced like the cycles), so the disc turns in place when the
+/// robot does, which a path-following animation could not show.
+fn draw_animation(
+    doc: &mut SvgDocument,
+    trace: &Trace,
+    transform: &SceneTransform,
+    radius_px: f64,
+) {
+    let poses: Vec<Pose> = trace
+        .cycles
+        .iter()
+        .map(|c| c.robot)
+        .chain(std::iter::once(trace.final_robot))
+        .filter(|p| finite(p.position()) && p.heading.is_finite())
+        .collect();
+    if poses.len() < 2 {
+        return;
+    }
+    let positions: Vec<[f64; 2]> = poses
+        .iter()
+        .map(|p| transform.apply(p.position()))
+        .collect();
+    let rotations: Vec<f64> =
+        unwrapped_degrees(&poses.iter().map(|p| p.heading).collect::<Vec<_>>())
+            .into_iter()
+            .map(|d| -d)
+            .collect();
+    let seconds = (poses.len() - 1) as f64 * CYCLE_SECONDS / ANIMATION_SPEEDUP;
+    let translate_values: Vec<String> = positions
+        .iter()
+        .map(|p| format!("{},{}", crate::svg::num(p[0]), crate::svg::num(p[1])))
+        .collect();
+    let rotate_values: Vec<String> = rotations.iter().map(|r| crate::svg::num(*r)).collect();
+    let duration = format!("{}s", num_with(seconds, 3));
+    let begin = format!(
+        "0s;replay-move.end+{}s",
+        num_with(ANIMATION_PAUSE_SECONDS, 3)
+    );
+    doc.open(
+        Tag::new("g")
+            .class("animated-robot")
+            .attr("transform", format!("translate({})", translate_values[0])),
+    );
+    doc.leaf(
+        Tag::new("animateTransform")
+            .attr("id", "replay-move")
+            .attr("attributeName", "transform")
+            .attr("type", "translate")
+            .attr("calcMode", "linear")
+            .attr("values", translate_values.join(";"))
+            .attr("dur", &duration)
+            .attr("begin", &begin)
+            .attr("fill", "freeze"),
+    );
+    doc.open(Tag::new("g").attr("transform", format!("rotate({})", rotate_values[0])));
+    doc.leaf(
+        Tag::new("animateTransform")
+            .attr("attributeName", "transform")
+            .attr("type", "rotate")
+            .attr("calcMode", "linear")
+            .attr("values", rotate_values.join(";"))
+            .attr("dur", &duration)
+            .attr("begin", "replay-move.begin")
+            .attr("fill", "freeze"),
+    );
+    doc.leaf(
+        Tag::new("circle")
+            .num("cx", 0.0)
+            .num("cy", 0.0)
+            .num("r", radius_px * 1.15)
+            .attr("fill", "#ffffff")
+            .attr("stroke", "#000000")
+            .attr("stroke-width", "2.5"),
+    );
+    doc.leaf(
+        Tag::new("line")
+            .num("x1", 0.0)
+            .num("y1", 0.0)
+            .num("x2", radius_px * 1.15)
+            .num("y2", 0.0)
+            .attr("stroke", "#000000")
+            .attr("stroke-width", "2.5")
+            .attr("stroke-linecap", "round"),
+    );
+    doc.close();
+    doc.close();
+}
+
+/// One entry of the symbol key under the legend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum KeySymbol {
+    Start,
+    FinalRobot,
+    Collision,
+    LightFlashes,
+    LightDark,
+    Goal,
+    Exit,
+    Teammate,
+    Cones,
+    Animated,
+}
+
+impl KeySymbol {
+    fn words(self) -> &'static str {
+        match self {
+            KeySymbol::Start => "start",
+            KeySymbol::FinalRobot => "final pose",
+            KeySymbol::Collision => "collision",
+            KeySymbol::LightFlashes => "light that flashes",
+            KeySymbol::LightDark => "light that stays dark",
+            KeySymbol::Goal => "goal",
+            KeySymbol::Exit => "room exit",
+            KeySymbol::Teammate => "teammate and its path",
+            KeySymbol::Cones => "IR cones (shade = reading)",
+            KeySymbol::Animated => "animated robot, 10x real time",
+        }
+    }
+}
+
+/// The symbols this picture uses, in a fixed order.
+fn key_items(trace: &Trace, options: &ReplayOptions) -> Vec<KeySymbol> {
+    let mut items = vec![KeySymbol::Start, KeySymbol::FinalRobot];
+    if trace.cycles.iter().any(|c| c.collided) {
+        items.push(KeySymbol::Collision);
+    }
+    if trace.lights.iter().any(|(_, flashes)| *flashes) {
+        items.push(KeySymbol::LightFlashes);
+    }
+    if trace.lights.iter().any(|(_, flashes)| !*flashes) {
+        items.push(KeySymbol::LightDark);
+    }
+    if trace.goal.is_some() {
+        items.push(KeySymbol::Goal);
+    }
+    if trace.exit.is_some() {
+        items.push(KeySymbol::Exit);
+    }
+    if trace.cycles.iter().any(|c| c.teammate.is_some()) {
+        items.push(KeySymbol::Teammate);
+    }
+    if options
+        .rays_at_cycles
+        .iter()
+        .any(|&c| (c as usize) < trace.cycles.len())
+    {
+        items.push(KeySymbol::Cones);
+    }
+    if options.animate && !trace.cycles.is_empty() {
+        items.push(KeySymbol::Animated);
+    }
+    items
+}
+
+/// Where a key entry goes: row, and x of its symbol's left edge.
+#[derive(Debug, Clone, Copy)]
+struct KeySlot {
+    symbol: KeySymbol,
+    row: usize,
+    x: f64,
+}
+
+/// Flows the key entries left to right, wrapping at the picture's width.
+fn layout_key(items: &[KeySymbol]) -> Vec<KeySlot> {
+    let mut slots = Vec::new();
+    let (mut row, mut x) = (0, PAD);
+    for &symbol in items {
+        let width = 26.0 + text_width(symbol.words(), LABEL_FONT) + 18.0;
+        if x + width > WIDTH - PAD && x > PAD {
+            row += 1;
+            x = PAD;
+        }
+        slots.push(KeySlot { symbol, row, x });
+        x += width;
+    }
+    slots
+}
+
+/// Draws the symbol key: each symbol as it appears in the scene, then its meaning.
+fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
+    doc.open(Tag::new("g").class("key"));
+    for slot in layout_key(items) {
+        let y = top + slot.row as f64 * 24.0;
+        let centre = [slot.x + 10.0, y - 5.0];
+        match slot.symbol {
+            KeySymbol::Start => {
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0])
+                        .num("cy", centre[1])
+                        .num("r", 7.0)
+                        .attr("fill", "#ffffff")
+                        .attr("stroke", INK)
+                        .attr("stroke-width", "2"),
+                );
+            }
+            KeySymbol::FinalRobot => {
+                draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, FINAL_ROBOT);
+            }
+            KeySymbol::Collision => {
+                let d = PathData::new()
+                    .move_to(centre[0] - 5.0, centre[1] - 5.0)
+                    .line_to(centre[0] + 5.0, centre[1] + 5.0)
+                    .move_to(centre[0] - 5.0, centre[1] + 5.0)
+                    .line_to(centre[0] + 5.0, centre[1] - 5.0);
+                doc.leaf(
+                    Tag::new("path")
+                        .attr("d", d.as_str())
+                        .attr("stroke", "#000000")
+                        .attr("stroke-width", "3"),
+                );
+            }
+            KeySymbol::LightFlashes | KeySymbol::LightDark => {
+                let flashes = slot.symbol == KeySymbol::LightFlashes;
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0])
+                        .num("cy", centre[1])
+                        .num("r", 6.0)
+                        .attr("fill", if flashes { LIGHT_ON_COLOUR } else { "#ffffff" })
+                        .attr("stroke", if flashes { INK } else { "#888888" })
+                        .attr("stroke-width", "1.5"),
+                );
+            }
+            KeySymbol::Goal => {
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0])
+                        .num("cy", centre[1])
+                        .num("r", 7.0)
+                        .attr("fill", "none")
+                        .attr("stroke", "#009E73")
+                        .attr("stroke-width", "2.5"),
+                );
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0])
+                        .num("cy", centre[1])
+                        .num("r", 2.8)
+                        .attr("fill", "#009E73"),
+                );
+            }
+            KeySymbol::Exit => {
+                doc.leaf(
+                    Tag::new("polygon")
+                        .points(&[
+                            [centre[0] + 8.0, centre[1]],
+                            [centre[0] - 2.0, centre[1] - 6.0],
+                            [centre[0] - 2.0, centre[1] + 6.0],
+                        ])
+                        .attr("fill", "#009E73"),
+                );
+                doc.leaf(
+                    Tag::new("line")
+                        .num("x1", centre[0] - 10.0)
+                        .num("y1", centre[1])
+                        .num("x2", centre[0])
+                        .num("y2", centre[1])
+                        .attr("stroke", "#009E73")
+                        .attr("stroke-width", "3"),
+                );
+            }
+            KeySymbol::Teammate => {
+                doc.leaf(
+                    Tag::new("line")
+                        .num("x1", centre[0] - 10.0)
+                        .num("y1", centre[1])
+                        .num("x2", centre[0] + 2.0)
+                        .num("y2", centre[1])
+                        .attr("stroke", TEAMMATE_COLOUR)
+                        .attr("stroke-width", "2")
+                        .attr("stroke-dasharray", "6 4"),
+                );
+                draw_robot(
+                    doc,
+                    Tag::new("g"),
+                    [centre[0] + 4.0, centre[1]],
+                    0.0,
+                    6.0,
+                    TEAMMATE_ROBOT,
+                );
+            }
+            KeySymbol::Cones => {
+                let d = PathData::new()
+                    .move_to(centre[0] - 8.0, centre[1])
+                    .line_to(centre[0] + 9.0, centre[1] - 7.0)
+                    .line_to(centre[0] + 9.0, centre[1] + 7.0)
+                    .close();
+                doc.leaf(
+                    Tag::new("path")
+                        .attr("d", d.as_str())
+                        .attr("fill", CONE_COLOUR)
+                        .attr("fill-opacity", "0.5")
+                        .attr("stroke", "#0072B2"),
+                );
+            }
+            KeySymbol::Animated => {
+                let style = RobotStyle {
+                    fill: "#ffffff",
+                    outline: "#000000",
+                    outline_width: 2.5,
+                    heading: "#000000",
+                };
+                draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, style);
+            }
+        }
+        doc.text(
+            Tag::new("text")
+                .class("key-label")
+                .num("x", slot.x + 26.0)
+                .num("y", y)
+                .num("font-size", LABEL_FONT)
+                .attr("fill", INK),
+            slot.symbol.words(),
+        );
+    }
+    doc.close();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::svg::read_back::{Element, parse, with_class};
+    use hevo_sim_core::frame::SensorFrame;
+    use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig};
+    use std::collections::BTreeSet;
+
+    /// A hand-written maze driver shaped like a controller tree: a root arbitrator over
+    /// "follow wall", "turn left" and "turn right". It keeps to the middle of the corridor,
+    /// remembers which side the last light flashed on, and at a junction turns that way.
+    #[derive(Debug)]
+    struct ScriptedMazeDriver {
+        path: [usize; 2],
+        turn_towards_left: Option<bool>,
+        turning_cycles: u32,
+    }
+
+    impl ScriptedMazeDriver {
+        fn new() -> ScriptedMazeDriver {
+            ScriptedMazeDriver {
+                path: [0, 1],
+                turn_towards_left: None,
+                turning_cycles: 0,
+            }
+        }
+
+        const NAMES: [&'static str; 4] = [
+            "solve_maze",
+            "solve_maze/follow_wall",
+            "solve_maze/turn_left",
+            "solve_maze/turn_right",
+        ];
+    }
+
+    impl Policy for ScriptedMazeDriver {
+        fn reset(&mut self) {
+            *self = ScriptedMazeDriver::new();
+        }
+
+        fn step(&mut self, frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+            let [front_left, left, right, front_right] = frame.ir;
+            if frame.light[0] > 0.5 {
+                self.turn_towards_left = Some(true);
+            } else if frame.light[1] > 0.5 {
+                self.turn_towards_left = Some(false);
+            }
+            let front = front_left.max(front_right);
+            if self.turning_cycles > 0 {
+                self.turning_cycles -= 1;
+            } else if front > 0.2
+                || (left < 0.02 && right < 0.02 && self.turn_towards_left.is_some())
+            {
+                // Blocked ahead, or a junction: turn to the remembered side, else to the open one.
+                let towards_left = self.turn_towards_left.take().unwrap_or(left < right);
+                self.path = [0, if towards_left { 2 } else { 3 }];
+                self.turning_cycles = 6;
+            } else {
+                self.path = [0, 1];
+            }
+            match self.path[1] {
+                2 => [0.35, 0.9],
+                3 => [0.9, 0.35],
+                _ => {
+                    let steer = 0.6 * (left - right) + 0.4 * (front_left - front_right);
+                    [
+                        (0.85 + steer).clamp(0.0, 1.0),
+                        (0.85 - steer).clamp(0.0, 1.0),
+                    ]
+                }
+            }
+        }
+
+        fn active_path(&self) -> &[usize] {
+            &self.path
+        }
+
+        fn n_nodes(&self) -> usize {
+            4
+        }
+    }
+
+    /// Drives in a slow circle, so it hits the walls of any room eventually.
+    #[derive(Debug)]
+    struct Circler;
+
+    impl Policy for Circler {
+        fn reset(&mut self) {}
+        fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+            [1.0, 0.8]
+        }
+    }
+
+    fn maze_trace(seed: u64) -> (Evaluator, Trace) {
+        let evaluator =
+            Evaluator::new(TaskConfig::new(TaskKind::SolveMaze)).expect("task is valid");
+        let trace = evaluator.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(seed));
+        (evaluator, trace)
+    }
+
+    fn maze_options() -> ReplayOptions {
+        ReplayOptions {
+            node_names: ScriptedMazeDriver::NAMES
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            rays_at_cycles: vec![10],
+            animate: false,
+            title: None,
+            robot_radius: 0.0375,
+        }
+    }
+
+    fn render(
+        trace: &Trace,
+        evaluator: &Evaluator,
+        options: &ReplayOptions,
+    ) -> (String, Vec<Element>) {
+        let svg = replay_svg(trace, options, &|pose| evaluator.ir_cones(pose));
+        let elements = parse(&svg).unwrap_or_else(|e| panic!("malformed SVG: {e}"));
+        (svg, elements)
+    }
+
+    fn scene_transform(elements: &[Element]) -> SceneTransform {
+        let scene = with_class(elements, "scene")[0];
+        SceneTransform {
+            scale: scene.number("data-px-per-m"),
+            origin: [scene.number("data-origin-x"), scene.number("data-origin-y")],
+        }
+    }
+
+    #[test]
+    fn trajectory_points_are_the_robot_positions_to_scale() {
+        let (evaluator, trace) = maze_trace(7);
+        assert!(
+            trace.cycles.len() > 20,
+            "the scripted driver should get somewhere"
+        );
+        let (_, elements) = render(&trace, &evaluator, &maze_options());
+        let transform = scene_transform(&elements);
+        let polylines = with_class(&elements, "trajectory");
+        assert!(!polylines.is_empty());
+        let mut covered = 0;
+        for polyline in &polylines {
+            let first = polyline.number("data-first-cycle") as usize;
+            let last = polyline.number("data-last-cycle") as usize;
+            let points = polyline.points();
+            assert_eq!(points.len(), last - first + 1);
+            for (offset, point) in points.iter().enumerate() {
+                let expected = transform.apply(trajectory_point(&trace, first + offset));
+                assert!(
+                    (point[0] - expected[0]).abs() < 0.5 && (point[1] - expected[1]).abs() < 0.5,
+                    "cycle {}: drawn {point:?}, expected {expected:?}",
+                    first + offset
+                );
+            }
+            let leaf = leaf_of(&trace.cycles[first].active_path)
+                .map_or("none".to_string(), |n| n.to_string());
+            assert_eq!(polyline.get("data-node"), leaf);
+            covered += last - first;
+        }
+        assert_eq!(
+            covered,
+            trace.cycles.len(),
+            "the runs cover every cycle exactly once"
+        );
+        // The scale fits the scene into the picture.
+        let svg_width = elements[0].number("width");
+        assert!(transform.scale > 100.0 && svg_width == WIDTH);
+        for polyline in &polylines {
+            for [x, y] in polyline.points() {
+                assert!(
+                    x > 0.0 && x < svg_width && y > TITLE_HEIGHT,
+                    "({x}, {y}) is off the scene"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn legend_names_exactly_the_active_leaves() {
+        let (evaluator, trace) = maze_trace(11);
+        let (_, elements) = render(&trace, &evaluator, &maze_options());
+        let expected: BTreeSet<String> = trace
+            .cycles
+            .iter()
+            .filter_map(|c| c.active_path.last())
+            .map(|&leaf| ScriptedMazeDriver::NAMES[leaf as usize].replace('/', " / "))
+            .collect();
+        let shown: BTreeSet<String> = with_class(&elements, "legend")
+            .iter()
+            .map(|e| e.text.clone())
+            .collect();
+        assert_eq!(shown, expected);
+        assert!(
+            expected.len() >= 2,
+            "the driver should both follow walls and turn: {expected:?}"
+        );
+        let legend_count = with_class(&elements, "legend").len();
+        assert_eq!(legend_count, expected.len(), "each leaf once");
+        // The cycle counts form a column: one x for every entry (the legend has one column here).
+        let count_xs: BTreeSet<String> = with_class(&elements, "legend-cycles")
+            .iter()
+            .map(|e| e.get("x").to_string())
+            .collect();
+        assert_eq!(count_xs.len(), 1, "cycle counts at {count_xs:?}");
+    }
+
+    #[test]
+    fn caption_lights_and_goal_describe_the_sample() {
+        let (evaluator, trace) = maze_trace(3);
+        let (_, elements) = render(&trace, &evaluator, &maze_options());
+        let caption: Vec<&str> = with_class(&elements, "caption")
+            .iter()
+            .map(|e| e.text.as_str())
+            .collect();
+        assert!(
+            caption[0].contains("solve_maze") && caption[0].contains("seed 3"),
+            "{caption:?}"
+        );
+        assert!(caption[0].contains(&format!("light configuration {}", trace.outcome.variant)));
+        assert!(
+            caption[1].contains(&format!("{} cycles", trace.outcome.cycles)),
+            "{caption:?}"
+        );
+        assert_eq!(with_class(&elements, "light").len(), trace.lights.len());
+        assert_eq!(with_class(&elements, "goal").len(), 1);
+        assert_eq!(with_class(&elements, "wall").len(), trace.rects.len());
+        for (index, light) in with_class(&elements, "light").iter().enumerate() {
+            assert_eq!(light.get("data-flashes"), trace.lights[index].1.to_string());
+            let lit = trace
+                .cycles
+                .iter()
+                .position(|c| c.lit_lights & (1 << index) != 0);
+            assert_eq!(
+                light.attributes.get("data-lit-cycle").cloned(),
+                lit.map(|c| c.to_string())
+            );
+        }
+        // Ray snapshot: four cones and a robot at the requested cycle.
+        let snapshot = with_class(&elements, "ray-snapshot");
+        assert_eq!(snapshot.len(), 1);
+        assert_eq!(snapshot[0].get("data-cycle"), "10");
+        assert_eq!(with_class(&elements, "ir-cone").len(), 4);
+    }
+
+    #[test]
+    fn collision_markers_appear_exactly_when_a_cycle_collided() {
+        let room = Evaluator::new(TaskConfig::new(TaskKind::ExitRoom)).expect("task is valid");
+        let mut seen_collision = false;
+        let mut seen_clean = false;
+        for seed in 0..6 {
+            // A robot that never moves never collides and one that drives straight on always
+            // does, so both cases are always exercised.
+            struct Straight;
+            impl Policy for Straight {
+                fn reset(&mut self) {}
+                fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+                    [1.0, 1.0]
+                }
+            }
+            struct Still;
+            impl Policy for Still {
+                fn reset(&mut self) {}
+                fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+                    [0.5, 0.5]
+                }
+            }
+            for trace in [
+                room.evaluate_traced(&mut Circler, Sample::seeded(seed)),
+                room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(seed)),
+                room.evaluate_traced(&mut Still, Sample::seeded(seed)),
+                room.evaluate_traced(&mut Straight, Sample::seeded(seed)),
+            ] {
+                let (_, elements) = render(&trace, &room, &ReplayOptions::default());
+                let collided = trace.cycles.iter().any(|c| c.collided);
+                assert_eq!(
+                    !with_class(&elements, "collision").is_empty(),
+                    collided,
+                    "seed {seed}"
+                );
+                assert_eq!(with_class(&elements, "exit").len(), 1);
+                assert!(!with_class(&elements, "obstacle").is_empty());
+                seen_collision |= collided;
+                seen_clean |= !collided;
+            }
+        }
+        assert!(
+            seen_collision && seen_clean,
+            "both cases should be exercised"
+        );
+    }
+
+    #[test]
+    fn animated_replay_contains_a_looping_animation() {
+        let (evaluator, trace) = maze_trace(5);
+        let options = ReplayOptions {
+            animate: true,
+            ..maze_options()
+        };
+        let (svg, elements) = render(&trace, &evaluator, &options);
+        let animations: Vec<&Element> = elements
+            .iter()
+            .filter(|e| e.name == "animateTransform")
+            .collect();
+        assert_eq!(animations.len(), 2);
+        let values = animations[0].get("values").split(';').count();
+        assert_eq!(values, trace.cycles.len() + 1);
+        assert!(svg.contains("replay-move.end+"), "the animation loops");
+        assert_eq!(with_class(&elements, "animated-robot").len(), 1);
+        let (static_svg, _) = render(&trace, &evaluator, &maze_options());
+        assert!(!static_svg.contains("animateTransform"));
+    }
+
+    #[test]
+    fn bad_input_is_drawn_without_panicking() {
+        let (evaluator, mut trace) = maze_trace(1);
+        trace.cycles[3].robot.x = f32::NAN;
+        trace.cycles[4].active_path = vec![0, 99];
+        trace.cycles[5].active_path.clear();
+        let options = ReplayOptions {
+            node_names: vec![],
+            rays_at_cycles: vec![1, 1_000_000],
+            animate: true,
+            title: Some("<odd> & \"title\"".to_string()),
+            robot_radius: f32::NAN,
+        };
+        let (svg, elements) = render(&trace, &evaluator, &options);
+        assert!(!svg.contains("NaN") && !svg.contains("inf"));
+        let title = with_class(&elements, "title")[0];
+        assert_eq!(title.text, "<odd> & \"title\"");
+        let names: BTreeSet<String> = with_class(&elements, "legend")
+            .iter()
+            .map(|e| e.text.clone())
+            .collect();
+        assert!(
+            names.contains("node 99") && names.contains("no controller reported"),
+            "{names:?}"
+        );
+        assert_eq!(with_class(&elements, "ray-snapshot").len(), 1);
+
+        let mut empty = trace.clone();
+        empty.cycles.clear();
+        let (_, elements) = render(&empty, &evaluator, &options);
+        assert!(with_class(&elements, "trajectory").is_empty());
+        assert_eq!(with_class(&elements, "final-robot").len(), 1);
+    }
+
+    #[test]
+    fn leaf_colours_follow_the_tree_not_the_trace() {
+        let names: Vec<String> = [
+            "rescue",
+            "rescue/exit_room",
+            "rescue/solve_maze",
+            "rescue/solve_maze/follow_wall",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let a = leaf_colours(&names, &[Some(3), Some(1)]);
+        let b = leaf_colours(&names, &[Some(1), Some(3)]);
+        assert_eq!(a, b);
+        assert_eq!(a[&Some(1)], palette_colour(0));
+        assert_eq!(a[&Some(3)], palette_colour(1));
+        // An arbitrator reported as a leaf gets a colour of its own after the tree's leaves.
+        let c = leaf_colours(&names, &[Some(2)]);
+        assert_eq!(c[&Some(2)], palette_colour(2));
+        assert_eq!(
+            display_name(&names, Some(3)),
+            "rescue / solve_maze / follow_wall"
+        );
+    }
+
+    #[test]
+    fn headings_unwrap_the_short_way() {
+        let degrees = unwrapped_degrees(&[3.1, -3.1, -3.0, 3.1]);
+        for pair in degrees.windows(2) {
+            assert!((pair[1] - pair[0]).abs() < 180.0, "{degrees:?}");
+        }
+    }
+
+    /// Renders example pictures to /tmp for looking at: `cargo test -p hevo-viz --lib
+    /// crate::replay::tests::render_examples -- --ignored`.
+    #[test]
+    #[ignore]
+    fn render_examples() {
+        let (evaluator, trace) = (0..40)
+            .map(maze_trace)
+            .max_by_key(|(_, t)| (t.outcome.solved, t.cycles.len()))
+            .expect("some seeds");
+        let options = ReplayOptions {
+            rays_at_cycles: vec![30],
+            ..maze_options()
+        };
+        let svg = replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
+        std::fs::write("/tmp/replay_maze.svg", svg).expect("write");
+        let animated = ReplayOptions {
+            animate: true,
+            ..maze_options()
+        };
+        let svg = replay_svg(&trace, &animated, &|pose| evaluator.ir_cones(pose));
+        std::fs::write("/tmp/replay_maze_animated.svg", svg).expect("write");
+
+        let room = Evaluator::new(TaskConfig::new(TaskKind::ExitRoom)).expect("task is valid");
+        let trace = room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(2));
+        let options = ReplayOptions {
+            rays_at_cycles: vec![0, 120],
+            ..maze_options()
+        };
+        let svg = replay_svg(&trace, &options, &|pose| room.ir_cones(pose));
+        std::fs::write("/tmp/replay_room.svg", svg).expect("write");
+
+        let rescue = Evaluator::new(TaskConfig::new(TaskKind::Rescue)).expect("task is valid");
+        let trace = rescue.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(4));
+        let svg = replay_svg(&trace, &maze_options(), &|pose| rescue.ir_cones(pose));
+        std::fs::write("/tmp/replay_rescue.svg", svg).expect("write");
+    }
+}
