@@ -8,6 +8,11 @@
 //!
 //! In-process workers (local mode) and remote gRPC workers use the same `lease` / `complete`
 //! calls, so local mode runs exactly the service's path.
+//!
+//! Time is an argument, as in quinn-proto: every method that needs it takes `now`, so the
+//! scheduling rules are tested with made-up instants and no sleeping. The two async entry
+//! points, [`Dispatcher::evaluate`] and the long-polling [`Dispatcher::lease`], are the edge
+//! where the clock is read.
 
 use hevo_sim_core::Sample;
 use hevo_sim_core::TaskConfig;
@@ -61,6 +66,29 @@ pub struct Batch {
     pub samples: Arc<[Sample]>,
     /// When the lease ends unless extended.
     pub deadline: Instant,
+}
+
+/// What an evaluation request's results are, when they are all in.
+pub type EvaluationResult = Result<Vec<Vec<SampleSummary>>, DispatchError>;
+
+/// A submitted request's results to come (see [`Dispatcher::submit`]).
+#[derive(Debug)]
+pub struct PendingEvaluation(oneshot::Receiver<EvaluationResult>);
+
+impl PendingEvaluation {
+    /// Waits for the results.
+    pub async fn wait(self) -> EvaluationResult {
+        self.0.await.unwrap_or(Err(DispatchError::ShuttingDown))
+    }
+
+    /// The results if they are all in, without waiting.
+    pub fn try_result(&mut self) -> Option<EvaluationResult> {
+        match self.0.try_recv() {
+            Ok(result) => Some(result),
+            Err(oneshot::error::TryRecvError::Empty) => None,
+            Err(oneshot::error::TryRecvError::Closed) => Some(Err(DispatchError::ShuttingDown)),
+        }
+    }
 }
 
 /// Why an evaluation request did not complete.
@@ -168,7 +196,7 @@ struct RequestState {
     results: Vec<Vec<Option<SampleSummary>>>,
     remaining_batches: usize,
     batch_ids: Vec<u64>,
-    reply: Option<oneshot::Sender<Result<Vec<Vec<SampleSummary>>, DispatchError>>>,
+    reply: Option<oneshot::Sender<EvaluationResult>>,
 }
 
 #[derive(Debug)]
@@ -229,19 +257,28 @@ impl Dispatcher {
         &self,
         request: EvaluationRequest,
     ) -> Result<Vec<Vec<SampleSummary>>, DispatchError> {
+        self.submit(request, Instant::now()).wait().await
+    }
+
+    /// Queues the request's batches (sized for the workers active at `now`) and returns what
+    /// to wait on for its results.
+    pub fn submit(&self, request: EvaluationRequest, now: Instant) -> PendingEvaluation {
         let (reply, wait) = oneshot::channel();
+        let pending = PendingEvaluation(wait);
         {
             let mut state = self.lock();
             if state.shutting_down {
-                return Err(DispatchError::ShuttingDown);
+                let _ = reply.send(Err(DispatchError::ShuttingDown));
+                return pending;
             }
             let n_genomes = request.genomes.len();
             let n_samples = request.samples.len();
             if n_genomes == 0 || n_samples == 0 {
-                return Ok(vec![Vec::new(); n_genomes]);
+                let _ = reply.send(Ok(vec![Vec::new(); n_genomes]));
+                return pending;
             }
             let active = self
-                .active_threads(&state)
+                .active_threads(&state, now)
                 .max(self.config.expected_workers)
                 .max(1);
             let target = active * self.config.batches_per_worker.max(1);
@@ -284,11 +321,10 @@ impl Dispatcher {
             );
         }
         self.work_available.notify_waiters();
-        wait.await.unwrap_or(Err(DispatchError::ShuttingDown))
+        pending
     }
 
-    fn active(&self, state: &State) -> impl Iterator<Item = usize> {
-        let now = Instant::now();
+    fn active(&self, state: &State, now: Instant) -> impl Iterator<Item = usize> {
         let window = self.config.worker_window;
         state
             .workers
@@ -299,23 +335,14 @@ impl Dispatcher {
             .into_iter()
     }
 
-    fn active_threads(&self, state: &State) -> usize {
-        self.active(state).sum()
+    fn active_threads(&self, state: &State, now: Instant) -> usize {
+        self.active(state, now).sum()
     }
 
-    /// Gives the worker a batch, waiting up to `wait` for one. Also expires overdue leases.
-    pub async fn lease(&self, worker: &str, wait: Duration) -> Option<Batch> {
-        self.lease_with_threads(worker, 1, wait).await
-    }
-
-    /// [`Dispatcher::lease`] for a worker that evaluates a batch on `threads` threads: it
-    /// counts as that many workers when requests are split into batches.
-    pub async fn lease_with_threads(
-        &self,
-        worker: &str,
-        threads: usize,
-        wait: Duration,
-    ) -> Option<Batch> {
+    /// Gives a worker that evaluates a batch on `threads` threads a batch, waiting up to
+    /// `wait` for one (it counts as that many workers when requests are split into batches).
+    /// Also expires overdue leases.
+    pub async fn lease(&self, worker: &str, threads: usize, wait: Duration) -> Option<Batch> {
         let until = Instant::now() + wait;
         loop {
             // Register interest before looking, so a notification between the look and the
@@ -323,10 +350,10 @@ impl Dispatcher {
             let notified = self.work_available.notified();
             tokio::pin!(notified);
             notified.as_mut().enable();
-            if let Some(batch) = self.try_lease_with_threads(worker, threads) {
+            let now = Instant::now();
+            if let Some(batch) = self.try_lease(worker, threads, now) {
                 return Some(batch);
             }
-            let now = Instant::now();
             // A shutting-down dispatcher answers long polls at once, so servers can stop.
             if now >= until || self.lock().shutting_down {
                 return None;
@@ -337,15 +364,9 @@ impl Dispatcher {
         }
     }
 
-    /// One non-blocking attempt to lease a batch.
-    pub fn try_lease(&self, worker: &str) -> Option<Batch> {
-        self.try_lease_with_threads(worker, 1)
-    }
-
-    /// [`Dispatcher::try_lease`] for a worker with `threads` threads.
-    pub fn try_lease_with_threads(&self, worker: &str, threads: usize) -> Option<Batch> {
+    /// One non-blocking attempt, at `now`, to lease a batch to a worker with `threads` threads.
+    pub fn try_lease(&self, worker: &str, threads: usize, now: Instant) -> Option<Batch> {
         let mut state = self.lock();
-        let now = Instant::now();
         state
             .workers
             .insert(worker.to_string(), (now, threads.max(1)));
@@ -406,12 +427,15 @@ impl Dispatcher {
     }
 
     fn expire_leases(&self, state: &mut State, now: Instant) {
-        let expired: Vec<u64> = state
+        let mut expired: Vec<u64> = state
             .leases
             .iter()
             .filter(|(_, l)| l.deadline <= now)
             .map(|(&id, _)| id)
             .collect();
+        // Each goes back to the front of its queue: the latest first, so that the batches
+        // leased earliest are leased again first.
+        expired.sort_unstable_by(|a, b| b.cmp(a));
         for lease_id in expired {
             if let Some(lease) = state.leases.remove(&lease_id) {
                 tracing::warn!(lease_id, batch_id = lease.batch_id, worker = %lease.worker, "lease expired; batch re-queued");
@@ -424,10 +448,9 @@ impl Dispatcher {
 
     /// Extends a lease (a worker's heartbeat). Returns false when the lease is gone, in which
     /// case the worker may stop: its batch was given to someone else or its job ended.
-    pub fn extend(&self, lease_id: u64) -> bool {
+    pub fn extend(&self, lease_id: u64, now: Instant) -> bool {
         let mut state = self.lock();
         let timeout = self.config.lease_timeout;
-        let now = Instant::now();
         match state.leases.get_mut(&lease_id) {
             Some(lease) => {
                 lease.deadline = now + timeout;
@@ -645,12 +668,12 @@ impl Dispatcher {
         self.work_available.notify_waiters();
     }
 
-    /// A snapshot of the counters.
-    pub fn stats(&self) -> DispatchStats {
+    /// A snapshot of the counters, with the workers active at `now`.
+    pub fn stats(&self, now: Instant) -> DispatchStats {
         let state = self.lock();
         DispatchStats {
-            active_workers: self.active(&state).count(),
-            active_threads: self.active_threads(&state),
+            active_workers: self.active(&state, now).count(),
+            active_threads: self.active_threads(&state, now),
             ..state.stats.clone()
         }
     }
@@ -677,7 +700,7 @@ fn requeue(state: &mut State, batch_id: u64, lease_id: u64) {
 fn finish_request(
     state: &mut State,
     request_id: u64,
-    outcome: Result<Vec<Vec<SampleSummary>>, DispatchError>,
+    outcome: EvaluationResult,
 ) {
     let Some(mut request) = state.requests.remove(&request_id) else {
         return;
@@ -800,74 +823,92 @@ mod tests {
         }
     }
 
-    #[tokio::test]
-    async fn a_request_completes_through_leases() {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
-        let d = dispatcher.clone();
-        let worker = tokio::spawn(async move {
-            while let Some(batch) = d.lease("w", Duration::from_millis(200)).await {
-                assert_eq!(
-                    d.complete(batch.lease_id, batch.batch_id, fake(&batch)),
-                    Ok(Completion::Accepted)
-                );
-            }
-        });
-        let results = dispatcher.evaluate(request("j", 10, 4)).await.unwrap();
+    /// Leases and completes every batch there is at `now`, as one worker.
+    fn drain(dispatcher: &Dispatcher, worker: &str, now: Instant) -> usize {
+        let mut n_batches = 0;
+        while let Some(batch) = dispatcher.try_lease(worker, 1, now) {
+            assert_eq!(
+                dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)),
+                Ok(Completion::Accepted)
+            );
+            n_batches += 1;
+        }
+        n_batches
+    }
+
+    #[test]
+    fn a_request_completes_through_leases() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 10, 4), now);
+        assert!(pending.try_result().is_none());
+        assert!(drain(&dispatcher, "w", now) > 0);
+        let results = pending.try_result().expect("complete").unwrap();
         assert_eq!(results.len(), 10);
         for (g, genome) in results.iter().enumerate() {
             for (s, summary) in genome.iter().enumerate() {
                 assert_eq!(summary.fitness, g as f32 * 1000.0 + s as f32);
             }
         }
-        worker.await.unwrap();
-        assert_eq!(dispatcher.stats().evaluations, 40);
+        assert_eq!(dispatcher.stats(now).evaluations, 40);
     }
 
-    #[tokio::test]
-    async fn expired_leases_are_redispatched_and_late_duplicates_ignored() {
-        let config = DispatchConfig {
-            lease_timeout: Duration::from_millis(50),
+    #[test]
+    fn leases_expire_after_the_timeout_unless_extended() {
+        let timeout = Duration::from_secs(30);
+        let dispatcher = Dispatcher::new(DispatchConfig {
+            lease_timeout: timeout,
             ..DispatchConfig::default()
-        };
-        let dispatcher = Arc::new(Dispatcher::new(config));
-        let d = dispatcher.clone();
-        let waiting = tokio::spawn(async move { d.evaluate(request("j", 1, 3)).await });
-        tokio::time::sleep(Duration::from_millis(10)).await;
-        // A worker takes every batch and "dies".
+        });
+        let t0 = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 1, 3), t0);
+        // A worker takes every batch and "dies"; another keeps its one lease alive.
         let mut dead = Vec::new();
-        while let Some(batch) = dispatcher.try_lease("dead") {
+        while let Some(batch) = dispatcher.try_lease("dead", 1, t0) {
             dead.push(batch);
         }
-        assert!(!dead.is_empty());
-        tokio::time::sleep(Duration::from_millis(80)).await;
-        // Another worker gets the same batches again after expiry and completes them.
-        let mut redone = 0;
-        while let Some(batch) = dispatcher.lease("alive", Duration::from_millis(100)).await {
-            dispatcher
-                .complete(batch.lease_id, batch.batch_id, fake(&batch))
-                .unwrap();
-            redone += 1;
+        assert!(dead.len() >= 2);
+        let kept = dead.pop().unwrap();
+        let just_before = t0 + timeout - Duration::from_millis(1);
+        assert!(dispatcher.extend(kept.lease_id, just_before));
+        assert!(dispatcher.try_lease("alive", 1, just_before).is_none());
+        // At the deadline the others are leased again; the extended one is not.
+        let expired = t0 + timeout;
+        let mut redone = Vec::new();
+        while let Some(batch) = dispatcher.try_lease("alive", 1, expired) {
+            redone.push(batch);
         }
-        assert_eq!(redone, dead.len());
-        let results = waiting.await.unwrap().unwrap();
-        assert_eq!(results[0].len(), 3);
-        // The dead worker comes back late: ignored.
+        assert_eq!(
+            redone.iter().map(|b| b.batch_id).collect::<Vec<_>>(),
+            dead.iter().map(|b| b.batch_id).collect::<Vec<_>>(),
+            "re-queued at the front in lease order, each once"
+        );
+        assert_eq!(dispatcher.stats(expired).lease_expiries, dead.len() as u64);
+        for batch in &redone {
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, fake(batch))
+                .unwrap();
+        }
+        // The first copy back of the extended batch wins; the late dead worker is ignored.
+        dispatcher
+            .complete(kept.lease_id, kept.batch_id, fake(&kept))
+            .unwrap();
+        assert_eq!(pending.try_result().expect("complete").unwrap()[0].len(), 3);
         for batch in &dead {
             assert_eq!(
                 dispatcher.complete(batch.lease_id, batch.batch_id, fake(batch)),
                 Ok(Completion::Ignored)
             );
         }
-        assert!(dispatcher.stats().lease_expiries >= 1);
+        assert_eq!(dispatcher.stats(expired).duplicates_ignored, dead.len() as u64);
     }
 
-    #[tokio::test]
-    async fn malformed_results_are_refused_and_the_batch_requeued() {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
-        let d = dispatcher.clone();
-        let waiting = tokio::spawn(async move { d.evaluate(request("j", 2, 2)).await });
-        tokio::time::sleep(Duration::from_millis(10)).await;
-        let batch = dispatcher.try_lease("bad").unwrap();
+    #[test]
+    fn malformed_results_are_refused_and_the_batch_requeued() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 2, 2), now);
+        let batch = dispatcher.try_lease("bad", 1, now).unwrap();
         let mut wrong = fake(&batch);
         wrong[0].pop();
         assert!(matches!(
@@ -876,35 +917,30 @@ mod tests {
         ));
         let mut nan = fake(&batch);
         nan[0][0].fitness = f32::NAN;
-        let again = dispatcher.try_lease("bad").unwrap();
+        let again = dispatcher.try_lease("bad", 1, now).unwrap();
         assert_eq!(again.batch_id, batch.batch_id);
         assert!(
             dispatcher
                 .complete(again.lease_id, again.batch_id, nan)
                 .is_err()
         );
-        while let Some(batch) = dispatcher.lease("good", Duration::from_millis(100)).await {
-            dispatcher
-                .complete(batch.lease_id, batch.batch_id, fake(&batch))
-                .unwrap();
-        }
-        let results = waiting.await.unwrap().unwrap();
+        drain(&dispatcher, "good", now);
+        let results = pending.try_result().expect("complete").unwrap();
         assert_eq!(results[1][1].fitness, 1001.0);
-        assert_eq!(dispatcher.stats().malformed_results, 2);
+        assert_eq!(dispatcher.stats(now).malformed_results, 2);
     }
 
-    #[tokio::test]
-    async fn jobs_are_served_round_robin() {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
+    #[test]
+    fn jobs_are_served_round_robin() {
+        let dispatcher = Dispatcher::new(DispatchConfig {
             expected_workers: 4,
             ..DispatchConfig::default()
-        }));
-        let (a, b) = (dispatcher.clone(), dispatcher.clone());
-        let job_a = tokio::spawn(async move { a.evaluate(request("a", 12, 1)).await });
-        let job_b = tokio::spawn(async move { b.evaluate(request("b", 12, 1)).await });
-        tokio::time::sleep(Duration::from_millis(20)).await;
+        });
+        let now = Instant::now();
+        let mut job_a = dispatcher.submit(request("a", 12, 1), now);
+        let mut job_b = dispatcher.submit(request("b", 12, 1), now);
         let mut order = Vec::new();
-        while let Some(batch) = dispatcher.try_lease("w") {
+        while let Some(batch) = dispatcher.try_lease("w", 1, now) {
             order.push(batch.job.clone());
             dispatcher
                 .complete(batch.lease_id, batch.batch_id, fake(&batch))
@@ -912,55 +948,84 @@ mod tests {
         }
         // Alternating while both have work.
         assert!(order.windows(2).take(8).all(|w| w[0] != w[1]), "{order:?}");
-        job_a.await.unwrap().unwrap();
-        job_b.await.unwrap().unwrap();
+        job_a.try_result().unwrap().unwrap();
+        job_b.try_result().unwrap().unwrap();
     }
 
-    #[tokio::test]
-    async fn batches_are_sized_by_the_workers_threads() {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+    #[test]
+    fn batches_are_sized_by_the_active_workers_threads() {
+        let window = Duration::from_secs(30);
+        let dispatcher = Dispatcher::new(DispatchConfig {
+            worker_window: window,
+            ..DispatchConfig::default()
+        });
+        let t0 = Instant::now();
         // One worker with 4 threads: 4 x 3 batches for 24 genomes.
-        assert!(dispatcher.try_lease_with_threads("big", 4).is_none());
-        let d = dispatcher.clone();
-        let waiting = tokio::spawn(async move { d.evaluate(request("j", 24, 1)).await });
-        tokio::time::sleep(Duration::from_millis(20)).await;
+        assert!(dispatcher.try_lease("big", 4, t0).is_none());
+        let mut pending = dispatcher.submit(request("j", 24, 1), t0);
         let mut sizes = Vec::new();
-        while let Some(batch) = dispatcher.try_lease_with_threads("big", 4) {
+        while let Some(batch) = dispatcher.try_lease("big", 4, t0) {
             sizes.push(batch.genomes.len());
-            assert!(dispatcher.extend(batch.lease_id));
+            assert!(dispatcher.extend(batch.lease_id, t0));
             assert!(dispatcher.leased_request(batch.lease_id).is_some());
             dispatcher
                 .complete(batch.lease_id, batch.batch_id, fake(&batch))
                 .unwrap();
         }
         assert_eq!(sizes, vec![2; 12]);
-        waiting.await.unwrap().unwrap();
-        let stats = dispatcher.stats();
+        pending.try_result().unwrap().unwrap();
+        let stats = dispatcher.stats(t0);
         assert_eq!((stats.active_workers, stats.active_threads), (1, 4));
+        // A worker not seen for the window no longer counts: batches are sized for one.
+        let later = t0 + window;
+        assert_eq!(dispatcher.stats(later).active_workers, 0);
+        let _pending = dispatcher.submit(request("j", 24, 1), later);
+        assert_eq!(dispatcher.stats(later).queued_batches, 3);
     }
 
     #[tokio::test]
     async fn shutting_down_answers_long_polls_at_once() {
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let d = dispatcher.clone();
-        let poll = tokio::spawn(async move { d.lease("w", Duration::from_secs(30)).await });
-        tokio::time::sleep(Duration::from_millis(20)).await;
+        let poll = tokio::spawn(async move { d.lease("w", 1, Duration::from_secs(30)).await });
+        tokio::task::yield_now().await;
         dispatcher.shut_down();
-        let answered = tokio::time::timeout(Duration::from_secs(2), poll).await;
+        let answered = tokio::time::timeout(Duration::from_secs(5), poll).await;
         assert!(matches!(answered, Ok(Ok(None))));
     }
 
     #[tokio::test]
-    async fn cancelling_a_job_fails_its_requests() {
+    async fn a_long_poll_wakes_when_work_arrives() {
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let d = dispatcher.clone();
-        let waiting = tokio::spawn(async move { d.evaluate(request("j", 2, 2)).await });
-        tokio::time::sleep(Duration::from_millis(10)).await;
+        let poll = tokio::spawn(async move { d.lease("w", 1, Duration::from_secs(30)).await });
+        tokio::task::yield_now().await;
+        let _pending = dispatcher.submit(request("j", 1, 1), Instant::now());
+        let answered = tokio::time::timeout(Duration::from_secs(5), poll).await;
+        assert!(matches!(answered, Ok(Ok(Some(_)))), "{answered:?}");
+    }
+
+    #[test]
+    fn cancelling_a_job_fails_its_requests() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 2, 2), now);
         dispatcher.cancel_job("j");
         assert_eq!(
-            waiting.await.unwrap(),
-            Err(DispatchError::Cancelled("j".into()))
+            pending.try_result(),
+            Some(Err(DispatchError::Cancelled("j".into())))
         );
-        assert!(dispatcher.try_lease("w").is_none());
+        assert!(dispatcher.try_lease("w", 1, now).is_none());
+    }
+
+    #[test]
+    fn an_empty_request_or_a_stopped_dispatcher_answers_at_once() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut empty = dispatcher.submit(request("j", 0, 5), now);
+        assert_eq!(empty.try_result(), Some(Ok(Vec::new())));
+        dispatcher.shut_down();
+        let mut refused = dispatcher.submit(request("j", 2, 2), now);
+        assert_eq!(refused.try_result(), Some(Err(DispatchError::ShuttingDown)));
     }
 }

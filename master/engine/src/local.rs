@@ -58,7 +58,7 @@ impl LocalPool {
                             break;
                         }
                         let batch = tokio::select! {
-                            batch = dispatcher.lease(&name, Duration::from_secs(1)) => batch,
+                            batch = dispatcher.lease(&name, 1, Duration::from_secs(1)) => batch,
                             _ = stopped.changed() => break,
                         };
                         let Some(batch) = batch else { continue };

@@ -273,7 +273,7 @@ impl WorkerService for WorkerApi {
         let wait = Duration::from_millis(u64::from(request.wait_ms)).min(self.max_wait);
         let leased = self
             .dispatcher
-            .lease_with_threads(&request.worker, request.threads as usize, wait)
+            .lease(&request.worker, request.threads as usize, wait)
             .await;
         let lease_ms = u32::try_from(self.lease.as_millis()).unwrap_or(u32::MAX);
         let batch =
@@ -286,7 +286,7 @@ impl WorkerService for WorkerApi {
         request: Request<v1::ExtendLeaseRequest>,
     ) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
         let request = request.into_inner();
-        let valid = request.epoch == self.epoch && self.dispatcher.extend(request.lease_id);
+        let valid = request.epoch == self.epoch && self.dispatcher.extend(request.lease_id, std::time::Instant::now());
         Ok(Response::new(v1::ExtendLeaseResponse { valid }))
     }
 

@@ -151,7 +151,7 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
         // Counters at the start of the measurement window.
         let now = Instant::now();
         if now >= measure_from {
-            break dispatcher.stats();
+            break dispatcher.stats(Instant::now());
         }
         tokio::time::sleep(measure_from - now).await;
     };
@@ -165,7 +165,7 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
             Err(error) => failures.push(error.to_string()),
         }
     }
-    let after = dispatcher.stats();
+    let after = dispatcher.stats(Instant::now());
     let measured = Instant::now().duration_since(measure_from).as_secs_f64();
     dispatcher.shut_down();
     for feeder in feeders {

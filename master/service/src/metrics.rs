@@ -53,7 +53,7 @@ impl Metrics {
         let mut tick = tokio::time::interval(SAMPLE_EVERY);
         loop {
             tick.tick().await;
-            let stats = self.dispatcher.stats();
+            let stats = self.dispatcher.stats(Instant::now());
             let mut samples = self.samples.lock().unwrap_or_else(|p| p.into_inner());
             samples.push_back((Instant::now(), stats.evaluations, stats.cycles));
             while samples.len() > WINDOW_SAMPLES {
@@ -78,7 +78,7 @@ impl Metrics {
 
     /// The Prometheus text exposition.
     pub fn render(&self) -> String {
-        let stats = self.dispatcher.stats();
+        let stats = self.dispatcher.stats(Instant::now());
         let (evaluations_rate, cycles_rate) = self.rates();
         let mut out = String::new();
         let mut metric = |name: &str, kind: &str, help: &str, value: String| {
