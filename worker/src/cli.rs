@@ -9,9 +9,11 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;
 
-/// hevo-worker: evaluates genomes for a hevo master.
+/// Evaluate genomes for a hevo master: connect out to it, lease batches of evaluations, return
+/// the results. Keeps no state, so it can be killed or started at any time; start as many as
+/// there are machines.
 #[derive(Debug, Parser)]
-#[command(name = "hevo-worker", version, about, long_about = None)]
+#[command(name = "hevo-worker", version)]
 pub struct Args {
     #[command(flatten)]
     pub master: MasterArgs,

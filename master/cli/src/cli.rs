@@ -9,7 +9,7 @@ use hevo_engine::experiment::Experiment;
 use hevo_engine::local::LocalPool;
 use hevo_engine::post_evaluation;
 use hevo_engine::rundir;
-use hevo_engine::runner::{self, RunSettings};
+use hevo_engine::runner::{self, Overrides, RunSettings};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
@@ -18,9 +18,11 @@ use hevo_sim_core::{Evaluator, Sample, TaskConfig, TaskKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// hevo: hierarchical evolution of robot controllers.
+/// Evolve robot controllers by structured composition: each sub-task's controller evolved on its
+/// own, then composed bottom-up under evolved arbitrators. Run experiments locally or on a
+/// master, and evaluate, replay, plot and report what evolved.
 #[derive(Debug, Parser)]
-#[command(name = "hevo", version, about, long_about = None)]
+#[command(name = "hevo", version)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -72,12 +74,9 @@ pub struct ReportArgs {
     pub out: PathBuf,
 }
 
-/// `hevo run`.
-#[derive(Debug, Args)]
-pub struct RunArgs {
-    /// The experiment file (TOML). Without one, the paper's rescue experiment built into hevo
-    /// (a copy of experiments/rescue.toml) is used.
-    pub file: Option<PathBuf>,
+/// What a run changes of an experiment file: the flags `hevo run` and `hevo submit` share.
+#[derive(Debug, Clone, Args)]
+pub struct OverrideArgs {
     /// Evolve only this node (after its children, which are reused when already finished,
     /// whatever their number of runs).
     #[arg(long)]
@@ -90,15 +89,41 @@ pub struct RunArgs {
     /// are already finished are reused as they are).
     #[arg(long)]
     pub generations: Option<u32>,
+    /// Override the experiment's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+impl OverrideArgs {
+    /// The engine's overrides.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            node: self.node.clone(),
+            runs: self.runs,
+            generations: self.generations,
+            seed: self.seed,
+        }
+    }
+}
+
+/// `hevo run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The experiment file (TOML). Without one, the paper's whole rescue experiment built into
+    /// hevo (a copy of experiments/rescue.toml) is used.
+    pub file: Option<PathBuf>,
+    #[command(flatten)]
+    pub overrides: OverrideArgs,
     /// Output directory (checkpoints, controllers, logs).
     #[arg(long, default_value = "runs")]
     pub out: PathBuf,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Override the experiment's seed.
+    /// Print the nodes it would evolve, what is already done in --out, and an estimate of how
+    /// long the rest takes on this machine; evolve nothing.
     #[arg(long)]
-    pub seed: Option<u64>,
+    pub dry_run: bool,
 }
 
 /// `hevo eval`.
@@ -138,7 +163,7 @@ struct EvalOutput<'a> {
 #[derive(Debug, Args)]
 pub struct BenchArgs {
     /// The task.
-    #[arg(long, default_value = "solve_maze")]
+    #[arg(long, default_value = "solve_maze", value_parser = task_names())]
     pub task: String,
     /// Seconds to measure.
     #[arg(long, default_value_t = 5.0)]
@@ -171,7 +196,8 @@ pub struct TaskArgs {
     #[arg(
         long,
         required_unless_present = "experiment",
-        conflicts_with = "experiment"
+        conflicts_with = "experiment",
+        value_parser = task_names()
     )]
     pub task: Option<String>,
     /// Instead of --task: the task of a node of this experiment file (with --node).
@@ -352,6 +378,28 @@ pub fn execute(cli: Cli) -> Result<()> {
     }
 }
 
+/// The task names `--task` takes, listed by `--help` and in its errors.
+fn task_names() -> clap::builder::PossibleValuesParser {
+    let mut names: Vec<&'static str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
+    names.push("maze_single");
+    clap::builder::PossibleValuesParser::new(names)
+}
+
+/// A note when a controller looks evolved for another task than the one it is judged on:
+/// its root node is named after a task (as `hevo run` names nodes), and not this one.
+fn other_task_warning(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Option<String> {
+    let evolved_for = TaskKind::from_name(&controller.root.name)?;
+    (evolved_for != task.kind).then(|| {
+        format!(
+            "note: {} looks evolved for {} (its root node is named '{}'); judging it on {}",
+            path.display(),
+            evolved_for.name(),
+            controller.root.name,
+            task.kind.name()
+        )
+    })
+}
+
 fn parse_task(name: &str) -> Result<TaskKind> {
     TaskKind::from_name(name).with_context(|| {
         let names: Vec<&str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
@@ -390,12 +438,24 @@ fn run(args: RunArgs) -> Result<()> {
     let threads = default_threads(args.threads);
     let settings = RunSettings {
         out_dir: args.out.clone(),
-        node: args.node.clone(),
-        runs: args.runs,
-        generations: args.generations,
-        seed: args.seed,
+        overrides: args.overrides.overrides(),
         job: "local".into(),
     };
+    if args.dry_run || args.file.is_none() {
+        let statuses = runner::node_statuses(&experiment, &settings)?;
+        let plan = describe_plan(&statuses, threads)?;
+        if args.dry_run {
+            crate::outln!("{plan}");
+            return Ok(());
+        }
+        // Without a file, hevo runs the paper's whole tree: hours of work nobody should
+        // start without knowing.
+        eprintln!(
+            "no experiment file given: running the built-in paper experiment (experiments/rescue.toml) into {}\n{plan}\n\
+             Ctrl-C stops it at any time; the same command resumes it. `hevo run --node follow_wall` runs one primitive.",
+            args.out.display()
+        );
+    }
     let progress = crate::progress::for_stderr();
     let summaries = with_local_workers(threads, async |dispatcher| {
         runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()).await
@@ -418,10 +478,89 @@ fn run(args: RunArgs) -> Result<()> {
     Ok(())
 }
 
+/// How long one task's control cycles take on this machine, measured briefly with the paper's
+/// controller for it (a random genome, so a rough figure).
+const PLAN_BENCH_SECONDS: f64 = 0.3;
+
+/// The nodes a run evolves, what is done, and at most how long the rest takes on this machine.
+fn describe_plan(statuses: &[runner::NodeStatus], threads: usize) -> Result<String> {
+    use std::fmt::Write as _;
+    let mut speeds: std::collections::BTreeMap<String, f64> = Default::default();
+    let mut text = format!(
+        "{:<14} {:<12} {:>5} {:>6} {:>10} {:<24} {:>14} {:>10}\n",
+        "node", "task", "runs", "gens", "evals/gen", "done", "cycles (max)", "time (max)"
+    );
+    let mut total_seconds = 0.0;
+    for status in statuses {
+        let done = if status.finished {
+            "finished".to_string()
+        } else {
+            match status.in_progress {
+                Some((run, generation)) => format!(
+                    "{} run(s), run {run} at gen {generation}",
+                    status.finished_runs
+                ),
+                None => format!("{} run(s)", status.finished_runs),
+            }
+        };
+        let cycles = status.remaining_cycles_bound();
+        let seconds = if cycles == 0 {
+            0.0
+        } else {
+            let kind = parse_task(&status.task)?;
+            let speed = match speeds.get(&status.task) {
+                Some(&speed) => speed,
+                None => {
+                    let report = bench::simulator(kind, threads, PLAN_BENCH_SECONDS)
+                        .map_err(anyhow::Error::msg)?;
+                    speeds.insert(status.task.clone(), report.cycles_per_second);
+                    report.cycles_per_second
+                }
+            };
+            cycles as f64 / speed.max(1.0)
+        };
+        total_seconds += seconds;
+        let _ = writeln!(
+            text,
+            "{:<14} {:<12} {:>5} {:>6} {:>10} {:<24} {:>14.3e} {:>10}",
+            status.node,
+            status.task,
+            status.runs,
+            status.generations,
+            status.evaluations_per_generation,
+            done,
+            cycles as f64,
+            human_duration(seconds)
+        );
+    }
+    let _ = write!(
+        text,
+        "at most {} on this machine with {threads} thread(s) (every sample to its cycle limit; evolved controllers often finish sooner)",
+        human_duration(total_seconds)
+    );
+    Ok(text)
+}
+
+/// `42 s`, `12 min`, `3.4 h`, `2.1 days`.
+fn human_duration(seconds: f64) -> String {
+    if seconds < 90.0 {
+        format!("{seconds:.0} s")
+    } else if seconds < 90.0 * 60.0 {
+        format!("{:.0} min", seconds / 60.0)
+    } else if seconds < 48.0 * 3600.0 {
+        format!("{:.1} h", seconds / 3600.0)
+    } else {
+        format!("{:.1} days", seconds / 86400.0)
+    }
+}
+
 fn eval(args: EvalArgs) -> Result<()> {
     let task = args.task.task_config()?;
     let kind = task.kind;
     let controller = load_controller(&args.controller)?;
+    if let Some(warning) = other_task_warning(&args.controller, &controller, &task) {
+        eprintln!("{warning}");
+    }
     if args.samples == 0 {
         bail!("--samples must be at least 1");
     }
@@ -520,6 +659,9 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let task = args.task.task_config()?;
     let kind = task.kind;
     let file = load_controller(&args.controller)?;
+    if let Some(warning) = other_task_warning(&args.controller, &file, &task) {
+        eprintln!("{warning}");
+    }
     let mut controller = Controller::new(&file, None)?;
     let evaluator = Evaluator::new(task)?;
     if let Some(k) = args.light_config {

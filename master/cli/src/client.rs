@@ -7,7 +7,8 @@ use anyhow::{Context, Result, anyhow, bail};
 use hevo_proto::client::{ClientOptions, describe_status, job_client};
 use hevo_proto::v1;
 use hevo_proto::v1::job_event::Event;
-use hevo_service::db::JobSettings;
+use hevo_engine::experiment::{DiskFiles, Experiment};
+use hevo_engine::runner::Overrides;
 use hevo_service::grpc::is_final;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{IsTerminal, Write};
@@ -18,10 +19,15 @@ fn refused(status: tonic::Status) -> anyhow::Error {
     anyhow!(describe_status(&status))
 }
 
-/// Submits an experiment file; returns the job id.
-pub async fn submit(options: &ClientOptions, file: &Path, settings: JobSettings) -> Result<String> {
+/// Submits an experiment file, with the files it reads from elsewhere (its fixed children);
+/// returns the job id.
+pub async fn submit(options: &ClientOptions, file: &Path, settings: Overrides) -> Result<String> {
     let text =
         std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let files = DiskFiles::beside(file);
+    // Parsing here only gathers the files the experiment reads; the master judges the file,
+    // so a broken one is refused with the service's message whichever client sent it.
+    let _ = Experiment::parse_with(&text, file, &files);
     let file_name = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -34,6 +40,7 @@ pub async fn submit(options: &ClientOptions, file: &Path, settings: JobSettings)
         runs: settings.runs,
         generations: settings.generations,
         seed: settings.seed,
+        files: files.files_read().into_iter().collect(),
     };
     let response = client.submit_job(request).await.map_err(refused)?;
     Ok(response.into_inner().job_id)

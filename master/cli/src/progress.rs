@@ -17,14 +17,44 @@ pub fn for_stderr() -> Box<dyn Progress> {
     }
 }
 
+/// When the work behind a generation event began: at the previous event, whatever it was (the
+/// node starting, a run resuming or finishing, the previous generation), since the runner
+/// sends one as soon as it turns to the next piece of work. Timing from the first generation
+/// event instead would divide its cycles by almost no time.
+#[derive(Debug)]
+struct EventClock(Mutex<Instant>);
+
+impl EventClock {
+    fn new() -> Self {
+        EventClock(Mutex::new(Instant::now()))
+    }
+
+    /// The previous event's instant; now becomes it.
+    fn lap(&self) -> (Instant, Instant) {
+        let now = Instant::now();
+        let mut last = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let previous = std::mem::replace(&mut *last, now);
+        (previous, now)
+    }
+}
+
 /// Log lines through `tracing`.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct LogProgress {
-    last: Mutex<Option<Instant>>,
+    clock: EventClock,
+}
+
+impl Default for LogProgress {
+    fn default() -> Self {
+        LogProgress {
+            clock: EventClock::new(),
+        }
+    }
 }
 
 impl Progress for LogProgress {
     fn event(&self, event: &ProgressEvent) {
+        let (previous, now) = self.clock.lap();
         match event {
             ProgressEvent::Generation {
                 node,
@@ -35,12 +65,7 @@ impl Progress for LogProgress {
                 mean,
                 cycles,
             } => {
-                let now = Instant::now();
-                let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
-                let rate = last
-                    .map(|t| *cycles as f64 / now.duration_since(t).as_secs_f64().max(1e-9))
-                    .unwrap_or(0.0);
-                *last = Some(now);
+                let rate = *cycles as f64 / now.duration_since(previous).as_secs_f64().max(1e-3);
                 tracing::info!(
                     node,
                     run,
@@ -87,13 +112,26 @@ impl Progress for LogProgress {
 }
 
 /// An indicatif bar per run.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct BarProgress {
-    state: Mutex<Option<(ProgressBar, Instant, u64)>>,
+    clock: EventClock,
+    /// The run's bar, when its work began, the cycles it has done since, and the generation
+    /// it began at.
+    state: Mutex<Option<(ProgressBar, Instant, u64, u32)>>,
+}
+
+impl Default for BarProgress {
+    fn default() -> Self {
+        BarProgress {
+            clock: EventClock::new(),
+            state: Mutex::new(None),
+        }
+    }
 }
 
 impl Progress for BarProgress {
     fn event(&self, event: &ProgressEvent) {
+        let (previous, _) = self.clock.lap();
         let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
         match event {
             ProgressEvent::Generation {
@@ -105,25 +143,31 @@ impl Progress for BarProgress {
                 mean,
                 cycles,
             } => {
-                let (bar, started, total_cycles) = state.get_or_insert_with(|| {
-                    let bar = ProgressBar::new(u64::from(*generations));
-                    bar.set_style(
-                        ProgressStyle::with_template(
-                            "{prefix:>16} [{bar:30}] {pos}/{len} gen  {msg}  eta {eta}",
-                        )
-                        .unwrap_or_else(|_| ProgressStyle::default_bar())
-                        .progress_chars("=> "),
-                    );
-                    (bar, Instant::now(), 0)
-                });
+                let (bar, started, total_cycles, first_generation) =
+                    state.get_or_insert_with(|| {
+                        let bar = ProgressBar::new(u64::from(*generations));
+                        bar.set_style(
+                            ProgressStyle::with_template(
+                                "{prefix:>16} [{bar:30}] {pos}/{len} gen  {msg}",
+                            )
+                            .unwrap_or_else(|_| ProgressStyle::default_bar())
+                            .progress_chars("=> "),
+                        );
+                        (bar, previous, 0, *generation)
+                    });
                 *total_cycles += cycles;
-                let rate = *total_cycles as f64 / started.elapsed().as_secs_f64().max(1e-9);
+                let elapsed = started.elapsed().as_secs_f64().max(1e-3);
+                let rate = *total_cycles as f64 / elapsed;
+                // This session's pace: a resumed run's earlier generations took no time here.
+                let done_here = f64::from(generation + 1 - *first_generation);
+                let eta = f64::from(generations.saturating_sub(generation + 1)) * elapsed / done_here;
                 bar.set_prefix(format!("{node} run {run}"));
                 bar.set_length(u64::from(*generations));
                 bar.set_position(u64::from(generation + 1));
                 bar.set_message(format!(
-                    "best {best:.3}  mean {mean:.3}  {:.2}M cycles/s",
-                    rate / 1e6
+                    "best {best:.3}  mean {mean:.3}  {:.2}M cycles/s  eta {}",
+                    rate / 1e6,
+                    indicatif::HumanDuration(std::time::Duration::from_secs_f64(eta))
                 ));
             }
             ProgressEvent::RunFinished {
@@ -131,7 +175,7 @@ impl Progress for BarProgress {
                 run,
                 solve_rate,
             } => {
-                if let Some((bar, _, _)) = state.take() {
+                if let Some((bar, ..)) = state.take() {
                     bar.finish_and_clear();
                 }
                 eprintln!(
@@ -157,7 +201,7 @@ impl Progress for BarProgress {
                 100.0 * mean_solve_rate
             ),
             ProgressEvent::Note { message } => {
-                if let Some((bar, _, _)) = state.as_ref() {
+                if let Some((bar, ..)) = state.as_ref() {
                     bar.println(message);
                 } else {
                     eprintln!("{message}");

@@ -52,18 +52,8 @@ pub struct SubmitArgs {
     pub master: MasterArgs,
     /// The experiment file (TOML).
     pub file: PathBuf,
-    /// Evolve only this node (after its children).
-    #[arg(long)]
-    pub node: Option<String>,
-    /// Override every node's number of runs.
-    #[arg(long)]
-    pub runs: Option<u32>,
-    /// Override every node's number of generations.
-    #[arg(long)]
-    pub generations: Option<u32>,
-    /// Override the experiment's seed.
-    #[arg(long)]
-    pub seed: Option<u64>,
+    #[command(flatten)]
+    pub overrides: crate::cli::OverrideArgs,
 }
 
 /// A command about one job (`watch`, `cancel`).
@@ -113,12 +103,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 /// `hevo submit`: prints the job id alone.
 pub fn submit(args: SubmitArgs) -> Result<()> {
     let options = args.master.options().map_err(anyhow::Error::msg)?;
-    let settings = hevo_service::db::JobSettings {
-        node: args.node,
-        runs: args.runs,
-        generations: args.generations,
-        seed: args.seed,
-    };
+    let settings = args.overrides.overrides();
     let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
     crate::outln!("{job}");
     Ok(())

@@ -4,7 +4,7 @@
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::controller::NodeKind;
+use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::InputGroup;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -21,8 +21,9 @@ pub enum ExperimentError {
         /// Why. Not a `source`: the message says it already, and error chains would repeat it.
         reason: std::io::Error,
     },
-    /// The TOML is malformed or a key has the wrong type or is unknown.
-    #[error("{file}: at `{path}`: {message}")]
+    /// The TOML is malformed or a key has the wrong type or is unknown. The message keeps the
+    /// TOML parser's layout: the line quoted, a caret under the place.
+    #[error("{file}:{}\n{message}", at_key(.path))]
     Syntax {
         /// The file.
         file: PathBuf,
@@ -41,6 +42,15 @@ pub enum ExperimentError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// ` at `node[2].hidden`:`, or nothing for a message without a key path.
+fn at_key(path: &str) -> String {
+    if path.is_empty() {
+        String::new()
+    } else {
+        format!(" at `{path}`:")
+    }
 }
 
 /// `[experiment]`: name and master seed.
@@ -169,9 +179,10 @@ pub struct NodeDecl {
     pub inputs: Vec<InputGroup>,
     /// Hidden neurons.
     pub hidden: usize,
-    /// For arbitrators: the names of the sub-controllers, one output each, in output order.
+    /// For arbitrators: the sub-controllers, one output each, in output order: nodes of this
+    /// experiment by name, or finished controllers from elsewhere (see [`ChildDecl`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub children: Vec<String>,
+    pub children: Vec<ChildDecl>,
     /// For arbitrators: the fewest cycles a child stays on once switched on; 0 (the default)
     /// is the paper's activator, which may switch in any cycle.
     #[serde(default, skip_serializing_if = "is_zero")]
@@ -195,6 +206,184 @@ pub struct NodeDecl {
     /// end_on_collision), as in sim-core's `TaskConfig`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub task_config: Option<toml::Table>,
+}
+
+/// One child of an arbitrator, as written: a node of the same experiment (`"follow_wall"`), a
+/// finished controller file (`{ file = "../controllers/follow_wall.json" }`), or a finished node
+/// of another run directory (`{ runs = "runs", node = "follow_wall" }`, its `best.json`). Paths
+/// are relative to the experiment file. A controller from elsewhere is fixed: it is not evolved
+/// here, and its content, like any child's, is part of the parent's fingerprint.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ChildDecl {
+    /// A node of this experiment.
+    Node(String),
+    /// A controller file.
+    File {
+        /// Its path, relative to the experiment file.
+        file: String,
+    },
+    /// A finished node of another run output directory.
+    RunDir {
+        /// The run output directory, relative to the experiment file.
+        runs: String,
+        /// The node's name there.
+        node: String,
+    },
+}
+
+impl ChildDecl {
+    /// The node of this experiment it names, if it names one.
+    pub fn node_name(&self) -> Option<&str> {
+        match self {
+            ChildDecl::Node(name) => Some(name),
+            _ => None,
+        }
+    }
+
+    /// The files a child from elsewhere is read from, relative to the experiment file: the
+    /// controller, and for a run directory's node also its summary (which shows it finished).
+    fn files(&self) -> Vec<String> {
+        match self {
+            ChildDecl::Node(_) => Vec::new(),
+            ChildDecl::File { file } => vec![file.clone()],
+            ChildDecl::RunDir { runs, node } => vec![
+                format!("{runs}/{node}/{}", crate::rundir::BEST),
+                format!("{runs}/{node}/{}", crate::rundir::SUMMARY),
+            ],
+        }
+    }
+}
+
+impl Serialize for ChildDecl {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        match self {
+            ChildDecl::Node(name) => serializer.serialize_str(name),
+            ChildDecl::File { file } => {
+                let mut map = serializer.serialize_map(Some(1))?;
+                map.serialize_entry("file", file)?;
+                map.end()
+            }
+            ChildDecl::RunDir { runs, node } => {
+                let mut map = serializer.serialize_map(Some(2))?;
+                map.serialize_entry("runs", runs)?;
+                map.serialize_entry("node", node)?;
+                map.end()
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ChildDecl {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        const EXPECTED: &str =
+            "a node name, { file = \"PATH\" } or { runs = \"DIR\", node = \"NAME\" }";
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = ChildDecl;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(EXPECTED)
+            }
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<ChildDecl, E> {
+                Ok(ChildDecl::Node(name.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<ChildDecl, A::Error> {
+                use serde::de::Error;
+                let (mut file, mut runs, mut node) = (None, None, None);
+                while let Some(key) = map.next_key::<String>()? {
+                    let slot = match key.as_str() {
+                        "file" => &mut file,
+                        "runs" => &mut runs,
+                        "node" => &mut node,
+                        other => {
+                            return Err(A::Error::unknown_field(other, &["file", "runs", "node"]));
+                        }
+                    };
+                    *slot = Some(map.next_value::<String>()?);
+                }
+                match (file, runs, node) {
+                    (Some(file), None, None) => Ok(ChildDecl::File { file }),
+                    (None, Some(runs), Some(node)) => Ok(ChildDecl::RunDir { runs, node }),
+                    _ => Err(A::Error::custom(format!("expected {EXPECTED}"))),
+                }
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
+}
+
+impl std::fmt::Display for ChildDecl {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ChildDecl::Node(name) => write!(f, "{name}"),
+            ChildDecl::File { file } => write!(f, "{file}"),
+            ChildDecl::RunDir { runs, node } => write!(f, "{runs}/{node}"),
+        }
+    }
+}
+
+/// Where an experiment's files from elsewhere (children given as a controller file or another
+/// run directory's node) are read: the disk beside the experiment file for `hevo run`, the
+/// files a submission carried for a service job.
+pub trait ExternalFiles {
+    /// The text of the file at `path`, relative to the experiment file.
+    fn read(&self, path: &str) -> std::io::Result<String>;
+}
+
+/// [`ExternalFiles`] on disk, relative to a directory; it remembers what it read, so a client
+/// can send those files along with the experiment.
+#[derive(Debug)]
+pub struct DiskFiles {
+    base: PathBuf,
+    read: std::sync::Mutex<BTreeMap<String, String>>,
+}
+
+impl DiskFiles {
+    /// Files relative to the directory of `experiment_file`.
+    pub fn beside(experiment_file: &Path) -> DiskFiles {
+        let base = experiment_file
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        DiskFiles {
+            base,
+            read: std::sync::Mutex::new(BTreeMap::new()),
+        }
+    }
+
+    /// Every file read so far, by its relative path.
+    pub fn files_read(&self) -> BTreeMap<String, String> {
+        self.read
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
+    }
+}
+
+impl ExternalFiles for DiskFiles {
+    fn read(&self, path: &str) -> std::io::Result<String> {
+        let text = std::fs::read_to_string(self.base.join(path))?;
+        self.read
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .insert(path.to_string(), text.clone());
+        Ok(text)
+    }
+}
+
+/// [`ExternalFiles`] that a submission carried, by relative path.
+impl ExternalFiles for BTreeMap<String, String> {
+    fn read(&self, path: &str) -> std::io::Result<String> {
+        self.get(path).cloned().ok_or_else(|| {
+            std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "not among the files sent with the experiment",
+            )
+        })
+    }
 }
 
 fn is_zero(value: &u32) -> bool {
@@ -221,6 +410,9 @@ pub struct NodePlan {
     pub evolution: EvolutionParams,
     /// The task configuration in force (cycles applied).
     pub task: TaskConfig,
+    /// The children from elsewhere, read and checked, by their index in `decl.children`
+    /// (children that are nodes of this experiment come from its run directory instead).
+    pub fixed_children: BTreeMap<usize, ControllerFile>,
 }
 
 /// A parsed, validated experiment.
@@ -235,26 +427,36 @@ pub struct Experiment {
 }
 
 impl Experiment {
-    /// Reads and validates an experiment file.
+    /// Reads and validates an experiment file (and the children it takes from elsewhere).
     pub fn load(file: &Path) -> Result<Experiment, ExperimentError> {
         let text = std::fs::read_to_string(file).map_err(|reason| ExperimentError::Read {
             file: file.to_path_buf(),
             reason,
         })?;
-        Experiment::parse(&text, file)
+        Experiment::parse_with(&text, file, &DiskFiles::beside(file))
     }
 
-    /// Parses and validates experiment text; `file` is used in messages.
+    /// Parses and validates experiment text; `file` is used in messages, and children from
+    /// elsewhere are read relative to it.
     pub fn parse(text: &str, file: &Path) -> Result<Experiment, ExperimentError> {
+        Experiment::parse_with(text, file, &DiskFiles::beside(file))
+    }
+
+    /// [`Experiment::parse`], reading children from elsewhere through `files`.
+    pub fn parse_with(
+        text: &str,
+        file: &Path,
+        files: &dyn ExternalFiles,
+    ) -> Result<Experiment, ExperimentError> {
         let syntax = |path: String, message: String| ExperimentError::Syntax {
             file: file.to_path_buf(),
             path,
             message,
         };
         let deserializer = toml::Deserializer::parse(text)
-            .map_err(|e| syntax(String::new(), one_line(&e.to_string())))?;
+            .map_err(|e| syntax(String::new(), bounded_excerpt(&e.to_string())))?;
         let parsed: ExperimentFile = serde_path_to_error::deserialize(deserializer)
-            .map_err(|e| syntax(e.path().to_string(), one_line(&e.inner().to_string())))?;
+            .map_err(|e| syntax(e.path().to_string(), bounded_excerpt(&e.inner().to_string())))?;
         let invalid = |path: String, message: String| ExperimentError::Invalid {
             file: file.to_path_buf(),
             path,
@@ -309,12 +511,19 @@ impl Experiment {
                 }
                 _ => {}
             }
+            let mut fixed_children = BTreeMap::new();
             for (child_idx, child) in node.children.iter().enumerate() {
-                if !index_of.contains_key(child.as_str()) {
-                    return Err(invalid(
-                        format!("node[{node_idx}].children[{child_idx}]"),
-                        format!("no node is named '{child}'"),
-                    ));
+                let at_child = format!("node[{node_idx}].children[{child_idx}]");
+                match child {
+                    ChildDecl::Node(name) if !index_of.contains_key(name.as_str()) => {
+                        return Err(invalid(at_child, format!("no node is named '{name}'")));
+                    }
+                    ChildDecl::Node(_) => {}
+                    external => {
+                        let controller = read_fixed_child(external, files)
+                            .map_err(|message| invalid(at_child, message))?;
+                        fixed_children.insert(child_idx, controller);
+                    }
                 }
             }
             if node.inputs.is_empty() {
@@ -373,6 +582,7 @@ impl Experiment {
                 decl: node.clone(),
                 evolution,
                 task,
+                fixed_children,
             });
         }
 
@@ -392,8 +602,8 @@ impl Experiment {
                 _ => {}
             }
             state[node_idx] = 1;
-            for child in &nodes[node_idx].children {
-                visit(index_of[child.as_str()], nodes, index_of, state, order)?;
+            for child in nodes[node_idx].children.iter().filter_map(ChildDecl::node_name) {
+                visit(index_of[child], nodes, index_of, state, order)?;
             }
             state[node_idx] = 2;
             order.push(node_idx);
@@ -455,7 +665,13 @@ impl Experiment {
             if wanted.insert(current.clone(), ()).is_none()
                 && let Some(plan) = self.node(&current)
             {
-                stack.extend(plan.decl.children.iter().cloned());
+                stack.extend(
+                    plan.decl
+                        .children
+                        .iter()
+                        .filter_map(ChildDecl::node_name)
+                        .map(str::to_string),
+                );
             }
         }
         self.nodes
@@ -463,6 +679,103 @@ impl Experiment {
             .map(|n| n.decl.name.clone())
             .filter(|n| wanted.contains_key(n))
             .collect()
+    }
+}
+
+/// Reads a child from elsewhere: a complete controller (every node has its genes), and for a
+/// run directory's node, one that finished (it has a node summary).
+fn read_fixed_child(child: &ChildDecl, files: &dyn ExternalFiles) -> Result<ControllerFile, String> {
+    let paths = child.files();
+    let controller_path = &paths[0];
+    for path in &paths[1..] {
+        files.read(path).map_err(|e| {
+            format!("{path}: cannot read ({e}); the node must be finished in that run directory")
+        })?;
+    }
+    let text = files
+        .read(controller_path)
+        .map_err(|e| format!("{controller_path}: cannot read ({e})"))?;
+    let controller = ControllerFile::from_json_str(&text)
+        .map_err(|e| format!("{controller_path}: not a controller file: {e}"))?;
+    if let Some((node, _)) = controller.free_node_topology() {
+        return Err(format!(
+            "{controller_path}: node '{node}' has no genome; a fixed child must be a finished controller"
+        ));
+    }
+    Ok(controller)
+}
+
+/// The files an experiment reads from elsewhere (its fixed children), relative to it.
+pub fn external_files(experiment: &Experiment) -> Vec<String> {
+    experiment
+        .nodes
+        .iter()
+        .flat_map(|plan| plan.decl.children.iter().flat_map(ChildDecl::files))
+        .collect()
+}
+
+/// The widest line of a quoted input an error message keeps. An error on a 16,000-character
+/// line must not quote all of it (a client receives the message, and some transports cap it).
+pub const MAX_EXCERPT_CHARS: usize = 120;
+/// The widest line of a parser's own text (which may still repeat a key or value of the input).
+pub const MAX_MESSAGE_LINE_CHARS: usize = 400;
+
+/// A parser's message with its lines bounded: a quoted input line (`12 | ...`) keeps at most
+/// [`MAX_EXCERPT_CHARS`] characters, windowed around the caret (`^`) of the line below it so the
+/// caret still points at the place; any other line at most [`MAX_MESSAGE_LINE_CHARS`].
+pub fn bounded_excerpt(message: &str) -> String {
+    let lines: Vec<&str> = message.lines().collect();
+    let mut out: Vec<String> = Vec::with_capacity(lines.len());
+    let mut line_idx = 0;
+    while line_idx < lines.len() {
+        let line = lines[line_idx];
+        let caret_line = lines.get(line_idx + 1).copied().filter(|next| {
+            let rest = next.trim_start();
+            rest.starts_with('|') && rest.trim_start_matches('|').trim_start().starts_with('^')
+        });
+        match caret_line {
+            Some(caret_line) if line.chars().count() > MAX_EXCERPT_CHARS => {
+                let caret_col = caret_line.find('^').unwrap_or(0);
+                let start = caret_col.saturating_sub(MAX_EXCERPT_CHARS / 2);
+                let window = |text: &str| -> String {
+                    // The gutter (`12 | `) stays; the rest is windowed.
+                    let gutter_end = text.find('|').map_or(0, |i| i + 2).min(text.len());
+                    let gutter: String = text.chars().take(gutter_end).collect();
+                    let body: String = text
+                        .chars()
+                        .skip(start.max(gutter_end))
+                        .take(MAX_EXCERPT_CHARS - gutter_end.min(MAX_EXCERPT_CHARS))
+                        .collect();
+                    let cut_left = start > gutter_end;
+                    format!("{gutter}{}{body}", if cut_left { "…" } else { "" })
+                };
+                out.push(format!("{} …", window(line)));
+                out.push(window(caret_line));
+                line_idx += 2;
+            }
+            _ => {
+                let quoted = line.trim_start().starts_with(|c: char| c.is_ascii_digit())
+                    && line.contains(" | ");
+                let max = if quoted {
+                    MAX_EXCERPT_CHARS
+                } else {
+                    MAX_MESSAGE_LINE_CHARS
+                };
+                out.push(cut(line, max));
+                line_idx += 1;
+            }
+        }
+    }
+    out.join("\n")
+}
+
+/// `text` cut to `max` characters, with `…` where it was cut.
+pub fn cut(text: &str, max: usize) -> String {
+    if text.chars().count() <= max {
+        text.to_string()
+    } else {
+        let kept: String = text.chars().take(max).collect();
+        format!("{kept} …")
     }
 }
 
@@ -640,6 +953,122 @@ mutation_sigma = 0.5
 
     fn error_of(text: &str) -> String {
         parse(text).unwrap_err().to_string()
+    }
+
+    const FIXED_CHILDREN: &str = r#"
+[experiment]
+name = "fixed"
+
+[[node]]
+name = "maze"
+kind = "arbitrator"
+inputs = ["ir", "light"]
+hidden = 4
+children = [{ file = "controllers/fw.json" }, { runs = "main", node = "tl" }, "tr"]
+task = "solve_maze"
+samples = 2
+generations = 1
+runs = 1
+
+[[node]]
+name = "tr"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "turn_right"
+samples = 2
+generations = 1
+runs = 1
+"#;
+
+    fn finished_primitive(name: &str) -> String {
+        let spec = NodeSpec::primitive(name, vec![InputGroup::Ir], 3);
+        let genes = vec![0.5; spec.topology().n_genes()];
+        ControllerFile::new(spec.with_genome(genes))
+            .to_json_pretty()
+            .unwrap()
+    }
+
+    use hevo_sim_core::controller::NodeSpec;
+
+    #[test]
+    fn children_may_come_from_controller_files_and_other_run_directories() {
+        let files: BTreeMap<String, String> = [
+            ("controllers/fw.json".to_string(), finished_primitive("fw")),
+            ("main/tl/best.json".to_string(), finished_primitive("tl")),
+            ("main/tl/summary.json".to_string(), "{}".to_string()),
+        ]
+        .into();
+        let experiment =
+            Experiment::parse_with(FIXED_CHILDREN, Path::new("x.toml"), &files).unwrap();
+        // Only the experiment's own nodes are evolved.
+        assert_eq!(experiment.nodes_to_run(None).unwrap(), ["tr", "maze"]);
+        let maze = experiment.node("maze").unwrap();
+        assert_eq!(
+            maze.fixed_children.keys().copied().collect::<Vec<_>>(),
+            [0, 1]
+        );
+        assert_eq!(maze.fixed_children[&1].root.name, "tl");
+        assert_eq!(
+            external_files(&experiment),
+            [
+                "controllers/fw.json",
+                "main/tl/best.json",
+                "main/tl/summary.json"
+            ]
+        );
+        // The declaration round-trips as it was written.
+        let json = serde_json::to_value(&maze.decl.children).unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!([{"file": "controllers/fw.json"}, {"runs": "main", "node": "tl"}, "tr"])
+        );
+    }
+
+    #[test]
+    fn a_child_from_elsewhere_must_be_there_finished_and_complete() {
+        let mut files: BTreeMap<String, String> = [
+            ("controllers/fw.json".to_string(), finished_primitive("fw")),
+            ("main/tl/best.json".to_string(), finished_primitive("tl")),
+        ]
+        .into();
+        let error = |files: &BTreeMap<String, String>| {
+            Experiment::parse_with(FIXED_CHILDREN, Path::new("x.toml"), files)
+                .unwrap_err()
+                .to_string()
+        };
+        let err = error(&files);
+        assert!(
+            err.contains("node[0].children[1]")
+                && err.contains("main/tl/summary.json")
+                && err.contains("finished"),
+            "{err}"
+        );
+        files.insert("main/tl/summary.json".into(), "{}".into());
+        let free = ControllerFile::new(NodeSpec::primitive("fw", vec![InputGroup::Ir], 3));
+        files.insert(
+            "controllers/fw.json".into(),
+            free.to_json_pretty().unwrap(),
+        );
+        let err = error(&files);
+        assert!(
+            err.contains("node[0].children[0]") && err.contains("has no genome"),
+            "{err}"
+        );
+        files.insert("controllers/fw.json".into(), "{ not json".into());
+        let err = error(&files);
+        assert!(err.contains("not a controller file"), "{err}");
+        files.remove("controllers/fw.json");
+        let err = error(&files);
+        assert!(err.contains("controllers/fw.json: cannot read"), "{err}");
+        let bad = FIXED_CHILDREN.replace(r#"{ file = "controllers/fw.json" }"#, r#"{ flie = "x" }"#);
+        let err = Experiment::parse_with(&bad, Path::new("x.toml"), &files)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("node[0].children[0]") && err.contains("flie"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -24,19 +24,44 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// What a run changes of an experiment file's settings: `hevo run`'s and `hevo submit`'s
+/// flags, and a service job's settings.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Overrides {
+    /// Only this node (after its children, which are reused when already finished).
+    pub node: Option<String>,
+    /// Every node's number of runs.
+    pub runs: Option<u32>,
+    /// Every node's number of generations.
+    pub generations: Option<u32>,
+    /// The experiment's seed.
+    pub seed: Option<u64>,
+}
+
+impl Overrides {
+    /// The runs a node gets.
+    pub fn runs_of(&self, plan: &NodePlan) -> u32 {
+        self.runs.unwrap_or(plan.decl.runs)
+    }
+
+    /// The generations each of a node's runs gets.
+    pub fn generations_of(&self, plan: &NodePlan) -> u32 {
+        self.generations.unwrap_or(plan.decl.generations)
+    }
+
+    /// The experiment's seed in force.
+    pub fn seed_of(&self, experiment: &Experiment) -> u64 {
+        self.seed.unwrap_or(experiment.header.seed)
+    }
+}
+
 /// What to run, and where.
 #[derive(Debug, Clone)]
 pub struct RunSettings {
     /// Output directory.
     pub out_dir: PathBuf,
-    /// Only this node (after its children).
-    pub node: Option<String>,
-    /// Override every node's number of runs.
-    pub runs: Option<u32>,
-    /// Override every node's number of generations.
-    pub generations: Option<u32>,
-    /// Override the experiment's seed.
-    pub seed: Option<u64>,
+    /// What the run changes of the experiment file.
+    pub overrides: Overrides,
     /// The dispatcher's job key (fair sharing between concurrent jobs).
     pub job: String,
 }
@@ -144,7 +169,7 @@ pub async fn run_experiment(
     progress: &dyn Progress,
 ) -> Result<Vec<NodeSummary>, RunError> {
     let names = experiment
-        .nodes_to_run(settings.node.as_deref())
+        .nodes_to_run(settings.overrides.node.as_deref())
         .map_err(RunError::Invalid)?;
     let mut summaries = Vec::new();
     for name in names {
@@ -163,12 +188,114 @@ fn io_error(path: &Path, error: impl std::fmt::Display) -> RunError {
     }
 }
 
+/// Where a node of a run stands in an output directory, and what is left to do: what
+/// `hevo run --dry-run` prints. Read from the files alone (fingerprints are checked when the
+/// run itself starts).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeStatus {
+    /// Node.
+    pub node: String,
+    /// Its task.
+    pub task: String,
+    /// Runs asked for.
+    pub runs: u32,
+    /// Generations per run.
+    pub generations: u32,
+    /// Genomes x samples per generation.
+    pub evaluations_per_generation: u64,
+    /// Samples of one run's post-evaluation.
+    pub post_evaluation_samples: u64,
+    /// The task's cycle limit per sample.
+    pub max_cycles: u32,
+    /// Runs with a summary.
+    pub finished_runs: u32,
+    /// A run under way: (run, next generation).
+    pub in_progress: Option<(u32, u32)>,
+    /// Whether the node's own summary is there with at least the runs asked for.
+    pub finished: bool,
+    /// Sample evaluations still to do.
+    pub remaining_evaluations: u64,
+}
+
+impl NodeStatus {
+    /// At most how many control cycles the rest takes (every sample to its limit).
+    pub fn remaining_cycles_bound(&self) -> u64 {
+        self.remaining_evaluations * u64::from(self.max_cycles)
+    }
+}
+
+/// The status of every node a run would evolve, in order.
+pub fn node_statuses(
+    experiment: &Experiment,
+    settings: &RunSettings,
+) -> Result<Vec<NodeStatus>, RunError> {
+    let names = experiment
+        .nodes_to_run(settings.overrides.node.as_deref())
+        .map_err(RunError::Invalid)?;
+    let mut statuses = Vec::new();
+    for name in names {
+        let plan = experiment
+            .node(&name)
+            .expect("names come from the experiment");
+        let runs = settings.overrides.runs_of(plan);
+        let generations = settings.overrides.generations_of(plan);
+        let node_dir = rundir::node_dir(&settings.out_dir, &name);
+        let summary_path = node_dir.join(SUMMARY);
+        let node_summary =
+            read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?;
+        let n_variants = u64::from(hevo_sim_core::env::n_variants(plan.task.kind));
+        let evaluations_per_generation =
+            u64::from(plan.evolution.population) * u64::from(plan.decl.samples);
+        let post_evaluation_samples =
+            u64::from(plan.evolution.post_evaluation_samples) * n_variants;
+        let mut finished_runs = 0;
+        let mut in_progress = None;
+        let mut remaining = 0u64;
+        for run in 0..runs {
+            let dir = run_dir(&node_dir, run);
+            let summary = dir.join(SUMMARY);
+            if summary.is_file() {
+                finished_runs += 1;
+                continue;
+            }
+            let checkpoint = dir.join(CHECKPOINT);
+            let done_generations = read_json::<rundir::CheckpointHeader>(&checkpoint)
+                .map_err(|e| io_error(&checkpoint, e))?
+                .map_or(0, |header| header.generation.min(generations));
+            if done_generations > 0 && in_progress.is_none() {
+                in_progress = Some((run, done_generations));
+            }
+            remaining += u64::from(generations - done_generations) * evaluations_per_generation
+                + post_evaluation_samples;
+        }
+        let finished = node_summary.is_some_and(|summary| summary.runs.len() >= runs as usize);
+        statuses.push(NodeStatus {
+            node: name.clone(),
+            task: plan.task.kind.name().to_string(),
+            runs,
+            generations,
+            evaluations_per_generation,
+            post_evaluation_samples,
+            max_cycles: plan.task.max_cycles(),
+            finished_runs,
+            in_progress,
+            finished,
+            remaining_evaluations: if finished { 0 } else { remaining },
+        });
+    }
+    Ok(statuses)
+}
+
 /// The controller template of a node: the node itself free, its children the fixed best
 /// controllers of their nodes.
 pub fn node_template(plan: &NodePlan, out_dir: &Path) -> Result<ControllerFile, RunError> {
     let mut children = Vec::new();
-    for child in &plan.decl.children {
-        let path = out_dir.join(child).join(BEST);
+    for (child_idx, child) in plan.decl.children.iter().enumerate() {
+        if let Some(fixed) = plan.fixed_children.get(&child_idx) {
+            children.push(fixed.root.clone());
+            continue;
+        }
+        let path = rundir::node_dir(out_dir, &child.to_string()).join(BEST);
         let text = std::fs::read_to_string(&path).map_err(|e| {
             RunError::Invalid(format!(
                 "{}: the child '{child}' of '{}' has no result yet ({e}); run it first",
@@ -217,9 +344,9 @@ async fn run_node(
     let node_dir = settings.out_dir.join(name);
     // The node's own files (best.json, summary.json) are written atomically too.
     remove_leftover_temporaries(&node_dir).map_err(|e| io_error(&node_dir, e))?;
-    let seed = settings.seed.unwrap_or(experiment.header.seed);
-    let runs = settings.runs.unwrap_or(plan.decl.runs);
-    let generations = settings.generations.unwrap_or(plan.decl.generations);
+    let seed = settings.overrides.seed_of(experiment);
+    let runs = settings.overrides.runs_of(plan);
+    let generations = settings.overrides.generations_of(plan);
     let template = node_template(plan, &settings.out_dir)?;
     let fingerprint_for = |generations| fingerprint(plan, &template, seed, generations);
     let fingerprint = fingerprint_for(generations);
@@ -229,7 +356,11 @@ async fn run_node(
     // its parents' checkpoints. Below the node named by --node, a finished result is reused
     // whatever its number of runs and generations (everything else must match), so
     // `--node solve_maze --runs 5 --generations 300` changes solve_maze alone.
-    let below_named_node = settings.node.as_ref().is_some_and(|named| named != name);
+    let below_named_node = settings
+        .overrides
+        .node
+        .as_ref()
+        .is_some_and(|named| named != name);
     let summary_path = node_dir.join(SUMMARY);
     let reusable = |summary: &NodeSummary| {
         if below_named_node {
@@ -410,6 +541,8 @@ async fn run_one(
         read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
     {
         check_fingerprint(&summary_path, &summary.fingerprint, fingerprint)?;
+        // Killed between writing the summary and removing the checkpoint.
+        remove_if_present(&checkpoint_path)?;
         return Ok(summary);
     }
     let run_seed = ea::run_seed(seed, name, run);
@@ -557,12 +690,23 @@ async fn run_one(
         post_evaluation,
     };
     write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
+    // A finished run is its summary, best controller and fitness log; the checkpoint served
+    // only to continue it.
+    remove_if_present(&checkpoint_path)?;
     progress.event(&ProgressEvent::RunFinished {
         node: name.clone(),
         run,
         solve_rate: summary.post_evaluation.solve_rate,
     });
     Ok(summary)
+}
+
+fn remove_if_present(path: &Path) -> Result<(), RunError> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(io_error(path, e)),
+    }
 }
 
 fn log_row(generation: u32, fitness: &[f64]) -> FitnessRow {

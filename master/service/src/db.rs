@@ -4,7 +4,7 @@
 //! so a master killed at any instant (even kill -9) loses no submitted job; progress updates,
 //! frequent and recomputed on resume anyway, are committed without waiting for the disk.
 
-use hevo_engine::runner::ProgressEvent;
+use hevo_engine::runner::{Overrides, ProgressEvent};
 use redb::{Database, Durability, ReadableDatabase, ReadableTable, TableDefinition};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -59,19 +59,6 @@ impl JobState {
     }
 }
 
-/// What a job was asked to do, beyond the experiment file.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct JobSettings {
-    /// Only this node (after its children).
-    pub node: Option<String>,
-    /// Runs per node.
-    pub runs: Option<u32>,
-    /// Generations per run.
-    pub generations: Option<u32>,
-    /// The experiment's seed.
-    pub seed: Option<u64>,
-}
-
 /// One job, as stored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JobRecord {
@@ -83,8 +70,11 @@ pub struct JobRecord {
     pub file_name: String,
     /// The experiment file's text.
     pub experiment_toml: String,
+    /// The files it reads from elsewhere, by relative path (see `SubmitJobRequest.files`).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub files: std::collections::BTreeMap<String, String>,
     /// Overrides.
-    pub settings: JobSettings,
+    pub settings: Overrides,
     /// The nodes the job evolves, in order, with (runs, generations) each.
     pub plan: Vec<(String, u32, u32)>,
     /// State.
@@ -233,9 +223,10 @@ mod tests {
             experiment_name: "e".into(),
             file_name: "e.toml".into(),
             experiment_toml: "[experiment]".into(),
-            settings: JobSettings {
+            files: Default::default(),
+            settings: Overrides {
                 seed: Some(3),
-                ..JobSettings::default()
+                ..Overrides::default()
             },
             plan: vec![("a".into(), 2, 5), ("b".into(), 1, 4)],
             state: JobState::Queued,

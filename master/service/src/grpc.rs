@@ -7,7 +7,7 @@
 //! unrelated batch that happens to reuse the id.
 
 use crate::convert::{batch_to_proto, job_info, status_event};
-use crate::db::JobSettings;
+use hevo_engine::runner::Overrides;
 use crate::jobs::{JobError, JobManager, Submission};
 use hevo_engine::dispatch::{CompleteError, Completion, Dispatcher};
 use hevo_proto::convert as wire;
@@ -56,8 +56,9 @@ impl JobService for JobApi {
         let request = request.into_inner();
         let submission = Submission {
             experiment_toml: request.experiment_toml,
+            files: request.files.into_iter().collect(),
             file_name: request.file_name,
-            settings: JobSettings {
+            settings: Overrides {
                 node: request.node,
                 runs: request.runs,
                 generations: request.generations,

@@ -9,11 +9,11 @@
 //! store; state changes durably, progress without waiting for the disk.
 
 use crate::convert::{event_to_proto, job_info, status_event};
-use crate::db::{JobRecord, JobSettings, JobState, JobStore, StoreError};
+use crate::db::{JobRecord, JobState, JobStore, StoreError};
 use hevo_engine::dispatch::{DispatchError, Dispatcher};
 use hevo_engine::experiment::Experiment;
 use hevo_engine::rundir::{self, NodeSummary};
-use hevo_engine::runner::{self, Progress, ProgressEvent, RunError, RunSettings};
+use hevo_engine::runner::{self, Overrides, Progress, ProgressEvent, RunError, RunSettings};
 use hevo_proto::v1;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -26,6 +26,8 @@ use tokio::task::JoinHandle;
 pub mod limits {
     /// Experiment file size.
     pub const EXPERIMENT_BYTES: usize = 1024 * 1024;
+    /// The files an experiment reads from elsewhere, together (paths and contents).
+    pub const ATTACHED_FILES_BYTES: usize = 16 * 1024 * 1024;
     /// File name length.
     pub const FILE_NAME_CHARS: usize = 255;
     /// Runs per node.
@@ -75,10 +77,12 @@ fn invalid(field: &str, message: impl Into<String>) -> JobError {
 pub struct Submission {
     /// Experiment file text.
     pub experiment_toml: String,
+    /// The files it reads from elsewhere, by relative path.
+    pub files: BTreeMap<String, String>,
     /// File name for messages.
     pub file_name: String,
     /// Overrides.
-    pub settings: JobSettings,
+    pub settings: Overrides,
 }
 
 /// A job's results: its finished nodes and its files.
@@ -187,6 +191,7 @@ impl JobManager {
             experiment_name: experiment.header.name.clone(),
             file_name,
             experiment_toml: submission.experiment_toml.clone(),
+            files: submission.files.clone(),
             settings: submission.settings.clone(),
             plan,
             state: JobState::Queued,
@@ -338,7 +343,11 @@ impl JobManager {
         };
         let _ = self.sender(&id).send(status_event(&record));
         let experiment =
-            match Experiment::parse(&record.experiment_toml, Path::new(&record.file_name)) {
+            match Experiment::parse_with(
+                &record.experiment_toml,
+                Path::new(&record.file_name),
+                &record.files,
+            ) {
                 Ok(experiment) => experiment,
                 Err(error) => {
                     let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
@@ -347,10 +356,7 @@ impl JobManager {
             };
         let settings = RunSettings {
             out_dir: job_out_dir(&self.inner.state_dir, &id),
-            node: record.settings.node.clone(),
-            runs: record.settings.runs,
-            generations: record.settings.generations,
-            seed: record.settings.seed,
+            overrides: record.settings.clone(),
             job: id.clone(),
         };
         let progress = JobProgress::new(self.clone(), &record);
@@ -496,7 +502,17 @@ pub fn validate(
             ),
         ));
     }
-    let experiment = Experiment::parse(text, Path::new(&file_name))
+    let files_bytes: usize = submission.files.iter().map(|(k, v)| k.len() + v.len()).sum();
+    if files_bytes > limits::ATTACHED_FILES_BYTES {
+        return Err(invalid(
+            "files",
+            format!(
+                "are {files_bytes} bytes, at most {} are accepted",
+                limits::ATTACHED_FILES_BYTES
+            ),
+        ));
+    }
+    let experiment = Experiment::parse_with(text, Path::new(&file_name), &submission.files)
         .map_err(|e| invalid("experiment_toml", e.to_string()))?;
     let settings = &submission.settings;
     if let Some(runs) = settings.runs
@@ -526,8 +542,8 @@ pub fn validate(
         let node = experiment
             .node(&name)
             .expect("names come from the experiment");
-        let runs = settings.runs.unwrap_or(node.decl.runs);
-        let generations = settings.generations.unwrap_or(node.decl.generations);
+        let runs = settings.runs_of(node);
+        let generations = settings.generations_of(node);
         if runs > limits::RUNS || generations > limits::GENERATIONS {
             return Err(invalid(
                 "experiment_toml",
