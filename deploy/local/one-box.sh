@@ -195,6 +195,9 @@ token_file=$work_dir/token
 )
 
 log "starting the master ($hevo)"
+# Created here, not by the background job's redirection, so the loop below never reads a file
+# that does not exist yet.
+: >"$work_dir/master.out"
 "$hevo" serve --listen 127.0.0.1:0 --metrics-listen 127.0.0.1:0 --state-dir "$work_dir/state" \
     --token-file "$token_file" >"$work_dir/master.out" 2>"$work_dir/master.log" &
 master_pid=$!

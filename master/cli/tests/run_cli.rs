@@ -512,7 +512,13 @@ fn eval_and_bench_report_what_they_measured() {
 
     let out = hevo(&["eval", controller.to_str().unwrap(), "--task", "teleport"]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown task 'teleport'"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("invalid value 'teleport' for '--task")
+            && stderr.contains("possible values")
+            && stderr.contains("solve_maze"),
+        "{stderr}"
+    );
 
     // The reproduction report is generated from the outputs, with the paper's figures beside.
     let report_file = dir.path().join("doc/REPRODUCTION.md");
