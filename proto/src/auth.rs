@@ -13,27 +13,48 @@ use tonic::{Request, Status};
 /// The metadata key carrying the token.
 pub const AUTHORIZATION: &str = "authorization";
 
+/// A token that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum TokenError {
+    /// The token file cannot be read.
+    #[error("cannot read the token file {path}: {source}")]
+    File {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Nothing but whitespace.
+    #[error("the token is empty")]
+    Empty,
+    /// Not printable ASCII without spaces, so it cannot travel in a header.
+    #[error("the token must be printable ASCII without spaces")]
+    NotPrintable,
+}
+
 /// Picks the token from `--token-file` (which wins, being the more deliberate choice) or
 /// `--token` / `HEVO_TOKEN`. Surrounding whitespace (a file's final newline) is dropped; an
 /// empty token or one that cannot travel in a header is an error.
 pub fn resolve_token(
     token: Option<&str>,
     token_file: Option<&Path>,
-) -> Result<Option<String>, String> {
+) -> Result<Option<String>, TokenError> {
     let raw = match token_file {
         Some(path) => Some(
-            std::fs::read_to_string(path)
-                .map_err(|e| format!("cannot read the token file {}: {e}", path.display()))?,
+            std::fs::read_to_string(path).map_err(|source| TokenError::File {
+                path: path.to_path_buf(),
+                source,
+            })?,
         ),
         None => token.map(str::to_string),
     };
     let Some(raw) = raw else { return Ok(None) };
     let token = raw.trim();
     if token.is_empty() {
-        return Err("the token is empty".into());
+        return Err(TokenError::Empty);
     }
     if !token.chars().all(|c| c.is_ascii_graphic()) {
-        return Err("the token must be printable ASCII without spaces".into());
+        return Err(TokenError::NotPrintable);
     }
     Ok(Some(token.to_string()))
 }
@@ -54,12 +75,12 @@ impl std::fmt::Debug for ClientAuth {
 
 impl ClientAuth {
     /// Sends `token`, if any.
-    pub fn new(token: Option<&str>) -> Result<ClientAuth, String> {
+    pub fn new(token: Option<&str>) -> Result<ClientAuth, TokenError> {
         let header = match token {
             Some(token) => Some(
                 format!("Bearer {token}")
                     .parse()
-                    .map_err(|_| "the token cannot be sent in a header".to_string())?,
+                    .map_err(|_| TokenError::NotPrintable)?,
             ),
             None => None,
         };
@@ -191,12 +212,19 @@ mod tests {
             Some("flag")
         );
         assert_eq!(resolve_token(None, None).unwrap(), None);
-        assert!(resolve_token(Some("  "), None).is_err());
-        assert!(resolve_token(Some("a b"), None).is_err());
+        assert!(matches!(
+            resolve_token(Some("  "), None),
+            Err(TokenError::Empty)
+        ));
+        assert!(matches!(
+            resolve_token(Some("a b"), None),
+            Err(TokenError::NotPrintable)
+        ));
+        let missing = dir.join("missing");
+        let error = resolve_token(None, Some(&missing)).unwrap_err();
         assert!(
-            resolve_token(None, Some(&dir.join("missing")))
-                .unwrap_err()
-                .contains("missing")
+            matches!(&error, TokenError::File { path, .. } if *path == missing),
+            "{error}"
         );
         assert!(!format!("{:?}", ClientAuth::new(Some("flag")).unwrap()).contains("flag"));
         std::fs::remove_dir_all(&dir).unwrap();

@@ -14,6 +14,47 @@ use std::time::Duration;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
 
+/// Why a connection to a master could not be set up or made.
+#[derive(Debug, thiserror::Error)]
+pub enum ConnectError {
+    /// The token cannot be used.
+    #[error(transparent)]
+    Token(#[from] crate::auth::TokenError),
+    /// The URL does not parse.
+    #[error("invalid master URL '{url}': {message}")]
+    Url {
+        /// As given.
+        url: String,
+        /// Why.
+        message: String,
+    },
+    /// `--tls-ca` for a plain-text URL.
+    #[error("--tls-ca was given but the master URL '{url}' is not https://")]
+    CaWithoutTls {
+        /// As given.
+        url: String,
+    },
+    /// The CA certificate cannot be read.
+    #[error("cannot read the CA certificate {path}: {source}")]
+    CaFile {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// TLS could not be configured.
+    #[error("TLS setup failed: {0}")]
+    Tls(String),
+    /// The master did not answer.
+    #[error("cannot connect to the master at {url}: {message}")]
+    Unreachable {
+        /// As given.
+        url: String,
+        /// Why, with its causes.
+        message: String,
+    },
+}
+
 /// Where and how to connect.
 #[derive(Debug, Clone)]
 pub struct ClientOptions {
@@ -47,7 +88,7 @@ pub struct MasterArgs {
 #[cfg(feature = "cli")]
 impl MasterArgs {
     /// The connection options, with the token read from `--token-file` when one was given.
-    pub fn options(&self) -> Result<ClientOptions, String> {
+    pub fn options(&self) -> Result<ClientOptions, ConnectError> {
         let token = crate::auth::resolve_token(self.token.as_deref(), self.token_file.as_deref())?;
         Ok(ClientOptions {
             url: self.master.clone(),
@@ -74,10 +115,13 @@ impl ClientOptions {
     }
 
     /// The endpoint, not yet connected.
-    pub fn endpoint(&self) -> Result<Endpoint, String> {
+    pub fn endpoint(&self) -> Result<Endpoint, ConnectError> {
         let url = self.normalized_url();
         let mut endpoint = Endpoint::from_shared(url.clone())
-            .map_err(|e| format!("invalid master URL '{}': {e}", self.url))?
+            .map_err(|e| ConnectError::Url {
+                url: self.url.clone(),
+                message: e.to_string(),
+            })?
             .connect_timeout(Duration::from_secs(5))
             .tcp_nodelay(true)
             .http2_keep_alive_interval(Duration::from_secs(15))
@@ -86,28 +130,29 @@ impl ClientOptions {
         let https = url.starts_with("https://");
         if let Some(ca) = &self.tls_ca {
             if !https {
-                return Err(format!(
-                    "--tls-ca was given but the master URL '{}' is not https://",
-                    self.url
-                ));
+                return Err(ConnectError::CaWithoutTls {
+                    url: self.url.clone(),
+                });
             }
-            let pem = std::fs::read(ca)
-                .map_err(|e| format!("cannot read the CA certificate {}: {e}", ca.display()))?;
+            let pem = std::fs::read(ca).map_err(|source| ConnectError::CaFile {
+                path: ca.clone(),
+                source,
+            })?;
             let tls = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(pem));
             endpoint = endpoint
                 .tls_config(tls)
-                .map_err(|e| format!("TLS setup failed: {e}"))?;
+                .map_err(|e| ConnectError::Tls(e.to_string()))?;
         } else if https {
             endpoint = endpoint
                 .tls_config(ClientTlsConfig::new().with_webpki_roots())
-                .map_err(|e| format!("TLS setup failed: {e}"))?;
+                .map_err(|e| ConnectError::Tls(e.to_string()))?;
         }
         Ok(endpoint)
     }
 
     /// A channel that connects on first use and reconnects by itself after the master comes
     /// back (calls fail with UNAVAILABLE meanwhile).
-    pub fn lazy_channel(&self) -> Result<AuthChannel, String> {
+    pub fn lazy_channel(&self) -> Result<AuthChannel, ConnectError> {
         let channel = self.endpoint()?.connect_lazy();
         Ok(InterceptedService::new(
             channel,
@@ -116,14 +161,15 @@ impl ClientOptions {
     }
 
     /// A connected channel (fails fast when the master cannot be reached).
-    pub async fn connect(&self) -> Result<AuthChannel, String> {
-        let channel = self.endpoint()?.connect().await.map_err(|e| {
-            format!(
-                "cannot connect to the master at {}: {}",
-                self.url,
-                error_chain(&e)
-            )
-        })?;
+    pub async fn connect(&self) -> Result<AuthChannel, ConnectError> {
+        let channel = self
+            .endpoint()?
+            .connect()
+            .await
+            .map_err(|e| ConnectError::Unreachable {
+                url: self.url.clone(),
+                message: error_chain(&e),
+            })?;
         Ok(InterceptedService::new(
             channel,
             ClientAuth::new(self.token.as_deref())?,
@@ -197,6 +243,9 @@ mod tests {
             tls_ca: Some("/nonexistent.pem".into()),
             ..options
         };
-        assert!(tls.endpoint().unwrap_err().contains("https"));
+        assert!(matches!(
+            tls.endpoint(),
+            Err(ConnectError::CaWithoutTls { .. })
+        ));
     }
 }

@@ -212,7 +212,7 @@ pub fn task_from_json(json: &str, expected_hash: &str) -> Result<TaskConfig, Con
         ));
     }
     task.validate()
-        .map_err(|message| field_error("task_json", message))?;
+        .map_err(|error| field_error("task_json", error.to_string()))?;
     Ok(task)
 }
 

@@ -9,7 +9,7 @@ use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scene::{Cone, Rect};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
-use crate::task::{TaskConfig, TaskKind};
+use crate::task::{ConfigError, TaskConfig, TaskKind};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -199,7 +199,7 @@ impl Recorder for Vec<TraceCycle> {
 /// Errors in a task configuration.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("invalid task configuration: {0}")]
-pub struct TaskError(pub String);
+pub struct TaskError(#[from] pub ConfigError);
 
 /// Evaluates policies on samples of one task. Cheap to share between threads (`&Evaluator` is
 /// all a thread needs).
@@ -219,7 +219,7 @@ const TEAMMATE_GAP: f32 = 0.10;
 impl Evaluator {
     /// Validates the task and builds what all its samples share.
     pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
-        task.validate().map_err(TaskError)?;
+        task.validate()?;
         let opening = task.ir.cone_deg.to_radians();
         let cones = IR_ANGLES.map(|angle| Cone::new(angle, opening));
         let radius = task.robot.radius;

@@ -3,6 +3,7 @@
 
 use crate::rng::{SimRng, standard_normal};
 use crate::scene::Scene;
+use crate::task::{ConfigError, invalid};
 use serde::{Deserialize, Serialize};
 
 /// Physical constants of the robot and the control cycle (SPEC section 1).
@@ -38,7 +39,7 @@ impl Default for RobotConfig {
 
 impl RobotConfig {
     /// Checks the values are physically meaningful; names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let positive = [
             ("radius", self.radius),
             ("wheel_base", self.wheel_base),
@@ -48,23 +49,27 @@ impl RobotConfig {
         ];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
-                return Err(format!(
-                    "robot.{name} must be a positive number, got {value}"
+                return Err(invalid(
+                    &format!("robot.{name}"),
+                    format!("must be a positive number, got {value}"),
                 ));
             }
         }
         if !(self.wheel_noise.is_finite() && (0.0..1.0).contains(&self.wheel_noise)) {
-            return Err(format!(
-                "robot.wheel_noise must be in [0, 1), got {}",
-                self.wheel_noise
+            return Err(invalid(
+                "robot.wheel_noise",
+                format!("must be in [0, 1), got {}", self.wheel_noise),
             ));
         }
         // One cycle's travel must stay well below the thinnest solid (5 cm obstacles) so a
         // move can never jump through a wall between two collision tests.
         if self.v_max * self.cycle_seconds > 0.025 {
-            return Err(format!(
-                "robot.v_max * robot.cycle_seconds = {} m per cycle exceeds 0.025 m",
-                self.v_max * self.cycle_seconds
+            return Err(invalid(
+                "robot.v_max",
+                format!(
+                    "times robot.cycle_seconds is {} m per cycle, more than 0.025 m",
+                    self.v_max * self.cycle_seconds
+                ),
             ));
         }
         Ok(())
@@ -199,7 +204,9 @@ mod tests {
             v_max: -1.0,
             ..RobotConfig::default()
         };
-        assert!(bad.validate().unwrap_err().contains("robot.v_max"));
+        let error = bad.validate().unwrap_err();
+        assert_eq!(error.key, "robot.v_max");
+        assert_eq!(error.message, "must be a positive number, got -1");
         assert!(RobotConfig::default().validate().is_ok());
     }
 }

@@ -261,44 +261,52 @@ impl TaskConfig {
         self.robot.radius + self.ir.range_m + self.robot.v_max * self.robot.cycle_seconds + 0.02
     }
 
-    /// Checks every value; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every value; the error names the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
         self.robot.validate()?;
         self.room.validate()?;
         if self.max_cycles() == 0 {
-            return Err("max_cycles must be at least 1".into());
+            return Err(invalid("max_cycles", "must be at least 1".into()));
         }
         if self.rescue_time_bonus && self.kind != TaskKind::Rescue {
-            return Err(format!(
-                "rescue_time_bonus applies to the rescue only ({} has no derived fitness)",
-                self.kind.name()
+            return Err(invalid(
+                "rescue_time_bonus",
+                format!(
+                    "applies to the rescue only ({} has no derived fitness)",
+                    self.kind.name()
+                ),
             ));
         }
         if self.end_on_wrong_branch && self.kind != TaskKind::Rescue {
-            return Err(format!(
-                "end_on_wrong_branch applies to the rescue only ({} always ends on a wrong branch \
-                 or has none)",
-                self.kind.name()
+            return Err(invalid(
+                "end_on_wrong_branch",
+                format!(
+                    "applies to the rescue only ({} always ends on a wrong branch or has none)",
+                    self.kind.name()
+                ),
             ));
         }
         if self.wrong_branch_at_end_only
             && !matches!(self.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom)
         {
-            return Err(format!(
-                "wrong_branch_at_end_only applies to solve_maze and return_room only, not to {}",
-                self.kind.name()
+            return Err(invalid(
+                "wrong_branch_at_end_only",
+                format!(
+                    "applies to solve_maze and return_room only, not to {}",
+                    self.kind.name()
+                ),
             ));
         }
         if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
-            return Err(format!(
-                "ir.range_m must be in (0, 0.5], got {}",
-                self.ir.range_m
+            return Err(invalid(
+                "ir.range_m",
+                format!("must be in (0, 0.5], got {}", self.ir.range_m),
             ));
         }
         if !(self.ir.cone_deg >= 0.0 && self.ir.cone_deg < 180.0) {
-            return Err(format!(
-                "ir.cone_deg must be in [0, 180), got {}",
-                self.ir.cone_deg
+            return Err(invalid(
+                "ir.cone_deg",
+                format!("must be in [0, 180), got {}", self.ir.cone_deg),
             ));
         }
         let c = &self.corridor;
@@ -308,8 +316,9 @@ impl TaskConfig {
             ("corridor.cells_after_turn", c.cells_after_turn, 1),
         ] {
             if range[0] < min || range[0] > range[1] || range[1] > 50 {
-                return Err(format!(
-                    "{name} must be [low, high] with {min} <= low <= high <= 50, got {range:?}"
+                return Err(invalid(
+                    name,
+                    format!("must be [low, high] with {min} <= low <= high <= 50, got {range:?}"),
                 ));
             }
         }
@@ -318,42 +327,69 @@ impl TaskConfig {
             ("corridor.side_junction_share", c.side_junction_share),
         ] {
             if !(0.0..=1.0).contains(&share) {
-                return Err(format!("{name} must be in [0, 1], got {share}"));
+                return Err(invalid(name, format!("must be in [0, 1], got {share}")));
             }
         }
         if c.junction_share + c.side_junction_share > 1.0 {
-            return Err(format!(
-                "corridor.junction_share + corridor.side_junction_share must be at most 1, got {} + {}",
-                c.junction_share, c.side_junction_share
+            return Err(invalid(
+                "corridor.side_junction_share",
+                format!(
+                    "plus corridor.junction_share must be at most 1, got {} + {}",
+                    c.side_junction_share, c.junction_share
+                ),
             ));
         }
         // One cell at most, and never from a one-cell corridor, so the advanced start is still
         // inside the start cell's corridor and never past the junction's centre.
         if !(0.0..=MAZE_CELL_SIZE).contains(&c.start_advance) {
-            return Err(format!(
-                "corridor.start_advance must be in [0, {MAZE_CELL_SIZE}] metres, got {}",
-                c.start_advance
+            return Err(invalid(
+                "corridor.start_advance",
+                format!(
+                    "must be in [0, {MAZE_CELL_SIZE}] metres, got {}",
+                    c.start_advance
+                ),
             ));
         }
         if c.start_advance > 0.0 && (c.straight_cells[0] < 2 || c.cells_before_turn[0] < 2) {
-            return Err(format!(
-                "corridor.start_advance {} needs corridor.straight_cells and corridor.cells_before_turn to start at 2 cells or more, got {:?} and {:?}",
-                c.start_advance, c.straight_cells, c.cells_before_turn
+            return Err(invalid(
+                "corridor.start_advance",
+                format!(
+                    "{} needs corridor.straight_cells and corridor.cells_before_turn to start at 2 cells or more, got {:?} and {:?}",
+                    c.start_advance, c.straight_cells, c.cells_before_turn
+                ),
             ));
         }
         if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {
-            return Err(format!(
-                "start.lateral_offset must be in [0, 0.05], got {}",
-                self.start.lateral_offset
+            return Err(invalid(
+                "start.lateral_offset",
+                format!("must be in [0, 0.05], got {}", self.start.lateral_offset),
             ));
         }
         if !(self.start.heading_jitter_deg >= 0.0 && self.start.heading_jitter_deg <= 180.0) {
-            return Err(format!(
-                "start.heading_jitter_deg must be in [0, 180], got {}",
-                self.start.heading_jitter_deg
+            return Err(invalid(
+                "start.heading_jitter_deg",
+                format!("must be in [0, 180], got {}", self.start.heading_jitter_deg),
             ));
         }
         Ok(())
+    }
+}
+
+/// A value of a task configuration that is out of range, or an option where it does not apply.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{key} {message}")]
+pub struct ConfigError {
+    /// The key, as in the configuration: `robot.v_max`, `corridor.start_advance`.
+    pub key: String,
+    /// What is wrong: `must be in [0, 1], got 2`.
+    pub message: String,
+}
+
+/// A [`ConfigError`] for `key`.
+pub(crate) fn invalid(key: &str, message: String) -> ConfigError {
+    ConfigError {
+        key: key.to_string(),
+        message,
     }
 }
 
@@ -384,7 +420,9 @@ mod tests {
         }
         let mut refused = TaskConfig::new(refused_on);
         switch_on(&mut refused);
-        assert_eq!(refused.validate().unwrap_err(), refusal);
+        let error = refused.validate().unwrap_err();
+        assert_eq!(error.key, name);
+        assert_eq!(error.to_string(), refusal);
     }
 
     #[test]
@@ -447,10 +485,11 @@ mod tests {
         let mut task = TaskConfig::new(TaskKind::TurnLeft);
         task.corridor.start_advance = 0.5;
         let error = task.validate().unwrap_err();
-        assert!(error.contains("corridor.start_advance"), "{error}");
+        assert_eq!(error.key, "corridor.start_advance", "{error}");
         task.corridor.start_advance = 0.2;
         task.corridor.cells_before_turn = [1, 3];
         let error = task.validate().unwrap_err();
-        assert!(error.contains("cells_before_turn"), "{error}");
+        assert_eq!(error.key, "corridor.start_advance", "{error}");
+        assert!(error.message.contains("cells_before_turn"), "{error}");
     }
 }

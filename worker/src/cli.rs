@@ -65,7 +65,7 @@ fn default_name() -> String {
 
 /// Runs a parsed command line.
 pub fn execute(args: Args) -> Result<()> {
-    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let options = args.master.options()?;
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))

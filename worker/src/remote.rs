@@ -124,8 +124,8 @@ impl Executor for SimExecutor {
 #[derive(Debug, thiserror::Error)]
 pub enum WorkerError {
     /// Bad settings (URL, TLS files, token).
-    #[error("{0}")]
-    Setup(String),
+    #[error(transparent)]
+    Setup(#[from] hevo_proto::client::ConnectError),
     /// The master refused the worker for good (wrong token, incompatible master).
     #[error("the master refused this worker: {0}")]
     Refused(String),

@@ -215,7 +215,7 @@ impl TaskArgs {
             (Some(task), _, _) => Ok(TaskConfig::new(parse_task(task)?)),
             (None, Some(file), Some(node)) => {
                 let experiment = Experiment::load(file)?;
-                let plan = experiment.named_node(node).map_err(anyhow::Error::msg)?;
+                let plan = experiment.named_node(node)?;
                 Ok(plan.task.clone())
             }
             // clap requires --task or both of --experiment and --node.
@@ -387,7 +387,11 @@ fn task_names() -> clap::builder::PossibleValuesParser {
 
 /// A note when a controller looks evolved for another task than the one it is judged on:
 /// its root node is named after a task (as `hevo run` names nodes), and not this one.
-fn other_task_warning(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Option<String> {
+fn other_task_warning(
+    path: &Path,
+    controller: &ControllerFile,
+    task: &TaskConfig,
+) -> Option<String> {
     let evolved_for = TaskKind::from_name(&controller.root.name)?;
     (evolved_for != task.kind).then(|| {
         format!(
@@ -511,8 +515,7 @@ fn describe_plan(statuses: &[runner::NodeStatus], threads: usize) -> Result<Stri
             let speed = match speeds.get(&status.task) {
                 Some(&speed) => speed,
                 None => {
-                    let report = bench::simulator(kind, threads, PLAN_BENCH_SECONDS)
-                        .map_err(anyhow::Error::msg)?;
+                    let report = bench::simulator(kind, threads, PLAN_BENCH_SECONDS)?;
                     speeds.insert(status.task.clone(), report.cycles_per_second);
                     report.cycles_per_second
                 }
@@ -709,7 +712,7 @@ fn plot(args: PlotArgs) -> Result<()> {
         Some(node) => args.runs_dir.join(node),
         None => args.runs_dir.clone(),
     };
-    let runs = hevo_viz::read_run_logs(&node_dir).map_err(anyhow::Error::msg)?;
+    let runs = hevo_viz::read_run_logs(&node_dir)?;
     if runs.is_empty() {
         let hint = if args.node.is_none() {
             " (pass --node NAME to plot a node of a run directory)"

@@ -4,11 +4,11 @@
 //! master restarts: when the stream breaks it reconnects with backoff and carries on.
 
 use anyhow::{Context, Result, anyhow, bail};
+use hevo_engine::experiment::{DiskFiles, Experiment};
+use hevo_engine::runner::Overrides;
 use hevo_proto::client::{ClientOptions, describe_status, job_client};
 use hevo_proto::v1;
 use hevo_proto::v1::job_event::Event;
-use hevo_engine::experiment::{DiskFiles, Experiment};
-use hevo_engine::runner::Overrides;
 use hevo_service::grpc::is_final;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{IsTerminal, Write};
@@ -32,7 +32,7 @@ pub async fn submit(options: &ClientOptions, file: &Path, settings: Overrides) -
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
+    let mut client = job_client(options.connect().await?);
     let request = v1::SubmitJobRequest {
         experiment_toml: text,
         file_name,
@@ -61,7 +61,7 @@ pub fn state_name(state: i32) -> &'static str {
 /// Shows a job's progress until it ends: a bar on a terminal, one line per event otherwise.
 /// Returns the final status.
 pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
-    let channel = options.lazy_channel().map_err(anyhow::Error::msg)?;
+    let channel = options.lazy_channel()?;
     let mut client = job_client(channel);
     let mut view = View::new(job);
     let mut delay = Duration::from_millis(200);
@@ -229,7 +229,7 @@ impl View {
 
 /// The jobs as a table.
 pub async fn jobs(options: &ClientOptions) -> Result<String> {
-    let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
+    let mut client = job_client(options.connect().await?);
     let jobs = client
         .list_jobs(v1::ListJobsRequest {})
         .await
@@ -260,7 +260,7 @@ pub async fn jobs(options: &ClientOptions) -> Result<String> {
 /// Writes a job's result files under `out` (the layout `hevo run --out` writes); returns the
 /// job's status and the number of files.
 pub async fn fetch(options: &ClientOptions, job: &str, out: &Path) -> Result<(v1::JobInfo, usize)> {
-    let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
+    let mut client = job_client(options.connect().await?);
     let response = client
         .get_job(v1::GetJobRequest {
             job_id: job.to_string(),
@@ -291,7 +291,7 @@ pub async fn fetch(options: &ClientOptions, job: &str, out: &Path) -> Result<(v1
 
 /// Cancels a job; returns its status.
 pub async fn cancel(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
-    let mut client = job_client(options.connect().await.map_err(anyhow::Error::msg)?);
+    let mut client = job_client(options.connect().await?);
     let response = client
         .cancel_job(v1::CancelJobRequest {
             job_id: job.to_string(),

@@ -160,7 +160,8 @@ impl Progress for BarProgress {
                 let rate = *total_cycles as f64 / elapsed;
                 // This session's pace: a resumed run's earlier generations took no time here.
                 let done_here = f64::from(generation + 1 - *first_generation);
-                let eta = f64::from(generations.saturating_sub(generation + 1)) * elapsed / done_here;
+                let eta =
+                    f64::from(generations.saturating_sub(generation + 1)) * elapsed / done_here;
                 bar.set_prefix(format!("{node} run {run}"));
                 bar.set_length(u64::from(*generations));
                 bar.set_position(u64::from(generation + 1));

@@ -86,8 +86,7 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
 
 /// `hevo serve`.
 pub fn serve(args: ServeArgs) -> Result<()> {
-    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())
-        .map_err(anyhow::Error::msg)?;
+    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())?;
     let config = hevo_service::ServeConfig {
         listen: args.listen,
         state_dir: args.state_dir,
@@ -102,7 +101,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 
 /// `hevo submit`: prints the job id alone.
 pub fn submit(args: SubmitArgs) -> Result<()> {
-    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let options = args.master.options()?;
     let settings = args.overrides.overrides();
     let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
     crate::outln!("{job}");
@@ -111,7 +110,7 @@ pub fn submit(args: SubmitArgs) -> Result<()> {
 
 /// `hevo watch`: an error unless the job succeeded.
 pub fn watch(args: JobArgs) -> Result<()> {
-    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let options = args.master.options()?;
     let info = runtime()?.block_on(client::watch(&options, &args.job))?;
     match hevo_proto::v1::JobState::try_from(info.state) {
         Ok(hevo_proto::v1::JobState::Succeeded) => Ok(()),
@@ -122,7 +121,7 @@ pub fn watch(args: JobArgs) -> Result<()> {
 
 /// `hevo jobs`.
 pub fn jobs(args: MasterArgs) -> Result<()> {
-    let options = args.options().map_err(anyhow::Error::msg)?;
+    let options = args.options()?;
     let table = runtime()?.block_on(client::jobs(&options))?;
     crate::outln!("{}", table.trim_end_matches('\n'));
     Ok(())
@@ -130,7 +129,7 @@ pub fn jobs(args: MasterArgs) -> Result<()> {
 
 /// `hevo fetch`.
 pub fn fetch(args: FetchArgs) -> Result<()> {
-    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let options = args.master.options()?;
     let (info, files) = runtime()?.block_on(client::fetch(&options, &args.job, &args.out))?;
     let state = client::state_name(info.state);
     if state != "succeeded" {
@@ -149,7 +148,7 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
 
 /// `hevo cancel`.
 pub fn cancel(args: JobArgs) -> Result<()> {
-    let options = args.master.options().map_err(anyhow::Error::msg)?;
+    let options = args.master.options()?;
     let info = runtime()?.block_on(client::cancel(&options, &args.job))?;
     crate::outln!("{}: {}", args.job, client::state_name(info.state));
     Ok(())
@@ -171,9 +170,7 @@ pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: boo
         genomes: 1_000,
         samples: 1,
     };
-    let report = runtime()?
-        .block_on(hevo_service::load::run(config))
-        .map_err(anyhow::Error::msg)?;
+    let report = runtime()?.block_on(hevo_service::load::run(config))?;
     if json {
         crate::outln!("{}", serde_json::to_string(&report)?);
     } else {

@@ -144,14 +144,24 @@ pub struct BenchReport {
     pub seconds: f64,
 }
 
+/// Why a benchmark could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// The benchmark's controller or task is invalid (a bug: both are built here).
+    #[error(transparent)]
+    Setup(#[from] hevo_sim_core::batch::BatchError),
+    /// The dispatcher stopped.
+    #[error(transparent)]
+    Dispatch(#[from] crate::dispatch::DispatchError),
+}
+
 /// Raw simulator throughput: `threads` threads run samples for `seconds`.
-pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchReport, String> {
+pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchReport, BenchError> {
     let mut task = TaskConfig::new(kind);
     // Collisions do not end samples, so every sample runs to its limit and the figure measures
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
-    let evaluator =
-        BatchEvaluator::new(paper_controller(kind, 1), task).map_err(|e| e.to_string())?;
+    let evaluator = BatchEvaluator::new(paper_controller(kind, 1), task)?;
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
     let samples = AtomicU64::new(0);
@@ -198,7 +208,7 @@ pub async fn pipeline(
     threads: usize,
     seconds: f64,
     samples: u32,
-) -> Result<BenchReport, String> {
+) -> Result<BenchReport, BenchError> {
     let mut template = paper_controller(kind, 1);
     let genes = template.root.genome.take().unwrap_or_default();
     let mut task = TaskConfig::new(kind);
@@ -240,10 +250,7 @@ pub async fn pipeline(
                 .map(|s| Sample::seeded(generation * 1000 + u64::from(s)))
                 .collect(),
         };
-        let results = dispatcher
-            .evaluate(request)
-            .await
-            .map_err(|e| e.to_string())?;
+        let results = dispatcher.evaluate(request).await?;
         cycles += results
             .iter()
             .flatten()

@@ -32,6 +32,16 @@ pub enum ExperimentError {
         /// What was expected.
         message: String,
     },
+    /// A command named a node the experiment does not have.
+    #[error("no node named '{name}' in {file}; nodes: {}", .known.join(", "))]
+    UnknownNode {
+        /// The file.
+        file: PathBuf,
+        /// The name given.
+        name: String,
+        /// The nodes there are.
+        known: Vec<String>,
+    },
     /// The values are inconsistent.
     #[error("{file}: at `{path}`: {message}")]
     Invalid {
@@ -455,8 +465,13 @@ impl Experiment {
         };
         let deserializer = toml::Deserializer::parse(text)
             .map_err(|e| syntax(String::new(), bounded_excerpt(&e.to_string())))?;
-        let parsed: ExperimentFile = serde_path_to_error::deserialize(deserializer)
-            .map_err(|e| syntax(e.path().to_string(), bounded_excerpt(&e.inner().to_string())))?;
+        let parsed: ExperimentFile =
+            serde_path_to_error::deserialize(deserializer).map_err(|e| {
+                syntax(
+                    e.path().to_string(),
+                    bounded_excerpt(&e.inner().to_string()),
+                )
+            })?;
         let invalid = |path: String, message: String| ExperimentError::Invalid {
             file: file.to_path_buf(),
             path,
@@ -602,7 +617,11 @@ impl Experiment {
                 _ => {}
             }
             state[node_idx] = 1;
-            for child in nodes[node_idx].children.iter().filter_map(ChildDecl::node_name) {
+            for child in nodes[node_idx]
+                .children
+                .iter()
+                .filter_map(ChildDecl::node_name)
+            {
                 visit(index_of[child], nodes, index_of, state, order)?;
             }
             state[node_idx] = 2;
@@ -635,21 +654,18 @@ impl Experiment {
 
     /// The node a user named: an unknown name is refused with one message, naming the file
     /// and the known nodes, whichever command (run, submit, eval, replay) asked.
-    pub fn named_node(&self, name: &str) -> Result<&NodePlan, String> {
-        self.node(name).ok_or_else(|| {
-            let known: Vec<&str> = self.nodes.iter().map(|n| n.decl.name.as_str()).collect();
-            format!(
-                "no node named '{name}' in {}; nodes: {}",
-                self.file.display(),
-                known.join(", ")
-            )
+    pub fn named_node(&self, name: &str) -> Result<&NodePlan, ExperimentError> {
+        self.node(name).ok_or_else(|| ExperimentError::UnknownNode {
+            file: self.file.clone(),
+            name: name.to_string(),
+            known: self.nodes.iter().map(|n| n.decl.name.clone()).collect(),
         })
     }
 
     /// The names of the nodes to evolve, in dependency order: `node` and everything below it,
     /// or every node when no node is named. The runner and the service both ask this, so an
     /// unknown node is refused with the same message either way.
-    pub fn nodes_to_run(&self, node: Option<&str>) -> Result<Vec<String>, String> {
+    pub fn nodes_to_run(&self, node: Option<&str>) -> Result<Vec<String>, ExperimentError> {
         let Some(node) = node else {
             return Ok(self.nodes.iter().map(|n| n.decl.name.clone()).collect());
         };
@@ -684,7 +700,10 @@ impl Experiment {
 
 /// Reads a child from elsewhere: a complete controller (every node has its genes), and for a
 /// run directory's node, one that finished (it has a node summary).
-fn read_fixed_child(child: &ChildDecl, files: &dyn ExternalFiles) -> Result<ControllerFile, String> {
+fn read_fixed_child(
+    child: &ChildDecl,
+    files: &dyn ExternalFiles,
+) -> Result<ControllerFile, String> {
     let paths = child.files();
     let controller_path = &paths[0];
     for path in &paths[1..] {
@@ -858,7 +877,7 @@ fn task_config(
         task.max_cycles = Some(cycles);
     }
     task.validate()
-        .map_err(|message| ("task_config".to_string(), message))?;
+        .map_err(|error| (format!("task_config.{}", error.key), error.message))?;
     Ok(task)
 }
 
@@ -1046,10 +1065,7 @@ runs = 1
         );
         files.insert("main/tl/summary.json".into(), "{}".into());
         let free = ControllerFile::new(NodeSpec::primitive("fw", vec![InputGroup::Ir], 3));
-        files.insert(
-            "controllers/fw.json".into(),
-            free.to_json_pretty().unwrap(),
-        );
+        files.insert("controllers/fw.json".into(), free.to_json_pretty().unwrap());
         let err = error(&files);
         assert!(
             err.contains("node[0].children[0]") && err.contains("has no genome"),
@@ -1061,7 +1077,8 @@ runs = 1
         files.remove("controllers/fw.json");
         let err = error(&files);
         assert!(err.contains("controllers/fw.json: cannot read"), "{err}");
-        let bad = FIXED_CHILDREN.replace(r#"{ file = "controllers/fw.json" }"#, r#"{ flie = "x" }"#);
+        let bad =
+            FIXED_CHILDREN.replace(r#"{ file = "controllers/fw.json" }"#, r#"{ flie = "x" }"#);
         let err = Experiment::parse_with(&bad, Path::new("x.toml"), &files)
             .unwrap_err()
             .to_string();

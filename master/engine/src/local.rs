@@ -15,23 +15,23 @@ use tokio::task::JoinHandle;
 
 /// The evaluator for a batch, from the process's cache (built from the batch's template and
 /// task on first use).
-pub fn evaluator_for(cache: &EvaluatorCache, batch: &Batch) -> Result<Arc<BatchEvaluator>, String> {
+pub fn evaluator_for(
+    cache: &EvaluatorCache,
+    batch: &Batch,
+) -> Result<Arc<BatchEvaluator>, ExecError> {
     let shared = &batch.shared;
-    cache
-        .get_or_build(&shared.template_hash, &shared.task_hash, || {
-            Ok((shared.template.clone(), shared.task.clone()))
-        })
-        .map_err(|e| e.to_string())
+    cache.get_or_build(&shared.template_hash, &shared.task_hash, || {
+        Ok((shared.template.clone(), shared.task.clone()))
+    })
 }
 
 /// Evaluates a whole batch on the calling thread.
 pub fn evaluate_batch(
     evaluator: &BatchEvaluator,
     batch: &Batch,
-) -> Result<Vec<Vec<SampleSummary>>, String> {
+) -> Result<Vec<Vec<SampleSummary>>, ExecError> {
     let genomes: Vec<&[f32]> = batch.genomes.iter().map(|(_, genes)| &genes[..]).collect();
     evaluate_genomes(evaluator, &genomes, &batch.samples, 1, None)
-        .map_err(|e: ExecError| e.to_string())
 }
 
 /// A running pool of in-process workers.
@@ -70,7 +70,9 @@ impl LocalPool {
                         })
                         .await
                         .unwrap_or_else(|join_error| {
-                            Err(format!("evaluation thread failed: {join_error}"))
+                            Err(ExecError::Invalid(format!(
+                                "evaluation thread failed: {join_error}"
+                            )))
                         });
                         match result {
                             Ok(results) => {
@@ -80,7 +82,7 @@ impl LocalPool {
                                     tracing::error!(%error, "local worker result refused");
                                 }
                             }
-                            Err(message) => dispatcher.fail(batch.lease_id, message),
+                            Err(error) => dispatcher.fail(batch.lease_id, error.to_string()),
                         }
                     }
                 })

@@ -153,6 +153,12 @@ pub enum RunError {
         /// Expected.
         expected: String,
     },
+    /// A result file exists but cannot be read.
+    #[error(transparent)]
+    Read(#[from] crate::store::ReadJsonError),
+    /// The experiment has no node of the name asked for.
+    #[error(transparent)]
+    Experiment(#[from] crate::experiment::ExperimentError),
     /// The dispatcher could not evaluate.
     #[error(transparent)]
     Dispatch(#[from] DispatchError),
@@ -168,9 +174,7 @@ pub async fn run_experiment(
     dispatcher: &Dispatcher,
     progress: &dyn Progress,
 ) -> Result<Vec<NodeSummary>, RunError> {
-    let names = experiment
-        .nodes_to_run(settings.overrides.node.as_deref())
-        .map_err(RunError::Invalid)?;
+    let names = experiment.nodes_to_run(settings.overrides.node.as_deref())?;
     let mut summaries = Vec::new();
     for name in names {
         let plan = experiment
@@ -229,9 +233,7 @@ pub fn node_statuses(
     experiment: &Experiment,
     settings: &RunSettings,
 ) -> Result<Vec<NodeStatus>, RunError> {
-    let names = experiment
-        .nodes_to_run(settings.overrides.node.as_deref())
-        .map_err(RunError::Invalid)?;
+    let names = experiment.nodes_to_run(settings.overrides.node.as_deref())?;
     let mut statuses = Vec::new();
     for name in names {
         let plan = experiment
@@ -241,8 +243,7 @@ pub fn node_statuses(
         let generations = settings.overrides.generations_of(plan);
         let node_dir = rundir::node_dir(&settings.out_dir, &name);
         let summary_path = node_dir.join(SUMMARY);
-        let node_summary =
-            read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?;
+        let node_summary = read_json::<NodeSummary>(&summary_path)?;
         let n_variants = u64::from(hevo_sim_core::env::n_variants(plan.task.kind));
         let evaluations_per_generation =
             u64::from(plan.evolution.population) * u64::from(plan.decl.samples);
@@ -259,8 +260,7 @@ pub fn node_statuses(
                 continue;
             }
             let checkpoint = dir.join(CHECKPOINT);
-            let done_generations = read_json::<rundir::CheckpointHeader>(&checkpoint)
-                .map_err(|e| io_error(&checkpoint, e))?
+            let done_generations = read_json::<rundir::CheckpointHeader>(&checkpoint)?
                 .map_or(0, |header| header.generation.min(generations));
             if done_generations > 0 && in_progress.is_none() {
                 in_progress = Some((run, done_generations));
@@ -372,8 +372,7 @@ async fn run_node(
             summary.fingerprint == fingerprint && summary.runs.len() >= runs as usize
         }
     };
-    if let Some(summary) =
-        read_json::<NodeSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
+    if let Some(summary) = read_json::<NodeSummary>(&summary_path)?
         && reusable(&summary)
     {
         // A `--runs` extension stopped after some of its runs finished leaves finished runs the
@@ -453,7 +452,7 @@ fn finished_runs_after(
     let mut unlisted = Vec::new();
     for run in summary.runs.len().. {
         let path = run_dir(node_dir, run as u32).join(SUMMARY);
-        let Some(found) = read_json::<RunSummary>(&path).map_err(|e| io_error(&path, e))? else {
+        let Some(found) = read_json::<RunSummary>(&path)? else {
             break;
         };
         check_fingerprint(&path, &found.fingerprint, &summary.fingerprint)?;
@@ -537,9 +536,7 @@ async fn run_one(
     remove_leftover_temporaries(run_dir).map_err(|e| io_error(run_dir, e))?;
     let summary_path = run_dir.join(SUMMARY);
     let checkpoint_path = run_dir.join(CHECKPOINT);
-    if let Some(summary) =
-        read_json::<RunSummary>(&summary_path).map_err(|e| io_error(&summary_path, e))?
-    {
+    if let Some(summary) = read_json::<RunSummary>(&summary_path)? {
         check_fingerprint(&summary_path, &summary.fingerprint, fingerprint)?;
         // Killed between writing the summary and removing the checkpoint.
         remove_if_present(&checkpoint_path)?;
@@ -550,9 +547,7 @@ async fn run_one(
         .free_node_topology()
         .map(|(_, t)| t.n_genes())
         .unwrap_or(0);
-    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path)
-        .map_err(|e| io_error(&checkpoint_path, e))?
-    {
+    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path)? {
         Some(found) => {
             check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint)?;
             if found.format != CHECKPOINT_FORMAT

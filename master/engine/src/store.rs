@@ -5,7 +5,7 @@
 use serde::Serialize;
 pub use serde::de::DeserializeOwned;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// What marks a temporary file: `write_atomic` writes `<dir>/.<file>.tmp-<pid>` first.
 const TEMPORARY_INFIX: &str = ".tmp-";
@@ -75,15 +75,44 @@ pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Resul
     write_atomic(path, text.as_bytes())
 }
 
+/// A JSON file that exists but cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadJsonError {
+    /// Reading failed.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// It is not the JSON expected.
+    #[error("{path}: malformed JSON: {source}")]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// Where and what.
+        source: serde_json::Error,
+    },
+}
+
 /// Reads a JSON file; `Ok(None)` when it does not exist, an error when it is unreadable or
 /// malformed (never silently ignored: a corrupt checkpoint must be looked at).
-pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<Option<T>, String> {
+pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<Option<T>, ReadJsonError> {
     match std::fs::read_to_string(path) {
-        Ok(text) => serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| format!("malformed JSON: {e}")),
+        Ok(text) => {
+            serde_json::from_str(&text)
+                .map(Some)
+                .map_err(|source| ReadJsonError::Malformed {
+                    path: path.to_path_buf(),
+                    source,
+                })
+        }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(e.to_string()),
+        Err(source) => Err(ReadJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        }),
     }
 }
 
@@ -128,10 +157,10 @@ mod tests {
             None
         );
         std::fs::write(&path, "{").unwrap();
+        let error = read_json::<Vec<i32>>(&path).unwrap_err().to_string();
         assert!(
-            read_json::<Vec<i32>>(&path)
-                .unwrap_err()
-                .contains("malformed")
+            error.starts_with(&format!("{}: malformed JSON", path.display())),
+            "{error}"
         );
         // No temporary files are left behind.
         let leftovers: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();

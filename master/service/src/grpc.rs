@@ -7,9 +7,9 @@
 //! unrelated batch that happens to reuse the id.
 
 use crate::convert::{batch_to_proto, job_info, status_event};
-use hevo_engine::runner::Overrides;
 use crate::jobs::{JobError, JobManager, Submission};
 use hevo_engine::dispatch::{CompleteError, Completion, Dispatcher};
+use hevo_engine::runner::Overrides;
 use hevo_proto::convert as wire;
 use hevo_proto::v1;
 use hevo_proto::v1::job_service_server::JobService;
@@ -287,7 +287,10 @@ impl WorkerService for WorkerApi {
         request: Request<v1::ExtendLeaseRequest>,
     ) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
         let request = request.into_inner();
-        let valid = request.epoch == self.epoch && self.dispatcher.extend(request.lease_id, std::time::Instant::now());
+        let valid = request.epoch == self.epoch
+            && self
+                .dispatcher
+                .extend(request.lease_id, std::time::Instant::now());
         Ok(Response::new(v1::ExtendLeaseResponse { valid }))
     }
 

@@ -342,18 +342,17 @@ impl JobManager {
             }
         };
         let _ = self.sender(&id).send(status_event(&record));
-        let experiment =
-            match Experiment::parse_with(
-                &record.experiment_toml,
-                Path::new(&record.file_name),
-                &record.files,
-            ) {
-                Ok(experiment) => experiment,
-                Err(error) => {
-                    let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
-                    return;
-                }
-            };
+        let experiment = match Experiment::parse_with(
+            &record.experiment_toml,
+            Path::new(&record.file_name),
+            &record.files,
+        ) {
+            Ok(experiment) => experiment,
+            Err(error) => {
+                let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
+                return;
+            }
+        };
         let settings = RunSettings {
             out_dir: job_out_dir(&self.inner.state_dir, &id),
             overrides: record.settings.clone(),
@@ -502,7 +501,11 @@ pub fn validate(
             ),
         ));
     }
-    let files_bytes: usize = submission.files.iter().map(|(k, v)| k.len() + v.len()).sum();
+    let files_bytes: usize = submission
+        .files
+        .iter()
+        .map(|(k, v)| k.len() + v.len())
+        .sum();
     if files_bytes > limits::ATTACHED_FILES_BYTES {
         return Err(invalid(
             "files",
@@ -536,7 +539,7 @@ pub fn validate(
     }
     let names = experiment
         .nodes_to_run(settings.node.as_deref())
-        .map_err(|message| invalid("node", message))?;
+        .map_err(|error| invalid("node", error.to_string()))?;
     let mut plan = Vec::new();
     for name in names {
         let node = experiment

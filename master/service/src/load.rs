@@ -67,8 +67,35 @@ fn template() -> (ControllerFile, TaskConfig) {
     (template, TaskConfig::new(TaskKind::FollowWall))
 }
 
+/// Why the load benchmark did not finish.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The benchmark's own master could not listen.
+    #[error("cannot listen on 127.0.0.1: {0}")]
+    Listen(std::io::Error),
+    /// Fake workers gave up.
+    #[error("{failed} of {workers} fake workers failed; first: {first}")]
+    Workers {
+        /// How many failed.
+        failed: usize,
+        /// How many there were.
+        workers: usize,
+        /// The first one's reason.
+        first: String,
+    },
+}
+
+/// Why one fake worker gave up.
+#[derive(Debug, thiserror::Error)]
+enum FakeWorkerError {
+    #[error(transparent)]
+    Connect(#[from] hevo_proto::client::ConnectError),
+    #[error("{0}")]
+    Refused(String),
+}
+
 /// Runs the load benchmark.
-pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
+pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
     let token = "dispatch-load-benchmark";
     let lease = Duration::from_secs(30);
     let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
@@ -78,8 +105,8 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     let api = WorkerApi::new(dispatcher.clone(), lease, MAX_LEASE_WAIT);
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await
-        .map_err(|e| e.to_string())?;
-    let address = listener.local_addr().map_err(|e| e.to_string())?;
+        .map_err(LoadError::Listen)?;
+    let address = listener.local_addr().map_err(LoadError::Listen)?;
     let (stop, stopped) = tokio::sync::watch::channel(false);
     let server = {
         let mut stopped = stopped.clone();
@@ -161,7 +188,7 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
                 latencies.append(&mut log.latencies);
                 reconnects += log.reconnects;
             }
-            Ok(Err(error)) => failures.push(error),
+            Ok(Err(error)) => failures.push(error.to_string()),
             Err(error) => failures.push(error.to_string()),
         }
     }
@@ -173,12 +200,12 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, String> {
     }
     let _ = stop.send(true);
     let _ = server.await;
-    if let Some(error) = failures.first() {
-        return Err(format!(
-            "{} of {} fake workers failed; first: {error}",
-            failures.len(),
-            config.workers
-        ));
+    if let Some(first) = failures.first() {
+        return Err(LoadError::Workers {
+            failed: failures.len(),
+            workers: config.workers,
+            first: first.clone(),
+        });
     }
     latencies.sort_by(f64::total_cmp);
     let percentile = |p: f64| {
@@ -219,7 +246,7 @@ struct FakeWorkerLog {
 /// time out or be reset, and a real worker retries too.
 async fn connect_with_retry(
     options: &ClientOptions,
-) -> Result<hevo_proto::client::AuthChannel, String> {
+) -> Result<hevo_proto::client::AuthChannel, hevo_proto::client::ConnectError> {
     let mut attempt = 0;
     loop {
         match options.connect().await {
@@ -243,7 +270,7 @@ async fn fake_worker(
     cost: Duration,
     measure_from: Instant,
     end: Instant,
-) -> Result<FakeWorkerLog, String> {
+) -> Result<FakeWorkerLog, FakeWorkerError> {
     let mut log = FakeWorkerLog {
         latencies: Vec::new(),
         reconnects: 0,
@@ -263,11 +290,17 @@ async fn fake_worker(
                 // real worker does, instead of giving up.
                 log.reconnects += 1;
                 if log.reconnects > 20 {
-                    return Err(hevo_proto::client::describe_status(&status));
+                    return Err(FakeWorkerError::Refused(
+                        hevo_proto::client::describe_status(&status),
+                    ));
                 }
                 client = worker_client(connect_with_retry(&options).await?);
             }
-            Err(status) => return Err(hevo_proto::client::describe_status(&status)),
+            Err(status) => {
+                return Err(FakeWorkerError::Refused(
+                    hevo_proto::client::describe_status(&status),
+                ));
+            }
         }
     }
     Ok(log)

@@ -91,7 +91,7 @@ impl NodeResult {
 
 /// [`read_json`], with an error that names the file.
 fn read_named<T: hevo_engine::store::DeserializeOwned>(path: &Path) -> Result<Option<T>, String> {
-    read_json(path).map_err(|e| format!("{}: {e}", path.display()))
+    read_json(path).map_err(|e| e.to_string())
 }
 
 /// A node directory's results: its finished runs (each run's own `summary.json`), the runs

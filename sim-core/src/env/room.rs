@@ -7,6 +7,7 @@
 use crate::rng::SimRng;
 use crate::robot::Pose;
 use crate::scene::{Rect, RectKind};
+use crate::task::{ConfigError, invalid};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -64,35 +65,56 @@ impl Default for RoomConfig {
 
 impl RoomConfig {
     /// Checks ranges; names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let checks = [
             (
                 self.min_side > 0.3 && self.min_side <= self.max_side,
-                "room.min_side must be > 0.3 and <= room.max_side",
+                "room.min_side",
+                "must be > 0.3 and <= room.max_side",
             ),
             (
                 self.obstacle_min_side > 0.0 && self.obstacle_min_side <= self.obstacle_max_side,
-                "room.obstacle_min_side must be > 0 and <= room.obstacle_max_side",
+                "room.obstacle_min_side",
+                "must be > 0 and <= room.obstacle_max_side",
             ),
             (
                 self.exit_width > 0.0 && self.exit_width < self.min_side - 0.2,
-                "room.exit_width must be > 0 and leave 0.1 m of wall either side",
+                "room.exit_width",
+                "must be > 0 and leave 0.1 m of wall either side",
             ),
-            (self.wall_thickness > 0.0, "room.wall_thickness must be > 0"),
-            (self.start_offset >= 0.0, "room.start_offset must be >= 0"),
             (
-                self.obstacle_clearance >= 0.0
-                    && self.start_clearance >= 0.0
-                    && self.exit_clearance >= 0.0,
-                "room clearances must be >= 0",
+                self.wall_thickness > 0.0,
+                "room.wall_thickness",
+                "must be > 0",
+            ),
+            (
+                self.start_offset >= 0.0,
+                "room.start_offset",
+                "must be >= 0",
+            ),
+            (
+                self.obstacle_clearance >= 0.0,
+                "room.obstacle_clearance",
+                "must be >= 0",
+            ),
+            (
+                self.start_clearance >= 0.0,
+                "room.start_clearance",
+                "must be >= 0",
+            ),
+            (
+                self.exit_clearance >= 0.0,
+                "room.exit_clearance",
+                "must be >= 0",
             ),
             (
                 self.exit_corridor_length >= 0.0,
-                "room.exit_corridor_length must be >= 0",
+                "room.exit_corridor_length",
+                "must be >= 0",
             ),
         ];
-        match checks.iter().find(|(ok, _)| !ok) {
-            Some((_, message)) => Err((*message).to_string()),
+        match checks.iter().find(|(ok, _, _)| !ok) {
+            Some((_, key, message)) => Err(invalid(key, (*message).to_string())),
             None => Ok(()),
         }
     }
