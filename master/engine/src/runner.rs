@@ -39,6 +39,18 @@ pub struct Overrides {
 }
 
 impl Overrides {
+    /// Refuses overrides no run can have: no runs, or runs of no generations.
+    pub fn validate(&self) -> Result<(), RunError> {
+        for (flag, value) in [("runs", self.runs), ("generations", self.generations)] {
+            if value == Some(0) {
+                return Err(RunError::Invalid(format!(
+                    "--{flag} must be at least 1, got 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The runs a node gets.
     pub fn runs_of(&self, plan: &NodePlan) -> u32 {
         self.runs.unwrap_or(plan.decl.runs)
@@ -174,6 +186,7 @@ pub async fn run_experiment(
     dispatcher: &Dispatcher,
     progress: &dyn Progress,
 ) -> Result<Vec<NodeSummary>, RunError> {
+    settings.overrides.validate()?;
     let names = experiment.nodes_to_run(settings.overrides.node.as_deref())?;
     let mut summaries = Vec::new();
     for name in names {
@@ -233,6 +246,7 @@ pub fn node_statuses(
     experiment: &Experiment,
     settings: &RunSettings,
 ) -> Result<Vec<NodeStatus>, RunError> {
+    settings.overrides.validate()?;
     let names = experiment.nodes_to_run(settings.overrides.node.as_deref())?;
     let mut statuses = Vec::new();
     for name in names {
