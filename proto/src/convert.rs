@@ -163,7 +163,7 @@ pub fn summary_from_proto(
     })
 }
 
-/// A batch's results, [genome][sample], for the wire.
+/// A batch's results, `[genome][sample]`, for the wire.
 pub fn results_to_proto(results: &[Vec<SampleSummary>]) -> Vec<v1::GenomeResult> {
     results
         .iter()

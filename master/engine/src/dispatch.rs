@@ -252,7 +252,7 @@ impl Dispatcher {
     }
 
     /// Evaluates every genome of the request on every sample; returns the summaries indexed
-    /// [genome][sample]. Waits for workers; never fails because a worker died.
+    /// `[genome][sample]`. Waits for workers; never fails because a worker died.
     pub async fn evaluate(
         &self,
         request: EvaluationRequest,
@@ -507,8 +507,8 @@ impl Dispatcher {
         finish_request(&mut state, request_id, Err(DispatchError::Failed(message)));
     }
 
-    /// A worker returns the summaries of a batch, indexed [genome of the batch][sample of the
-    /// batch]. Results for a lease that expired are still accepted if the batch is not done yet
+    /// A worker returns the summaries of a batch, indexed by the batch's genome, then its
+    /// sample. Results for a lease that expired are still accepted if the batch is not done yet
     /// (evaluation is deterministic, so any copy is right); duplicates are ignored.
     pub fn complete(
         &self,

@@ -90,7 +90,7 @@ impl EvaluatorCache {
 /// What one unit of work gave: its summaries, in sample order.
 type UnitResult = Result<Vec<SampleSummary>, ExecError>;
 
-/// Evaluates every genome on every sample: results indexed [genome][sample]. `threads` > 1
+/// Evaluates every genome on every sample: results indexed `[genome][sample]`. `threads` > 1
 /// spreads the work over scoped threads; `abort` (checked between units) stops early.
 pub fn evaluate_genomes(
     evaluator: &BatchEvaluator,
