@@ -370,8 +370,8 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Fetch(args) => service::fetch(args),
         Command::Cancel(args) => service::cancel(args),
         Command::Report(args) => {
-            let n = hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)
-                .map_err(anyhow::Error::msg)?;
+            let n =
+                hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;
             crate::outln!("{n} node(s) reported -> {}", args.out.display());
             Ok(())
         }

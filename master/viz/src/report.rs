@@ -90,15 +90,43 @@ impl NodeResult {
 }
 
 /// [`read_json`], with an error that names the file.
-fn read_named<T: hevo_engine::store::DeserializeOwned>(path: &Path) -> Result<Option<T>, String> {
-    read_json(path).map_err(|e| e.to_string())
+fn read_named<T: hevo_engine::store::DeserializeOwned>(
+    path: &Path,
+) -> Result<Option<T>, ReportError> {
+    Ok(read_json(path)?)
+}
+
+/// Why a report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// A result file exists but cannot be read.
+    #[error(transparent)]
+    Read(#[from] hevo_engine::store::ReadJsonError),
+    /// A fitness log cannot be read.
+    #[error(transparent)]
+    RunDir(#[from] hevo_engine::rundir::RunDirError),
+    /// A directory cannot be listed, or the report or a picture cannot be written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
+    move |source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// A node directory's results: its finished runs (each run's own `summary.json`), the runs
 /// still under way (a checkpoint, no summary yet), and whether the node is complete (it has a
 /// node summary and no run under way, so a node whose runs are being extended with `--runs`
 /// shows its new runs as they finish, and as not complete until they all have).
-fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
+fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -144,9 +172,9 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, String> {
 }
 
 /// Every node found in `runs_dir`, in name order.
-fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, String> {
+fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, ReportError> {
     let entries =
-        std::fs::read_dir(runs_dir).map_err(|e| format!("{}: {e}", runs_dir.display()))?;
+        std::fs::read_dir(runs_dir).map_err(io_error(runs_dir))?;
     let mut nodes = Vec::new();
     for dir in sorted_subdirectories(entries) {
         if let Some(node) = load_node(&dir)? {
@@ -328,7 +356,7 @@ pub fn write_report(
     runs_dirs: &[PathBuf],
     ablation_dirs: &[PathBuf],
     out_file: &Path,
-) -> Result<usize, String> {
+) -> Result<usize, ReportError> {
     let mut found: Vec<NodeResult> = Vec::new();
     for runs_dir in runs_dirs {
         found.extend(load_nodes(runs_dir)?);
@@ -379,7 +407,7 @@ pub fn write_report(
         md,
         "What the paper leaves open (sensor model details, the primitives' corridors and fitness, \
          goal tests), and what was changed when a result fell short of the paper and why, is in \
-         ARCHITECTURE.md, section \"Model decisions the paper leaves open\".\n"
+         the decision records in docs/decisions/ (indexed in docs/decisions/README.md).\n"
     );
     let _ = writeln!(
         md,
@@ -497,7 +525,7 @@ pub fn write_report(
             }
         }
     }
-    write_atomic(out_file, md.as_bytes()).map_err(|e| format!("{}: {e}", out_file.display()))?;
+    write_atomic(out_file, md.as_bytes()).map_err(io_error(out_file))?;
     Ok(nodes.len() + ablations.iter().map(|(_, a)| a.len()).sum::<usize>())
 }
 
@@ -510,14 +538,14 @@ fn fitness_picture(
     title: &str,
     pictures: &Path,
     base: &Path,
-) -> Result<Option<String>, String> {
-    let logs = crate::read_run_logs(&node.dir).map_err(|e| e.to_string())?;
+) -> Result<Option<String>, ReportError> {
+    let logs = crate::read_run_logs(&node.dir)?;
     if logs.is_empty() {
         return Ok(None);
     }
     let svg = crate::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
     let file = pictures.join(format!("{stem}-fitness.svg"));
-    write_atomic(&file, svg.as_bytes()).map_err(|e| format!("{}: {e}", file.display()))?;
+    write_atomic(&file, svg.as_bytes()).map_err(io_error(&file))?;
     let relative = file.strip_prefix(base).unwrap_or(&file);
     Ok(Some(format!("![{title} fitness]({})", relative.display())))
 }
