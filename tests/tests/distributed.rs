@@ -27,57 +27,8 @@ const LONG: Duration = Duration::from_secs(180);
 /// fixed sub-controllers and every arbitrator genome scores differently (a genome given the
 /// wrong results would show). The arbitrator's samples run their full 1000 cycles (collisions
 /// do not end them), so a generation takes long enough to kill things in the middle of it.
-const EXPERIMENT: &str = r#"
-[experiment]
-name = "e2e"
-seed = 5
 
-[evolution]
-post_evaluation_samples = 20
-
-[[node]]
-name = "fw"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "follow_wall"
-samples = 4
-generations = 3
-runs = 2
-[node.evolution]
-population = 8
-elites = 2
-
-[[node]]
-name = "tl"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "turn_left"
-samples = 4
-generations = 3
-runs = 2
-[node.evolution]
-population = 8
-elites = 2
-
-[[node]]
-name = "top"
-kind = "arbitrator"
-inputs = ["ir"]
-hidden = 4
-children = ["fw", "tl"]
-task = "exit_room"
-samples = 10
-cycles = 1000
-generations = 8
-runs = 2
-[node.evolution]
-population = 20
-elites = 4
-[node.task_config]
-end_on_collision = false
-"#;
+const EXPERIMENT: &str = include_str!("../fixtures/three_nodes.toml");
 
 /// The tests that run evolution take turns: two cores are not enough for two masters and four
 /// workers at once, and a crowded machine makes kill timings meaningless.

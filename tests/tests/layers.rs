@@ -117,15 +117,7 @@ fn dependency_names(package: &str) -> BTreeSet<String> {
     let output = Command::new(cargo)
         .current_dir(hevo_tests::repo_root())
         .args([
-            "tree",
-            "--locked",
-            "-p",
-            package,
-            "-e",
-            "normal",
-            "--prefix",
-            "none",
-            "--format",
+            "tree", "--locked", "-p", package, "-e", "normal", "--prefix", "none", "--format",
             "{p}",
         ])
         .output()
@@ -170,11 +162,15 @@ fn no_layer_depends_on_what_it_may_not() {
 #[test]
 fn the_listing_sees_transitive_dependencies() {
     let cli = dependency_names("hevo-cli");
-    for expected in NETWORK_AND_COMMAND_LINE
-        .iter()
-        .chain(&["hevo-engine", "hevo-sim-core", "tokio"])
+    for expected in
+        NETWORK_AND_COMMAND_LINE
+            .iter()
+            .chain(&["hevo-engine", "hevo-sim-core", "tokio"])
     {
-        assert!(cli.contains(*expected), "hevo-cli without {expected}: {cli:?}");
+        assert!(
+            cli.contains(*expected),
+            "hevo-cli without {expected}: {cli:?}"
+        );
     }
     // Through the engine only, never named by hevo-viz itself.
     assert!(dependency_names("hevo-viz").contains("rapier2d"));
@@ -217,6 +213,9 @@ fn sim_core_does_no_io() {
             }
         }
     }
-    assert!(n_files > 10, "only {n_files} sources found under sim-core/src");
+    assert!(
+        n_files > 10,
+        "only {n_files} sources found under sim-core/src"
+    );
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

@@ -11,26 +11,8 @@ const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
 
 /// A small but real experiment: an exit-room primitive (1000-cycle samples make each
 /// generation take long enough to kill the process in the middle of a run).
-const SMALL: &str = r#"
-[experiment]
-name = "small"
-seed = 7
 
-[evolution]
-population = 12
-elites = 3
-post_evaluation_samples = 6
-
-[[node]]
-name = "exit_room"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 4
-task = "exit_room"
-samples = 6
-generations = 10
-runs = 2
-"#;
+const SMALL: &str = include_str!("../../../tests/fixtures/exit_room_small.toml");
 
 fn write_experiment(dir: &Path, text: &str) -> PathBuf {
     let path = dir.join("small.toml");
@@ -211,38 +193,8 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
 }
 
 /// Two levels: a maze arbitrator over one primitive, small enough to run in seconds.
-const TWO_LEVELS: &str = r#"
-[experiment]
-name = "two-levels"
-seed = 11
 
-[evolution]
-population = 6
-elites = 2
-post_evaluation_samples = 2
-
-[[node]]
-name = "follow_wall"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 2
-task = "follow_wall"
-samples = 2
-generations = 2
-runs = 1
-
-[[node]]
-name = "solve_maze"
-kind = "arbitrator"
-inputs = ["ir", "light"]
-hidden = 2
-children = ["follow_wall"]
-task = "solve_maze"
-samples = 2
-cycles = 200
-generations = 2
-runs = 1
-"#;
+const TWO_LEVELS: &str = include_str!("../../../tests/fixtures/two_levels.toml");
 
 #[test]
 fn more_runs_of_one_node_keep_its_children_and_are_never_thrown_away() {

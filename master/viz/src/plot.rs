@@ -4,7 +4,7 @@
 //! name the line and column, so a damaged log is easy to find. Runs may have different
 //! lengths: a run still in progress simply ends earlier.
 
-use crate::svg::{INK, PALETTE, SvgDocument, Tag, num_with};
+use crate::svg::{INK, PALETTE, SvgDocument, Tag, num_with, text_width};
 use hevo_engine::rundir::{self, FitnessRow, RunDirError};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -117,11 +117,6 @@ fn tick_label(value: f64, step: f64) -> String {
     } else {
         text
     }
-}
-
-/// Approximate text width for layout: DejaVu Sans averages about 0.6 em per character.
-fn text_width(text: &str, font_size: f64) -> f64 {
-    text.chars().count() as f64 * font_size * 0.6
 }
 
 /// Across-run statistics of the best fitness at one generation.

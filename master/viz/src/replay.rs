@@ -6,7 +6,7 @@
 //! only a recorded [`Trace`]; the sensor cones come from the caller, so drawing needs no
 //! simulator.
 
-use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour};
+use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour, text_width};
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scene::RectKind;
 use hevo_sim_core::{Ending, TaskKind, Trace};
@@ -222,11 +222,6 @@ fn leaf_colours(names: &[String], used: &[Option<u16>]) -> BTreeMap<Option<u16>,
         colours.insert(node, colour);
     }
     colours
-}
-
-/// Approximate text width for layout: DejaVu Sans averages about 0.6 em per character.
-fn text_width(text: &str, font_size: f64) -> f64 {
-    text.chars().count() as f64 * font_size * 0.6
 }
 
 /// A text label drawn over the scene: a white halo keeps it legible over walls and paths.

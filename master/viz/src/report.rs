@@ -173,8 +173,7 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
 
 /// Every node found in `runs_dir`, in name order.
 fn load_nodes(runs_dir: &Path) -> Result<Vec<NodeResult>, ReportError> {
-    let entries =
-        std::fs::read_dir(runs_dir).map_err(io_error(runs_dir))?;
+    let entries = std::fs::read_dir(runs_dir).map_err(io_error(runs_dir))?;
     let mut nodes = Vec::new();
     for dir in sorted_subdirectories(entries) {
         if let Some(node) = load_node(&dir)? {
