@@ -64,8 +64,10 @@ impl TaskKind {
         TaskKind::ALL.into_iter().find(|kind| kind.name() == name)
     }
 
-    /// The paper's cycle limit, or hevo's choice for the corridor primitives (three times
-    /// the time the longest corridor needs at full speed).
+    /// The paper's cycle limit, or hevo's choice for the corridor primitives: 400 cycles (40 s),
+    /// about twice (1.9 times) the 21 s the longest default corridor needs at the default full
+    /// speed (2.1 m from the first cell's centre to the last's, 8 cells straight or 4 + 4 with
+    /// a turn, at v_max 0.1 m/s; see `docs/decisions/0005-corridor-fitness.md`).
     pub fn default_max_cycles(self) -> u32 {
         match self {
             TaskKind::ExitRoom | TaskKind::SolveMaze | TaskKind::ReturnRoom => 1000,
@@ -108,9 +110,9 @@ pub struct CorridorConfig {
     /// corridor than the centre of its first cell. An arbitrator activates a primitive, freshly
     /// reset, wherever the robot happens to be, often beside the opening it must take; a turning
     /// primitive that only ever started a whole cell or more before its junction never learns
-    /// to turn from there (see ARCHITECTURE.md). The turning tasks use one cell, 0.30 m, so
-    /// starts cover every distance up to the junction's centre; absent means 0, which leaves
-    /// the other tasks' draws and content hashes unchanged.
+    /// to turn from there (see `docs/decisions/0016-turn-starts-up-to-the-junction.md`). The
+    /// turning tasks use one cell, 0.30 m, so starts cover every distance up to the junction's
+    /// centre; absent means 0, which leaves the other tasks' draws and content hashes unchanged.
     #[serde(skip_serializing_if = "is_zero")]
     pub start_advance: f32,
 }
@@ -165,8 +167,10 @@ pub struct TaskConfig {
     pub end_on_collision: bool,
     /// Rescue only: whether entering a maze cell off the teammate's path ends the sample, as a
     /// wrong branch ends a solve-maze sample. Off by default: the paper does not say, and a
-    /// rescuer may turn round and search on (see ARCHITECTURE.md, "Goals"). Left out of the
-    /// serialised task when off, so existing task hashes and run fingerprints stay valid.
+    /// rescuer may turn round and search on (see
+    /// `docs/decisions/0006-goals-and-wrong-branches.md`; the ablation with it on is
+    /// `docs/decisions/0020-rescue-wrong-branch-ablation.md`). Left out of the serialised task
+    /// when off, so existing task hashes and run fingerprints stay valid.
     #[serde(default, skip_serializing_if = "is_false")]
     pub end_on_wrong_branch: bool,
     /// Rescue only: whether a solved sample's derived fitness f3 also earns the time bonus

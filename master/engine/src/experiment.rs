@@ -104,7 +104,8 @@ pub struct EvolutionParams {
 }
 
 /// How the samples of a generation meet a task's light configurations (or start branches). The
-/// paper says only that the samples' initial conditions vary; see ARCHITECTURE.md.
+/// paper says only that the samples' initial conditions vary; see
+/// `docs/decisions/0019-training-variants-equal-shares.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TrainingVariants {
@@ -212,8 +213,11 @@ pub struct NodeDecl {
     /// Overrides of the experiment's `[evolution]` parameters for this node.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evolution: Option<EvolutionOverrides>,
-    /// Overrides of the task's configuration (robot, ir, light, room, corridor, start,
-    /// end_on_collision), as in sim-core's `TaskConfig`.
+    /// Overrides of the task's configuration, as in sim-core's `TaskConfig`: the sub-tables
+    /// robot, ir, light, room, corridor and start, and the top-level keys `max_cycles` (the
+    /// node's `cycles` wins when both are set), `end_on_collision`, and the task-specific flags
+    /// `end_on_wrong_branch`, `rescue_time_bonus` (rescue only) and `wrong_branch_at_end_only`
+    /// (solve maze and return to room only). Every key is listed in `docs/experiment-file.md`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub task_config: Option<toml::Table>,
 }

@@ -1,20 +1,33 @@
 //! The infrared proximity sensor model. Given the distance from one of the four IR sensors to
-//! the nearest surface in its cone (the world computes it), it draws a raw reading from the
-//! measured e-puck calibration curves (`data/epuck-ir-calibration.csv`: two robots, four
-//! sensors each, mean and standard deviation of the raw value at 0-12 cm), maps it to a network
-//! input in [0, 1] and applies the sample's fixed offset noise.
+//! the nearest surface in its cone (the world computes it), it reads the measured e-puck
+//! calibration curves (`data/epuck-ir-calibration.csv`: two robots, four sensors each, mean and
+//! standard deviation of the raw value at 0-12 cm), maps the reading to a network input in
+//! [0, 1] and applies the sample's fixed offset noise.
 //!
-//! Mapping from raw value to input: for the curve that models the sensor,
-//! `input = clamp((raw - floor) / (ceil - floor), 0, 1)`, where `ceil` is that curve's mean at
-//! contact (0 cm) and `floor` its mean at the table's farthest distance (12 cm). The spec asks
-//! for "1 at contact, 0 at 12 cm or beyond"; normalising each curve by its own end points does
-//! exactly that on average whatever the sensor's gain, and the measured noise around those end
-//! points is lost in the clamp. Distances beyond 12 cm, and no surface in the cone at all, use
-//! the 12 cm row, so such a sensor reads (noisy) zero.
+//! The default reading model ([`IrMapping::AverageTable`], model version 4) is that of
+//! JBotEvolver's `EpuckIRSensor`, the paper's simulator. With nothing in the cone, or the
+//! nearest surface 12 cm away or more, the input is exactly 0 and no noise is drawn. Nearer, a
+//! raw value is drawn from the sensor's own curve, mean(d) + std(d) N(0, 1) (interpolated
+//! linearly between table rows), turned back into a distance d' through the average of the 8
+//! measured curves (its means made non-increasing with distance), as a robot calibrated once
+//! with the average table would, and mapped to `1 - d' / 12 cm`; the offset noise then
+//! multiplies it by `1 + offset` and it is clamped to [0, 1]. A sensor whose own curve differs
+//! from the average therefore reads systematically off, and a wall 8-9 cm away reads about
+//! 0.2-0.3 on most curves.
+//!
+//! Two alternatives stay selectable as `ir.mapping`, for comparison with earlier models:
+//! `linear_distance` (model 3: as the default, after a baseline correction that moves each
+//! sensor's empty reading plus four noise standard deviations onto the average curve's) and
+//! `linear_raw` (model 1: `input = clamp((raw - floor) / (ceil - floor), 0, 1)`, where `ceil`
+//! is the curve's mean at contact and `floor` its mean at 12 cm). With both, a surface 12 cm
+//! away or more, and an empty cone, read the curve's 12 cm row, so such a sensor reads a noisy
+//! value near 0 (under `linear_distance` exactly 0 in 99.997 % of cycles). See
+//! `docs/model.md`, section 3.1, and `docs/decisions/0013-ir-reading-average-table.md`.
 //!
 //! The per-sample choices (which measured curve models each sensor, and its offset noise) live
 //! in [`IrSensorSetup`], drawn once per sample from the sample's sensor-setup stream; the
-//! per-cycle read only draws one standard normal from the noise stream.
+//! per-cycle read draws at most one standard normal from the noise stream (none when the
+//! default mapping reads 0 for want of a surface within 12 cm).
 
 use std::sync::OnceLock;
 
@@ -93,8 +106,9 @@ pub enum IrMapping {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IrConfig {
-    /// How far from the robot's body a sensor senses, metres. Beyond 12 cm the reading is the
-    /// calibration's farthest row anyway; the world uses this and `cone_deg` for geometry.
+    /// How far from the robot's body a sensor senses, metres. Beyond 12 cm a sensor reads 0
+    /// anyway (the alternative mappings read the calibration's farthest row); the world uses
+    /// this and `cone_deg` for geometry.
     pub range_m: f32,
     /// Opening of each sensor's cone, degrees.
     pub cone_deg: f32,
@@ -316,7 +330,8 @@ impl IrModel {
     /// One cycle's input of IR sensor `sensor_index` (IR input order) with the nearest surface
     /// in its cone at `distance_m` (`None`: nothing within range): a raw reading drawn from the
     /// sensor's curve, mapped to [0, 1], multiplied by the sample's fixed `1 + offset` and
-    /// clamped to [0, 1]. An out-of-range sensor index reads 0 and draws nothing.
+    /// clamped to [0, 1]. With [`IrMapping::AverageTable`], nothing within 12 cm reads 0 and
+    /// draws nothing. An out-of-range sensor index reads 0 and draws nothing.
     #[inline]
     pub fn read(
         &self,
