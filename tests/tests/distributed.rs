@@ -27,7 +27,6 @@ const LONG: Duration = Duration::from_secs(180);
 /// fixed sub-controllers and every arbitrator genome scores differently (a genome given the
 /// wrong results would show). The arbitrator's samples run their full 1000 cycles (collisions
 /// do not end them), so a generation takes long enough to kill things in the middle of it.
-
 const EXPERIMENT: &str = include_str!("../fixtures/three_nodes.toml");
 
 /// The tests that run evolution take turns: two cores are not enough for two masters and four

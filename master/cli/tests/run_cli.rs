@@ -11,7 +11,6 @@ const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
 
 /// A small but real experiment: an exit-room primitive (1000-cycle samples make each
 /// generation take long enough to kill the process in the middle of a run).
-
 const SMALL: &str = include_str!("../../../tests/fixtures/exit_room_small.toml");
 
 fn write_experiment(dir: &Path, text: &str) -> PathBuf {
@@ -193,7 +192,6 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
 }
 
 /// Two levels: a maze arbitrator over one primitive, small enough to run in seconds.
-
 const TWO_LEVELS: &str = include_str!("../../../tests/fixtures/two_levels.toml");
 
 #[test]
