@@ -298,15 +298,14 @@ impl SvgDocument {
     }
 }
 
-/// A minimal reader of the SVG this module writes, for the tests of every picture: it checks
-/// that tags are balanced and well nested and that attributes are quoted, and returns each
-/// element with its attributes and direct text.
-
 /// Approximate text width for layout: DejaVu Sans averages about 0.6 em per character.
 pub fn text_width(text: &str, font_size: f64) -> f64 {
     text.chars().count() as f64 * font_size * 0.6
 }
 
+/// A minimal reader of the SVG this module writes, for the tests of every picture: it checks
+/// that tags are balanced and well nested and that attributes are quoted, and returns each
+/// element with its attributes and direct text.
 #[cfg(test)]
 pub(crate) mod read_back {
     use std::collections::HashMap;
