@@ -119,6 +119,91 @@ pub struct SampleSummary {
     pub node_use: NodeUse,
 }
 
+impl SampleSummary {
+    /// Checks that this summary is one the task could produce for `sample` on a controller
+    /// of `n_nodes` nodes: every field in its range, and the fields consistent with each other.
+    /// A summary that comes from elsewhere (a remote worker) is believed only after this.
+    pub fn check(&self, task: &TaskConfig, n_nodes: usize, sample: &Sample) -> Result<(), String> {
+        let (low, high) = task.fitness_range();
+        if !(self.fitness.is_finite() && (low..=high).contains(&self.fitness)) {
+            return Err(format!(
+                "fitness {} is outside the task's range [{low}, {high}]",
+                self.fitness
+            ));
+        }
+        let max_cycles = task.max_cycles();
+        if self.cycles > max_cycles {
+            return Err(format!(
+                "cycles {} exceeds the task's limit {max_cycles}",
+                self.cycles
+            ));
+        }
+        let max_stage = task.kind.max_stage();
+        if self.stage > max_stage || (self.solved && self.stage != max_stage) {
+            return Err(format!(
+                "stage {} does not fit (solved: {}, the task's last stage is {max_stage})",
+                self.stage, self.solved
+            ));
+        }
+        let n_variants = crate::env::reported_variants(task.kind);
+        if self.variant >= n_variants {
+            return Err(format!(
+                "variant {} is out of range: the task has {n_variants}",
+                self.variant
+            ));
+        }
+        // Only a task with variants to ask for answers the one asked for (the turning tasks
+        // report their corridor's shape, drawn whatever the sample says).
+        if let Some(asked) = sample.variant
+            && crate::env::n_variants(task.kind) > 1
+            && asked != self.variant
+        {
+            return Err(format!(
+                "variant {} answers a sample of variant {asked}",
+                self.variant
+            ));
+        }
+        let choices = &self.sub_task_choices;
+        if task.kind != crate::TaskKind::Rescue && *choices != SubTaskChoices::default() {
+            return Err("sub-task choices for a task without sub-tasks".into());
+        }
+        if choices.cycles.iter().map(|&c| u64::from(c)).sum::<u64>() > u64::from(self.cycles)
+            || choices
+                .correct
+                .iter()
+                .zip(&choices.cycles)
+                .any(|(c, n)| c > n)
+        {
+            return Err(format!(
+                "sub-task choices {choices:?} do not fit {} cycles",
+                self.cycles
+            ));
+        }
+        let node_use = &self.node_use;
+        if !node_use.active_cycles.is_empty() || !node_use.activations.is_empty() {
+            if node_use.active_cycles.len() != n_nodes || node_use.activations.len() != n_nodes {
+                return Err(format!(
+                    "node use for {} and {} nodes, the controller has {n_nodes}",
+                    node_use.active_cycles.len(),
+                    node_use.activations.len()
+                ));
+            }
+            let consistent = node_use
+                .active_cycles
+                .iter()
+                .zip(&node_use.activations)
+                .all(|(&active, &activations)| active <= self.cycles && activations <= active);
+            if !consistent {
+                return Err(format!(
+                    "node use {node_use:?} does not fit {} cycles",
+                    self.cycles
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl From<&Outcome> for SampleSummary {
     fn from(outcome: &Outcome) -> SampleSummary {
         SampleSummary {
@@ -154,4 +239,117 @@ impl BatchEvaluator {
 pub fn task_content_hash(task: &TaskConfig) -> String {
     let json = serde_json::to_string(task).unwrap_or_default();
     crate::hash::fnv1a_hex(json.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::TaskKind;
+    use crate::controller::NodeSpec;
+    use crate::frame::InputGroup;
+
+    /// A two-level tree whose root sees every input group, so one template fits every task.
+    fn template() -> ControllerFile {
+        let inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+        let child = |name: &str| {
+            let spec = NodeSpec::primitive(name, vec![InputGroup::Ir], 2);
+            let n = spec.topology().n_genes();
+            spec.with_genome((0..n).map(|i| (i % 7) as f32 - 3.0).collect())
+        };
+        ControllerFile::new(NodeSpec::arbitrator(
+            "root",
+            inputs,
+            3,
+            vec![child("a"), child("b")],
+        ))
+    }
+
+    /// `check` must never refuse what the simulator itself produces: every task, random
+    /// genomes, samples with and without a fixed variant.
+    #[test]
+    fn every_real_summary_passes_its_check() {
+        for kind in TaskKind::ALL {
+            let task = TaskConfig::new(kind);
+            let evaluator = BatchEvaluator::new(template(), task.clone()).unwrap();
+            let n_nodes = template().node_paths().len();
+            let n_genes = evaluator.n_free_genes();
+            for genome_idx in 0..4u32 {
+                let genes: Vec<f32> = (0..n_genes)
+                    .map(|i| ((i as u32 * 31 + genome_idx * 17) % 21) as f32 - 10.0)
+                    .collect();
+                let fixed = crate::env::n_variants(kind) - 1;
+                let samples = [
+                    Sample::seeded(u64::from(genome_idx)),
+                    Sample {
+                        seed: 99,
+                        variant: Some(fixed),
+                    },
+                ];
+                let summaries = evaluator
+                    .evaluate_summaries(Some(&genes), &samples)
+                    .unwrap();
+                for (summary, sample) in summaries.iter().zip(&samples) {
+                    assert_eq!(
+                        summary.check(&task, n_nodes, sample),
+                        Ok(()),
+                        "{} {summary:?}",
+                        kind.name()
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn impossible_summaries_are_named() {
+        let task = TaskConfig::new(TaskKind::SolveMaze);
+        let sample = Sample {
+            seed: 1,
+            variant: Some(2),
+        };
+        let good = SampleSummary {
+            fitness: 1.5,
+            solved: true,
+            stage: 1,
+            variant: 2,
+            cycles: 500,
+            ..SampleSummary::default()
+        };
+        assert_eq!(good.check(&task, 4, &sample), Ok(()));
+        let cases: [(fn(&mut SampleSummary), &str); 7] = [
+            (|s| s.fitness = 2.5, "fitness 2.5 is outside"),
+            (|s| s.fitness = f32::NAN, "fitness NaN"),
+            (|s| s.cycles = 1001, "cycles 1001 exceeds"),
+            (|s| s.stage = 0, "stage 0 does not fit"),
+            (|s| s.variant = 3, "variant 3 answers a sample of variant 2"),
+            (|s| s.variant = 4, "variant 4 is out of range"),
+            (
+                |s| s.sub_task_choices.cycles = [1, 0, 0],
+                "sub-task choices for a task without",
+            ),
+        ];
+        for (spoil, expected) in cases {
+            let mut summary = good.clone();
+            spoil(&mut summary);
+            let error = summary.check(&task, 4, &sample).unwrap_err();
+            assert!(error.starts_with(expected), "{error}");
+        }
+        let mut summary = good.clone();
+        summary.node_use = NodeUse {
+            active_cycles: vec![500, 10, 490],
+            activations: vec![1, 11, 1],
+        };
+        assert!(
+            summary
+                .check(&task, 3, &sample)
+                .unwrap_err()
+                .contains("does not fit")
+        );
+        assert!(
+            summary
+                .check(&task, 4, &sample)
+                .unwrap_err()
+                .contains("the controller has 4")
+        );
+    }
 }

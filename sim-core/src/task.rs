@@ -56,6 +56,12 @@ impl TaskKind {
         }
     }
 
+    /// The last stage a sample can reach: 3 in the rescue (out of the room, at the teammate,
+    /// back), else 1 (solved).
+    pub fn max_stage(self) -> u8 {
+        if self == TaskKind::Rescue { 3 } else { 1 }
+    }
+
     /// Parses a task name (also accepts `maze_single`).
     pub fn from_name(name: &str) -> Option<TaskKind> {
         if name == "maze_single" {
@@ -257,6 +263,18 @@ impl TaskConfig {
     pub fn max_cycles(&self) -> u32 {
         self.max_cycles
             .unwrap_or_else(|| self.kind.default_max_cycles())
+    }
+
+    /// The lowest and highest fitness a sample of this task can score: f1 is 5 plus the time
+    /// bonus when solved, else a share of the way to the exit; f2 and the corridor fitness 1
+    /// plus the time bonus, else a share of the progress; f3 up to one per sub-task, plus the
+    /// time bonus when asked for.
+    pub fn fitness_range(&self) -> (f32, f32) {
+        match self.kind {
+            TaskKind::ExitRoom => (0.0, 6.0),
+            TaskKind::Rescue => (0.0, if self.rescue_time_bonus { 4.0 } else { 3.0 }),
+            _ => (0.0, 2.0),
+        }
     }
 
     /// How far around a grid cell the scene must list solids: the body, the IR range and a

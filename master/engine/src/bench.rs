@@ -5,7 +5,7 @@
 
 use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
 use crate::local::LocalPool;
-use hevo_sim_core::batch::{BatchEvaluator, task_content_hash};
+use hevo_sim_core::batch::BatchEvaluator;
 use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::rng::SimRng;
@@ -217,12 +217,7 @@ pub async fn pipeline(
     // measures per-sample set-up rather than the pipeline an evolution run spends its time in.
     // The same work in both modes also makes pipeline / simulator the pipeline's efficiency.
     task.end_on_collision = false;
-    let shared = Arc::new(RequestShared {
-        template_hash: template.content_hash(),
-        task_hash: task_content_hash(&task),
-        template,
-        task,
-    });
+    let shared = Arc::new(RequestShared::new(template, task));
     let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
         expected_workers: threads.max(1),
         ..DispatchConfig::default()

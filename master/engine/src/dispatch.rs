@@ -2,9 +2,12 @@
 //! request (genomes x samples of one generation); it splits the request into batches sized so
 //! that every worker stays busy, queues them per job, and leases them to workers that ask,
 //! round-robin across jobs so concurrent jobs share the workers fairly. Every lease has a
-//! deadline: a batch whose worker dies or stalls is leased again, and whichever copy of a result
-//! arrives first is kept while late duplicates are ignored. Results are validated before they
-//! are accepted, so a broken worker cannot corrupt a job.
+//! deadline, renewed by heartbeats up to a maximum lifetime: a batch whose worker dies, stalls
+//! or never finishes is leased again. A lease belongs to the worker it was given to: only that
+//! worker can extend, complete, release or fail it, so a result for anything but a live lease
+//! of one's own changes nothing. Results are checked value by value against the batch they
+//! answer before they are accepted, so a broken or hostile worker cannot corrupt a job. Batches
+//! are sized so that neither a batch nor its results outgrow a message.
 //!
 //! In-process workers (local mode) and remote gRPC workers use the same `lease` / `complete`
 //! calls, so local mode runs exactly the service's path.
@@ -34,6 +37,31 @@ pub struct RequestShared {
     pub task: TaskConfig,
     /// `task_content_hash(task)`.
     pub task_hash: String,
+    /// Nodes of the template's tree (what a result's node use must cover).
+    pub n_nodes: usize,
+    /// Genes of the free node (0 for a complete controller).
+    pub n_genes: usize,
+    /// Bytes of the template's and the task's JSON, which a batch carries to a worker that
+    /// has not cached them.
+    pub text_bytes: usize,
+}
+
+impl RequestShared {
+    /// The template and task with their content hashes and sizes.
+    pub fn new(template: ControllerFile, task: TaskConfig) -> RequestShared {
+        RequestShared {
+            template_hash: template.content_hash(),
+            task_hash: hevo_sim_core::batch::task_content_hash(&task),
+            n_nodes: template.node_paths().len(),
+            n_genes: template
+                .free_node_topology()
+                .map_or(0, |(_, topology)| topology.n_genes()),
+            text_bytes: serde_json::to_string(&template).map_or(0, |text| text.len())
+                + serde_json::to_string(&task).map_or(0, |text| text.len()),
+            template,
+            task,
+        }
+    }
 }
 
 /// One generation's (or one post-evaluation's) work.
@@ -105,19 +133,33 @@ pub enum DispatchError {
     ShuttingDown,
 }
 
-/// What happened to a returned result.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Completion {
-    /// Accepted and recorded.
-    Accepted,
-    /// The batch was already complete (a late duplicate) or its job is gone: ignored.
-    Ignored,
+/// Why a worker's call about a lease was refused. Nothing changed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LeaseError {
+    /// The lease is not live: it never existed, expired, was revoked, or its batch finished
+    /// or was cancelled.
+    #[error("lease {0} is not live")]
+    NotLive(u64),
+    /// The lease is held by another worker.
+    #[error("lease {0} is held by another worker")]
+    NotYours(u64),
+    /// The lease is for another batch.
+    #[error("lease {lease_id} is for batch {leased}, not batch {named}")]
+    OtherBatch {
+        /// The lease.
+        lease_id: u64,
+        /// Its batch.
+        leased: u64,
+        /// The batch the call named.
+        named: u64,
+    },
 }
 
 /// Why a returned result was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CompleteError {
-    /// The result does not have the batch's shape or has non-finite values.
+    /// The result does not fit the batch (shape, or a value no evaluation could give): the
+    /// batch is leased again.
     #[error("malformed result for batch {batch_id}: {message}")]
     Malformed {
         /// The batch.
@@ -125,9 +167,9 @@ pub enum CompleteError {
         /// What is wrong.
         message: String,
     },
-    /// No such lease was ever given.
-    #[error("unknown lease {0}")]
-    UnknownLease(u64),
+    /// Not a live lease of the caller's: nothing changed.
+    #[error(transparent)]
+    Lease(#[from] LeaseError),
 }
 
 /// Tuning.
@@ -135,6 +177,12 @@ pub enum CompleteError {
 pub struct DispatchConfig {
     /// How long a lease lasts without a heartbeat.
     pub lease_timeout: Duration,
+    /// How long a lease may last at all, heartbeats or not: a worker that heartbeats but never
+    /// returns its batch loses it then, and the batch goes to another.
+    pub max_lease_lifetime: Duration,
+    /// The most bytes a batch, or a batch's results, may take on the wire (estimated
+    /// generously); requests are cut finer where they would be larger.
+    pub max_batch_bytes: usize,
     /// Batches per active worker a request is split into (more: better balance, more overhead).
     pub batches_per_worker: usize,
     /// Workers that asked for work within this window count as active.
@@ -147,6 +195,8 @@ impl Default for DispatchConfig {
     fn default() -> Self {
         DispatchConfig {
             lease_timeout: Duration::from_secs(30),
+            max_lease_lifetime: Duration::from_secs(15 * 60),
+            max_batch_bytes: 16 * 1024 * 1024,
             batches_per_worker: 3,
             worker_window: Duration::from_secs(30),
             expected_workers: 1,
@@ -173,8 +223,12 @@ pub struct DispatchStats {
     pub lease_expiries: u64,
     /// Results refused as malformed.
     pub malformed_results: u64,
-    /// Late duplicate results ignored.
-    pub duplicates_ignored: u64,
+    /// Calls refused because they named no live lease of the caller's (late duplicates
+    /// included).
+    pub refused_lease_calls: u64,
+    /// Leases taken back before their deadline: the worker's connection closed, or the
+    /// lease reached its maximum lifetime.
+    pub lease_revocations: u64,
     /// Batches completed.
     pub batches_completed: u64,
 }
@@ -204,6 +258,8 @@ struct LeaseEntry {
     batch_id: u64,
     worker: String,
     deadline: Instant,
+    /// When it was given: its lifetime counts from here.
+    granted: Instant,
 }
 
 #[derive(Debug, Default)]
@@ -282,7 +338,12 @@ impl Dispatcher {
                 .max(self.config.expected_workers)
                 .max(1);
             let target = active * self.config.batches_per_worker.max(1);
-            let pieces = split(n_genomes, n_samples, target);
+            let pieces = split(
+                n_genomes,
+                n_samples,
+                target,
+                &BatchBytes::of(&request.shared, &self.config),
+            );
             let request_id = state.next_id;
             state.next_id += 1;
             let job = request.job.clone();
@@ -400,6 +461,7 @@ impl Dispatcher {
                 batch_id,
                 worker: worker.to_string(),
                 deadline,
+                granted: now,
             },
         );
         state.stats.queued_batches = state.stats.queued_batches.saturating_sub(1);
@@ -446,170 +508,195 @@ impl Dispatcher {
         }
     }
 
-    /// Extends a lease (a worker's heartbeat). Returns false when the lease is gone, in which
-    /// case the worker may stop: its batch was given to someone else or its job ended.
-    pub fn extend(&self, lease_id: u64, now: Instant) -> bool {
-        let mut state = self.lock();
-        let timeout = self.config.lease_timeout;
-        match state.leases.get_mut(&lease_id) {
-            Some(lease) => {
-                lease.deadline = now + timeout;
-                // A worker busy with a long batch is still an active worker.
-                let worker = lease.worker.clone();
-                if let Some(seen) = state.workers.get_mut(&worker) {
-                    seen.0 = now;
-                }
-                true
-            }
-            None => false,
+    /// The live lease `lease_id` if `worker` holds it (for `batch_id`, when given).
+    fn held<'s>(
+        state: &'s State,
+        lease_id: u64,
+        worker: &str,
+        batch_id: Option<u64>,
+    ) -> Result<&'s LeaseEntry, LeaseError> {
+        let lease = state
+            .leases
+            .get(&lease_id)
+            .ok_or(LeaseError::NotLive(lease_id))?;
+        if lease.worker != worker {
+            return Err(LeaseError::NotYours(lease_id));
         }
+        if let Some(named) = batch_id
+            && named != lease.batch_id
+        {
+            return Err(LeaseError::OtherBatch {
+                lease_id,
+                leased: lease.batch_id,
+                named,
+            });
+        }
+        Ok(lease)
     }
 
-    /// The template and task of the batch out on this lease (to check a worker's claim that
-    /// they cannot be evaluated).
-    pub fn leased_request(&self, lease_id: u64) -> Option<Arc<RequestShared>> {
-        let state = self.lock();
-        let batch_id = state.leases.get(&lease_id)?.batch_id;
-        let request_id = state.batches.get(&batch_id)?.request_id;
-        Some(state.requests.get(&request_id)?.request.shared.clone())
+    /// Counts a refused call and passes its error on.
+    fn refused<T>(state: &mut State, error: LeaseError) -> Result<T, LeaseError> {
+        state.stats.refused_lease_calls += 1;
+        Err(error)
     }
 
-    /// A worker hands a batch back unfinished (for example on SIGTERM): it is queued again at
-    /// the front.
-    pub fn release(&self, lease_id: u64) {
+    /// Extends `worker`'s lease (its heartbeat). Refused when the lease is not the worker's
+    /// live lease; a lease at its maximum lifetime is taken back instead, and its batch queued
+    /// for another worker. Either way the worker may stop: its batch is not its own any more.
+    pub fn extend(&self, lease_id: u64, worker: &str, now: Instant) -> Result<(), LeaseError> {
         let mut state = self.lock();
-        if state.leases.remove(&lease_id).is_some() {
-            state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-            let batch_id = state
-                .batches
-                .iter()
-                .find(|(_, b)| b.lease == Some(lease_id))
-                .map(|(&id, _)| id);
-            if let Some(batch_id) = batch_id {
-                requeue(&mut state, batch_id, lease_id);
-            }
+        let granted = match Self::held(&state, lease_id, worker, None) {
+            Ok(lease) => lease.granted,
+            Err(error) => return Self::refused(&mut state, error),
+        };
+        if now.duration_since(granted) >= self.config.max_lease_lifetime {
+            tracing::warn!(
+                lease_id,
+                worker,
+                "lease reached its maximum lifetime; batch re-queued"
+            );
+            revoke(&mut state, lease_id);
+            drop(state);
+            self.work_available.notify_waiters();
+            return Err(LeaseError::NotLive(lease_id));
         }
+        let deadline =
+            (now + self.config.lease_timeout).min(granted + self.config.max_lease_lifetime);
+        if let Some(lease) = state.leases.get_mut(&lease_id) {
+            lease.deadline = deadline;
+        }
+        // A worker busy with a long batch is still an active worker.
+        if let Some(seen) = state.workers.get_mut(worker) {
+            seen.0 = now;
+        }
+        Ok(())
+    }
+
+    /// The template and task of the batch out on `worker`'s lease (to check a worker's claim
+    /// that they cannot be evaluated).
+    pub fn leased_request(
+        &self,
+        lease_id: u64,
+        worker: &str,
+    ) -> Result<Arc<RequestShared>, LeaseError> {
+        let mut state = self.lock();
+        let batch_id = match Self::held(&state, lease_id, worker, None) {
+            Ok(lease) => lease.batch_id,
+            Err(error) => return Self::refused(&mut state, error),
+        };
+        state
+            .batches
+            .get(&batch_id)
+            .and_then(|batch| state.requests.get(&batch.request_id))
+            .map(|request| request.request.shared.clone())
+            .ok_or(LeaseError::NotLive(lease_id))
+    }
+
+    /// A worker hands its batch back unfinished (for example on SIGTERM): it is queued again
+    /// at the front.
+    pub fn release(&self, lease_id: u64, worker: &str) -> Result<(), LeaseError> {
+        let mut state = self.lock();
+        if let Err(error) = Self::held(&state, lease_id, worker, None) {
+            return Self::refused(&mut state, error);
+        }
+        revoke(&mut state, lease_id);
+        state.stats.lease_revocations = state.stats.lease_revocations.saturating_sub(1);
         drop(state);
         self.work_available.notify_waiters();
+        Ok(())
     }
 
-    /// A worker reports that a batch cannot be evaluated at all (its template or task is
-    /// invalid): the whole request fails, since every worker would fail the same way.
-    pub fn fail(&self, lease_id: u64, message: String) {
+    /// Takes back every lease `worker` holds (its connection closed: it cannot return them),
+    /// queueing their batches for others at once, and forgets the worker. Returns how many.
+    pub fn revoke_worker(&self, worker: &str) -> usize {
         let mut state = self.lock();
-        let Some(lease) = state.leases.remove(&lease_id) else {
-            return;
-        };
-        state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-        let Some(request_id) = state.batches.get(&lease.batch_id).map(|b| b.request_id) else {
-            return;
-        };
-        finish_request(&mut state, request_id, Err(DispatchError::Failed(message)));
+        let mut held: Vec<u64> = state
+            .leases
+            .iter()
+            .filter(|(_, lease)| lease.worker == worker)
+            .map(|(&id, _)| id)
+            .collect();
+        // Latest first to the front of the queue, so the earliest batch is leased first.
+        held.sort_unstable_by(|a, b| b.cmp(a));
+        for &lease_id in &held {
+            tracing::warn!(lease_id, worker, "worker gone; its batch re-queued");
+            revoke(&mut state, lease_id);
+        }
+        state.workers.remove(worker);
+        drop(state);
+        if !held.is_empty() {
+            self.work_available.notify_waiters();
+        }
+        held.len()
     }
 
-    /// A worker returns the summaries of a batch, indexed by the batch's genome, then its
-    /// sample. Results for a lease that expired are still accepted if the batch is not done yet
-    /// (evaluation is deterministic, so any copy is right); duplicates are ignored.
+    /// A worker reports that its batch cannot be evaluated at all (its template or task is
+    /// invalid): the whole request fails, since every worker would fail the same way.
+    pub fn fail(&self, lease_id: u64, worker: &str, message: String) -> Result<(), LeaseError> {
+        let mut state = self.lock();
+        let batch_id = match Self::held(&state, lease_id, worker, None) {
+            Ok(lease) => lease.batch_id,
+            Err(error) => return Self::refused(&mut state, error),
+        };
+        state.leases.remove(&lease_id);
+        state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
+        if let Some(request_id) = state.batches.get(&batch_id).map(|b| b.request_id) {
+            finish_request(&mut state, request_id, Err(DispatchError::Failed(message)));
+        }
+        Ok(())
+    }
+
+    /// `worker` returns the summaries of the batch on its lease, indexed by the batch's genome,
+    /// then its sample. Only the live lease's holder may; each summary is checked against the
+    /// task and the sample it answers. A malformed result is refused and the batch leased
+    /// again; a call naming no live lease of the worker's (a late duplicate, a forged lease)
+    /// changes nothing.
     pub fn complete(
         &self,
         lease_id: u64,
         batch_id: u64,
+        worker: &str,
         results: Vec<Vec<SampleSummary>>,
-    ) -> Result<Completion, CompleteError> {
+    ) -> Result<(), CompleteError> {
         let mut state = self.lock();
-        let lease = state.leases.remove(&lease_id);
-        if lease.is_some() {
-            state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
+        if let Err(error) = Self::held(&state, lease_id, worker, Some(batch_id)) {
+            return Ok(Self::refused(&mut state, error)?);
         }
-        if let Some(lease) = &lease
-            && lease.batch_id != batch_id
-        {
-            state.leases.insert(
-                lease_id,
-                LeaseEntry {
-                    batch_id: lease.batch_id,
-                    worker: lease.worker.clone(),
-                    deadline: lease.deadline,
-                },
-            );
-            state.stats.leased_batches += 1;
-            return Err(CompleteError::Malformed {
-                batch_id,
-                message: format!("lease {lease_id} is for batch {}", lease.batch_id),
-            });
-        }
-        let Some(entry) = state.batches.get(&batch_id) else {
-            // The batch is gone: its request completed or was cancelled.
-            if lease.is_none() && batch_id >= state.next_id {
-                return Err(CompleteError::UnknownLease(lease_id));
-            }
-            state.stats.duplicates_ignored += 1;
-            return Ok(Completion::Ignored);
-        };
-        if entry.done {
-            state.stats.duplicates_ignored += 1;
-            return Ok(Completion::Ignored);
-        }
-        // Validate the shape and values before touching the request.
-        let n_samples = entry.sample_range.len();
-        let problem = if results.len() != entry.genome_indices.len() {
-            Some(format!(
-                "{} genomes returned, batch has {}",
-                results.len(),
-                entry.genome_indices.len()
-            ))
-        } else if let Some((g, r)) = results
-            .iter()
-            .enumerate()
-            .find(|(_, r)| r.len() != n_samples)
-        {
-            Some(format!(
-                "genome {g} has {} samples, batch has {n_samples}",
-                r.len()
-            ))
-        } else {
-            results
-                .iter()
-                .flatten()
-                .find(|s| !s.fitness.is_finite())
-                .map(|s| format!("non-finite fitness {}", s.fitness))
+        let problem = {
+            let entry = state
+                .batches
+                .get(&batch_id)
+                .ok_or(LeaseError::NotLive(lease_id))?;
+            let request = state
+                .requests
+                .get(&entry.request_id)
+                .ok_or(LeaseError::NotLive(lease_id))?;
+            check_results(entry, &request.request, &results)
         };
         if let Some(message) = problem {
             state.stats.malformed_results += 1;
-            tracing::warn!(batch_id, %message, "refused a malformed result; batch re-queued");
-            requeue(&mut state, batch_id, lease_id);
+            tracing::warn!(batch_id, worker, %message, "refused a malformed result; batch re-queued");
+            revoke(&mut state, lease_id);
+            state.stats.lease_revocations = state.stats.lease_revocations.saturating_sub(1);
             drop(state);
             self.work_available.notify_waiters();
             return Err(CompleteError::Malformed { batch_id, message });
         }
 
-        // Accept: a copy still out on another lease is cancelled, a queued copy dropped.
+        state.leases.remove(&lease_id);
+        state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
         let entry = state.batches.get_mut(&batch_id).expect("checked above");
         entry.done = true;
-        let other_lease = entry.lease.take().filter(|&l| l != lease_id);
-        let (request_id, job, genome_indices, range) = (
+        entry.lease = None;
+        let (request_id, genome_indices, range) = (
             entry.request_id,
-            entry.job.clone(),
             entry.genome_indices.clone(),
             entry.sample_range.clone(),
         );
-        if let Some(other) = other_lease
-            && state.leases.remove(&other).is_some()
-        {
-            state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-        }
-        if let Some(queue) = state.pending.get_mut(&job)
-            && let Some(pos) = queue.iter().position(|&b| b == batch_id)
-        {
-            queue.remove(pos);
-            state.stats.queued_batches = state.stats.queued_batches.saturating_sub(1);
-        }
         let mut cycles = 0u64;
         let mut evaluations = 0u64;
         let finished = {
-            let Some(request) = state.requests.get_mut(&request_id) else {
-                return Ok(Completion::Ignored);
-            };
+            let request = state.requests.get_mut(&request_id).expect("checked above");
             for (genome_results, &genome_idx) in results.into_iter().zip(&genome_indices) {
                 for (summary, sample_idx) in genome_results.into_iter().zip(range.clone()) {
                     cycles += u64::from(summary.cycles);
@@ -635,7 +722,7 @@ impl Dispatcher {
             });
             finish_request(&mut state, request_id, outcome);
         }
-        Ok(Completion::Accepted)
+        Ok(())
     }
 
     /// Drops every queued batch of a job and fails its waiting requests.
@@ -677,6 +764,50 @@ impl Dispatcher {
             ..state.stats.clone()
         }
     }
+}
+
+/// Takes a live lease back before its deadline and queues its batch again at the front.
+fn revoke(state: &mut State, lease_id: u64) {
+    if let Some(lease) = state.leases.remove(&lease_id) {
+        state.stats.lease_revocations += 1;
+        state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
+        requeue(state, lease.batch_id, lease_id);
+    }
+}
+
+/// What is wrong with a batch's results, if anything: their shape, and every summary checked
+/// against the task and the sample it answers.
+fn check_results(
+    entry: &BatchEntry,
+    request: &EvaluationRequest,
+    results: &[Vec<SampleSummary>],
+) -> Option<String> {
+    let n_samples = entry.sample_range.len();
+    if results.len() != entry.genome_indices.len() {
+        return Some(format!(
+            "{} genomes returned, batch has {}",
+            results.len(),
+            entry.genome_indices.len()
+        ));
+    }
+    let shared = &request.shared;
+    for (genome_idx, genome_results) in results.iter().enumerate() {
+        if genome_results.len() != n_samples {
+            return Some(format!(
+                "genome {genome_idx} has {} samples, batch has {n_samples}",
+                genome_results.len()
+            ));
+        }
+        let samples = &request.samples[entry.sample_range.clone()];
+        for (sample_idx, (summary, sample)) in genome_results.iter().zip(samples).enumerate() {
+            if let Err(message) = summary.check(&shared.task, shared.n_nodes, sample) {
+                return Some(format!(
+                    "genome {genome_idx}, sample {sample_idx}: {message}"
+                ));
+            }
+        }
+    }
+    None
 }
 
 /// Puts a batch back at the front of its job's queue unless it is done or already queued.
@@ -722,15 +853,60 @@ fn finish_request(state: &mut State, request_id: u64, outcome: EvaluationResult)
     }
 }
 
-/// Splits genomes x samples into about `target` batches: whole genomes when there are enough of
-/// them, otherwise each genome's samples in contiguous pieces (post-evaluation of one genome).
+/// A generous estimate of a batch's size on the wire, and of its results'.
+#[derive(Debug, Clone, Copy)]
+struct BatchBytes {
+    /// Template and task text, and the message's own fields.
+    fixed: usize,
+    /// One genome: its genes and index.
+    per_genome: usize,
+    /// One sample of the batch: its seed and variant.
+    per_sample: usize,
+    /// One (genome, sample) result: the summary's fields and its node use.
+    per_result: usize,
+    /// The limit.
+    limit: usize,
+}
+
+impl BatchBytes {
+    fn of(shared: &RequestShared, config: &DispatchConfig) -> BatchBytes {
+        BatchBytes {
+            fixed: 4096 + shared.text_bytes,
+            per_genome: 16 + 5 * shared.n_genes,
+            per_sample: 24,
+            per_result: 64 + 12 * shared.n_nodes,
+            limit: config.max_batch_bytes.max(1),
+        }
+    }
+
+    /// The most whole genomes (each with all `n_samples` samples) a batch may hold, or 0 when
+    /// not even one fits and its samples must be split.
+    fn genomes_per_batch(&self, n_samples: usize) -> usize {
+        let room = self
+            .limit
+            .saturating_sub(self.fixed + self.per_sample * n_samples);
+        room / (self.per_genome + self.per_result * n_samples).max(1)
+    }
+
+    /// The most samples of one genome a batch may hold (at least one).
+    fn samples_per_batch(&self) -> usize {
+        let room = self.limit.saturating_sub(self.fixed + self.per_genome);
+        (room / (self.per_sample + self.per_result).max(1)).max(1)
+    }
+}
+
+/// Splits genomes x samples into about `target` batches, none larger than `bytes` allows:
+/// whole genomes when there are enough of them, otherwise each genome's samples in contiguous
+/// pieces (post-evaluation of one genome, or genomes too large for one batch).
 fn split(
     n_genomes: usize,
     n_samples: usize,
     target: usize,
+    bytes: &BatchBytes,
 ) -> Vec<(Vec<u32>, std::ops::Range<usize>)> {
-    if n_genomes >= target {
-        let per_batch = n_genomes.div_ceil(target);
+    let fitting = bytes.genomes_per_batch(n_samples);
+    if fitting > 0 && n_genomes >= target {
+        let per_batch = n_genomes.div_ceil(target).min(fitting);
         (0..n_genomes)
             .collect::<Vec<_>>()
             .chunks(per_batch)
@@ -738,7 +914,10 @@ fn split(
             .collect()
     } else {
         let pieces = target.div_ceil(n_genomes).min(n_samples);
-        let per_piece = n_samples.div_ceil(pieces);
+        let per_piece = n_samples
+            .div_ceil(pieces)
+            .min(bytes.samples_per_batch())
+            .max(1);
         (0..n_genomes)
             .flat_map(|g| {
                 (0..n_samples)
@@ -761,12 +940,7 @@ mod tests {
         let task = TaskConfig::new(TaskKind::FollowWall);
         EvaluationRequest {
             job: job.into(),
-            shared: Arc::new(RequestShared {
-                template_hash: template.content_hash(),
-                task_hash: hevo_sim_core::batch::task_content_hash(&task),
-                template,
-                task,
-            }),
+            shared: Arc::new(RequestShared::new(template, task)),
             genomes: (0..n_genomes)
                 .map(|g| Arc::from(vec![g as f32; 3]))
                 .collect(),
@@ -774,7 +948,8 @@ mod tests {
         }
     }
 
-    /// A fake evaluation: fitness = genome's first gene * 1000 + sample seed.
+    /// A fake evaluation, within follow wall's fitness range: a hundredth of the genome's first
+    /// gene plus a thousandth of the sample's seed.
     fn fake(batch: &Batch) -> Vec<Vec<SampleSummary>> {
         batch
             .genomes
@@ -784,7 +959,7 @@ mod tests {
                     .samples
                     .iter()
                     .map(|s| SampleSummary {
-                        fitness: genes[0] * 1000.0 + s.seed as f32,
+                        fitness: expected_fitness(genes[0], s.seed),
                         solved: false,
                         collided: false,
                         stage: 0,
@@ -797,6 +972,21 @@ mod tests {
             .collect()
     }
 
+    fn expected_fitness(first_gene: f32, seed: u64) -> f32 {
+        first_gene * 0.01 + seed as f32 * 0.001
+    }
+
+    /// No byte limit worth the name: batches are cut by count alone.
+    fn unlimited() -> BatchBytes {
+        BatchBytes {
+            fixed: 0,
+            per_genome: 1,
+            per_sample: 1,
+            per_result: 1,
+            limit: usize::MAX,
+        }
+    }
+
     #[test]
     fn split_covers_everything_once() {
         for (g, s, t) in [
@@ -806,7 +996,7 @@ mod tests {
             (5, 1, 3),
             (7, 3, 7),
         ] {
-            let pieces = split(g, s, t);
+            let pieces = split(g, s, t, &unlimited());
             let mut seen = vec![vec![0; s]; g];
             for (genomes, range) in pieces {
                 for genome in genomes {
@@ -824,8 +1014,8 @@ mod tests {
         let mut n_batches = 0;
         while let Some(batch) = dispatcher.try_lease(worker, 1, now) {
             assert_eq!(
-                dispatcher.complete(batch.lease_id, batch.batch_id, fake(&batch)),
-                Ok(Completion::Accepted)
+                dispatcher.complete(batch.lease_id, batch.batch_id, worker, fake(&batch)),
+                Ok(())
             );
             n_batches += 1;
         }
@@ -843,7 +1033,7 @@ mod tests {
         assert_eq!(results.len(), 10);
         for (g, genome) in results.iter().enumerate() {
             for (s, summary) in genome.iter().enumerate() {
-                assert_eq!(summary.fitness, g as f32 * 1000.0 + s as f32);
+                assert_eq!(summary.fitness, expected_fitness(g as f32, s as u64));
             }
         }
         assert_eq!(dispatcher.stats(now).evaluations, 40);
@@ -866,7 +1056,10 @@ mod tests {
         assert!(dead.len() >= 2);
         let kept = dead.pop().unwrap();
         let just_before = t0 + timeout - Duration::from_millis(1);
-        assert!(dispatcher.extend(kept.lease_id, just_before));
+        assert_eq!(
+            dispatcher.extend(kept.lease_id, "dead", just_before),
+            Ok(())
+        );
         assert!(dispatcher.try_lease("alive", 1, just_before).is_none());
         // At the deadline the others are leased again; the extended one is not.
         let expired = t0 + timeout;
@@ -882,22 +1075,22 @@ mod tests {
         assert_eq!(dispatcher.stats(expired).lease_expiries, dead.len() as u64);
         for batch in &redone {
             dispatcher
-                .complete(batch.lease_id, batch.batch_id, fake(batch))
+                .complete(batch.lease_id, batch.batch_id, "alive", fake(batch))
                 .unwrap();
         }
-        // The first copy back of the extended batch wins; the late dead worker is ignored.
         dispatcher
-            .complete(kept.lease_id, kept.batch_id, fake(&kept))
+            .complete(kept.lease_id, kept.batch_id, "dead", fake(&kept))
             .unwrap();
         assert_eq!(pending.try_result().expect("complete").unwrap()[0].len(), 3);
+        // The dead worker comes back late: its expired leases are not live, nothing changes.
         for batch in &dead {
             assert_eq!(
-                dispatcher.complete(batch.lease_id, batch.batch_id, fake(batch)),
-                Ok(Completion::Ignored)
+                dispatcher.complete(batch.lease_id, batch.batch_id, "dead", fake(batch)),
+                Err(CompleteError::Lease(LeaseError::NotLive(batch.lease_id)))
             );
         }
         assert_eq!(
-            dispatcher.stats(expired).duplicates_ignored,
+            dispatcher.stats(expired).refused_lease_calls,
             dead.len() as u64
         );
     }
@@ -911,7 +1104,7 @@ mod tests {
         let mut wrong = fake(&batch);
         wrong[0].pop();
         assert!(matches!(
-            dispatcher.complete(batch.lease_id, batch.batch_id, wrong),
+            dispatcher.complete(batch.lease_id, batch.batch_id, "bad", wrong),
             Err(CompleteError::Malformed { .. })
         ));
         let mut nan = fake(&batch);
@@ -920,12 +1113,12 @@ mod tests {
         assert_eq!(again.batch_id, batch.batch_id);
         assert!(
             dispatcher
-                .complete(again.lease_id, again.batch_id, nan)
+                .complete(again.lease_id, again.batch_id, "bad", nan)
                 .is_err()
         );
         drain(&dispatcher, "good", now);
         let results = pending.try_result().expect("complete").unwrap();
-        assert_eq!(results[1][1].fitness, 1001.0);
+        assert_eq!(results[1][1].fitness, expected_fitness(1.0, 1));
         assert_eq!(dispatcher.stats(now).malformed_results, 2);
     }
 
@@ -942,7 +1135,7 @@ mod tests {
         while let Some(batch) = dispatcher.try_lease("w", 1, now) {
             order.push(batch.job.clone());
             dispatcher
-                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .complete(batch.lease_id, batch.batch_id, "w", fake(&batch))
                 .unwrap();
         }
         // Alternating while both have work.
@@ -965,10 +1158,10 @@ mod tests {
         let mut sizes = Vec::new();
         while let Some(batch) = dispatcher.try_lease("big", 4, t0) {
             sizes.push(batch.genomes.len());
-            assert!(dispatcher.extend(batch.lease_id, t0));
-            assert!(dispatcher.leased_request(batch.lease_id).is_some());
+            assert_eq!(dispatcher.extend(batch.lease_id, "big", t0), Ok(()));
+            assert!(dispatcher.leased_request(batch.lease_id, "big").is_ok());
             dispatcher
-                .complete(batch.lease_id, batch.batch_id, fake(&batch))
+                .complete(batch.lease_id, batch.batch_id, "big", fake(&batch))
                 .unwrap();
         }
         assert_eq!(sizes, vec![2; 12]);
@@ -1026,5 +1219,181 @@ mod tests {
         dispatcher.shut_down();
         let mut refused = dispatcher.submit(request("j", 2, 2), now);
         assert_eq!(refused.try_result(), Some(Err(DispatchError::ShuttingDown)));
+    }
+
+    #[test]
+    fn only_the_holder_of_a_live_lease_can_act_on_it() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        // One genome on one sample: one batch.
+        let mut pending = dispatcher.submit(request("j", 1, 1), now);
+        let batch = dispatcher.try_lease("owner", 1, now).unwrap();
+        let before = dispatcher.stats(now);
+        let (lease, id) = (batch.lease_id, batch.batch_id);
+        // Another worker, a forged lease id, or the right lease named for another batch.
+        let forged = [
+            (lease, id, "thief", LeaseError::NotYours(lease)),
+            (lease + 1000, id, "owner", LeaseError::NotLive(lease + 1000)),
+            (
+                lease,
+                id + 1,
+                "owner",
+                LeaseError::OtherBatch {
+                    lease_id: lease,
+                    leased: id,
+                    named: id + 1,
+                },
+            ),
+        ];
+        for (lease_id, batch_id, worker, error) in forged {
+            assert_eq!(
+                dispatcher.complete(lease_id, batch_id, worker, fake(&batch)),
+                Err(CompleteError::Lease(error))
+            );
+        }
+        assert_eq!(
+            dispatcher.extend(lease, "thief", now),
+            Err(LeaseError::NotYours(lease))
+        );
+        assert_eq!(
+            dispatcher.release(lease, "thief"),
+            Err(LeaseError::NotYours(lease))
+        );
+        assert_eq!(
+            dispatcher.fail(lease, "thief", "no".into()),
+            Err(LeaseError::NotYours(lease))
+        );
+        assert!(dispatcher.leased_request(lease, "thief").is_err());
+        // Nothing changed: the batch is still out on its lease, the request still waiting.
+        let after = dispatcher.stats(now);
+        assert_eq!(
+            (
+                after.leased_batches,
+                after.queued_batches,
+                after.evaluations
+            ),
+            (
+                before.leased_batches,
+                before.queued_batches,
+                before.evaluations
+            )
+        );
+        assert_eq!(after.refused_lease_calls, 7);
+        assert!(pending.try_result().is_none());
+        assert!(dispatcher.try_lease("thief", 1, now).is_none());
+        dispatcher
+            .complete(lease, id, "owner", fake(&batch))
+            .unwrap();
+        assert!(pending.try_result().unwrap().is_ok());
+    }
+
+    #[test]
+    fn results_outside_what_the_task_can_give_are_refused() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let _pending = dispatcher.submit(request("j", 1, 1), now);
+        let forgeries: [fn(&mut SampleSummary); 5] = [
+            |s| s.fitness = 1e30,
+            |s| s.variant = 4_000_000_000,
+            |s| s.stage = 7,
+            |s| s.cycles = 1_000_000,
+            |s| {
+                s.node_use.active_cycles = vec![5, 5];
+                s.node_use.activations = vec![1, 1];
+            },
+        ];
+        for forge in forgeries {
+            let batch = dispatcher.try_lease("w", 1, now).unwrap();
+            let mut results = fake(&batch);
+            forge(&mut results[0][0]);
+            assert!(
+                matches!(
+                    dispatcher.complete(batch.lease_id, batch.batch_id, "w", results),
+                    Err(CompleteError::Malformed { .. })
+                ),
+                "accepted {:?}",
+                batch.batch_id
+            );
+        }
+        assert_eq!(dispatcher.stats(now).malformed_results, 5);
+    }
+
+    #[test]
+    fn a_lease_cannot_be_extended_past_its_lifetime() {
+        let lifetime = Duration::from_secs(600);
+        let dispatcher = Dispatcher::new(DispatchConfig {
+            max_lease_lifetime: lifetime,
+            ..DispatchConfig::default()
+        });
+        let t0 = Instant::now();
+        let _pending = dispatcher.submit(request("j", 1, 1), t0);
+        let batch = dispatcher.try_lease("stuck", 1, t0).unwrap();
+        // Heartbeats every 20 s keep it alive, up to the lifetime.
+        let mut t = t0;
+        while t + Duration::from_secs(20) < t0 + lifetime {
+            t += Duration::from_secs(20);
+            assert_eq!(dispatcher.extend(batch.lease_id, "stuck", t), Ok(()));
+        }
+        let end = t0 + lifetime;
+        assert_eq!(
+            dispatcher.extend(batch.lease_id, "stuck", end),
+            Err(LeaseError::NotLive(batch.lease_id))
+        );
+        let again = dispatcher.try_lease("other", 1, end).unwrap();
+        assert_eq!(again.batch_id, batch.batch_id);
+        assert_eq!(dispatcher.stats(end).lease_revocations, 1);
+    }
+
+    #[test]
+    fn a_gone_workers_leases_are_queued_again_at_once() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 4, 1), now);
+        let mut held = Vec::new();
+        while let Some(batch) = dispatcher.try_lease("gone", 1, now) {
+            held.push(batch);
+        }
+        assert!(held.len() >= 2);
+        assert_eq!(dispatcher.revoke_worker("gone"), held.len());
+        assert_eq!(dispatcher.stats(now).active_workers, 0);
+        // Without waiting for any deadline, another worker gets them, in their first order.
+        let mut again = Vec::new();
+        while let Some(batch) = dispatcher.try_lease("alive", 1, now) {
+            again.push(batch.batch_id);
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, "alive", fake(&batch))
+                .unwrap();
+        }
+        assert_eq!(again, held.iter().map(|b| b.batch_id).collect::<Vec<_>>());
+        assert!(pending.try_result().unwrap().is_ok());
+        assert_eq!(dispatcher.revoke_worker("nobody"), 0);
+    }
+
+    #[test]
+    fn batches_stay_under_the_byte_limit() {
+        let bytes = BatchBytes {
+            fixed: 1000,
+            per_genome: 100,
+            per_sample: 10,
+            per_result: 50,
+            limit: 10_000,
+        };
+        // 4,000 genomes x 2 samples in 3 batches would be far over the limit.
+        let pieces = split(4_000, 2, 3, &bytes);
+        for (genomes, samples) in &pieces {
+            let size = bytes.fixed
+                + genomes.len() * (bytes.per_genome + samples.len() * bytes.per_result)
+                + samples.len() * bytes.per_sample;
+            assert!(size <= bytes.limit, "{size} bytes");
+        }
+        assert_eq!(pieces.iter().map(|(g, _)| g.len()).sum::<usize>(), 4_000);
+        // One genome on more samples than one batch may carry: its samples are cut.
+        let pieces = split(1, 1_000, 3, &bytes);
+        assert!(pieces.len() > 3);
+        assert!(pieces.iter().all(|(_, samples)| {
+            bytes.fixed + bytes.per_genome + samples.len() * (bytes.per_sample + bytes.per_result)
+                <= bytes.limit
+        }));
+        assert_eq!(pieces.iter().map(|(_, s)| s.len()).sum::<usize>(), 1_000);
     }
 }

@@ -76,13 +76,22 @@ impl LocalPool {
                         });
                         match result {
                             Ok(results) => {
-                                if let Err(error) =
-                                    dispatcher.complete(batch.lease_id, batch.batch_id, results)
-                                {
+                                if let Err(error) = dispatcher.complete(
+                                    batch.lease_id,
+                                    batch.batch_id,
+                                    &name,
+                                    results,
+                                ) {
                                     tracing::error!(%error, "local worker result refused");
                                 }
                             }
-                            Err(error) => dispatcher.fail(batch.lease_id, error.to_string()),
+                            Err(error) => {
+                                if let Err(refused) =
+                                    dispatcher.fail(batch.lease_id, &name, error.to_string())
+                                {
+                                    tracing::error!(%refused, "local worker failure refused");
+                                }
+                            }
                         }
                     }
                 })

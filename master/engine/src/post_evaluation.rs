@@ -4,7 +4,7 @@
 //! dispatcher, so they spread over every worker like a generation does.
 
 use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
-use hevo_sim_core::batch::{SampleSummary, task_content_hash};
+use hevo_sim_core::batch::SampleSummary;
 use hevo_sim_core::controller::ControllerFile;
 use hevo_sim_core::rng::derive_seed;
 use hevo_sim_core::{Sample, TaskConfig, TaskKind};
@@ -257,12 +257,7 @@ pub async fn evaluate_samples(
     task: TaskConfig,
     samples: Vec<Sample>,
 ) -> Result<Vec<SampleSummary>, DispatchError> {
-    let shared = Arc::new(RequestShared {
-        template_hash: controller.content_hash(),
-        task_hash: task_content_hash(&task),
-        template: controller,
-        task,
-    });
+    let shared = Arc::new(RequestShared::new(controller, task));
     let request = EvaluationRequest {
         job: job.to_string(),
         shared,

@@ -591,12 +591,7 @@ async fn run_one(
     };
     std::fs::create_dir_all(run_dir).map_err(|e| io_error(run_dir, e))?;
 
-    let shared = Arc::new(RequestShared {
-        template_hash: template.content_hash(),
-        task_hash: task_content_hash(&plan.task),
-        template: template.clone(),
-        task: plan.task.clone(),
-    });
+    let shared = Arc::new(RequestShared::new(template.clone(), plan.task.clone()));
     let n_variants = hevo_sim_core::env::n_variants(plan.task.kind);
     while checkpoint.generation < generations {
         let generation = checkpoint.generation;

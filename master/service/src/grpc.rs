@@ -8,13 +8,14 @@
 
 use crate::convert::{batch_to_proto, job_info, status_event};
 use crate::jobs::{JobError, JobManager, Submission};
-use hevo_engine::dispatch::{CompleteError, Completion, Dispatcher};
+use hevo_engine::dispatch::{CompleteError, Dispatcher};
 use hevo_engine::runner::Overrides;
 use hevo_proto::convert as wire;
 use hevo_proto::v1;
 use hevo_proto::v1::job_service_server::JobService;
 use hevo_proto::v1::worker_service_server::WorkerService;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::net::SocketAddr;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -188,7 +189,10 @@ pub struct WorkerCounters {
     pub disputed_failures: AtomicU64,
 }
 
-/// The worker-facing service.
+/// The worker-facing service. A lease belongs to the worker that leased it *on that
+/// connection* (`<worker>@<peer address>`): only calls on the same connection with the same
+/// worker name can extend, complete, release or fail it, and when the connection closes its
+/// leases go back to the queue at once.
 #[derive(Debug, Clone)]
 pub struct WorkerApi {
     dispatcher: Arc<Dispatcher>,
@@ -197,6 +201,16 @@ pub struct WorkerApi {
     max_wait: Duration,
     counters: Arc<WorkerCounters>,
     seen: Arc<Mutex<HashSet<String>>>,
+    /// The lease holders seen on each open connection.
+    holders: Arc<Mutex<HashMap<SocketAddr, HashSet<String>>>>,
+}
+
+/// Who holds a lease: the worker's name on the connection the call came on.
+fn holder<T>(request: &Request<T>, worker: &str) -> String {
+    match request.remote_addr() {
+        Some(peer) => format!("{worker}@{peer}"),
+        None => worker.to_string(),
+    }
 }
 
 /// Longest worker name accepted.
@@ -223,6 +237,29 @@ impl WorkerApi {
             max_wait,
             counters: Arc::default(),
             seen: Arc::default(),
+            holders: Arc::default(),
+        }
+    }
+
+    /// Takes back the leases of every worker on a connection when it closes, for as long as
+    /// `closed` sends the peers of closed connections (see [`crate::conn`]).
+    pub async fn revoke_on_close(
+        self,
+        mut closed: tokio::sync::mpsc::UnboundedReceiver<SocketAddr>,
+    ) {
+        while let Some(peer) = closed.recv().await {
+            let holders = self
+                .holders
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .remove(&peer)
+                .unwrap_or_default();
+            for holder in holders {
+                let revoked = self.dispatcher.revoke_worker(&holder);
+                if revoked > 0 {
+                    tracing::warn!(worker = %holder, revoked, "worker connection closed; its batches re-queued");
+                }
+            }
         }
     }
 
@@ -252,12 +289,12 @@ impl WorkerService for WorkerApi {
         &self,
         request: Request<v1::LeaseBatchRequest>,
     ) -> Result<Response<v1::LeaseBatchResponse>, Status> {
-        let request = request.into_inner();
-        Self::check_worker(&request.worker)?;
-        if request.threads == 0 || request.threads > MAX_WORKER_THREADS {
+        let asked = request.get_ref();
+        Self::check_worker(&asked.worker)?;
+        if asked.threads == 0 || asked.threads > MAX_WORKER_THREADS {
             return Err(Status::invalid_argument(format!(
                 "threads: must be between 1 and {MAX_WORKER_THREADS}, got {}",
-                request.threads
+                asked.threads
             )));
         }
         let new_worker = {
@@ -266,15 +303,25 @@ impl WorkerService for WorkerApi {
             if seen.len() > 10_000 {
                 seen.clear();
             }
-            seen.insert(request.worker.clone())
+            seen.insert(asked.worker.clone())
         };
         if new_worker {
-            tracing::info!(worker = %request.worker, threads = request.threads, "worker connected");
+            tracing::info!(worker = %asked.worker, threads = asked.threads, "worker connected");
         }
-        let wait = Duration::from_millis(u64::from(request.wait_ms)).min(self.max_wait);
+        let wait = Duration::from_millis(u64::from(asked.wait_ms)).min(self.max_wait);
+        let holder = holder(&request, &asked.worker);
+        if let Some(peer) = request.remote_addr() {
+            self.holders
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .entry(peer)
+                .or_default()
+                .insert(holder.clone());
+        }
+        let request = request.into_inner();
         let leased = self
             .dispatcher
-            .lease(&request.worker, request.threads as usize, wait)
+            .lease(&holder, request.threads as usize, wait)
             .await;
         let lease_ms = u32::try_from(self.lease.as_millis()).unwrap_or(u32::MAX);
         let batch =
@@ -286,11 +333,13 @@ impl WorkerService for WorkerApi {
         &self,
         request: Request<v1::ExtendLeaseRequest>,
     ) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
+        let holder = holder(&request, &request.get_ref().worker);
         let request = request.into_inner();
         let valid = request.epoch == self.epoch
             && self
                 .dispatcher
-                .extend(request.lease_id, std::time::Instant::now());
+                .extend(request.lease_id, &holder, std::time::Instant::now())
+                .is_ok();
         Ok(Response::new(v1::ExtendLeaseResponse { valid }))
     }
 
@@ -298,6 +347,7 @@ impl WorkerService for WorkerApi {
         &self,
         request: Request<v1::CompleteBatchRequest>,
     ) -> Result<Response<v1::CompleteBatchResponse>, Status> {
+        let holder = holder(&request, &request.get_ref().worker);
         let request = request.into_inner();
         if request.epoch != self.epoch {
             self.counters.stale_results.fetch_add(1, Ordering::Relaxed);
@@ -310,27 +360,26 @@ impl WorkerService for WorkerApi {
                 self.counters
                     .refused_results
                     .fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(worker = %request.worker, batch_id = request.batch_id, %error, "refused a malformed result; batch re-queued");
-                self.dispatcher.release(request.lease_id);
+                tracing::warn!(worker = %request.worker, batch_id = request.batch_id, %error, "refused a malformed result");
+                // Only the lease's holder can hand its batch back; anyone else changes nothing.
+                if self.dispatcher.release(request.lease_id, &holder).is_ok() {
+                    tracing::warn!(batch_id = request.batch_id, "batch re-queued");
+                }
                 return Err(Status::invalid_argument(error.to_string()));
             }
         };
         match self
             .dispatcher
-            .complete(request.lease_id, request.batch_id, results)
+            .complete(request.lease_id, request.batch_id, &holder, results)
         {
-            Ok(Completion::Accepted) => {
-                Ok(Response::new(v1::CompleteBatchResponse { accepted: true }))
-            }
-            Ok(Completion::Ignored) => {
+            Ok(()) => Ok(Response::new(v1::CompleteBatchResponse { accepted: true })),
+            Err(CompleteError::Lease(error)) => {
+                tracing::debug!(worker = %holder, %error, "result refused");
                 Ok(Response::new(v1::CompleteBatchResponse { accepted: false }))
             }
             Err(error @ CompleteError::Malformed { .. }) => {
-                tracing::warn!(worker = %request.worker, %error, "refused a result");
+                tracing::warn!(worker = %holder, %error, "refused a result");
                 Err(Status::invalid_argument(error.to_string()))
-            }
-            Err(error @ CompleteError::UnknownLease(_)) => {
-                Err(Status::failed_precondition(error.to_string()))
             }
         }
     }
@@ -339,10 +388,11 @@ impl WorkerService for WorkerApi {
         &self,
         request: Request<v1::ReleaseBatchRequest>,
     ) -> Result<Response<v1::ReleaseBatchResponse>, Status> {
+        let holder = holder(&request, &request.get_ref().worker);
         let request = request.into_inner();
-        if request.epoch == self.epoch {
-            tracing::info!(worker = %request.worker, lease_id = request.lease_id, "batch handed back");
-            self.dispatcher.release(request.lease_id);
+        if request.epoch == self.epoch && self.dispatcher.release(request.lease_id, &holder).is_ok()
+        {
+            tracing::info!(worker = %holder, lease_id = request.lease_id, "batch handed back");
         }
         Ok(Response::new(v1::ReleaseBatchResponse {}))
     }
@@ -351,11 +401,12 @@ impl WorkerService for WorkerApi {
         &self,
         request: Request<v1::FailBatchRequest>,
     ) -> Result<Response<v1::FailBatchResponse>, Status> {
+        let holder = holder(&request, &request.get_ref().worker);
         let request = request.into_inner();
         if request.epoch != self.epoch {
             return Ok(Response::new(v1::FailBatchResponse {}));
         }
-        let Some(shared) = self.dispatcher.leased_request(request.lease_id) else {
+        let Ok(shared) = self.dispatcher.leased_request(request.lease_id, &holder) else {
             return Ok(Response::new(v1::FailBatchResponse {}));
         };
         // One worker's word does not fail a job: the master checks the template and task
@@ -373,12 +424,12 @@ impl WorkerService for WorkerApi {
                 self.counters
                     .disputed_failures
                     .fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(worker = %request.worker, message = %request.message, "a worker could not evaluate a batch the master can; re-queued");
-                self.dispatcher.release(request.lease_id);
+                tracing::warn!(worker = %holder, message = %request.message, "a worker could not evaluate a batch the master can; re-queued");
+                let _ = self.dispatcher.release(request.lease_id, &holder);
             }
             Err(message) => {
-                tracing::error!(worker = %request.worker, %message, "batch cannot be evaluated; failing its request");
-                self.dispatcher.fail(request.lease_id, message);
+                tracing::error!(worker = %holder, %message, "batch cannot be evaluated; failing its request");
+                let _ = self.dispatcher.fail(request.lease_id, &holder, message);
             }
         }
         Ok(Response::new(v1::FailBatchResponse {}))

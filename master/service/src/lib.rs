@@ -8,6 +8,7 @@
 //! worker services refuse calls without it. A master without a token refuses to start unless
 //! told `--insecure-no-token`.
 
+pub mod conn;
 pub mod convert;
 pub mod db;
 pub mod grpc;
@@ -61,16 +62,18 @@ pub fn worker_service(
     InterceptedService::new(server, auth)
 }
 
-/// Accepted connections with Nagle's algorithm off: leases and results are small messages
-/// whose latency matters more than packet count.
+/// Accepted connections with Nagle's algorithm off (leases and results are small messages
+/// whose latency matters more than packet count), each reporting its peer on `closed` when it
+/// closes.
 pub fn incoming(
     listener: tokio::net::TcpListener,
-) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
-    tokio_stream::wrappers::TcpListenerStream::new(listener).map(|stream| {
-        if let Ok(stream) = &stream {
+    closed: tokio::sync::mpsc::UnboundedSender<std::net::SocketAddr>,
+) -> impl tokio_stream::Stream<Item = std::io::Result<conn::TrackedStream>> {
+    tokio_stream::wrappers::TcpListenerStream::new(listener).map(move |stream| {
+        stream.map(|stream| {
             let _ = stream.set_nodelay(true);
-        }
-        stream
+            conn::TrackedStream::new(stream, closed.clone())
+        })
     })
 }
 
@@ -137,6 +140,8 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     }));
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
     let worker_api = grpc::WorkerApi::new(dispatcher.clone(), config.lease, MAX_LEASE_WAIT);
+    let (closed_connections, closed) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(worker_api.clone().revoke_on_close(closed));
     let metrics = metrics::Metrics::new(
         dispatcher.clone(),
         Some(manager.clone()),
@@ -212,7 +217,8 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
                 .await;
         }
     };
-    let serving = router.serve_with_incoming_shutdown(incoming(listener), shutdown);
+    let serving =
+        router.serve_with_incoming_shutdown(incoming(listener, closed_connections), shutdown);
     tokio::pin!(serving);
     tokio::select! {
         result = &mut serving => result.context("the server failed")?,

@@ -12,7 +12,6 @@ use hevo_engine::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, Reque
 use hevo_proto::auth::ServerAuth;
 use hevo_proto::client::{ClientOptions, worker_client};
 use hevo_proto::v1;
-use hevo_sim_core::batch::task_content_hash;
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::{Sample, TaskConfig, TaskKind};
@@ -103,6 +102,8 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
         ..DispatchConfig::default()
     }));
     let api = WorkerApi::new(dispatcher.clone(), lease, MAX_LEASE_WAIT);
+    let (closed_connections, closed) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(api.clone().revoke_on_close(closed));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await
         .map_err(LoadError::Listen)?;
@@ -113,19 +114,14 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
         tokio::spawn(
             tonic::transport::Server::builder()
                 .add_service(worker_service(api, ServerAuth::new(token)))
-                .serve_with_incoming_shutdown(incoming(listener), async move {
+                .serve_with_incoming_shutdown(incoming(listener, closed_connections), async move {
                     let _ = stopped.wait_for(|&s| s).await;
                 }),
         )
     };
 
     let (template, task) = template();
-    let shared = Arc::new(RequestShared {
-        template_hash: template.content_hash(),
-        task_hash: task_content_hash(&task),
-        template,
-        task,
-    });
+    let shared = Arc::new(RequestShared::new(template, task));
     let warm_up = Duration::from_secs(1);
     let started = Instant::now();
     let measure_from = started + warm_up;

@@ -156,10 +156,16 @@ impl Metrics {
             refused.to_string(),
         );
         metric(
-            "hevo_results_duplicate_total",
+            "hevo_lease_calls_refused_total",
             "counter",
-            "Late duplicate results ignored.",
-            stats.duplicates_ignored.to_string(),
+            "Worker calls naming no live lease of the caller's (late duplicates, revoked or foreign leases): nothing changed.",
+            stats.refused_lease_calls.to_string(),
+        );
+        metric(
+            "hevo_lease_revocations_total",
+            "counter",
+            "Leases taken back before their deadline: the worker's connection closed, or the lease reached its maximum lifetime.",
+            stats.lease_revocations.to_string(),
         );
         metric(
             "hevo_results_stale_total",

@@ -148,6 +148,16 @@ pub fn n_variants(kind: TaskKind) -> u32 {
     }
 }
 
+/// How many values a sample's reported variant can take: the variants of [`n_variants`], and
+/// for the turning tasks the corridor's shape (bend, T end, side junction), which is drawn,
+/// never asked for.
+pub fn reported_variants(kind: TaskKind) -> u32 {
+    match kind {
+        TaskKind::TurnLeft | TaskKind::TurnRight => 3,
+        _ => n_variants(kind),
+    }
+}
+
 /// Builds the environment of one sample. `variant` fixes the light configuration (or start
 /// branch); `None` draws it from the stream.
 pub fn build(
