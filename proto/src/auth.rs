@@ -1,8 +1,12 @@
-//! The shared token: every call to the job and worker services carries
-//! `authorization: Bearer <token>`, checked by [`ServerAuth`] on the master and attached by
-//! [`ClientAuth`] on workers and client commands. A missing or wrong token is
-//! `UNAUTHENTICATED`. The check compares SHA-256 digests in constant time, so neither the
-//! token's content nor its length leaks through timing.
+//! Credentials: every call to the job and worker services carries
+//! `authorization: Bearer <token>`, attached by [`ClientAuth`] on workers and client commands
+//! and checked by [`ServerAuth`] on the master. There are two roles with separate tokens:
+//! *clients* (people and scripts: submit, watch, fetch, cancel) may use only the job service,
+//! *workers* only the worker service. A missing or unknown token is `UNAUTHENTICATED`; the other
+//! role's token is `PERMISSION_DENIED`. Each role accepts a set of tokens, so a token is rotated
+//! by adding the new one, moving its users over, and removing the old one ([`TokenSet::replace`],
+//! which the master calls on SIGHUP). Checks compare SHA-256 digests in constant time, so
+//! neither a token's content nor its length leaks through timing.
 
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -32,6 +36,38 @@ pub enum TokenError {
     NotPrintable,
 }
 
+/// Every token of a token file: one per line; blank lines and `#` comments are skipped (a
+/// master's file may list several during a rotation). Each must be non-empty printable ASCII.
+pub fn read_token_file(path: &Path) -> Result<Vec<String>, TokenError> {
+    let text = std::fs::read_to_string(path).map_err(|source| TokenError::File {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let tokens: Vec<String> = text
+        .lines()
+        .map(str::trim)
+        .filter(|line| !line.is_empty() && !line.starts_with('#'))
+        .map(str::to_string)
+        .collect();
+    if tokens.is_empty() {
+        return Err(TokenError::Empty);
+    }
+    for token in &tokens {
+        check_token(token)?;
+    }
+    Ok(tokens)
+}
+
+fn check_token(token: &str) -> Result<(), TokenError> {
+    if token.is_empty() {
+        return Err(TokenError::Empty);
+    }
+    if !token.chars().all(|c| c.is_ascii_graphic()) {
+        return Err(TokenError::NotPrintable);
+    }
+    Ok(())
+}
+
 /// Picks the token from `--token-file` (which wins, being the more deliberate choice) or
 /// `--token` / `HEVO_TOKEN`. Surrounding whitespace (a file's final newline) is dropped; an
 /// empty token or one that cannot travel in a header is an error.
@@ -39,23 +75,13 @@ pub fn resolve_token(
     token: Option<&str>,
     token_file: Option<&Path>,
 ) -> Result<Option<String>, TokenError> {
-    let raw = match token_file {
-        Some(path) => Some(
-            std::fs::read_to_string(path).map_err(|source| TokenError::File {
-                path: path.to_path_buf(),
-                source,
-            })?,
-        ),
-        None => token.map(str::to_string),
-    };
-    let Some(raw) = raw else { return Ok(None) };
+    if let Some(path) = token_file {
+        // A client's or worker's file holds its own token: the first one.
+        return Ok(read_token_file(path)?.into_iter().next());
+    }
+    let Some(raw) = token else { return Ok(None) };
     let token = raw.trim();
-    if token.is_empty() {
-        return Err(TokenError::Empty);
-    }
-    if !token.chars().all(|c| c.is_ascii_graphic()) {
-        return Err(TokenError::NotPrintable);
-    }
+    check_token(token)?;
     Ok(Some(token.to_string()))
 }
 
@@ -97,17 +123,89 @@ impl Interceptor for ClientAuth {
     }
 }
 
-/// Refuses calls without the right token. `open()` accepts everything (the master's
+/// The tokens one role accepts, as digests, replaceable while the master runs.
+#[derive(Clone, Default)]
+pub struct TokenSet {
+    digests: std::sync::Arc<std::sync::RwLock<Vec<[u8; 32]>>>,
+}
+
+impl std::fmt::Debug for TokenSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TokenSet")
+            .field("tokens", &self.read().len())
+            .finish()
+    }
+}
+
+impl TokenSet {
+    /// Accepts these tokens.
+    pub fn new(tokens: &[String]) -> TokenSet {
+        let set = TokenSet::default();
+        set.replace(tokens);
+        set
+    }
+
+    /// Accepts these tokens from now on, and no others (a rotation).
+    pub fn replace(&self, tokens: &[String]) {
+        let digests = tokens.iter().map(|t| digest(t.as_bytes())).collect();
+        *self
+            .digests
+            .write()
+            .unwrap_or_else(|poisoned| poisoned.into_inner()) = digests;
+    }
+
+    fn read(&self) -> std::sync::RwLockReadGuard<'_, Vec<[u8; 32]>> {
+        self.digests
+            .read()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Whether `presented`'s digest is one of the set's, compared in constant time with each.
+    fn contains(&self, presented: &[u8; 32]) -> bool {
+        self.read().iter().fold(false, |found, expected| {
+            let difference = presented
+                .iter()
+                .zip(expected)
+                .fold(0u8, |acc, (a, b)| acc | (a ^ b));
+            found | (difference == 0)
+        })
+    }
+
+    /// Whether the set shares a token with `other`.
+    pub fn overlaps(&self, other: &TokenSet) -> bool {
+        self.read().iter().any(|digest| other.contains(digest))
+    }
+}
+
+/// A master's credentials: the clients' tokens and the workers' tokens.
+#[derive(Debug, Clone, Default)]
+pub struct Roles {
+    /// People and scripts: the job service.
+    pub clients: TokenSet,
+    /// Workers: the worker service.
+    pub workers: TokenSet,
+}
+
+/// Which service a [`ServerAuth`] guards.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The job service.
+    Client,
+    /// The worker service.
+    Worker,
+}
+
+/// Refuses calls without a token of its role. `open()` accepts everything (the master's
 /// `--insecure-no-token`).
 #[derive(Clone)]
 pub struct ServerAuth {
-    digest: Option<[u8; 32]>,
+    guard: Option<(Role, Roles)>,
 }
 
 impl std::fmt::Debug for ServerAuth {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ServerAuth")
-            .field("required", &self.digest.is_some())
+            .field("role", &self.guard.as_ref().map(|(role, _)| *role))
             .finish()
     }
 }
@@ -117,21 +215,21 @@ fn digest(bytes: &[u8]) -> [u8; 32] {
 }
 
 impl ServerAuth {
-    /// Requires `token`.
-    pub fn new(token: &str) -> ServerAuth {
+    /// Requires a token of `role` from `roles`.
+    pub fn for_role(role: Role, roles: &Roles) -> ServerAuth {
         ServerAuth {
-            digest: Some(digest(token.as_bytes())),
+            guard: Some((role, roles.clone())),
         }
     }
 
     /// Requires nothing.
     pub fn open() -> ServerAuth {
-        ServerAuth { digest: None }
+        ServerAuth { guard: None }
     }
 
-    /// Whether the metadata carries the token.
+    /// Whether the metadata carries a token of this role.
     pub fn check(&self, metadata: &tonic::metadata::MetadataMap) -> Result<(), Status> {
-        let Some(expected) = &self.digest else {
+        let Some((role, roles)) = &self.guard else {
             return Ok(());
         };
         let Some(value) = metadata.get(AUTHORIZATION) else {
@@ -143,17 +241,25 @@ impl ServerAuth {
             .as_bytes()
             .strip_prefix(b"Bearer ")
             .unwrap_or_default();
-        // Constant time over fixed-length digests: the comparison does not stop at the first
-        // differing byte.
         let found = digest(presented);
-        let difference = found
-            .iter()
-            .zip(expected)
-            .fold(0u8, |acc, (a, b)| acc | (a ^ b));
-        if presented.is_empty() || difference != 0 {
-            return Err(Status::unauthenticated("wrong token"));
+        let (own, other) = match role {
+            Role::Client => (&roles.clients, &roles.workers),
+            Role::Worker => (&roles.workers, &roles.clients),
+        };
+        if !presented.is_empty() && own.contains(&found) {
+            return Ok(());
         }
-        Ok(())
+        if !presented.is_empty() && other.contains(&found) {
+            return Err(Status::permission_denied(match role {
+                Role::Client => {
+                    "a worker token cannot use the job service (submit, watch, fetch, cancel): use a client token"
+                }
+                Role::Worker => {
+                    "a client token cannot use the worker service (lease or return batches): use a worker token"
+                }
+            }));
+        }
+        Err(Status::unauthenticated("wrong token"))
     }
 }
 
@@ -173,28 +279,81 @@ mod tests {
         server.clone().call(request).map(|_| ())
     }
 
+    fn roles() -> Roles {
+        Roles {
+            clients: TokenSet::new(&["s3cret".to_string()]),
+            workers: TokenSet::new(&["w0rker".to_string(), "w0rker-new".to_string()]),
+        }
+    }
+
     #[test]
-    fn the_right_token_passes_and_others_are_unauthenticated() {
-        let server = ServerAuth::new("s3cret");
-        assert!(call(&server, &ClientAuth::new(Some("s3cret")).unwrap()).is_ok());
-        for client in [
-            ClientAuth::new(Some("s3cre")).unwrap(),
-            ClientAuth::new(Some("s3cret2")).unwrap(),
-            ClientAuth::default(),
-        ] {
-            assert_eq!(
-                call(&server, &client).unwrap_err().code(),
-                tonic::Code::Unauthenticated
-            );
+    fn each_service_takes_its_roles_tokens_only() {
+        let roles = roles();
+        let jobs = ServerAuth::for_role(Role::Client, &roles);
+        let workers = ServerAuth::for_role(Role::Worker, &roles);
+        let client = |token: &str| ClientAuth::new(Some(token)).unwrap();
+        assert!(call(&jobs, &client("s3cret")).is_ok());
+        assert!(call(&workers, &client("w0rker")).is_ok());
+        assert!(call(&workers, &client("w0rker-new")).is_ok());
+        assert_eq!(
+            call(&workers, &client("s3cret")).unwrap_err().code(),
+            tonic::Code::PermissionDenied
+        );
+        assert_eq!(
+            call(&jobs, &client("w0rker")).unwrap_err().code(),
+            tonic::Code::PermissionDenied
+        );
+        for wrong in [client("s3cre"), client("s3cret2"), ClientAuth::default()] {
+            for server in [&jobs, &workers] {
+                assert_eq!(
+                    call(server, &wrong).unwrap_err().code(),
+                    tonic::Code::Unauthenticated
+                );
+            }
         }
         let mut bare = Request::new(());
         bare.metadata_mut()
             .insert(AUTHORIZATION, "s3cret".parse().unwrap());
         assert!(
-            server.clone().call(bare).is_err(),
+            jobs.clone().call(bare).is_err(),
             "the Bearer prefix is required"
         );
         assert!(call(&ServerAuth::open(), &ClientAuth::default()).is_ok());
+        assert!(!roles.clients.overlaps(&roles.workers));
+    }
+
+    #[test]
+    fn a_rotation_replaces_the_accepted_tokens() {
+        let roles = roles();
+        let workers = ServerAuth::for_role(Role::Worker, &roles);
+        let old = ClientAuth::new(Some("w0rker")).unwrap();
+        roles.workers.replace(&["w0rker-new".to_string()]);
+        assert_eq!(
+            call(&workers, &old).unwrap_err().code(),
+            tonic::Code::Unauthenticated
+        );
+        assert!(call(&workers, &ClientAuth::new(Some("w0rker-new")).unwrap()).is_ok());
+    }
+
+    #[test]
+    fn a_token_file_may_list_several() {
+        let dir = std::env::temp_dir().join(format!("hevo-auth-list-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("tokens");
+        std::fs::write(&file, "# rotation under way\nnew-one\n\n  old-one  \n").unwrap();
+        assert_eq!(read_token_file(&file).unwrap(), ["new-one", "old-one"]);
+        assert_eq!(
+            resolve_token(None, Some(&file)).unwrap().as_deref(),
+            Some("new-one")
+        );
+        std::fs::write(&file, "# nothing\n\n").unwrap();
+        assert!(matches!(read_token_file(&file), Err(TokenError::Empty)));
+        std::fs::write(&file, "ok\nnot ok\n").unwrap();
+        assert!(matches!(
+            read_token_file(&file),
+            Err(TokenError::NotPrintable)
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 pub mod auth;
 pub mod client;
+pub mod codec;
 pub mod convert;
 
 /// The generated `hevo.v1` messages, clients and servers.

@@ -19,7 +19,10 @@ use std::process::{Command, Stdio};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant};
 
+/// The clients' token (submit, watch, fetch).
 const TOKEN: &str = "e2e-secret-token";
+/// The workers' token: a credential of its own.
+const WORKER_TOKEN: &str = "e2e-worker-token";
 const SEED: &str = "11";
 const LONG: Duration = Duration::from_secs(180);
 
@@ -188,7 +191,7 @@ fn two_workers(master: &Master, scratch: &Scratch, prefix: &str) -> Vec<Proc> {
             let name = format!("{prefix}{i}");
             start_worker(
                 &master.url,
-                TOKEN,
+                WORKER_TOKEN,
                 &name,
                 &[],
                 &scratch.join(&format!("{name}.log")),
@@ -200,7 +203,14 @@ fn two_workers(master: &Master, scratch: &Scratch, prefix: &str) -> Vec<Proc> {
 fn token_args(scratch: &Scratch) -> Vec<String> {
     let file = scratch.join("token");
     std::fs::write(&file, format!("{TOKEN}\n")).unwrap();
-    vec!["--token-file".into(), file.to_string_lossy().into_owned()]
+    let worker_file = scratch.join("worker-token");
+    std::fs::write(&worker_file, format!("{WORKER_TOKEN}\n")).unwrap();
+    vec![
+        "--token-file".into(),
+        file.to_string_lossy().into_owned(),
+        "--worker-token-file".into(),
+        worker_file.to_string_lossy().into_owned(),
+    ]
 }
 
 fn master_with(scratch: &Scratch, state: &str, extra: &[&str], log: &str) -> Master {
@@ -286,14 +296,14 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
     );
     let mut doomed = start_worker(
         &master.url,
-        TOKEN,
+        WORKER_TOKEN,
         "doomed",
         &[],
         &scratch.join("doomed.log"),
     );
     let _survivor = start_worker(
         &master.url,
-        TOKEN,
+        WORKER_TOKEN,
         "survivor",
         &[],
         &scratch.join("survivor.log"),
@@ -445,7 +455,7 @@ fn requests_without_the_right_token_are_refused() {
         Duration::from_secs(30),
     );
     assert!(
-        !output.status.success() && String::from_utf8_lossy(&output.stderr).contains("no token")
+        !output.status.success() && String::from_utf8_lossy(&output.stderr).contains("no tokens")
     );
 }
 
@@ -585,7 +595,7 @@ fn tls_with_a_private_certificate() {
     let ca = ["--tls-ca", cert.to_str().unwrap()];
     let _worker = start_worker(
         &master.url,
-        TOKEN,
+        WORKER_TOKEN,
         "tls-worker",
         &ca,
         &scratch.join("worker.log"),

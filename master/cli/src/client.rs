@@ -32,7 +32,6 @@ pub async fn submit(options: &ClientOptions, file: &Path, settings: Overrides) -
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let mut client = job_client(options.connect().await?);
     let request = v1::SubmitJobRequest {
         experiment_toml: text,
         file_name,
@@ -41,9 +40,42 @@ pub async fn submit(options: &ClientOptions, file: &Path, settings: Overrides) -
         generations: settings.generations,
         seed: settings.seed,
         files: files.files_read().into_iter().collect(),
+        // The same id on every attempt: a submission whose answer was lost (the master died
+        // after storing it) is not stored twice when it is sent again.
+        request_id: uuid::Uuid::new_v4().to_string(),
     };
-    let response = client.submit_job(request).await.map_err(refused)?;
-    Ok(response.into_inner().job_id)
+    let mut delay = Duration::from_millis(500);
+    for attempt in 1.. {
+        let outcome = async {
+            let mut client = job_client(options.connect().await?);
+            Ok::<_, anyhow::Error>(client.submit_job(request.clone()).await)
+        }
+        .await;
+        let lost = match outcome {
+            Ok(Ok(response)) => return Ok(response.into_inner().job_id),
+            Ok(Err(status)) if !connection_lost(&status) => return Err(refused(status)),
+            Ok(Err(status)) => describe_status(&status),
+            Err(error) => format!("{error:#}"),
+        };
+        if attempt >= SUBMIT_ATTEMPTS {
+            bail!("{lost} (gave up after {attempt} attempts)");
+        }
+        eprintln!("submit: {lost}; retrying in {delay:?} with the same request id");
+        tokio::time::sleep(delay).await;
+        delay = (delay * 2).min(Duration::from_secs(8));
+    }
+    unreachable!("the loop returns")
+}
+
+/// How often `hevo submit` sends a submission whose connection was lost.
+const SUBMIT_ATTEMPTS: u32 = 6;
+
+/// Whether a call failed because the connection went, not because the master refused it.
+fn connection_lost(status: &tonic::Status) -> bool {
+    matches!(
+        status.code(),
+        tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Cancelled
+    )
 }
 
 /// The wire state's lowercase name.

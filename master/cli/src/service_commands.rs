@@ -22,13 +22,22 @@ pub struct ServeArgs {
     /// Directory of the job store (hevo.redb) and the jobs' outputs.
     #[arg(long)]
     pub state_dir: PathBuf,
-    /// The shared token clients and workers must send.
+    /// The token clients (submit, watch, jobs, fetch, cancel) must send.
     #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
-    /// Read the token from this file (wins over --token and HEVO_TOKEN).
+    /// Read the clients' tokens from this file, one per line (wins over --token and
+    /// HEVO_TOKEN; several lines during a rotation; re-read on SIGHUP).
     #[arg(long)]
     pub token_file: Option<PathBuf>,
-    /// Run without a token (only on a network you trust).
+    /// The token workers must send: a credential of its own, so a client cannot act as a
+    /// worker nor a worker submit or read jobs.
+    #[arg(long, env = "HEVO_WORKER_TOKEN", hide_env_values = true)]
+    pub worker_token: Option<String>,
+    /// Read the workers' tokens from this file, one per line (wins over --worker-token and
+    /// HEVO_WORKER_TOKEN; re-read on SIGHUP).
+    #[arg(long)]
+    pub worker_token_file: Option<PathBuf>,
+    /// Run without tokens (only on a network you trust).
     #[arg(long)]
     pub insecure_no_token: bool,
     /// TLS certificate chain (PEM); needs --tls-key.
@@ -43,6 +52,10 @@ pub struct ServeArgs {
     /// A batch whose worker sends no heartbeat for this long is given to another worker.
     #[arg(long, default_value_t = 30)]
     pub lease_seconds: u64,
+    /// Rebuild the job store from the copies of the job records in STATE_DIR/jobs/*/job.json
+    /// (after the store was lost or damaged; the old file is moved aside), then serve.
+    #[arg(long)]
+    pub rebuild_store: bool,
 }
 
 /// `hevo submit`.
@@ -86,15 +99,40 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
 
 /// `hevo serve`.
 pub fn serve(args: ServeArgs) -> Result<()> {
-    let token = hevo_proto::auth::resolve_token(args.token.as_deref(), args.token_file.as_deref())?;
+    let tokens = |token: &Option<String>, file: &Option<PathBuf>| -> Result<Vec<String>> {
+        Ok(match file {
+            Some(file) => hevo_proto::auth::read_token_file(file)?,
+            None => hevo_proto::auth::resolve_token(token.as_deref(), None)?
+                .into_iter()
+                .collect(),
+        })
+    };
+    let client_tokens = tokens(&args.token, &args.token_file)?;
+    let worker_tokens = tokens(&args.worker_token, &args.worker_token_file)?;
+    let credentials = match (client_tokens.is_empty(), worker_tokens.is_empty()) {
+        (true, true) if args.insecure_no_token => None,
+        (true, true) => bail!(
+            "no tokens: give clients' (--token-file, --token or HEVO_TOKEN) and workers' (--worker-token-file, --worker-token or HEVO_WORKER_TOKEN), or --insecure-no-token on a trusted network"
+        ),
+        (true, false) => bail!("no client token: give --token-file, --token or HEVO_TOKEN"),
+        (false, true) => bail!(
+            "no worker token: workers need a credential of their own; give --worker-token-file, --worker-token or HEVO_WORKER_TOKEN"
+        ),
+        (false, false) => Some(hevo_service::Credentials {
+            client_tokens,
+            worker_tokens,
+            client_token_file: args.token_file.clone(),
+            worker_token_file: args.worker_token_file.clone(),
+        }),
+    };
     let config = hevo_service::ServeConfig {
         listen: args.listen,
         state_dir: args.state_dir,
-        token,
-        insecure_no_token: args.insecure_no_token,
+        credentials,
         tls: args.tls_cert.zip(args.tls_key),
         metrics_listen: args.metrics_listen,
         lease: Duration::from_secs(args.lease_seconds),
+        rebuild_store: args.rebuild_store,
     };
     runtime()?.block_on(hevo_service::serve(config))
 }

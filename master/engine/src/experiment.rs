@@ -10,6 +10,45 @@ use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
+/// The bounds every experiment is held to, by `hevo run` and a service alike, so that no
+/// file can make hevo allocate without limit: a generation's results are held in memory
+/// (about 100 bytes per evaluation, plus the population's genes), and every batch must fit
+/// a message. docs/experiment-file.md lists them.
+pub mod limits {
+    /// Runs per node.
+    pub const RUNS: u32 = 1_000;
+    /// Generations per run.
+    pub const GENERATIONS: u32 = 1_000_000;
+    /// Genomes per generation.
+    pub const POPULATION: u32 = 100_000;
+    /// Samples per genome per generation, and post-evaluation samples per variant.
+    pub const SAMPLES: u32 = 100_000;
+    /// Genomes x samples in one generation, and samples in one post-evaluation.
+    pub const EVALUATIONS_PER_GENERATION: u64 = 1_000_000;
+    /// Nodes in one experiment.
+    pub const NODES: usize = 256;
+    /// Characters of a node's name.
+    pub const NODE_NAME_CHARS: usize = 64;
+    /// Characters of the experiment's name.
+    pub const EXPERIMENT_NAME_CHARS: usize = 128;
+}
+
+/// Whether `name` can name a node: a plain identifier (ASCII letters, digits, `_` and `-`,
+/// not starting with `-`), so it is a safe directory name and a safe command-line word.
+pub fn check_node_name(name: &str) -> Result<(), String> {
+    let plain = name
+        .bytes()
+        .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+    if name.is_empty() || name.len() > limits::NODE_NAME_CHARS || !plain || name.starts_with('-') {
+        return Err(format!(
+            "'{}' is not a node name: use 1 to {} letters, digits, '_' or '-' (not first)",
+            cut(&name.escape_default().to_string(), 40),
+            limits::NODE_NAME_CHARS
+        ));
+    }
+    Ok(())
+}
+
 /// A problem with an experiment file.
 #[derive(Debug, thiserror::Error)]
 pub enum ExperimentError {
@@ -33,7 +72,7 @@ pub enum ExperimentError {
         message: String,
     },
     /// A command named a node the experiment does not have.
-    #[error("no node named '{name}' in {file}; nodes: {}", .known.join(", "))]
+    #[error("no node named '{}' in {file}; nodes: {}", cut(name, 80), .known.join(", "))]
     UnknownNode {
         /// The file.
         file: PathBuf,
@@ -483,14 +522,33 @@ impl Experiment {
         };
 
         let base = parsed.evolution.apply(&EvolutionParams::default());
+        let name = &parsed.experiment.name;
+        if name.trim().is_empty()
+            || name.chars().count() > limits::EXPERIMENT_NAME_CHARS
+            || name.chars().any(char::is_control)
+        {
+            return Err(invalid(
+                "experiment.name".into(),
+                format!(
+                    "must be 1 to {} characters without control characters",
+                    limits::EXPERIMENT_NAME_CHARS
+                ),
+            ));
+        }
+        if parsed.nodes.len() > limits::NODES {
+            return Err(invalid(
+                "node".into(),
+                format!(
+                    "{} nodes, at most {} are accepted",
+                    parsed.nodes.len(),
+                    limits::NODES
+                ),
+            ));
+        }
         let mut index_of: HashMap<&str, usize> = HashMap::new();
         for (node_idx, node) in parsed.nodes.iter().enumerate() {
-            if node.name.is_empty() || node.name.contains('/') {
-                return Err(invalid(
-                    format!("node[{node_idx}].name"),
-                    "must be non-empty and contain no '/'".into(),
-                ));
-            }
+            check_node_name(&node.name)
+                .map_err(|message| invalid(format!("node[{node_idx}].name"), message))?;
             if index_of.insert(node.name.as_str(), node_idx).is_some() {
                 return Err(invalid(
                     format!("node[{node_idx}].name"),
@@ -535,7 +593,10 @@ impl Experiment {
                 let at_child = format!("node[{node_idx}].children[{child_idx}]");
                 match child {
                     ChildDecl::Node(name) if !index_of.contains_key(name.as_str()) => {
-                        return Err(invalid(at_child, format!("no node is named '{name}'")));
+                        return Err(invalid(
+                            at_child,
+                            format!("no node is named '{}'", cut(name, 80)),
+                        ));
                     }
                     ChildDecl::Node(_) => {}
                     external => {
@@ -566,20 +627,20 @@ impl Experiment {
                     at("task"),
                     format!(
                         "unknown task '{}', expected one of {} or maze_single",
-                        node.task,
+                        cut(&node.task, 80),
                         names.join(", ")
                     ),
                 )
             })?;
-            for (key, value, min) in [
-                ("samples", node.samples, 1),
-                ("generations", node.generations, 1),
-                ("runs", node.runs, 1),
+            for (key, value, max) in [
+                ("samples", node.samples, limits::SAMPLES),
+                ("generations", node.generations, limits::GENERATIONS),
+                ("runs", node.runs, limits::RUNS),
             ] {
-                if value < min {
+                if !(1..=max).contains(&value) {
                     return Err(invalid(
                         at(key),
-                        format!("must be at least {min}, got {value}"),
+                        format!("must be between 1 and {max}, got {value}"),
                     ));
                 }
             }
@@ -597,6 +658,23 @@ impl Experiment {
             })?;
             let task =
                 task_config(kind, node).map_err(|(key, message)| invalid(at(&key), message))?;
+            let per_generation = u64::from(evolution.population) * u64::from(node.samples);
+            let post_evaluation = u64::from(evolution.post_evaluation_samples)
+                * u64::from(hevo_sim_core::env::n_variants(kind));
+            for (what, evaluations) in [
+                ("samples", per_generation),
+                ("evolution.post_evaluation_samples", post_evaluation),
+            ] {
+                if evaluations > limits::EVALUATIONS_PER_GENERATION {
+                    return Err(invalid(
+                        at(what),
+                        format!(
+                            "{evaluations} evaluations at once (population x samples, or post-evaluation samples x variants), at most {}",
+                            limits::EVALUATIONS_PER_GENERATION
+                        ),
+                    ));
+                }
+            }
             plans[node_idx] = Some(NodePlan {
                 decl: node.clone(),
                 evolution,
@@ -818,6 +896,26 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
             format!(
                 "population ({}) must be a multiple of elites ({}) and larger, so each elite gets the same number of mutated copies",
                 params.population, params.elites
+            ),
+        );
+    }
+    if params.population > limits::POPULATION {
+        return fail(
+            "population",
+            format!(
+                "must be at most {}, got {}",
+                limits::POPULATION,
+                params.population
+            ),
+        );
+    }
+    if params.post_evaluation_samples > limits::SAMPLES {
+        return fail(
+            "post_evaluation_samples",
+            format!(
+                "must be at most {}, got {}",
+                limits::SAMPLES,
+                params.post_evaluation_samples
             ),
         );
     }

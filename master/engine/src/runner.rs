@@ -39,14 +39,28 @@ pub struct Overrides {
 }
 
 impl Overrides {
-    /// Refuses overrides no run can have: no runs, or runs of no generations.
-    pub fn validate(&self) -> Result<(), RunError> {
-        for (flag, value) in [("runs", self.runs), ("generations", self.generations)] {
-            if value == Some(0) {
-                return Err(RunError::Invalid(format!(
-                    "--{flag} must be at least 1, got 0"
-                )));
+    /// Refuses overrides out of the experiment limits (no runs, runs of no generations, more
+    /// than [`crate::experiment::limits`] allow) and node names that name no node.
+    pub fn validate(&self) -> Result<(), OverrideError> {
+        use crate::experiment::limits;
+        for (field, value, max) in [
+            ("runs", self.runs, limits::RUNS),
+            ("generations", self.generations, limits::GENERATIONS),
+        ] {
+            if let Some(value) = value
+                && !(1..=max).contains(&value)
+            {
+                return Err(OverrideError {
+                    field,
+                    message: format!("must be between 1 and {max}, got {value}"),
+                });
             }
+        }
+        if let Some(node) = &self.node {
+            crate::experiment::check_node_name(node).map_err(|message| OverrideError {
+                field: "node",
+                message,
+            })?;
         }
         Ok(())
     }
@@ -65,6 +79,16 @@ impl Overrides {
     pub fn seed_of(&self, experiment: &Experiment) -> u64 {
         self.seed.unwrap_or(experiment.header.seed)
     }
+}
+
+/// An override out of range.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("--{field} {message}")]
+pub struct OverrideError {
+    /// The flag (and service field): `runs`, `generations`, `node`.
+    pub field: &'static str,
+    /// What is wrong.
+    pub message: String,
 }
 
 /// What to run, and where.
@@ -171,6 +195,9 @@ pub enum RunError {
     /// The experiment has no node of the name asked for.
     #[error(transparent)]
     Experiment(#[from] crate::experiment::ExperimentError),
+    /// An override is out of range.
+    #[error(transparent)]
+    Override(#[from] OverrideError),
     /// The dispatcher could not evaluate.
     #[error(transparent)]
     Dispatch(#[from] DispatchError),

@@ -1,8 +1,17 @@
 //! The master's durable job store: one redb database, `<state-dir>/hevo.redb`, with a record
-//! per job (its experiment text, settings, state, progress) and a job counter. A submission is
-//! committed with full durability before its id is returned, and so is every change of state,
-//! so a master killed at any instant (even kill -9) loses no submitted job; progress updates,
-//! frequent and recomputed on resume anyway, are committed without waiting for the disk.
+//! per job (its experiment text, settings, state, progress) and the submission request ids
+//! already served. A submission is committed with full durability before its id is returned,
+//! and so is every change of state, so a master killed at any instant (even kill -9) loses no
+//! submitted job; progress updates, frequent and recomputed on resume anyway, are committed
+//! without waiting for the disk.
+//!
+//! The store is verified when it is opened, before the master says it listens: redb's own
+//! integrity check (which repairs what it can), then every record read back. A damaged file
+//! is a clear error naming it and what to do, never a panic: redb's panics are caught and
+//! reported the same way. A store that is missing or empty while `<state-dir>/jobs/` holds
+//! jobs is refused rather than silently started afresh; `--rebuild-store` rebuilds the index
+//! from the copy of each record kept in `jobs/<id>/job.json`. Job ids are time-ordered and
+//! random (UUID version 7), so they stay unique even when a store is lost.
 
 use hevo_engine::runner::{Overrides, ProgressEvent};
 use redb::{Database, Durability, ReadableDatabase, ReadableTable, TableDefinition};
@@ -10,8 +19,8 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 const JOBS: TableDefinition<'_, &str, &str> = TableDefinition::new("jobs");
-const META: TableDefinition<'_, &str, u64> = TableDefinition::new("meta");
-const NEXT_JOB: &str = "next_job";
+/// Submission request id -> job id: a retried submission returns the job it made.
+const REQUESTS: TableDefinition<'_, &str, &str> = TableDefinition::new("requests");
 
 /// Where a job is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -62,8 +71,11 @@ impl JobState {
 /// One job, as stored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JobRecord {
-    /// `job-000001`, ...
+    /// `job-<UUID v7>`: time-ordered, random.
     pub id: String,
+    /// The client's id of the submission that made it, if it sent one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request_id: Option<String>,
     /// The experiment's name.
     pub experiment_name: String,
     /// The submitted file's name (for messages).
@@ -105,7 +117,7 @@ impl JobRecord {
     }
 }
 
-/// A store operation failed.
+/// A store operation failed, or the store cannot be used.
 #[derive(Debug, thiserror::Error)]
 #[error("job store {path}: {message}")]
 pub struct StoreError {
@@ -120,30 +132,151 @@ pub struct JobStore {
     path: String,
 }
 
+/// Runs a store operation, turning a panic inside redb (a damaged page met later, say) into
+/// an error instead of a crash.
+fn guarded<T>(path: &str, body: impl FnOnce() -> Result<T, StoreError>) -> Result<T, StoreError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)).unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| panic.downcast_ref::<&str>().copied())
+            .unwrap_or("a panic");
+        Err(StoreError {
+            path: path.to_string(),
+            message: format!(
+                "the store library failed ({what}): the file is damaged. {}",
+                DAMAGED_ADVICE
+            ),
+        })
+    })
+}
+
+const DAMAGED_ADVICE: &str = "Restore it from a backup, or move it aside and start with `--rebuild-store` (rebuilds the job index from jobs/*/job.json), or start with --state-dir elsewhere";
+
+/// How many job directories `jobs_dir` holds.
+fn job_dirs(jobs_dir: &Path) -> usize {
+    std::fs::read_dir(jobs_dir).map_or(0, |entries| {
+        entries
+            .filter_map(Result::ok)
+            .filter(|entry| entry.path().is_dir())
+            .count()
+    })
+}
+
 impl JobStore {
-    /// Opens (or creates) the database. Fails when another master holds it.
-    pub fn open(path: &Path) -> Result<JobStore, StoreError> {
-        let display = path.display().to_string();
-        let db = Database::create(path).map_err(|e| {
-            let message = match e {
-                redb::DatabaseError::DatabaseAlreadyOpen => {
-                    "already open: is another master using this state directory?".to_string()
-                }
-                other => other.to_string(),
-            };
-            StoreError {
-                path: display.clone(),
-                message,
+    /// Opens (or creates) the database and verifies it. Fails when another master holds it,
+    /// when it is damaged, and when it is missing or empty although `jobs_dir` holds jobs.
+    pub fn open(path: &Path, jobs_dir: &Path) -> Result<JobStore, StoreError> {
+        let path_text = path.display().to_string();
+        let fresh = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
+        let existing = job_dirs(jobs_dir);
+        if fresh && existing > 0 {
+            return Err(StoreError {
+                path: path_text,
+                message: format!(
+                    "is missing or empty, but {} holds {existing} job(s): their index is lost. \
+                     Restore the store from a backup, or start with `--rebuild-store` to rebuild it \
+                     from jobs/*/job.json, or start with --state-dir elsewhere",
+                    jobs_dir.display()
+                ),
+            });
+        }
+        let store = guarded(&path_text, || Self::open_verified(path, &path_text))?;
+        Ok(store)
+    }
+
+    fn open_verified(path: &Path, path_text: &str) -> Result<JobStore, StoreError> {
+        let error = |message: String| StoreError {
+            path: path_text.to_string(),
+            message,
+        };
+        let mut db = Database::create(path).map_err(|e| match e {
+            redb::DatabaseError::DatabaseAlreadyOpen => {
+                error("already open: is another master using this state directory?".into())
             }
+            other => error(format!("cannot be opened ({other}). {DAMAGED_ADVICE}")),
         })?;
-        let store = JobStore { db, path: display };
+        match db.check_integrity() {
+            Ok(true) => {}
+            Ok(false) => tracing::warn!(
+                store = path_text,
+                "the job store was damaged and has been repaired"
+            ),
+            Err(e) => {
+                return Err(error(format!(
+                    "is damaged beyond repair ({e}). {DAMAGED_ADVICE}"
+                )));
+            }
+        }
+        let store = JobStore {
+            db,
+            path: path_text.to_string(),
+        };
         // Create the tables so that readers never meet a missing one.
         store.write(Durability::Immediate, |txn| {
             txn.open_table(JOBS)?;
-            txn.open_table(META)?;
+            txn.open_table(REQUESTS)?;
             Ok(())
         })?;
+        // Every record must read back: a damaged value is found now, not by a client later.
+        store
+            .list()
+            .map_err(|e| error(format!("{}. {DAMAGED_ADVICE}", e.message)))?;
         Ok(store)
+    }
+
+    /// Builds a new store at `path` from the records kept in `jobs_dir/<id>/job.json`; the
+    /// file at `path`, if any, is moved aside to `<path>.damaged-<unix seconds>` first.
+    pub fn rebuild(path: &Path, jobs_dir: &Path) -> Result<(JobStore, usize), StoreError> {
+        let path_text = path.display().to_string();
+        let error = |message: String| StoreError {
+            path: path_text.clone(),
+            message,
+        };
+        if path.exists() {
+            let stamp = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            let aside = path.with_extension(format!("redb.damaged-{stamp}"));
+            std::fs::rename(path, &aside)
+                .map_err(|e| error(format!("cannot move it aside to {}: {e}", aside.display())))?;
+            tracing::warn!(from = %path_text, to = %aside.display(), "old job store moved aside");
+        }
+        let mut records = Vec::new();
+        let entries =
+            std::fs::read_dir(jobs_dir).map(|e| e.filter_map(Result::ok).collect::<Vec<_>>());
+        for entry in entries.unwrap_or_default() {
+            let file = entry.path().join(RECORD_FILE);
+            let Ok(text) = std::fs::read_to_string(&file) else {
+                tracing::warn!(job = %entry.path().display(), "no job.json: not rebuilt");
+                continue;
+            };
+            let record: JobRecord = serde_json::from_str(&text)
+                .map_err(|e| error(format!("{}: unreadable record: {e}", file.display())))?;
+            records.push(record);
+        }
+        let store = guarded(&path_text, || {
+            let db = Database::create(path).map_err(|e| error(e.to_string()))?;
+            let store = JobStore {
+                db,
+                path: path_text.clone(),
+            };
+            store.write(Durability::Immediate, |txn| {
+                let mut jobs = txn.open_table(JOBS)?;
+                let mut requests = txn.open_table(REQUESTS)?;
+                for record in &records {
+                    let json = serde_json::to_string(record)
+                        .map_err(|e| redb::Error::Corrupted(e.to_string()))?;
+                    jobs.insert(record.id.as_str(), json.as_str())?;
+                    if let Some(request_id) = &record.request_id {
+                        requests.insert(request_id.as_str(), record.id.as_str())?;
+                    }
+                }
+                Ok(())
+            })?;
+            Ok(store)
+        })?;
+        Ok((store, records.len()))
     }
 
     fn error(&self, error: impl std::fmt::Display) -> StoreError {
@@ -158,28 +291,44 @@ impl JobStore {
         durability: Durability,
         body: impl FnOnce(&redb::WriteTransaction) -> Result<T, redb::Error>,
     ) -> Result<T, StoreError> {
-        let mut txn = self.db.begin_write().map_err(|e| self.error(e))?;
-        txn.set_durability(durability).map_err(|e| self.error(e))?;
-        let value = body(&txn).map_err(|e| self.error(e))?;
-        txn.commit().map_err(|e| self.error(e))?;
-        Ok(value)
+        guarded(&self.path, || {
+            let mut txn = self.db.begin_write().map_err(|e| self.error(e))?;
+            txn.set_durability(durability).map_err(|e| self.error(e))?;
+            let value = body(&txn).map_err(|e| self.error(e))?;
+            txn.commit().map_err(|e| self.error(e))?;
+            Ok(value)
+        })
     }
 
-    /// Stores a new job under the next id, durably; `make` builds the record for the id.
+    /// Stores a new job under a fresh id, durably; `make` builds the record for the id. A
+    /// submission whose `request_id` was served before returns that job instead, and `false`.
     pub fn insert_new(
         &self,
+        request_id: Option<&str>,
         make: impl FnOnce(String) -> JobRecord,
-    ) -> Result<JobRecord, StoreError> {
+    ) -> Result<(JobRecord, bool), StoreError> {
         self.write(Durability::Immediate, |txn| {
-            let mut meta = txn.open_table(META)?;
-            let number = meta.get(NEXT_JOB)?.map_or(1, |v| v.value());
-            meta.insert(NEXT_JOB, number + 1)?;
-            let record = make(format!("job-{number:06}"));
+            let mut requests = txn.open_table(REQUESTS)?;
+            let mut jobs = txn.open_table(JOBS)?;
+            if let Some(request_id) = request_id
+                && let Some(job_id) = requests.get(request_id)?
+            {
+                let job_id = job_id.value().to_string();
+                if let Some(json) = jobs.get(job_id.as_str())? {
+                    let record: JobRecord = serde_json::from_str(json.value())
+                        .map_err(|e| redb::Error::Corrupted(e.to_string()))?;
+                    return Ok((record, false));
+                }
+            }
+            let mut record = make(new_job_id());
+            record.request_id = request_id.map(str::to_string);
             let json = serde_json::to_string(&record)
                 .map_err(|e| redb::Error::Corrupted(e.to_string()))?;
-            txn.open_table(JOBS)?
-                .insert(record.id.as_str(), json.as_str())?;
-            Ok(record)
+            jobs.insert(record.id.as_str(), json.as_str())?;
+            if let Some(request_id) = request_id {
+                requests.insert(request_id, record.id.as_str())?;
+            }
+            Ok((record, true))
         })
     }
 
@@ -198,19 +347,31 @@ impl JobStore {
         })
     }
 
-    /// Every job, in id order.
+    /// Every job, in id order (which is submission order).
     pub fn list(&self) -> Result<Vec<JobRecord>, StoreError> {
-        let txn = self.db.begin_read().map_err(|e| self.error(e))?;
-        let table = txn.open_table(JOBS).map_err(|e| self.error(e))?;
-        let mut records = Vec::new();
-        for entry in table.iter().map_err(|e| self.error(e))? {
-            let (key, value) = entry.map_err(|e| self.error(e))?;
-            let record: JobRecord = serde_json::from_str(value.value())
-                .map_err(|e| self.error(format!("job {}: unreadable record: {e}", key.value())))?;
-            records.push(record);
-        }
-        Ok(records)
+        guarded(&self.path, || {
+            let txn = self.db.begin_read().map_err(|e| self.error(e))?;
+            let table = txn.open_table(JOBS).map_err(|e| self.error(e))?;
+            let mut records = Vec::new();
+            for entry in table.iter().map_err(|e| self.error(e))? {
+                let (key, value) = entry.map_err(|e| self.error(e))?;
+                let record: JobRecord = serde_json::from_str(value.value()).map_err(|e| {
+                    self.error(format!("job {}: unreadable record: {e}", key.value()))
+                })?;
+                records.push(record);
+            }
+            Ok(records)
+        })
     }
+}
+
+/// The copy of a job's record kept in its directory, from which a lost store is rebuilt.
+pub const RECORD_FILE: &str = "job.json";
+
+/// A fresh job id: `job-` and a UUID version 7 (milliseconds since the epoch, then random
+/// bits), so ids sort by submission time and never repeat, even across lost stores.
+pub fn new_job_id() -> String {
+    format!("job-{}", uuid::Uuid::now_v7().simple())
 }
 
 #[cfg(test)]
@@ -220,6 +381,7 @@ mod tests {
     fn record(id: String) -> JobRecord {
         JobRecord {
             id,
+            request_id: None,
             experiment_name: "e".into(),
             file_name: "e.toml".into(),
             experiment_toml: "[experiment]".into(),
@@ -239,38 +401,133 @@ mod tests {
     }
 
     #[test]
-    fn jobs_survive_reopening_and_ids_keep_counting() {
+    fn jobs_survive_reopening_with_time_ordered_ids() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("hevo.redb");
-        {
-            let store = JobStore::open(&path).unwrap();
-            let first = store.insert_new(record).unwrap();
-            assert_eq!(first.id, "job-000001");
+        let jobs_dir = dir.path().join("jobs");
+        let (first, second) = {
+            let store = JobStore::open(&path, &jobs_dir).unwrap();
+            let (first, new) = store.insert_new(None, record).unwrap();
+            assert!(new && first.id.starts_with("job-") && first.id.len() == 36);
             assert_eq!(first.generations_total(), 14);
-            let mut second = store.insert_new(record).unwrap();
+            let (mut second, _) = store.insert_new(None, record).unwrap();
+            assert!(second.id > first.id, "ids sort by time");
             second.state = JobState::Running;
             second.generations_done = 3;
             store.put(&second, false).unwrap();
             second.state = JobState::Succeeded;
             store.put(&second, true).unwrap();
             assert!(
-                JobStore::open(&path)
+                JobStore::open(&path, &jobs_dir)
                     .unwrap_err()
                     .to_string()
                     .contains("another master")
             );
-        }
-        let store = JobStore::open(&path).unwrap();
+            (first.id, second.id)
+        };
+        let store = JobStore::open(&path, &jobs_dir).unwrap();
         let jobs = store.list().unwrap();
         assert_eq!(
             jobs.iter()
-                .map(|j| (j.id.as_str(), j.state))
+                .map(|j| (j.id.clone(), j.state))
                 .collect::<Vec<_>>(),
             [
-                ("job-000001", JobState::Queued),
-                ("job-000002", JobState::Succeeded)
+                (first, JobState::Queued),
+                (second.clone(), JobState::Succeeded)
             ]
         );
-        assert_eq!(store.insert_new(record).unwrap().id, "job-000003");
+        assert!(store.insert_new(None, record).unwrap().0.id > second);
+    }
+
+    #[test]
+    fn a_retried_submission_returns_its_job() {
+        let dir = tempfile::tempdir().unwrap();
+        let store =
+            JobStore::open(&dir.path().join("hevo.redb"), &dir.path().join("jobs")).unwrap();
+        let (job, new) = store.insert_new(Some("req-1"), record).unwrap();
+        assert!(new);
+        let (again, new) = store.insert_new(Some("req-1"), record).unwrap();
+        assert!(!new);
+        assert_eq!(again, job);
+        assert_eq!(again.request_id.as_deref(), Some("req-1"));
+        let (other, new) = store.insert_new(Some("req-2"), record).unwrap();
+        assert!(new && other.id != job.id);
+        assert_eq!(store.list().unwrap().len(), 2);
+    }
+
+    #[test]
+    fn a_lost_store_beside_jobs_is_refused_and_can_be_rebuilt() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("hevo.redb");
+        let jobs_dir = dir.path().join("jobs");
+        let job = {
+            let store = JobStore::open(&path, &jobs_dir).unwrap();
+            let (job, _) = store.insert_new(Some("req-1"), record).unwrap();
+            let job_dir = jobs_dir.join(&job.id);
+            std::fs::create_dir_all(&job_dir).unwrap();
+            std::fs::write(
+                job_dir.join(RECORD_FILE),
+                serde_json::to_string(&job).unwrap(),
+            )
+            .unwrap();
+            job
+        };
+        for lose in [
+            |p: &Path| std::fs::write(p, b"").unwrap(),
+            |p: &Path| std::fs::remove_file(p).unwrap(),
+        ] {
+            lose(&path);
+            let error = JobStore::open(&path, &jobs_dir).unwrap_err().to_string();
+            assert!(
+                error.contains("missing or empty")
+                    && error.contains("1 job(s)")
+                    && error.contains("--rebuild-store"),
+                "{error}"
+            );
+        }
+        let (store, n) = JobStore::rebuild(&path, &jobs_dir).unwrap();
+        assert_eq!(n, 1);
+        assert_eq!(store.list().unwrap(), [job.clone()]);
+        // The request index came back too.
+        assert!(!store.insert_new(Some("req-1"), record).unwrap().1);
+    }
+
+    #[test]
+    fn a_damaged_store_is_a_clear_error_not_a_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("hevo.redb");
+        let jobs_dir = dir.path().join("jobs");
+        {
+            let store = JobStore::open(&path, &jobs_dir).unwrap();
+            for _ in 0..20 {
+                store.insert_new(None, record).unwrap();
+            }
+        }
+        let clean = std::fs::read(&path).unwrap();
+        // Garbage over the middle of the file, and a few flipped bytes all over it.
+        let mut garbage = clean.clone();
+        let middle = garbage.len() / 2;
+        for byte in &mut garbage[middle..(middle + 4096).min(clean.len())] {
+            *byte = 0xA5;
+        }
+        let mut flipped = clean.clone();
+        for i in 0..20 {
+            let at = (i * 7919 + 4096) % flipped.len();
+            flipped[at] ^= 0xFF;
+        }
+        for damaged in [garbage, flipped] {
+            std::fs::write(&path, &damaged).unwrap();
+            match JobStore::open(&path, &jobs_dir) {
+                // redb repaired it: every record still reads back.
+                Ok(store) => assert!(store.list().is_ok()),
+                Err(error) => {
+                    let error = error.to_string();
+                    assert!(
+                        error.contains("hevo.redb") && error.contains("--rebuild-store"),
+                        "{error}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -56,6 +56,7 @@ impl JobService for JobApi {
     ) -> Result<Response<v1::SubmitJobResponse>, Status> {
         let request = request.into_inner();
         let submission = Submission {
+            request_id: (!request.request_id.is_empty()).then_some(request.request_id),
             experiment_toml: request.experiment_toml,
             files: request.files.into_iter().collect(),
             file_name: request.file_name,

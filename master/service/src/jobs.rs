@@ -30,12 +30,6 @@ pub mod limits {
     pub const ATTACHED_FILES_BYTES: usize = 16 * 1024 * 1024;
     /// File name length.
     pub const FILE_NAME_CHARS: usize = 255;
-    /// Runs per node.
-    pub const RUNS: u32 = 1_000;
-    /// Generations per run.
-    pub const GENERATIONS: u32 = 1_000_000;
-    /// Genomes x samples in one generation (and post-evaluation samples).
-    pub const EVALUATIONS_PER_GENERATION: u64 = 10_000_000;
     /// Job id length accepted in requests.
     pub const JOB_ID_CHARS: usize = 64;
 }
@@ -65,16 +59,23 @@ pub enum JobError {
     Io(String),
 }
 
+/// The longest message a refusal carries: it goes back to the client in a gRPC status, and
+/// must not quote a huge input back at it.
+const MAX_MESSAGE_CHARS: usize = 4096;
+
 fn invalid(field: &str, message: impl Into<String>) -> JobError {
     JobError::Invalid {
         field: field.to_string(),
-        message: message.into(),
+        message: hevo_engine::experiment::cut(&message.into(), MAX_MESSAGE_CHARS),
     }
 }
 
 /// A submission, as received.
 #[derive(Debug, Clone, Default)]
 pub struct Submission {
+    /// The client's id for this submission: a retried submission with the same id returns the
+    /// job the first one made.
+    pub request_id: Option<String>,
     /// Experiment file text.
     pub experiment_toml: String,
     /// The files it reads from elsewhere, by relative path.
@@ -135,9 +136,19 @@ fn now_ms() -> i64 {
         .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
 }
 
+/// Where jobs live in a state directory.
+pub fn jobs_dir(state_dir: &Path) -> PathBuf {
+    state_dir.join("jobs")
+}
+
+/// A job's directory: its record's copy and its outputs.
+pub fn job_dir(state_dir: &Path, id: &str) -> PathBuf {
+    jobs_dir(state_dir).join(id)
+}
+
 /// The output directory of a job.
 pub fn job_out_dir(state_dir: &Path, id: &str) -> PathBuf {
-    state_dir.join("jobs").join(id).join("runs")
+    job_dir(state_dir, id).join("runs")
 }
 
 impl JobManager {
@@ -186,25 +197,43 @@ impl JobManager {
             return Err(JobError::ShuttingDown);
         }
         let (experiment, plan, file_name) = validate(&submission)?;
-        let record = self.inner.store.insert_new(|id| JobRecord {
-            id,
-            experiment_name: experiment.header.name.clone(),
-            file_name,
-            experiment_toml: submission.experiment_toml.clone(),
-            files: submission.files.clone(),
-            settings: submission.settings.clone(),
-            plan,
-            state: JobState::Queued,
-            error: None,
-            created_unix_ms: now_ms(),
-            finished_unix_ms: None,
-            generations_done: 0,
-            last_event: None,
-        })?;
+        let (record, new) =
+            self.inner
+                .store
+                .insert_new(submission.request_id.as_deref(), |id| JobRecord {
+                    id,
+                    request_id: None,
+                    experiment_name: experiment.header.name.clone(),
+                    file_name,
+                    experiment_toml: submission.experiment_toml.clone(),
+                    files: submission.files.clone(),
+                    settings: submission.settings.clone(),
+                    plan,
+                    state: JobState::Queued,
+                    error: None,
+                    created_unix_ms: now_ms(),
+                    finished_unix_ms: None,
+                    generations_done: 0,
+                    last_event: None,
+                })?;
+        if !new {
+            tracing::info!(job = %record.id, "a retried submission: its job already exists");
+            return Ok(record);
+        }
+        self.keep_record_copy(&record);
         tracing::info!(job = %record.id, experiment = %record.experiment_name, generations = record.generations_total(), "job submitted");
         lock(&self.inner.records).insert(record.id.clone(), record.clone());
         self.spawn(record.id.clone());
         Ok(record)
+    }
+
+    /// Writes the copy of a job's record its directory keeps (`jobs/<id>/job.json`), from
+    /// which a lost store can be rebuilt. A failure is logged: the store is the record.
+    fn keep_record_copy(&self, record: &JobRecord) {
+        let path = job_dir(&self.inner.state_dir, &record.id).join(crate::db::RECORD_FILE);
+        if let Err(error) = hevo_engine::store::write_json_atomic(&path, record) {
+            tracing::warn!(job = %record.id, %error, "cannot keep the copy of the job's record");
+        }
     }
 
     /// A job's record.
@@ -297,6 +326,7 @@ impl JobManager {
             record.error = error;
             record.finished_unix_ms = Some(now_ms());
             self.inner.store.put(record, true)?;
+            self.keep_record_copy(record);
             record.clone()
         };
         let _ = self.sender(id).send(status_event(&record));
@@ -314,6 +344,7 @@ impl JobManager {
         if record.state != JobState::Running {
             record.state = JobState::Running;
             self.inner.store.put(record, true)?;
+            self.keep_record_copy(record);
         }
         Ok(Some(record.clone()))
     }
@@ -518,25 +549,9 @@ pub fn validate(
     let experiment = Experiment::parse_with(text, Path::new(&file_name), &submission.files)
         .map_err(|e| invalid("experiment_toml", e.to_string()))?;
     let settings = &submission.settings;
-    if let Some(runs) = settings.runs
-        && !(1..=limits::RUNS).contains(&runs)
-    {
-        return Err(invalid(
-            "runs",
-            format!("must be between 1 and {}, got {runs}", limits::RUNS),
-        ));
-    }
-    if let Some(generations) = settings.generations
-        && !(1..=limits::GENERATIONS).contains(&generations)
-    {
-        return Err(invalid(
-            "generations",
-            format!(
-                "must be between 1 and {}, got {generations}",
-                limits::GENERATIONS
-            ),
-        ));
-    }
+    settings
+        .validate()
+        .map_err(|error| invalid(error.field, error.message))?;
     let names = experiment
         .nodes_to_run(settings.node.as_deref())
         .map_err(|error| invalid("node", error.to_string()))?;
@@ -547,29 +562,6 @@ pub fn validate(
             .expect("names come from the experiment");
         let runs = settings.runs_of(node);
         let generations = settings.generations_of(node);
-        if runs > limits::RUNS || generations > limits::GENERATIONS {
-            return Err(invalid(
-                "experiment_toml",
-                format!(
-                    "node '{name}': at most {} runs of {} generations on a service",
-                    limits::RUNS,
-                    limits::GENERATIONS
-                ),
-            ));
-        }
-        let per_generation = u64::from(node.evolution.population) * u64::from(node.decl.samples);
-        let post = u64::from(node.evolution.post_evaluation_samples)
-            * u64::from(hevo_sim_core::env::n_variants(node.task.kind));
-        if per_generation.max(post) > limits::EVALUATIONS_PER_GENERATION {
-            return Err(invalid(
-                "experiment_toml",
-                format!(
-                    "node '{name}': {} evaluations in one generation, at most {} on a service",
-                    per_generation.max(post),
-                    limits::EVALUATIONS_PER_GENERATION
-                ),
-            ));
-        }
         plan.push((name, runs, generations));
     }
     Ok((experiment, plan, file_name))

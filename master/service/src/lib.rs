@@ -18,7 +18,7 @@ pub mod metrics;
 
 use anyhow::{Context, Result, bail};
 use hevo_engine::dispatch::{DispatchConfig, Dispatcher};
-use hevo_proto::auth::ServerAuth;
+use hevo_proto::auth::{Role, Roles, ServerAuth, TokenSet};
 use hevo_proto::v1::job_service_server::JobServiceServer;
 use hevo_proto::v1::worker_service_server::WorkerServiceServer;
 use std::io::Write;
@@ -36,16 +36,31 @@ pub struct ServeConfig {
     pub listen: String,
     /// Where the job store and job outputs live.
     pub state_dir: PathBuf,
-    /// The shared token; `None` only with `insecure_no_token`.
-    pub token: Option<String>,
-    /// Run without a token.
-    pub insecure_no_token: bool,
+    /// Who may call: clients' and workers' tokens; `None` runs without any (trusted networks
+    /// only).
+    pub credentials: Option<Credentials>,
     /// PEM certificate chain and key for TLS.
     pub tls: Option<(PathBuf, PathBuf)>,
     /// Where to serve metrics.
     pub metrics_listen: Option<String>,
     /// Lease duration without a heartbeat.
     pub lease: Duration,
+    /// Rebuild the job store from `jobs/*/job.json` before starting (the old file is moved
+    /// aside).
+    pub rebuild_store: bool,
+}
+
+/// The two roles' tokens, and the files they came from (re-read on SIGHUP, for a rotation).
+#[derive(Debug, Clone)]
+pub struct Credentials {
+    /// Tokens of people and scripts (the job service).
+    pub client_tokens: Vec<String>,
+    /// Tokens of workers (the worker service).
+    pub worker_tokens: Vec<String>,
+    /// Where `client_tokens` came from, when from a file.
+    pub client_token_file: Option<PathBuf>,
+    /// Where `worker_tokens` came from, when from a file.
+    pub worker_token_file: Option<PathBuf>,
 }
 
 /// The longest a worker's lease request is held open.
@@ -79,17 +94,35 @@ pub fn incoming(
 
 /// Runs the master until SIGTERM/SIGINT.
 pub async fn serve(config: ServeConfig) -> Result<()> {
-    let auth = match (&config.token, config.insecure_no_token) {
-        (Some(token), _) => ServerAuth::new(token),
-        (None, true) => {
-            tracing::warn!(
-                "running without a token: anyone who can reach the port can submit jobs and act as a worker"
-            );
-            ServerAuth::open()
+    let roles = match &config.credentials {
+        Some(credentials) => {
+            let roles = Roles {
+                clients: TokenSet::new(&credentials.client_tokens),
+                workers: TokenSet::new(&credentials.worker_tokens),
+            };
+            if credentials.client_tokens.is_empty() || credentials.worker_tokens.is_empty() {
+                bail!(
+                    "clients and workers each need a token: --token-file (clients) and --worker-token-file (workers)"
+                );
+            }
+            if roles.clients.overlaps(&roles.workers) {
+                bail!(
+                    "a token is both a client's and a worker's: give workers tokens of their own (--worker-token-file), so a client cannot act as a worker"
+                );
+            }
+            tokio::spawn(reload_tokens_on_hangup(credentials.clone(), roles.clone()));
+            Some(roles)
         }
-        (None, false) => bail!(
-            "no token: pass --token, --token-file or HEVO_TOKEN (or --insecure-no-token on a trusted network)"
-        ),
+        None => {
+            tracing::warn!(
+                "running without tokens: anyone who can reach the port can submit jobs and act as a worker"
+            );
+            None
+        }
+    };
+    let auth_for = |role: Role| match &roles {
+        Some(roles) => ServerAuth::for_role(role, roles),
+        None => ServerAuth::open(),
     };
     if config.lease < Duration::from_secs(1) {
         bail!("--lease-seconds must be at least 1");
@@ -100,7 +133,15 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
             config.state_dir.display()
         )
     })?;
-    let store = db::JobStore::open(&config.state_dir.join("hevo.redb"))?;
+    let store_path = config.state_dir.join("hevo.redb");
+    let jobs_dir = jobs::jobs_dir(&config.state_dir);
+    let store = if config.rebuild_store {
+        let (store, n_jobs) = db::JobStore::rebuild(&store_path, &jobs_dir)?;
+        tracing::warn!(jobs = n_jobs, store = %store_path.display(), "job store rebuilt from jobs/*/job.json");
+        store
+    } else {
+        db::JobStore::open(&store_path, &jobs_dir)?
+    };
     let tls = match &config.tls {
         Some((cert, key)) => {
             let cert = std::fs::read(cert)
@@ -167,7 +208,7 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         JobServiceServer::new(grpc::JobApi::new(manager.clone()))
             .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
             .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES),
-        auth.clone(),
+        auth_for(Role::Client),
     );
 
     let (stop, stopped) = tokio::sync::watch::channel(false);
@@ -201,7 +242,7 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)
         .add_service(job_service)
-        .add_service(worker_service(worker_api, auth));
+        .add_service(worker_service(worker_api, auth_for(Role::Worker)));
     tracing::info!(%address, state_dir = %config.state_dir.display(), tls = config.tls.is_some(), "master started");
 
     let shutdown_manager = manager.clone();
@@ -228,6 +269,37 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Re-reads the token files on every SIGHUP and replaces the accepted tokens: an operator
+/// rotates a token by adding the new one to the file, sending SIGHUP, moving clients or
+/// workers over, removing the old one and sending SIGHUP again. A file that cannot be read
+/// keeps the tokens in force.
+async fn reload_tokens_on_hangup(credentials: Credentials, roles: Roles) {
+    use tokio::signal::unix::{SignalKind, signal};
+    let Ok(mut hangups) = signal(SignalKind::hangup()) else {
+        return;
+    };
+    while hangups.recv().await.is_some() {
+        for (file, set, role) in [
+            (&credentials.client_token_file, &roles.clients, "client"),
+            (&credentials.worker_token_file, &roles.workers, "worker"),
+        ] {
+            let Some(file) = file else { continue };
+            match hevo_proto::auth::read_token_file(file) {
+                Ok(tokens) => {
+                    set.replace(&tokens);
+                    tracing::info!(role, tokens = tokens.len(), file = %file.display(), "tokens reloaded");
+                }
+                Err(error) => {
+                    tracing::error!(role, %error, "tokens not reloaded; the old ones stay in force")
+                }
+            }
+        }
+        if roles.clients.overlaps(&roles.workers) {
+            tracing::error!("after the reload a token is both a client's and a worker's");
+        }
+    }
 }
 
 /// Resolves on the first SIGTERM or SIGINT.

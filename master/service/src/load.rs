@@ -9,7 +9,7 @@
 use crate::grpc::WorkerApi;
 use crate::{MAX_LEASE_WAIT, incoming, worker_service};
 use hevo_engine::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
-use hevo_proto::auth::ServerAuth;
+use hevo_proto::auth::{Role, Roles, ServerAuth, TokenSet};
 use hevo_proto::client::{ClientOptions, worker_client};
 use hevo_proto::v1;
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
@@ -113,7 +113,16 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
         let mut stopped = stopped.clone();
         tokio::spawn(
             tonic::transport::Server::builder()
-                .add_service(worker_service(api, ServerAuth::new(token)))
+                .add_service(worker_service(
+                    api,
+                    ServerAuth::for_role(
+                        Role::Worker,
+                        &Roles {
+                            workers: TokenSet::new(&[token.to_string()]),
+                            ..Roles::default()
+                        },
+                    ),
+                ))
                 .serve_with_incoming_shutdown(incoming(listener, closed_connections), async move {
                     let _ = stopped.wait_for(|&s| s).await;
                 }),
