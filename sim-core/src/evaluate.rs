@@ -84,7 +84,8 @@ pub struct Outcome {
     /// it back; other tasks 1 when solved, else 0.
     pub stage: u8,
     /// The variant the sample ran (light configuration or start branch; 0 for other tasks,
-    /// except corridors: 1 for a T-junction turn, 0 for an L-bend).
+    /// except corridors: the turn's shape, 0 for an L-bend (and every straight corridor), 1
+    /// for a T-end, 2 for a side junction).
     pub variant: u32,
     /// How long and how often each controller node drove, indexed like the policy's nodes.
     pub node_use: NodeUse,
