@@ -457,11 +457,16 @@ impl ControllerFile {
 
     /// A stable 64-bit content hash of the file as 16 hex digits, for caching fixed sub-trees.
     ///
-    /// It is FNV-1a over a fixed binary encoding of the tree (the schema, then per node in
-    /// pre-order: name, kind, input groups, hidden count, genome as little-endian f32 bits or a
-    /// free marker, number of children), not over JSON text, so it does not depend on how a JSON
-    /// library formats floats and is the same on every platform and in every run. Two files hash
-    /// alike exactly when they are equal field by field with bit-identical genes.
+    /// It is FNV-1a over a fixed binary encoding of the tree, not over JSON text, so it does not
+    /// depend on how a JSON library formats floats and is the same on every platform and in
+    /// every run. Numbers are 8 little-endian bytes (u64) and strings are their byte length as
+    /// such a number followed by their UTF-8 bytes. The encoding is the schema string, then per
+    /// node in pre-order: the name string; the kind as one byte (primitive 0, arbitrator 1);
+    /// the number of input groups, then one byte per group (ir 0, light 1, near_robot 2); the
+    /// hidden count; the genome as byte 0 for the free node, or byte 1, the gene count and each
+    /// gene's f32 bits as 4 little-endian bytes; the number of children; and, only when it is
+    /// not 0, the 17 bytes `min_active_cycles` and its value. Two files hash alike exactly when
+    /// they are equal field by field with bit-identical genes.
     pub fn content_hash(&self) -> String {
         let mut hasher = Fnv1a::new();
         hasher.write_str(&self.schema);
@@ -1128,44 +1133,166 @@ mod tests {
         }
     }
 
+    /// The documented encoding of [`ControllerFile::content_hash`], fed by hand, byte by byte,
+    /// into FNV-1a (whose bytes are pinned by the published test vectors in `hash.rs`): the
+    /// hash must never change, or caches keyed by it across versions and machines would
+    /// silently miss.
     #[test]
-    fn content_hash_is_stable_and_sensitive() {
+    fn content_hash_is_fnv1a_of_the_documented_encoding() {
+        fn number(bytes: &mut Vec<u8>, value: u64) {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
+        fn string(bytes: &mut Vec<u8>, text: &str) {
+            number(bytes, text.len() as u64);
+            bytes.extend_from_slice(text.as_bytes());
+        }
+        fn hash_of(bytes: &[u8]) -> String {
+            let mut hasher = Fnv1a::new();
+            hasher.write_bytes(bytes);
+            format!("{:016x}", hasher.finish())
+        }
+
+        // A 1-1-2 primitive reading near_robot: 1 + 1 + 1 + 1 + 2 + 2 = 8 genes.
+        let genes = [0.5f32, -1.0, 0.0, -0.0, 10.0, -10.0, 3.25, 1e-3];
+        let tiny = ControllerFile::new(
+            NodeSpec::primitive("p", vec![InputGroup::NearRobot], 1).with_genome(genes.to_vec()),
+        );
+        let mut bytes = Vec::new();
+        string(&mut bytes, "hevo.controller/1");
+        string(&mut bytes, "p");
+        bytes.push(0); // primitive
+        number(&mut bytes, 1);
+        bytes.push(2); // near_robot
+        number(&mut bytes, 1); // hidden
+        bytes.push(1); // a genome follows
+        number(&mut bytes, 8);
+        for gene in genes {
+            bytes.extend_from_slice(&gene.to_bits().to_le_bytes());
+        }
+        number(&mut bytes, 0); // no children
+        assert_eq!(tiny.content_hash(), hash_of(&bytes));
+        // A node's own hash leaves the schema out.
+        assert_eq!(tiny.root.content_hash(), hash_of(&bytes[8 + 17..]));
+
+        // A free arbitrator that keeps a child on for 5 cycles, over two fixed 4-1-2
+        // primitives (4 + 1 + 1 + 1 + 2 + 2 = 11 genes each), children in pre-order.
+        let child = |name: &str, gene: f32| {
+            NodeSpec::primitive(name, vec![InputGroup::Ir], 1).with_genome(vec![gene; 11])
+        };
+        let mut root = NodeSpec::arbitrator(
+            "a",
+            vec![InputGroup::Light, InputGroup::Ir],
+            2,
+            vec![child("x", 1.0), child("yz", -2.0)],
+        );
+        root.min_active_cycles = 5;
+        let tree = ControllerFile::new(root);
+        let mut bytes = Vec::new();
+        string(&mut bytes, "hevo.controller/1");
+        string(&mut bytes, "a");
+        bytes.push(1); // arbitrator
+        number(&mut bytes, 2);
+        bytes.extend_from_slice(&[1, 0]); // light, ir
+        number(&mut bytes, 2); // hidden
+        bytes.push(0); // free
+        number(&mut bytes, 2); // children
+        bytes.extend_from_slice(b"min_active_cycles");
+        number(&mut bytes, 5);
+        for (name, gene) in [("x", 1.0f32), ("yz", -2.0)] {
+            string(&mut bytes, name);
+            bytes.push(0);
+            number(&mut bytes, 1);
+            bytes.push(0); // ir
+            number(&mut bytes, 1);
+            bytes.push(1);
+            number(&mut bytes, 11);
+            for _ in 0..11 {
+                bytes.extend_from_slice(&gene.to_bits().to_le_bytes());
+            }
+            number(&mut bytes, 0);
+        }
+        assert_eq!(tree.content_hash(), hash_of(&bytes));
+    }
+
+    #[test]
+    fn equal_trees_hash_alike_and_any_one_change_changes_the_hash() {
         let file = rescue_tree();
         let hash = file.content_hash();
-        assert_eq!(hash.len(), 16);
-        assert_eq!(hash, file.clone().content_hash());
+        // Equal trees built apart (built again, and read back from JSON) hash alike.
+        assert_eq!(rescue_tree().content_hash(), hash);
         let parsed = ControllerFile::from_json_str(&file.to_json_pretty().unwrap()).unwrap();
+        assert_eq!(parsed, file);
         assert_eq!(parsed.content_hash(), hash);
 
-        let mut changed = file.clone();
-        changed.root.children[1].children[0]
-            .genome
-            .as_mut()
-            .unwrap()[0] += 0.001;
-        assert_ne!(changed.content_hash(), hash);
-        let mut renamed = file.clone();
-        renamed.root.children[0].name = "leave_room".to_owned();
-        assert_ne!(renamed.content_hash(), hash);
-        // The activator's minimum counts, and survives the file; left at 0 it is not written.
+        // Each single change of one field, anywhere in the tree, gives a hash of its own.
+        type Change = (&'static str, fn(&mut ControllerFile));
+        let changes: &[Change] = &[
+            ("schema", |f| f.schema.push('x')),
+            ("root name", |f| f.root.name = "rescuer".into()),
+            ("leaf name", |f| {
+                f.root.children[2].children[0].name = "follow".into()
+            }),
+            ("kind", |f| f.root.children[0].kind = NodeKind::Arbitrator),
+            ("an input group more", |f| {
+                f.root.children[0].inputs.push(InputGroup::Light)
+            }),
+            ("an input group other", |f| {
+                f.root.children[0].inputs[0] = InputGroup::Light
+            }),
+            ("input groups reordered", |f| f.root.inputs.reverse()),
+            ("hidden", |f| f.root.children[0].hidden += 1),
+            ("a gene", |f| {
+                f.root.children[1].children[0].genome.as_mut().unwrap()[0] += 0.001
+            }),
+            ("the last gene", |f| {
+                let genome = f.root.children[0].genome.as_mut().unwrap();
+                *genome.last_mut().unwrap() += 0.001;
+            }),
+            ("a genome freed", |f| f.root.children[0].genome = None),
+            ("the free node given genes", |f| {
+                f.root.children[1].genome = Some(vec![0.0; 213])
+            }),
+            ("a gene less", |f| {
+                f.root.children[0].genome.as_mut().unwrap().pop();
+            }),
+            ("children reordered", |f| f.root.children.swap(0, 2)),
+            ("a child less", |f| {
+                f.root.children[2].children.pop();
+            }),
+            ("min_active_cycles set", |f| {
+                f.root.children[1].min_active_cycles = 5
+            }),
+            ("min_active_cycles on the root", |f| {
+                f.root.min_active_cycles = 5
+            }),
+        ];
+        let mut seen = std::collections::BTreeMap::from([(hash.clone(), "unchanged")]);
+        for &(what, change) in changes {
+            let mut changed = file.clone();
+            change(&mut changed);
+            assert_ne!(changed, file, "{what} changes nothing");
+            let changed_hash = changed.content_hash();
+            if let Some(other) = seen.insert(changed_hash, what) {
+                panic!("{what} hashes like {other}");
+            }
+        }
+        // The same gene as -0.0 and 0.0 are equal floats but different bits: the hash tells
+        // them apart, as documented (bit-identical genes).
+        let mut zero = file.clone();
+        zero.root.children[0].genome.as_mut().unwrap()[0] = 0.0;
+        let mut minus_zero = file.clone();
+        minus_zero.root.children[0].genome.as_mut().unwrap()[0] = -0.0;
+        assert_eq!(zero, minus_zero);
+        assert_ne!(zero.content_hash(), minus_zero.content_hash());
+
+        // The activator's minimum survives the file; left at 0 it is not written.
         let mut held = file.clone();
         held.root.children[1].min_active_cycles = 5;
-        assert_ne!(held.content_hash(), hash);
         let held_json = held.to_json_pretty().unwrap();
         assert_eq!(held_json.matches("min_active_cycles").count(), 1);
         assert_eq!(ControllerFile::from_json_str(&held_json).unwrap(), held);
         assert!(!file.to_json_pretty().unwrap().contains("min_active_cycles"));
-
-        // A pinned value: FNV-1a over the documented encoding must never change, or caches keyed
-        // by it across versions and machines would silently miss.
-        let tiny = ControllerFile::new(
-            NodeSpec::primitive("p", vec![InputGroup::NearRobot], 1)
-                .with_genome(vec![0.0; CtrnnTopology::new(1, 1, 2).n_genes()]),
-        );
-        assert_eq!(tiny.content_hash(), PINNED_TINY_HASH);
-        assert_eq!(tiny.root.content_hash().len(), 16);
     }
-
-    const PINNED_TINY_HASH: &str = "7087fee5d7d468a0";
 
     /// An arbitrator over `n_children` children reading `light` with hidden neurons that copy the
     /// inputs (tau 0.1 s, so with dt 0.1 s the state equals the net input), whose output `o` is

@@ -18,7 +18,8 @@ pub fn mix64(mut z: u64) -> u64 {
 }
 
 /// Derives a seed from a base seed and a path of indices (for example run, generation, sample),
-/// so that every index combination gets its own independent stream.
+/// so that every index combination gets its own independent stream: `mix64(base)`, then each
+/// index folded in, in order, as `acc = mix64(acc ^ mix64(index + 0xA5A5_A5A5))` (wrapping).
 pub fn derive_seed(base: u64, path: &[u64]) -> u64 {
     path.iter().fold(mix64(base), |acc, &index| {
         mix64(acc ^ mix64(index.wrapping_add(0xA5A5_A5A5)))
@@ -53,22 +54,68 @@ pub fn standard_normal(rng: &mut SimRng) -> f32 {
 mod tests {
     use super::*;
 
+    /// `mix64(k * 0x9E37_79B9_7F4A_7C15)` is output k + 1 of SplitMix64 seeded with 0 (it
+    /// adds the increment, then finalises): these are that generator's published first outputs
+    /// (Vigna's reference `splitmix64.c`, also the seeding values of the xoshiro family), not
+    /// values this code printed.
     #[test]
-    fn derived_seeds_differ_by_path_and_are_stable() {
-        assert_ne!(derive_seed(1, &[0, 1]), derive_seed(1, &[1, 0]));
-        assert_ne!(derive_seed(1, &[0]), derive_seed(2, &[0]));
-        assert_eq!(derive_seed(7, &[3, 4]), derive_seed(7, &[3, 4]));
+    fn mix64_is_the_splitmix64_output_function() {
+        const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+        let published: [u64; 4] = [
+            0xE220_A839_7B1D_CDAF,
+            0x6E78_9E6A_A1B9_65F4,
+            0x06C4_5D18_8009_454F,
+            0xF88B_B8A8_724C_81EC,
+        ];
+        for (k, expected) in published.into_iter().enumerate() {
+            assert_eq!(mix64(GAMMA.wrapping_mul(k as u64)), expected, "output {k}");
+        }
     }
 
+    /// The documented construction, spelled out with the (independently pinned) mix64: the
+    /// base mixed, then each index folded in as `mix64(acc ^ mix64(index + 0xA5A5_A5A5))`. Run
+    /// seeds, and so every checkpoint, depend on it never changing.
     #[test]
-    fn streams_are_independent_and_reproducible() {
+    fn derived_seeds_follow_the_documented_construction() {
+        let fold = |acc: u64, index: u64| mix64(acc ^ mix64(index.wrapping_add(0xA5A5_A5A5)));
+        assert_eq!(derive_seed(7, &[]), mix64(7));
+        assert_eq!(derive_seed(7, &[3]), fold(mix64(7), 3));
+        assert_eq!(derive_seed(7, &[3, 4]), fold(fold(mix64(7), 3), 4));
+        assert_eq!(
+            derive_seed(u64::MAX, &[u64::MAX, 0]),
+            fold(fold(mix64(u64::MAX), u64::MAX), 0)
+        );
+        // Order, base, index and path length each matter.
+        assert_ne!(derive_seed(1, &[0, 1]), derive_seed(1, &[1, 0]));
+        assert_ne!(derive_seed(1, &[0]), derive_seed(2, &[0]));
+        assert_ne!(derive_seed(1, &[0]), derive_seed(1, &[1]));
+        assert_ne!(derive_seed(1, &[]), derive_seed(1, &[0]));
+    }
+
+    /// A sample's stream k is the generator seeded with `derive_seed(sample seed, [k])`, k = 1
+    /// environment, 2 sensor setup, 3 noise: the numbering is part of every trajectory.
+    #[test]
+    fn streams_are_numbered_and_independent() {
         use rand::RngExt;
-        let mut a = stream_rng(42, Stream::Environment);
-        let mut b = stream_rng(42, Stream::Noise);
-        let mut a2 = stream_rng(42, Stream::Environment);
-        let x: u64 = a.random();
-        assert_ne!(x, b.random::<u64>());
-        assert_eq!(x, a2.random::<u64>());
+        for (stream, k) in [
+            (Stream::Environment, 1),
+            (Stream::SensorSetup, 2),
+            (Stream::Noise, 3),
+        ] {
+            let mut got = stream_rng(42, stream);
+            let mut expected = SimRng::seed_from_u64(derive_seed(42, &[k]));
+            assert_eq!(got.random::<u64>(), expected.random::<u64>(), "{stream:?}");
+        }
+        let first = |seed, stream| stream_rng(seed, stream).random::<u64>();
+        assert_ne!(first(42, Stream::Environment), first(42, Stream::Noise));
+        assert_ne!(
+            first(42, Stream::Environment),
+            first(42, Stream::SensorSetup)
+        );
+        assert_ne!(
+            first(42, Stream::Environment),
+            first(43, Stream::Environment)
+        );
     }
 
     #[test]

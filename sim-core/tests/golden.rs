@@ -7,10 +7,12 @@
 //! When a change is intended, re-record the table and paste it over `EXPECTED` below:
 //!
 //! ```text
-//! HEVO_BLESS=1 cargo test -p hevo-sim-core --release --test golden -- --nocapture
+//! HEVO_BLESS=1 cargo test -p hevo-sim-core --release --test golden
 //! ```
 //!
-//! In bless mode the test prints the new table and does not compare. The values are exact
+//! In bless mode the test prints the new table to stderr instead of comparing, and then fails,
+//! so that a blessing run can never pass for a checking one (the failure report shows the
+//! table). Paste it over `EXPECTED` and rerun without `HEVO_BLESS`. The values are exact
 //! f32 bit patterns: they are the same on every machine that computes `sin`, `cos` and
 //! `hypot` identically (the same Rust standard library and platform maths); a different
 //! platform may need its own blessing.
@@ -150,8 +152,12 @@ fn fixed_seed_samples_reproduce_their_recorded_trajectories() {
         .map(|&(kind, seed, variant)| observe(kind, seed, variant))
         .collect();
     if std::env::var_os("HEVO_BLESS").is_some_and(|v| v == "1") {
-        println!("{}", table_source(&observed));
-        return;
+        eprintln!("{}", table_source(&observed));
+        panic!(
+            "HEVO_BLESS is set, so the golden table was printed (above, on stderr) and not \
+             compared: paste it over EXPECTED in sim-core/tests/golden.rs and rerun without \
+             HEVO_BLESS"
+        );
     }
     assert_eq!(
         EXPECTED.len(),

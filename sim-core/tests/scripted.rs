@@ -1,18 +1,22 @@
 //! The scripted reference policies against the real simulator: every task is solvable with the
-//! robot's own sensors (each policy solves at least a fixed share of 200 seeded samples), the
+//! robot's own sensors (each policy solves at least a fixed number of 200 seeded samples), the
 //! simulator's goal detection and fitness bands agree with what the robot actually did, wrong
 //! turns are caught as wrong branches, the derived fitness f3 counts the root's choices
 //! against the ground truth, and the light flashes reach the controller as the paper's held
-//! inputs. The shares asserted sit a little below what the policies reach today (noted next to
-//! each), so the tests stay stable under small model changes but still fail if a task becomes
-//! unsolvable or its goal detection goes wrong. Run in release: they simulate a few million
-//! cycles.
+//! inputs. The counts asserted are floors on fixed seeds, two or three samples below what the
+//! policies reach today (noted next to each, see `assert_count`), so a change that costs a
+//! policy a few samples, not only one that makes a task unsolvable or breaks its goal
+//! detection, fails. `--nocapture` shows every count. They simulate a few million cycles
+//! (about 35 s on two cores).
 //!
 //! The main tests run the paper's tasks with the IR mapping that meets the specification's
 //! "1 at contact, 0 at 12 cm or beyond" for every measured sensor curve (`linear_raw`). The
-//! default mapping (`linear_distance`) reads an empty cone as a wall 7.6-10.4 cm away for three
-//! of the eight curves, which costs the scripted policies part of their reliability; one test
-//! checks the default configuration with lower bars (see
+//! default mapping (`average_table`, model version 4: `IrConfig::default()` in
+//! `sensors/ir.rs`, which `TaskConfig::new` uses) turns each sensor's raw reading back into a
+//! distance through the average curve, so a sensor whose own curve differs from the average
+//! reads walls systematically off, and a wall 9 cm away reads about 0.25, close to the scripted
+//! policies' "nothing there" threshold; that costs the policies part of their reliability at
+//! turns. One test checks the default configuration with lower bars (see
 //! `the_default_configuration_is_solvable_too`).
 
 use hevo_scripted::{
@@ -82,10 +86,6 @@ fn run(kind: TaskKind, policy: &mut impl Policy, variant: Option<u32>) -> Vec<(S
     run_on(&spec_task(kind), policy, variant)
 }
 
-fn solved_share(outcomes: &[(Sample, Outcome)]) -> f64 {
-    outcomes.iter().filter(|(_, o)| o.solved).count() as f64 / outcomes.len() as f64
-}
-
 fn failures(outcomes: &[(Sample, Outcome)]) -> Vec<(u64, Ending, u32)> {
     outcomes
         .iter()
@@ -95,13 +95,58 @@ fn failures(outcomes: &[(Sample, Outcome)]) -> Vec<(u64, Ending, u32)> {
         .collect()
 }
 
-fn assert_share(kind: TaskKind, outcomes: &[(Sample, Outcome)], at_least: f64) {
-    let share = solved_share(outcomes);
+/// Asserts that at least `at_least` of the outcomes satisfy `counted`. The samples are
+/// fixed-seed, so a count is the same on every run: each floor sits three samples below the
+/// count measured on a whole task's 200 samples, two below on a part of them (one light
+/// configuration, start branch or corridor shape); the measured counts are noted beside the
+/// floors. A change that costs a policy a few samples fails here.
+fn assert_count(
+    what: &str,
+    outcomes: &[(Sample, Outcome)],
+    counted: impl Fn(&Outcome) -> bool,
+    at_least: usize,
+) {
+    let count = outcomes.iter().filter(|(_, o)| counted(o)).count();
+    // Shown with `--nocapture`, for re-measuring after an intended model change.
+    eprintln!("{what}: {count} of {} (floor {at_least})", outcomes.len());
     assert!(
-        share >= at_least,
-        "{kind}: solved {share:.3} < {at_least}; first failures (seed, ending, cycles): {:?}",
+        count >= at_least,
+        "{what}: {count} of {}, below the floor of {at_least}; first failures (seed, ending, \
+         cycles): {:?}",
+        outcomes.len(),
         failures(outcomes)
     );
+}
+
+/// `assert_count` of the solved samples.
+fn assert_solved(what: &str, outcomes: &[(Sample, Outcome)], at_least: usize) {
+    assert_count(&format!("{what} solved"), outcomes, |o| o.solved, at_least);
+}
+
+/// Floors for the rescue's stages: samples that left the room (stage 1 or more), reached the
+/// teammate (2 or more) and brought it back (3, solved).
+fn assert_rescue_stages(what: &str, outcomes: &[(Sample, Outcome)], at_least: [usize; 3]) {
+    for (stage, name) in [
+        (1, "left the room"),
+        (2, "reached the teammate"),
+        (3, "returned"),
+    ] {
+        assert_count(
+            &format!("{what} {name}"),
+            outcomes,
+            |o| o.stage >= stage,
+            at_least[stage as usize - 1],
+        );
+    }
+}
+
+/// The outcomes of one variant (light configuration, start branch or corridor shape).
+fn of_variant(outcomes: &[(Sample, Outcome)], variant: u32) -> Vec<(Sample, Outcome)> {
+    outcomes
+        .iter()
+        .filter(|(_, o)| o.variant == variant)
+        .cloned()
+        .collect()
 }
 
 /// Checks what must hold for every outcome of a task, whatever the policy did.
@@ -201,34 +246,35 @@ fn assert_ends_in_goal(kind: TaskKind, policy: &mut impl Policy, seeds: std::ops
 
 #[test]
 fn follow_wall_is_solved_by_the_corridor_follower() {
-    // Measured: 200 of 200.
     let outcomes = run(TaskKind::FollowWall, &mut follower(), None);
     assert_coherent(TaskKind::FollowWall, &outcomes);
-    assert_share(TaskKind::FollowWall, &outcomes, 0.97);
+    // Measured: 200 of 200.
+    assert_solved("follow_wall", &outcomes, 197);
     assert_ends_in_goal(TaskKind::FollowWall, &mut follower(), 0..20);
 }
 
 #[test]
 fn turns_are_solved_by_the_turners_at_bends_and_junctions() {
-    // Measured: 200 of 200 for each side, L-bends and T-junctions alike.
-    for (kind, side) in [
-        (TaskKind::TurnLeft, TurnSide::Left),
-        (TaskKind::TurnRight, TurnSide::Right),
+    // Measured: left 198 and right 199 of 200; of each shape (bend, T-end, side junction),
+    // left 50, 74 and 74 and right 50, 74 and 75 of 50, 74 and 76.
+    for (kind, side, floors) in [
+        (TaskKind::TurnLeft, TurnSide::Left, [195, 48, 72, 72]),
+        (TaskKind::TurnRight, TurnSide::Right, [196, 48, 72, 73]),
     ] {
         let outcomes = run(kind, &mut turner(side), None);
         assert_coherent(kind, &outcomes);
-        assert_share(kind, &outcomes, 0.97);
-        for variant in [0, 1] {
-            let of_shape: Vec<_> = outcomes
-                .iter()
-                .filter(|(_, o)| o.variant == variant)
-                .cloned()
-                .collect();
+        assert_solved(kind.name(), &outcomes, floors[0]);
+        for shape in 0..3 {
+            let of_shape = of_variant(&outcomes, shape);
             assert!(
-                of_shape.len() >= 50,
-                "{kind}: too few samples of shape {variant}"
+                of_shape.len() >= 30,
+                "{kind}: too few samples of shape {shape}"
             );
-            assert_share(kind, &of_shape, 0.95);
+            assert_solved(
+                &format!("{kind} shape {shape}"),
+                &of_shape,
+                floors[1 + shape as usize],
+            );
         }
         assert_ends_in_goal(kind, &mut turner(side), 0..20);
     }
@@ -238,9 +284,10 @@ fn turns_are_solved_by_the_turners_at_bends_and_junctions() {
 fn a_turn_to_the_wrong_side_at_a_junction_is_a_wrong_branch() {
     // At a T-junction (variant 1) the other arm is a wrong branch; an L-bend (variant 0) only
     // opens to the correct side, so the turner takes it whatever its preference.
-    for (kind, wrong) in [
-        (TaskKind::TurnLeft, TurnSide::Right),
-        (TaskKind::TurnRight, TurnSide::Left),
+    // Measured: 74 of the 74 T-junction samples on each side end in a wrong branch.
+    for (kind, wrong, floor) in [
+        (TaskKind::TurnLeft, TurnSide::Right, 72),
+        (TaskKind::TurnRight, TurnSide::Left, 72),
     ] {
         let outcomes = run(kind, &mut turner(wrong), None);
         assert_coherent(kind, &outcomes);
@@ -252,26 +299,26 @@ fn a_turn_to_the_wrong_side_at_a_junction_is_a_wrong_branch() {
                 );
             }
         }
-        let junctions: Vec<_> = outcomes.iter().filter(|(_, o)| o.variant == 1).collect();
-        let wrong_branch = junctions
-            .iter()
-            .filter(|(_, o)| o.ending == Ending::WrongBranch)
-            .count();
-        assert!(
-            wrong_branch as f64 >= 0.95 * junctions.len() as f64,
-            "{kind}: {wrong_branch} of {}",
-            junctions.len()
+        assert_count(
+            &format!("{kind} T-junction wrong branches"),
+            &of_variant(&outcomes, 1),
+            |o| o.ending == Ending::WrongBranch,
+            floor,
         );
     }
 }
 
 #[test]
 fn solve_maze_is_solved_in_every_light_configuration() {
-    // Measured: 200 of 200 in each of the four configurations.
-    for configuration in 0..4 {
+    // Measured, of 200 per configuration: 200 in each.
+    for (configuration, floor) in [(0, 197), (1, 197), (2, 197), (3, 197)] {
         let outcomes = run(TaskKind::SolveMaze, &mut solver(), Some(configuration));
         assert_coherent(TaskKind::SolveMaze, &outcomes);
-        assert_share(TaskKind::SolveMaze, &outcomes, 0.97);
+        assert_solved(
+            &format!("solve_maze configuration {configuration}"),
+            &outcomes,
+            floor,
+        );
     }
     assert_ends_in_goal(TaskKind::SolveMaze, &mut solver(), 0..20);
 }
@@ -296,7 +343,8 @@ impl<P: Policy> Policy for SwappedLights<P> {
 
 #[test]
 fn turning_against_the_lights_ends_in_a_wrong_branch() {
-    for configuration in 0..4 {
+    // Measured, of 200 per configuration: 200 wrong branches in each.
+    for (configuration, floor) in [(0, 197), (1, 197), (2, 197), (3, 197)] {
         let outcomes = run(
             TaskKind::SolveMaze,
             &mut SwappedLights(solver()),
@@ -307,44 +355,39 @@ fn turning_against_the_lights_ends_in_a_wrong_branch() {
             outcomes.iter().all(|(_, o)| !o.solved),
             "configuration {configuration}: solved against the lights"
         );
-        let wrong = outcomes
-            .iter()
-            .filter(|(_, o)| o.ending == Ending::WrongBranch)
-            .count();
-        assert!(
-            wrong as f64 >= 0.95 * outcomes.len() as f64,
-            "configuration {configuration}: {wrong} wrong branches"
+        assert_count(
+            &format!("solve_maze configuration {configuration} against the lights, wrong branches"),
+            &outcomes,
+            |o| o.ending == Ending::WrongBranch,
+            floor,
         );
     }
 }
 
 #[test]
 fn return_room_is_solved_by_the_returner() {
-    // Measured: 200 of 200.
     let outcomes = run(TaskKind::ReturnRoom, &mut returner(), None);
     assert_coherent(TaskKind::ReturnRoom, &outcomes);
-    assert_share(TaskKind::ReturnRoom, &outcomes, 0.97);
-    for branch in 0..4 {
-        let from_branch: Vec<_> = outcomes
-            .iter()
-            .filter(|(_, o)| o.variant == branch)
-            .cloned()
-            .collect();
+    // Measured: 200 of 200.
+    assert_solved("return_room", &outcomes, 197);
+    // Measured, per start branch: all of 55, 46, 59 and 40.
+    for (branch, floor) in [(0, 53), (1, 44), (2, 57), (3, 38)] {
+        let from_branch = of_variant(&outcomes, branch);
         assert!(
             from_branch.len() >= 25,
             "too few samples from branch {branch}"
         );
-        assert_share(TaskKind::ReturnRoom, &from_branch, 0.95);
+        assert_solved(&format!("return_room branch {branch}"), &from_branch, floor);
     }
     assert_ends_in_goal(TaskKind::ReturnRoom, &mut returner(), 0..20);
 }
 
 #[test]
 fn exit_room_is_solved_by_the_room_exiter() {
-    // Measured: 185 of 200 (about 93% over 1000 seeds).
     let outcomes = run(TaskKind::ExitRoom, &mut exiter(), None);
     assert_coherent(TaskKind::ExitRoom, &outcomes);
-    assert_share(TaskKind::ExitRoom, &outcomes, 0.85);
+    // Measured: 185 of 200 (about 93% over 1000 seeds).
+    assert_solved("exit_room", &outcomes, 182);
     // A solved sample ends with the robot's centre beyond the exit wall and its own radius.
     let evaluator = evaluator(TaskKind::ExitRoom);
     let task = spec_task(TaskKind::ExitRoom);
@@ -365,10 +408,11 @@ fn exit_room_is_solved_by_the_room_exiter() {
 
 #[test]
 fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
-    // Measured: 180 of 200 (about 91% over 1000 seeds).
     let outcomes = run(TaskKind::Rescue, &mut rescuer(), None);
     assert_coherent(TaskKind::Rescue, &outcomes);
-    assert_share(TaskKind::Rescue, &outcomes, 0.80);
+    // Measured, of 200 (about 91% solved over 1000 seeds): 186 left the room, 183 reached the
+    // teammate, 180 brought it back.
+    assert_rescue_stages("rescue", &outcomes, [183, 180, 177]);
     for (sample, o) in &outcomes {
         // Four nodes, the root always active and exactly one child with it.
         assert_eq!(o.node_use.active_cycles.len(), 4, "{sample:?}");
@@ -400,18 +444,19 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
             assert!(choices.cycles.iter().all(|&c| c > 0), "{sample:?}");
         }
     }
-    // Every light configuration is met and solved.
-    for configuration in 0..4 {
-        let of_configuration: Vec<_> = outcomes
-            .iter()
-            .filter(|(_, o)| o.variant == configuration)
-            .cloned()
-            .collect();
+    // Every light configuration is met and solved. Measured: 50 of 55, 42 of 46, 52 of 59 and
+    // 36 of 40.
+    for (configuration, floor) in [(0, 48), (1, 40), (2, 50), (3, 34)] {
+        let of_configuration = of_variant(&outcomes, configuration);
         assert!(
             of_configuration.len() >= 25,
             "too few rescue samples with configuration {configuration}"
         );
-        assert_share(TaskKind::Rescue, &of_configuration, 0.7);
+        assert_solved(
+            &format!("rescue configuration {configuration}"),
+            &of_configuration,
+            floor,
+        );
     }
     // A solved rescue ends with the teammate inside the room: the last recorded teammate pose
     // is at most one cycle's travel short of the room side of the exit.
@@ -531,8 +576,9 @@ fn derived_fitness_counts_the_roots_choices_against_the_ground_truth() {
         );
         assert!(bad.fitness < good.fitness, "{sample:?}");
     }
+    // Measured: 55 of 60.
     assert!(
-        solved >= 40,
+        solved >= 53,
         "only {solved} of {} rescues solved",
         samples.len()
     );
@@ -665,44 +711,71 @@ fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
     }
 }
 
+/// Runs each task's scripted policy on seeds `0..SEEDS` of the task in its default
+/// configuration (`TaskConfig::new`, the default IR mapping).
+fn run_default(kind: TaskKind, variant: Option<u32>) -> Vec<(Sample, Outcome)> {
+    let task = TaskConfig::new(kind);
+    let outcomes = match kind {
+        TaskKind::FollowWall => run_on(&task, &mut CorridorFollower::for_task(&task), variant),
+        TaskKind::TurnLeft => run_on(&task, &mut Turner::for_task(TurnSide::Left, &task), variant),
+        TaskKind::TurnRight => run_on(
+            &task,
+            &mut Turner::for_task(TurnSide::Right, &task),
+            variant,
+        ),
+        TaskKind::SolveMaze => run_on(&task, &mut MazeSolver::for_task(&task), variant),
+        TaskKind::ReturnRoom => run_on(&task, &mut Returner::for_task(&task), variant),
+        TaskKind::ExitRoom => run_on(&task, &mut RoomExiter::for_task(&task), variant),
+        TaskKind::Rescue => run_on(&task, &mut Rescuer::for_task(&task), variant),
+    };
+    assert_coherent(kind, &outcomes);
+    outcomes
+}
+
 #[test]
 fn the_default_configuration_is_solvable_too() {
     // The default IR mapping (model 4's average table) reads a wall 9 cm away as about 0.25,
     // close to the scripted policies' "nothing there" threshold, so a robot started off the
     // centre line beside a turn's opening can take the far wall for a second opening; the
-    // shares here are lower. Measured on these seeds: follow wall 200, turn left 180, turn
-    // right 177, maze 200/200/200/200, return 170, exit 175, rescue 137 of 200.
-    let checks: [(TaskKind, Option<u32>, f64); 10] = [
-        (TaskKind::FollowWall, None, 0.97),
-        (TaskKind::TurnLeft, None, 0.85),
-        (TaskKind::TurnRight, None, 0.85),
-        (TaskKind::SolveMaze, Some(0), 0.95),
-        (TaskKind::SolveMaze, Some(1), 0.95),
-        (TaskKind::SolveMaze, Some(2), 0.95),
-        (TaskKind::SolveMaze, Some(3), 0.95),
-        (TaskKind::ReturnRoom, None, 0.8),
-        (TaskKind::ExitRoom, None, 0.8),
-        (TaskKind::Rescue, None, 0.6),
-    ];
-    for (kind, variant, at_least) in checks {
-        let task = TaskConfig::new(kind);
-        let outcomes = match kind {
-            TaskKind::FollowWall => run_on(&task, &mut CorridorFollower::for_task(&task), variant),
-            TaskKind::TurnLeft => {
-                run_on(&task, &mut Turner::for_task(TurnSide::Left, &task), variant)
-            }
-            TaskKind::TurnRight => run_on(
-                &task,
-                &mut Turner::for_task(TurnSide::Right, &task),
-                variant,
-            ),
-            TaskKind::SolveMaze => run_on(&task, &mut MazeSolver::for_task(&task), variant),
-            TaskKind::ReturnRoom => run_on(&task, &mut Returner::for_task(&task), variant),
-            TaskKind::ExitRoom => run_on(&task, &mut RoomExiter::for_task(&task), variant),
-            TaskKind::Rescue => run_on(&task, &mut Rescuer::for_task(&task), variant),
-        };
-        assert_coherent(kind, &outcomes);
-        assert_share(kind, &outcomes, at_least);
+    // counts here are lower. Measured, of 200 samples each: follow wall 200, turn left 180,
+    // turn right 177, exit room 175.
+    for (kind, floor) in [
+        (TaskKind::FollowWall, 197),
+        (TaskKind::TurnLeft, 177),
+        (TaskKind::TurnRight, 174),
+        (TaskKind::ExitRoom, 172),
+    ] {
+        assert_solved(&format!("default {kind}"), &run_default(kind, None), floor);
+    }
+    // Per light configuration. Measured: 200 of 200 in each.
+    for (configuration, floor) in [(0, 197), (1, 197), (2, 197), (3, 197)] {
+        assert_solved(
+            &format!("default solve_maze configuration {configuration}"),
+            &run_default(TaskKind::SolveMaze, Some(configuration)),
+            floor,
+        );
+    }
+    // Overall and per start branch. Measured: 170 of 200; 44 of 55, 43 of 46, 48 of 59 and 35
+    // of 40.
+    let back = run_default(TaskKind::ReturnRoom, None);
+    assert_solved("default return_room", &back, 167);
+    for (branch, floor) in [(0, 42), (1, 41), (2, 46), (3, 33)] {
+        assert_solved(
+            &format!("default return_room branch {branch}"),
+            &of_variant(&back, branch),
+            floor,
+        );
+    }
+    // Per stage and per light configuration. Measured: 185 left the room, 161 reached the
+    // teammate, 137 brought it back; 39 of 55, 29 of 46, 41 of 59 and 28 of 40.
+    let rescue = run_default(TaskKind::Rescue, None);
+    assert_rescue_stages("default rescue", &rescue, [182, 158, 134]);
+    for (configuration, floor) in [(0, 37), (1, 27), (2, 39), (3, 26)] {
+        assert_solved(
+            &format!("default rescue configuration {configuration}"),
+            &of_variant(&rescue, configuration),
+            floor,
+        );
     }
 }
 
@@ -728,12 +801,13 @@ fn a_rescue_that_ends_on_wrong_branches_stops_a_wall_following_search() {
     strict_task.end_on_wrong_branch = true;
     let strict = run_on(&strict_task, &mut exiter(), None);
     let reached_strict = strict.iter().filter(|(_, o)| o.stage >= 2).count();
-    let wrong = searched_on(&strict);
     // Measured: 79 of 200 end in a wrong branch, and 12 samples reach the teammate against
     // 40 with the search allowed.
-    assert!(
-        wrong >= 60,
-        "only {wrong} of {SEEDS} searches ended in a wrong branch"
+    assert_count(
+        "rescue by the room exiter, ending on wrong branches",
+        &strict,
+        |o| o.ending == Ending::WrongBranch,
+        76,
     );
     assert!(
         reached_strict * 2 <= reached_open,
@@ -742,9 +816,10 @@ fn a_rescue_that_ends_on_wrong_branches_stops_a_wall_following_search() {
     );
 
     // The scripted rescuer reads the flashes and takes no wrong branch, so it still solves.
+    // Measured: as without the rule, 186, 183 and 180.
     let rescued = run_on(&strict_task, &mut rescuer(), None);
     assert_coherent(TaskKind::Rescue, &rescued);
-    assert_share(TaskKind::Rescue, &rescued, 0.80);
+    assert_rescue_stages("rescue ending on wrong branches", &rescued, [183, 180, 177]);
 }
 
 #[test]
@@ -820,10 +895,12 @@ fn with_wrong_branches_judged_at_their_ends_a_wrong_turn_ends_at_the_dead_end() 
                 n_later += 1;
             }
         }
-        // Measured: every sample of every configuration.
+        // Measured: every sample of every configuration, 200 of 200.
         assert!(
-            n_later as f64 >= 0.95 * strict.len() as f64,
-            "configuration {configuration}: {n_later} wrong branches ended at their dead end"
+            n_later >= 197,
+            "configuration {configuration}: {n_later} of {} wrong branches ended at their dead \
+             end, below the floor of 197",
+            strict.len()
         );
     }
 }

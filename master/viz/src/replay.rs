@@ -1476,12 +1476,25 @@ mod tests {
         (svg, elements)
     }
 
-    fn scene_transform(elements: &[Element]) -> SceneTransform {
+    /// The scene's documented scale and origin attributes: pixels per metre, and the pixel
+    /// position of the world's origin.
+    fn scene_attributes(elements: &[Element]) -> (f64, f64, f64) {
         let scene = with_class(elements, "scene")[0];
-        SceneTransform {
-            scale: scene.number("data-px-per-m"),
-            origin: [scene.number("data-origin-x"), scene.number("data-origin-y")],
-        }
+        (
+            scene.number("data-px-per-m"),
+            scene.number("data-origin-x"),
+            scene.number("data-origin-y"),
+        )
+    }
+
+    /// Where a world point should be drawn by the scene's attributes, written out: x to the
+    /// right from the origin, y upwards, so the pixel row decreases as y grows.
+    fn expected_pixel(attributes: (f64, f64, f64), point: [f32; 2]) -> [f64; 2] {
+        let (px_per_m, origin_x, origin_y) = attributes;
+        [
+            origin_x + px_per_m * f64::from(point[0]),
+            origin_y - px_per_m * f64::from(point[1]),
+        ]
     }
 
     #[test]
@@ -1492,7 +1505,7 @@ mod tests {
             "the scripted driver should get somewhere"
         );
         let (_, elements) = render(&trace, &evaluator, &maze_options());
-        let transform = scene_transform(&elements);
+        let attributes = scene_attributes(&elements);
         let polylines = with_class(&elements, "trajectory");
         assert!(!polylines.is_empty());
         let mut covered = 0;
@@ -1502,11 +1515,18 @@ mod tests {
             let points = polyline.points();
             assert_eq!(points.len(), last - first + 1);
             for (offset, point) in points.iter().enumerate() {
-                let expected = transform.apply(trajectory_point(&trace, first + offset));
+                // The robot's position at the start of the cycle; after the last cycle, its
+                // final position.
+                let cycle = first + offset;
+                let position = trace
+                    .cycles
+                    .get(cycle)
+                    .map_or(trace.final_robot.position(), |c| c.robot.position());
+                let expected = expected_pixel(attributes, position);
+                // Points are written with 2 decimals, the attributes with 4.
                 assert!(
-                    (point[0] - expected[0]).abs() < 0.5 && (point[1] - expected[1]).abs() < 0.5,
-                    "cycle {}: drawn {point:?}, expected {expected:?}",
-                    first + offset
+                    (point[0] - expected[0]).abs() < 0.01 && (point[1] - expected[1]).abs() < 0.01,
+                    "cycle {cycle}: drawn {point:?}, expected {expected:?}"
                 );
             }
             let leaf = leaf_of(&trace.cycles[first].active_path)
@@ -1521,7 +1541,7 @@ mod tests {
         );
         // The scale fits the scene into the picture.
         let svg_width = elements[0].number("width");
-        assert!(transform.scale > 100.0 && svg_width == WIDTH);
+        assert!(attributes.0 > 100.0 && svg_width == WIDTH);
         for polyline in &polylines {
             for [x, y] in polyline.points() {
                 assert!(
@@ -1530,6 +1550,62 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_maze_is_drawn_to_its_documented_size_and_place() {
+        // The double T-maze (docs/model.md 5.4): cells of 0.30 m from x = -3 to 3 and y = -5
+        // to 1, walls 0.10 m thick centred on the cell borders, so the outer faces lie at
+        // x = ±(3 × 0.30 + 0.15 + 0.05) = ±1.10 m, y = -5 × 0.30 - 0.20 = -1.70 m and
+        // 1 × 0.30 + 0.20 = 0.50 m: 2.20 m by 2.20 m. The scripted driver stays inside, so
+        // the walls are the widest thing drawn, and the picture (800 px wide, 16 px padding,
+        // the scene below a 44 px title, a 0.06 m margin round the world) is fitted to them by
+        // width.
+        let (evaluator, trace) = maze_trace(7);
+        let (_, elements) = render(&trace, &evaluator, &maze_options());
+        let (px_per_m, origin_x, origin_y) = scene_attributes(&elements);
+        let expected_px_per_m = (800.0 - 2.0 * 16.0) / (2.2 + 2.0 * 0.06);
+        assert!(
+            (px_per_m - expected_px_per_m).abs() < 1e-3,
+            "{px_per_m} px per m, expected {expected_px_per_m}"
+        );
+        // Centred left to right on the maze's axis, x = 0; the top margin under the title.
+        assert!((origin_x - 400.0).abs() < 1e-3, "origin x {origin_x}");
+        let expected_origin_y = 44.0 + expected_px_per_m * (0.5 + 0.06);
+        assert!(
+            (origin_y - expected_origin_y).abs() < 1e-3,
+            "origin y {origin_y}, expected {expected_origin_y}"
+        );
+        // The walls' drawn corners span exactly the maze's outer faces.
+        let corners: Vec<[f64; 2]> = with_class(&elements, "wall")
+            .iter()
+            .flat_map(|wall| wall.points())
+            .collect();
+        let span = |axis: usize| {
+            let values = corners.iter().map(|c| c[axis]);
+            let low = values.clone().fold(f64::INFINITY, f64::min);
+            let high = values.fold(f64::NEG_INFINITY, f64::max);
+            [low, high]
+        };
+        let [left, right] = span(0);
+        let [top, bottom] = span(1);
+        let tolerance = 0.02;
+        assert!(
+            (left - (400.0 - 1.1 * expected_px_per_m)).abs() < tolerance,
+            "{left}"
+        );
+        assert!(
+            (right - (400.0 + 1.1 * expected_px_per_m)).abs() < tolerance,
+            "{right}"
+        );
+        assert!(
+            (top - (expected_origin_y - 0.5 * expected_px_per_m)).abs() < tolerance,
+            "{top}"
+        );
+        assert!(
+            (bottom - (expected_origin_y + 1.7 * expected_px_per_m)).abs() < tolerance,
+            "{bottom}"
+        );
     }
 
     #[test]

@@ -254,6 +254,57 @@ mod tests {
         }
     }
 
+    /// The table of docs/model.md 5.4, written out: which light of each row flashes in each
+    /// configuration, and which branch end is its goal. Consistency between lights and turns
+    /// (`a_right_light_means_a_right_turn`) does not pin the numbering; this does.
+    #[test]
+    fn the_configurations_are_the_documented_ones() {
+        // (configuration, row 1 light, row 2 light, goal cell); +1 right, -1 left.
+        let documented = [
+            (0, 1, -1, [3, 1]),
+            (1, 1, 1, [3, -3]),
+            (2, -1, 1, [-3, 1]),
+            (3, -1, -1, [-3, -3]),
+        ];
+        let maze = MazeLayout::builtin();
+        for (config, row_1, row_2, goal) in documented {
+            let lit = |y: f32| -> Vec<f32> {
+                maze.lights
+                    .iter()
+                    .filter(|l| {
+                        (l.position[1] - y).abs() < 1e-4 && l.configurations.contains(&config)
+                    })
+                    .map(|l| l.position[0].signum())
+                    .collect()
+            };
+            // Row 1 at y = -1.20 m, row 2 at y = -0.798 m, lights at x = ±0.099 m.
+            assert_eq!(
+                lit(-1.2),
+                vec![row_1 as f32],
+                "configuration {config}, row 1"
+            );
+            assert_eq!(
+                lit(-0.798),
+                vec![row_2 as f32],
+                "configuration {config}, row 2"
+            );
+            let path = &maze.paths[config as usize];
+            assert_eq!(
+                maze.map.cells[path[0]].at,
+                [0, -5],
+                "configuration {config}"
+            );
+            assert_eq!(
+                maze.map.cells[*path.last().unwrap()].at,
+                goal,
+                "configuration {config}"
+            );
+        }
+        for light in &maze.lights {
+            assert!((light.position[0].abs() - 0.099).abs() < 1e-4, "{light:?}");
+        }
+    }
+
     #[test]
     fn malformed_files_name_the_line() {
         let err = MazeLayout::parse("# c\nW;0;0;1;1;1\n").unwrap_err();

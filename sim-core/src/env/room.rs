@@ -333,9 +333,83 @@ mod tests {
                 !scene.disc_hits(room.start.position(), 0.0375),
                 "seed {seed}"
             );
-            let d =
-                (room.exit_center[0] - room.center[0]).hypot(room.exit_center[1] - room.center[1]);
-            assert!(d >= 0.5 - 1e-4 && d <= 0.6f32.hypot(0.6) + 1e-4);
+            assert_exit_in_the_wall_face(&config, &room, &format!("seed {seed}"));
+        }
+    }
+
+    /// Whether a point lies inside a (possibly rotated) rectangle, in its own frame.
+    fn inside(rect: &Rect, p: [f32; 2]) -> bool {
+        let (s, c) = rect.angle.sin_cos();
+        let d = [p[0] - rect.center[0], p[1] - rect.center[1]];
+        let local = [c * d[0] + s * d[1], -s * d[0] + c * d[1]];
+        local[0].abs() <= rect.half_extents[0] && local[1].abs() <= rect.half_extents[1]
+    }
+
+    /// The exit's centre lies exactly on the exit wall's inner face, half the room's depth out
+    /// from its centre, and the gap is the exit's width: the two walls either side of it have
+    /// their inner face on the same line and end exactly half an exit width either side.
+    fn assert_exit_in_the_wall_face(config: &RoomConfig, room: &Room, context: &str) {
+        const TIGHT: f32 = 1e-5;
+        let out = room.exit_outward;
+        assert!(
+            out == [0.0, 1.0] || out == [0.0, -1.0] || out == [1.0, 0.0] || out == [-1.0, 0.0],
+            "{context}: outward {out:?}"
+        );
+        let along = [-out[1], out[0]];
+        let dot = |p: [f32; 2], v: [f32; 2]| p[0] * v[0] + p[1] * v[1];
+        let face = dot(room.exit_center, out);
+        // Half the interior's depth (size[1], across the exit wall) out from the centre.
+        assert!(
+            (face - dot(room.center, out) - 0.5 * room.size[1]).abs() < TIGHT,
+            "{context}: the exit is {} out from the centre of a room {} deep",
+            face - dot(room.center, out),
+            room.size[1]
+        );
+        // The exit at least 0.1 m of wall from either end of its wall.
+        let lateral = dot(room.exit_center, along) - dot(room.center, along);
+        assert!(
+            lateral.abs() <= 0.5 * room.size[0] - 0.1 - 0.5 * config.exit_width + TIGHT,
+            "{context}: exit {lateral} m along a wall {} m long",
+            room.size[0]
+        );
+        // The gap's two ends are corners of walls whose inner face is the exit's line.
+        let half = 0.5 * config.exit_width;
+        for sign in [-1.0f32, 1.0] {
+            let end = [
+                room.exit_center[0] + sign * half * along[0],
+                room.exit_center[1] + sign * half * along[1],
+            ];
+            let flanking: Vec<&Rect> = room
+                .rects
+                .iter()
+                .filter(|r| r.kind == RectKind::Wall)
+                .filter(|r| {
+                    r.corners()
+                        .iter()
+                        .any(|c| (c[0] - end[0]).abs() < TIGHT && (c[1] - end[1]).abs() < TIGHT)
+                })
+                .collect();
+            assert!(!flanking.is_empty(), "{context}: no wall ends at {end:?}");
+            let exit_wall = flanking.iter().any(|r| {
+                let nearest = r
+                    .corners()
+                    .iter()
+                    .map(|&c| dot(c, out))
+                    .fold(f32::INFINITY, f32::min);
+                (nearest - face).abs() < TIGHT
+            });
+            assert!(exit_wall, "{context}: no wall's inner face through {end:?}");
+            // Just beyond the gap's end the face is solid; inside the gap it is open.
+            let on_face = |distance: f32, depth: f32| {
+                [
+                    room.exit_center[0] + distance * along[0] + depth * out[0],
+                    room.exit_center[1] + distance * along[1] + depth * out[1],
+                ]
+            };
+            let solid = |p: [f32; 2]| room.rects.iter().any(|r| inside(r, p));
+            assert!(solid(on_face(sign * (half + 0.001), 0.001)), "{context}");
+            assert!(!solid(on_face(sign * (half - 0.001), 0.001)), "{context}");
+            assert!(!solid(on_face(sign * (half + 0.001), -0.001)), "{context}");
         }
     }
 
@@ -352,5 +426,6 @@ mod tests {
         assert!(room.exit_center[0].abs() < 1e-5 && (room.exit_center[1] + 1.7).abs() < 1e-5);
         assert_eq!(room.exit_outward, [0.0, 1.0]);
         assert!(room.center[1] < -2.0);
+        assert_exit_in_the_wall_face(&RoomConfig::default(), &room, "rescue room");
     }
 }
