@@ -6,6 +6,9 @@
 //! endpoint, and a byte-for-byte comparison of two result directories in the layout
 //! `hevo run --out` writes.
 
+#[path = "support/service.rs"]
+pub mod service;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};

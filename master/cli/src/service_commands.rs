@@ -52,6 +52,10 @@ pub struct ServeArgs {
     /// A batch whose worker sends no heartbeat for this long is given to another worker.
     #[arg(long, default_value_t = 30)]
     pub lease_seconds: u64,
+    /// A batch held this long is given to another worker even if its worker still sends
+    /// heartbeats (a worker that never returns its batch cannot hold a job forever).
+    #[arg(long, default_value_t = 900)]
+    pub max_lease_seconds: u64,
     /// Rebuild the job store from the copies of the job records in STATE_DIR/jobs/*/job.json
     /// (after the store was lost or damaged; the old file is moved aside), then serve.
     #[arg(long)]
@@ -132,6 +136,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
         tls: args.tls_cert.zip(args.tls_key),
         metrics_listen: args.metrics_listen,
         lease: Duration::from_secs(args.lease_seconds),
+        max_lease: Duration::from_secs(args.max_lease_seconds),
         rebuild_store: args.rebuild_store,
     };
     runtime()?.block_on(hevo_service::serve(config))

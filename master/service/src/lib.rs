@@ -45,6 +45,8 @@ pub struct ServeConfig {
     pub metrics_listen: Option<String>,
     /// Lease duration without a heartbeat.
     pub lease: Duration,
+    /// The longest a lease may last, heartbeats or not.
+    pub max_lease: Duration,
     /// Rebuild the job store from `jobs/*/job.json` before starting (the old file is moved
     /// aside).
     pub rebuild_store: bool,
@@ -127,6 +129,9 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     if config.lease < Duration::from_secs(1) {
         bail!("--lease-seconds must be at least 1");
     }
+    if config.max_lease < config.lease {
+        bail!("--max-lease-seconds must be at least --lease-seconds");
+    }
     std::fs::create_dir_all(&config.state_dir).with_context(|| {
         format!(
             "cannot create the state directory {}",
@@ -177,6 +182,10 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
 
     let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
         lease_timeout: config.lease,
+        max_lease_lifetime: config.max_lease,
+        // A quarter of the message limit: the estimate is generous, and a worker's reply
+        // carries its results alongside.
+        max_batch_bytes: hevo_proto::MAX_MESSAGE_BYTES / 4,
         ..DispatchConfig::default()
     }));
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
