@@ -238,11 +238,16 @@ pub struct Master {
 /// Starts a master on 127.0.0.1 port 0 with `args` after `serve --listen 127.0.0.1:0`, its
 /// logs in `log`; returns once it printed its address.
 pub fn start_master(args: &[&str], log: &Path) -> Master {
+    start_master_listening("127.0.0.1:0", args, log)
+}
+
+/// [`start_master`] on a given address (a master restarted where its workers look for it).
+pub fn start_master_listening(listen: &str, args: &[&str], log: &Path) -> Master {
     let stderr = std::fs::File::create(log).expect("cannot create the master's log");
     let mut proc = Proc::spawn(
         "hevo serve",
         Command::new(&binaries().hevo)
-            .args(["serve", "--listen", "127.0.0.1:0"])
+            .args(["serve", "--listen", listen])
             .args(args)
             .env_remove("HEVO_TOKEN")
             .stdout(Stdio::piped())
