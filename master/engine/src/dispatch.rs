@@ -697,11 +697,7 @@ fn requeue(state: &mut State, batch_id: u64, lease_id: u64) {
 }
 
 /// Removes a request and its batches, leases and queue entries, and replies.
-fn finish_request(
-    state: &mut State,
-    request_id: u64,
-    outcome: EvaluationResult,
-) {
+fn finish_request(state: &mut State, request_id: u64, outcome: EvaluationResult) {
     let Some(mut request) = state.requests.remove(&request_id) else {
         return;
     };
@@ -900,7 +896,10 @@ mod tests {
                 Ok(Completion::Ignored)
             );
         }
-        assert_eq!(dispatcher.stats(expired).duplicates_ignored, dead.len() as u64);
+        assert_eq!(
+            dispatcher.stats(expired).duplicates_ignored,
+            dead.len() as u64
+        );
     }
 
     #[test]

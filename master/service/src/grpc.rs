@@ -286,7 +286,10 @@ impl WorkerService for WorkerApi {
         request: Request<v1::ExtendLeaseRequest>,
     ) -> Result<Response<v1::ExtendLeaseResponse>, Status> {
         let request = request.into_inner();
-        let valid = request.epoch == self.epoch && self.dispatcher.extend(request.lease_id, std::time::Instant::now());
+        let valid = request.epoch == self.epoch
+            && self
+                .dispatcher
+                .extend(request.lease_id, std::time::Instant::now());
         Ok(Response::new(v1::ExtendLeaseResponse { valid }))
     }
 
