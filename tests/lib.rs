@@ -5,6 +5,10 @@
 //! read from its first line of output, scratch directories, a plain HTTP GET for the metrics
 //! endpoint, and a byte-for-byte comparison of two result directories in the layout
 //! `hevo run --out` writes.
+//!
+//! [`deploy`] parses and checks the files of `deploy/` for the `deploy_*` tests.
+
+pub mod deploy;
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
