@@ -6,9 +6,11 @@
 //! endpoint, and a byte-for-byte comparison of two result directories in the layout
 //! `hevo run --out` writes.
 //!
-//! [`deploy`] parses and checks the files of `deploy/` for the `deploy_*` tests.
+//! [`deploy`] parses and checks the files of `deploy/` for the `deploy_*` tests; [`tools`]
+//! finds the external tools (shellcheck, ...) that `scripts/install-test-tools.sh` installs.
 
 pub mod deploy;
+pub mod tools;
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};

@@ -1,9 +1,11 @@
 //! deploy/compose.yaml: the master publishes only its own ports, keeps its state on a named
 //! volume and has a healthcheck that is a real client call on its port; the workers are told
 //! where the master is, wait for it to be healthy and get a minute and more to stop; all
-//! services share one token.
+//! services share one token; and the file is valid against the Compose Specification's schema
+//! (check-jsonschema's bundled copy).
 
 use hevo_tests::deploy::{Analysis, Concern, DeployFiles, Drift, assert_drift_detected};
+use hevo_tests::{Scratch, repo_root, tools};
 
 #[test]
 fn the_compose_services_are_wired_together() {
@@ -61,5 +63,40 @@ fn compose_drift_is_reported() {
                 expected: "the services do not share one token",
             },
         ],
+    );
+}
+
+#[test]
+fn compose_file_matches_the_compose_specification() {
+    let test = "compose_file_matches_the_compose_specification";
+    let Some(check_jsonschema) = tools::require("check-jsonschema", test) else {
+        return;
+    };
+    let args = [
+        "--builtin-schema",
+        "vendor.compose-spec",
+        "deploy/compose.yaml",
+    ];
+    let run = tools::run(&check_jsonschema, &args, &repo_root());
+    assert!(
+        run.success,
+        "check-jsonschema (compose spec):\n{}",
+        run.output
+    );
+
+    // The schema is really applied: a misspelt key is rejected.
+    let scratch = Scratch::new("compose-spec");
+    let mut files = DeployFiles::load();
+    files.replace(
+        "deploy/compose.yaml",
+        "stop_grace_period: 90s",
+        "stop_grace_perod: 90s",
+    );
+    files.write_to(scratch.path());
+    let run = tools::run(&check_jsonschema, &args, scratch.path());
+    assert!(
+        !run.success && run.output.contains("stop_grace_perod"),
+        "check-jsonschema accepted a misspelt key:\n{}",
+        run.output
     );
 }

@@ -1,8 +1,10 @@
 //! deploy/Dockerfile: a multi-stage build of the workspace packages that own `hevo` and
 //! `hevo-worker`, both copied into a runtime stage that runs as a numeric non-root user with an
-//! exec-form `CMD` and no `ENTRYPOINT`, the state directory created for that user.
+//! exec-form `CMD` and no `ENTRYPOINT`, the state directory created for that user; and hadolint,
+//! the Dockerfile linter, finds nothing.
 
 use hevo_tests::deploy::{Analysis, Concern, DeployFiles, Drift, assert_drift_detected};
+use hevo_tests::{Scratch, repo_root, tools};
 
 #[test]
 fn the_dockerfile_builds_both_binaries_into_a_non_root_image() {
@@ -54,5 +56,31 @@ fn dockerfile_drift_is_reported() {
                 expected: "is not owned by the runtime user 10001",
             },
         ],
+    );
+}
+
+#[test]
+fn hadolint_finds_nothing() {
+    let Some(hadolint) = tools::require("hadolint", "hadolint_finds_nothing") else {
+        return;
+    };
+    let root = repo_root();
+    let run = tools::run(&hadolint, &["deploy/Dockerfile"], &root);
+    assert!(run.success, "hadolint deploy/Dockerfile:\n{}", run.output);
+
+    // The linter runs for real: a Dockerfile it must reject is rejected.
+    let scratch = Scratch::new("hadolint");
+    let mut files = DeployFiles::load();
+    files.replace(
+        "deploy/Dockerfile",
+        "WORKDIR /var/lib/hevo",
+        "WORKDIR var/lib/hevo",
+    );
+    files.write_to(scratch.path());
+    let run = tools::run(&hadolint, &["deploy/Dockerfile"], scratch.path());
+    assert!(
+        !run.success && run.output.contains("DL3000"),
+        "hadolint accepted a relative WORKDIR:\n{}",
+        run.output
     );
 }
