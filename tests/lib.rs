@@ -5,6 +5,12 @@
 //! read from its first line of output, scratch directories, a plain HTTP GET for the metrics
 //! endpoint, and a byte-for-byte comparison of two result directories in the layout
 //! `hevo run --out` writes.
+//!
+//! [`deploy`] parses and checks the files of `deploy/` for the `deploy_*` tests; [`tools`]
+//! finds the external tools (shellcheck, ...) that `scripts/install-test-tools.sh` installs.
+
+pub mod deploy;
+pub mod tools;
 
 #[path = "support/service.rs"]
 pub mod service;
@@ -59,12 +65,29 @@ pub fn binaries() -> &'static Binaries {
         if !cfg!(debug_assertions) {
             args.push("--release");
         }
-        let output = Command::new(cargo)
+        let mut command = Command::new(cargo);
+        command
             .current_dir(repo_root())
             .args(&args)
-            .stderr(Stdio::inherit())
-            .output()
-            .expect("cannot run cargo");
+            .stderr(Stdio::inherit());
+        // The variables cargo sets for this test process describe hevo-tests, not the build:
+        // build scripts that watch one (ring's watches CARGO_MANIFEST_DIR) would otherwise
+        // rerun, and their crates rebuild, every time `cargo test` and this build alternate.
+        for (name, _) in std::env::vars_os() {
+            let name = name.to_string_lossy();
+            if name.starts_with("CARGO_PKG_")
+                || [
+                    "CARGO_MANIFEST_DIR",
+                    "CARGO_MANIFEST_PATH",
+                    "CARGO_CRATE_NAME",
+                    "CARGO_PRIMARY_PACKAGE",
+                ]
+                .contains(&name.as_ref())
+            {
+                command.env_remove(name.as_ref());
+            }
+        }
+        let output = command.output().expect("cannot run cargo");
         assert!(output.status.success(), "cargo {} failed", args.join(" "));
         let (mut hevo, mut worker) = (None, None);
         for line in String::from_utf8_lossy(&output.stdout).lines() {

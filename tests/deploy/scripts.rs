@@ -1,0 +1,138 @@
+//! The one-box and SLURM scripts: bash with a shebang, a comment saying what they are for and
+//! `set -euo pipefail`; `bash -n` passes; each runs the master, the workers, submit, watch and
+//! fetch, every hevo command with the token; the SLURM script has `#SBATCH` directives and
+//! starts its workers with srun. Their command lines are recorded for the flag checks.
+
+use super::invocation::{Program, shell_invocations};
+use super::shell::exported_names;
+use super::{Concern, DeployFiles, Facts, Problems};
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::process::{Command, Stdio};
+
+/// The scripts' paths (the `.sh` and `.sbatch` files under deploy/).
+pub fn paths(files: &DeployFiles) -> Vec<&String> {
+    files
+        .files
+        .keys()
+        .filter(|p| p.ends_with(".sh") || p.ends_with(".sbatch"))
+        .collect()
+}
+
+/// `bash -n` on a text: the error output when it does not parse.
+fn bash_syntax(text: &str) -> Result<(), String> {
+    let mut child = Command::new("bash")
+        .arg("-n")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot run bash");
+    child
+        .stdin
+        .take()
+        .expect("piped stdin")
+        .write_all(text.as_bytes())
+        .expect("cannot write to bash");
+    let output = child.wait_with_output().expect("bash -n");
+    if output.status.success() {
+        Ok(())
+    } else {
+        Err(String::from_utf8_lossy(&output.stderr).into_owned())
+    }
+}
+
+/// Checks the scripts and records their command lines.
+pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
+    let problems = &mut problems.scoped(Concern::Scripts);
+    let scripts = paths(files);
+    problems.check(
+        scripts.len() >= 2,
+        "deploy/",
+        format!("expected the one-box and SLURM scripts, found {scripts:?}"),
+    );
+    for path in scripts {
+        let text = files.get(path);
+        let mut lines = text.lines();
+        problems.check(
+            lines
+                .next()
+                .is_some_and(|l| l.starts_with("#!") && l.contains("bash")),
+            path,
+            "the first line is not a bash shebang",
+        );
+        problems.check(
+            lines.next().is_some_and(|l| l.starts_with("# ")),
+            path,
+            "no comment saying what it is for after the shebang",
+        );
+        problems.check(
+            text.lines().any(|l| l.trim() == "set -euo pipefail"),
+            path,
+            "no `set -euo pipefail`",
+        );
+        // On the text under test, which may differ from the file in a drift test.
+        if let Err(e) = bash_syntax(text) {
+            problems.add(path, format!("bash -n: {e}"));
+        }
+        let env: BTreeSet<String> = match exported_names(text) {
+            Ok(names) => names.into_iter().collect(),
+            Err(e) => {
+                problems.add(path, format!("the shell parser fails: {e}"));
+                BTreeSet::new()
+            }
+        };
+        let before = facts.invocations.len();
+        for error in shell_invocations(text, 1, path, &env, &mut facts.invocations) {
+            problems.add(path, error);
+        }
+        let found: BTreeSet<String> = facts.invocations[before..]
+            .iter()
+            .map(|i| i.name())
+            .collect();
+        for expected in [
+            "hevo serve",
+            "hevo-worker",
+            "hevo submit",
+            "hevo watch",
+            "hevo fetch",
+        ] {
+            problems.check(
+                found.contains(expected),
+                path,
+                format!("runs no `{expected}` (found {found:?})"),
+            );
+        }
+        for invocation in &facts.invocations[before..] {
+            if invocation.program == Program::Worker || invocation.program == Program::Hevo {
+                problems.check(
+                    invocation.flag("--token-file").is_some()
+                        || invocation.flag("--token").is_some()
+                        || invocation.env.contains("HEVO_TOKEN"),
+                    &invocation.origin,
+                    format!("`{}` without the token", invocation.name()),
+                );
+            }
+        }
+        if path.ends_with(".sbatch") {
+            problems.check(
+                text.lines().any(|l| l.starts_with("#SBATCH ")),
+                path,
+                "no #SBATCH directives",
+            );
+            // The command line that runs the worker starts with srun.
+            let workers_by_srun = facts.invocations[before..].iter().any(|i| {
+                let line: Option<usize> = i.origin.rsplit(':').next().and_then(|n| n.parse().ok());
+                i.program == Program::Worker
+                    && line
+                        .and_then(|n| text.lines().nth(n.saturating_sub(1)))
+                        .is_some_and(|l| l.trim_start().starts_with("srun "))
+            });
+            problems.check(
+                workers_by_srun,
+                path,
+                "the workers are not started with srun",
+            );
+        }
+    }
+}

@@ -1,0 +1,209 @@
+//! What `--help` cannot show, against a live `hevo serve` started with the deploy files' own
+//! command lines (addresses and paths made local), once with the compose master's and once
+//! with the Kubernetes one: the health services the probes ask for answer SERVING without a
+//! token, the metrics path of the scrape annotations answers, the compose healthcheck passes
+//! with the token, clients without the token are refused, and SIGTERM stops the master.
+//!
+//! The binaries come from `cargo build -p hevo-cli -p hevo-worker` in the tests' profile
+//! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
+
+use hevo_tests::deploy::{Analysis, DeployFiles};
+use hevo_tests::{Proc, Scratch, binaries, http_get, lines_of};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// A running master, started with the deploy files' own arguments (addresses and paths made
+/// local), stopped with SIGTERM by [`Master::stop`] and killed when dropped.
+struct Master {
+    proc: Proc,
+    grpc: String,
+    metrics: Option<String>,
+    /// Its stdout after the address lines, kept open so the master never writes to a closed
+    /// pipe.
+    _stdout: mpsc::Receiver<String>,
+}
+
+impl Master {
+    fn start(argv: &[String], dir: &Path, token: &str, env_token: bool) -> Master {
+        std::fs::create_dir_all(dir).unwrap();
+        let token_file = dir.join("token");
+        std::fs::write(&token_file, token).unwrap();
+        let mut args = Vec::new();
+        let mut previous = String::new();
+        for arg in &argv[1..] {
+            let arg = match previous.as_str() {
+                "--listen" | "--metrics-listen" => "127.0.0.1:0".to_string(),
+                "--state-dir" => dir.join("state").to_string_lossy().into_owned(),
+                "--token-file" => token_file.to_string_lossy().into_owned(),
+                _ => arg.clone(),
+            };
+            previous = arg.clone();
+            args.push(arg);
+        }
+        let mut command = Command::new(&binaries().hevo);
+        command
+            .args(&args)
+            .env_remove("HEVO_TOKEN")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        if env_token {
+            command.env("HEVO_TOKEN", token);
+        }
+        let mut proc = Proc::spawn("hevo serve", &mut command);
+        let lines = lines_of(proc.child().stdout.take().expect("piped stdout"));
+        let next_line = || {
+            lines
+                .recv_timeout(Duration::from_secs(20))
+                .unwrap_or_default()
+        };
+        let first = next_line();
+        let grpc = first
+            .strip_prefix("listening on ")
+            .unwrap_or_else(|| panic!("hevo {args:?} printed {first:?} first"))
+            .to_string();
+        let metrics = if args.iter().any(|a| a == "--metrics-listen") {
+            let second = next_line();
+            Some(
+                second
+                    .strip_prefix("metrics on ")
+                    .unwrap_or_else(|| panic!("expected `metrics on ADDR`, got {second:?}"))
+                    .to_string(),
+            )
+        } else {
+            None
+        };
+        Master {
+            proc,
+            grpc,
+            metrics,
+            _stdout: lines,
+        }
+    }
+
+    fn stop(mut self) -> std::process::ExitStatus {
+        self.proc.signal("TERM");
+        self.proc
+            .wait_timeout(Duration::from_secs(30))
+            .expect("hevo serve did not exit within 30 s of SIGTERM")
+    }
+}
+
+fn health_status(
+    runtime: &tokio::runtime::Runtime,
+    address: &str,
+    service: &str,
+) -> Result<i32, String> {
+    runtime.block_on(async {
+        let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))
+            .map_err(|e| e.to_string())?
+            .connect_timeout(Duration::from_secs(5))
+            .timeout(Duration::from_secs(5))
+            .connect()
+            .await
+            .map_err(|e| e.to_string())?;
+        let mut client = tonic_health::pb::health_client::HealthClient::new(channel);
+        let response = client
+            .check(tonic_health::pb::HealthCheckRequest {
+                service: service.to_string(),
+            })
+            .await
+            .map_err(|status| format!("{}: {}", status.code(), status.message()))?;
+        Ok(response.into_inner().status)
+    })
+}
+
+#[test]
+fn the_master_answers_the_probes_the_deploy_files_use() {
+    let analysis = Analysis::of(&DeployFiles::load());
+    let facts = &analysis.facts;
+    let scratch = Scratch::new("deploy-probes");
+    let token = "deploy-probes-test-token";
+    let mut services = facts.probe_services.clone();
+    services.insert(String::new());
+
+    let (compose_argv, compose_env) = facts
+        .compose_master_argv
+        .clone()
+        .expect("the compose file runs hevo serve");
+    let k8s_argv = facts
+        .k8s_master_argv
+        .clone()
+        .expect("the manifests run hevo serve");
+    for (name, argv, env_token) in [
+        ("compose", compose_argv, compose_env.contains("HEVO_TOKEN")),
+        ("k8s", k8s_argv, false),
+    ] {
+        let master = Master::start(&argv, &scratch.join(name), token, env_token);
+        // One runtime per master, dropped before the master is stopped so that no gRPC
+        // connection of ours holds its shutdown up.
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        for service in &services {
+            let deadline = Instant::now() + Duration::from_secs(15);
+            loop {
+                let status = health_status(&runtime, &master.grpc, service);
+                if status
+                    == Ok(tonic_health::pb::health_check_response::ServingStatus::Serving as i32)
+                {
+                    break;
+                }
+                assert!(
+                    Instant::now() < deadline,
+                    "{name}: health check of {service:?} without a token: {status:?}, not SERVING"
+                );
+                std::thread::sleep(Duration::from_millis(200));
+            }
+        }
+        if let Some(metrics) = &master.metrics {
+            for path in facts
+                .metrics_paths
+                .iter()
+                .chain(std::iter::once(&"/metrics".to_string()))
+            {
+                let response = http_get(metrics, path);
+                let status = response.lines().next().unwrap_or_default();
+                assert!(
+                    status.contains(" 200"),
+                    "{name}: GET {path} on the metrics port answered {status:?}"
+                );
+            }
+        }
+        if name == "compose" {
+            let healthcheck = facts
+                .compose_healthcheck
+                .clone()
+                .expect("compose healthcheck");
+            let mut args: Vec<String> = healthcheck[1..].to_vec();
+            if let Some(at) = args.iter().position(|a| a == "--master") {
+                args[at + 1] = format!("http://{}", master.grpc);
+            }
+            let status = Command::new(&binaries().hevo)
+                .args(&args)
+                .env("HEVO_TOKEN", token)
+                .output()
+                .unwrap();
+            assert!(
+                status.status.success(),
+                "the compose healthcheck {args:?} fails: {}",
+                String::from_utf8_lossy(&status.stderr)
+            );
+            let refused = Command::new(&binaries().hevo)
+                .args(&args)
+                .env_remove("HEVO_TOKEN")
+                .output()
+                .unwrap();
+            assert!(
+                !refused.status.success(),
+                "the master answered `hevo {}` without the token",
+                args.join(" ")
+            );
+        }
+        drop(runtime);
+        let status = master.stop();
+        eprintln!("{name}: hevo serve exited with {status} after SIGTERM");
+    }
+}
