@@ -4,12 +4,14 @@
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
 use crate::env::{self, Environment, Ground, Statics};
+use crate::scenario::formula::{Atom, Condition, Quantity};
+use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scene::{Cone, Rect};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
-use crate::task::{ConfigError, TaskConfig, TaskKind};
+use crate::task::{ConfigError, TaskConfig};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -30,6 +32,13 @@ pub trait Policy {
     /// Number of nodes, for counting active cycles per node.
     fn n_nodes(&self) -> usize {
         1
+    }
+    /// The output index of the root's child named `name`, for a derived fitness whose phases
+    /// name their children; `None` when the policy has no such names (a phase then asks for
+    /// the child at its own position).
+    fn root_child_index(&self, name: &str) -> Option<usize> {
+        let _ = name;
+        None
     }
 }
 
@@ -107,7 +116,7 @@ pub struct NodeUse {
 
 /// Rescue's sub-tasks, in the order of the rescue arbitrator's children: exit the room, solve
 /// the maze, return to the room.
-pub const N_SUB_TASKS: usize = 3;
+pub const N_SUB_TASKS: usize = 6;
 
 /// How often the rescue arbitrator chose the sub-controller that the environment's ground truth
 /// asks for, per sub-task: the raw counts behind the derived fitness f3.
@@ -161,8 +170,13 @@ pub struct TraceCycle {
 /// What a replay needs to draw a sample: the world and every cycle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Trace {
-    /// The task.
-    pub task: TaskKind,
+    /// The scenario's name.
+    pub scenario: String,
+    /// The variant's name as reports show it, if the scenario has several.
+    pub variant_label: Option<String>,
+    /// Whether the scenario has a derived fitness whose last phase is the way back (the path
+    /// is drawn twice: out, and back over it).
+    pub has_phases: bool,
     /// The sample.
     pub sample: Sample,
     /// Walls and obstacles.
@@ -247,16 +261,17 @@ impl Evaluator {
     pub fn evaluate_traced(&self, policy: &mut impl Policy, sample: Sample) -> Trace {
         let mut cycles = Vec::new();
         let (outcome, env, final_robot) = self.run(policy, sample, &mut cycles);
-        let (goal, exit) = match &env.ground {
-            Ground::Room(room) => (None, Some((room.exit_center, room.exit_outward))),
-            Ground::Cells(goal) => (Some(goal.map.center(goal.goal)), None),
-            Ground::Rescue { room, maze } => (
-                Some(maze.map.center(maze.goal)),
-                Some((room.exit_center, room.exit_outward)),
-            ),
-        };
+        let goal = env.ground.goal.as_ref().map(|g| g.map.center(g.goal));
+        let exit = env
+            .ground
+            .room
+            .as_ref()
+            .map(|room| (room.exit_center, room.exit_outward));
+        let scenario = &self.task.scenario;
         Trace {
-            task: self.task.kind,
+            scenario: scenario.name().to_string(),
+            variant_label: scenario.variant_label(outcome.variant),
+            has_phases: scenario.has_phases(),
             sample,
             rects: env.scene.rects().to_vec(),
             lights: env.lights.iter().map(|l| (l.position, l.flashes)).collect(),
@@ -338,11 +353,12 @@ impl Evaluator {
             .map(|spec| LiveLight {
                 position: spec.position,
                 flashes: spec.flashes,
+                trigger: spec.trigger,
                 triggered: false,
                 lit_cycles_left: 0,
             })
             .collect();
-        let mut judge = Judge::new(&env.ground, robot);
+        let mut judge = Judge::new(&task.scenario, &env, robot, policy);
         let mut active_cycles = vec![0u32; policy.n_nodes()];
         let mut activations = vec![0u32; policy.n_nodes()];
         // Which nodes were active in the previous cycle, to count activations.
@@ -374,7 +390,7 @@ impl Evaluator {
                 // the body hides a light behind the sensor.
                 let mut nearest = [None::<f32>; N_LIGHT];
                 for (light_idx, light) in lights.iter().enumerate() {
-                    if light.lit_cycles_left == 0 {
+                    if !light.lit() {
                         continue;
                     }
                     lit_mask |= 1 << light_idx;
@@ -403,7 +419,7 @@ impl Evaluator {
             };
 
             // Decide.
-            let sub_task = judge.sub_task(&robot, teammate.as_ref());
+            let sub_task = judge.phase(&robot, teammate.as_ref());
             let wheels = policy.step(&frame, dt);
             is_active.fill(false);
             for &node in policy.active_path() {
@@ -421,7 +437,7 @@ impl Evaluator {
             std::mem::swap(&mut was_active, &mut is_active);
             if let Some(sub_task) = sub_task {
                 sub_task_choices.cycles[sub_task as usize] += 1;
-                if policy.root_choice() == Some(sub_task as usize) {
+                if policy.root_choice() == Some(judge.phase_child[sub_task as usize]) {
                     sub_task_choices.correct[sub_task as usize] += 1;
                 }
             }
@@ -451,7 +467,7 @@ impl Evaluator {
                 lit_lights: lit_mask,
                 sub_task: sub_task.unwrap_or(0),
             });
-            trigger_lights(&mut lights, &before, &robot, task.light.flash_cycles);
+            trigger_lights(&mut lights, &before, &robot, cycle, task.light.flash_cycles);
             if let Some(mate) = teammate.as_mut() {
                 mate.update(
                     &robot,
@@ -465,7 +481,7 @@ impl Evaluator {
                 ending = Ending::Collision;
                 break;
             }
-            if let Some(end) = judge.check(&robot, teammate.as_ref(), task) {
+            if let Some(end) = judge.check(&robot, teammate.as_ref(), task, &lights) {
                 ending = end;
                 break;
             }
@@ -491,21 +507,44 @@ impl Evaluator {
     }
 }
 
-/// A light's state during a sample: each row flashes once, when the robot first drives past it.
+/// A light's state during a sample: a row light flashes once, when the robot first drives past
+/// it; a beacon is always lit; a timed light flashes once at its cycle. Only the lights of the
+/// sample's variant light at all.
 #[derive(Debug)]
 struct LiveLight {
     position: [f32; 2],
     flashes: bool,
+    trigger: Trigger,
     triggered: bool,
     lit_cycles_left: u32,
 }
 
+impl LiveLight {
+    #[inline]
+    fn lit(&self) -> bool {
+        self.lit_cycles_left > 0 || (self.flashes && self.trigger == Trigger::Always)
+    }
+}
+
 /// A light row is passed when the robot's centre crosses the light's y going up the stem,
-/// within the stem (|x| below the light's x). Only lights of the sample's configuration light.
-fn trigger_lights(lights: &mut [LiveLight], before: &Pose, after: &Pose, flash_cycles: u32) {
+/// within the stem (|x| below the light's x). A timed light lights at its cycle.
+fn trigger_lights(
+    lights: &mut [LiveLight],
+    before: &Pose,
+    after: &Pose,
+    cycle: u32,
+    flash_cycles: u32,
+) {
     for light in lights.iter_mut().filter(|l| !l.triggered) {
-        let row = light.position[1];
-        if before.y < row && after.y >= row && after.x.abs() < light.position[0].abs() {
+        let fired = match light.trigger {
+            Trigger::Passed => {
+                let row = light.position[1];
+                before.y < row && after.y >= row && after.x.abs() < light.position[0].abs()
+            }
+            Trigger::AfterCycles(at) => cycle + 1 >= at,
+            Trigger::Always => false,
+        };
+        if fired {
             light.triggered = true;
             if light.flashes {
                 light.lit_cycles_left = flash_cycles;
@@ -565,54 +604,116 @@ impl Teammate {
     }
 }
 
-/// The task-specific bookkeeping of a sample.
+/// The scenario's bookkeeping of a sample: what it has reached, how close it came, which
+/// child each phase asks for.
 #[derive(Debug)]
-enum Judge<'a> {
-    Room {
-        room: &'a env::room::Room,
-        closest: f32,
-    },
-    Cells {
-        goal: &'a env::CellGoal,
-    },
-    Rescue {
-        room: &'a env::room::Room,
-        maze: &'a env::CellGoal,
-        exited: bool,
-        found: bool,
-    },
+struct Judge<'a> {
+    scenario: &'a Scenario,
+    ground: &'a Ground,
+    /// Closest approach to the room's exit so far.
+    closest_exit: f32,
+    /// Per light: the distance at the start, and the closest approach so far.
+    light_approach: Vec<(f32, f32)>,
+    /// Which stages have been reached.
+    reached: [bool; 8],
+    /// Whether the teammate has followed at some cycle.
+    found: bool,
+    /// The child each phase asks for, as an output index of the root.
+    phase_child: [usize; N_SUB_TASKS],
 }
 
 impl<'a> Judge<'a> {
-    fn new(ground: &'a Ground, start: Pose) -> Judge<'a> {
-        match ground {
-            Ground::Room(room) => Judge::Room {
-                room,
-                closest: start.distance_to(room.exit_center),
-            },
-            Ground::Cells(goal) => Judge::Cells { goal },
-            Ground::Rescue { room, maze } => Judge::Rescue {
-                room,
-                maze,
-                exited: false,
-                found: false,
+    fn new(
+        scenario: &'a Scenario,
+        env: &'a Environment,
+        start: Pose,
+        policy: &impl Policy,
+    ) -> Judge<'a> {
+        let mut phase_child = [usize::MAX; N_SUB_TASKS];
+        for (idx, phase) in scenario.phases.iter().enumerate() {
+            phase_child[idx] = match &phase.child {
+                crate::scenario::file::ChildRef::Index(child) => *child,
+                crate::scenario::file::ChildRef::Name(name) => {
+                    policy.root_child_index(name).unwrap_or(idx)
+                }
+            };
+        }
+        Judge {
+            scenario,
+            ground: &env.ground,
+            closest_exit: env
+                .ground
+                .room
+                .as_ref()
+                .map_or(f32::INFINITY, |room| start.distance_to(room.exit_center)),
+            light_approach: env
+                .lights
+                .iter()
+                .map(|light| {
+                    let d = start.distance_to(light.position);
+                    (d, d)
+                })
+                .collect(),
+            reached: [false; 8],
+            found: false,
+            phase_child,
+        }
+    }
+
+    /// Whether a condition's atom holds for the robot at `robot`.
+    fn truth(&self, atom: &Atom, robot: &Pose, teammate: Option<&Teammate>) -> bool {
+        match atom {
+            Atom::Always => true,
+            Atom::InMaze => self
+                .ground
+                .cells
+                .as_ref()
+                .is_some_and(|cells| cells.cell_at(robot.position()).is_some()),
+            Atom::InGoal => self.ground.goal.as_ref().is_some_and(|goal| {
+                goal.map.cell_at(robot.position()) == Some(goal.goal)
+            }),
+            Atom::InRegion(name) => self.in_region(name, robot),
+            Atom::TeammateFollowing => teammate.is_some_and(|mate| mate.following),
+            Atom::Near(light) => self.light_approach.get(*light).is_some() && {
+                let position = self.scenario.lights[*light].position;
+                robot.distance_to(position) < self.scenario.near_m
             },
         }
     }
 
-    /// The rescue sub-task in force: 0 in the room before the teammate is found, 1 in the maze
-    /// before, 2 once the teammate follows.
-    fn sub_task(&self, robot: &Pose, teammate: Option<&Teammate>) -> Option<u8> {
-        let Judge::Rescue { maze, .. } = self else {
-            return None;
-        };
-        if teammate.is_some_and(|m| m.following) {
-            Some(2)
-        } else if maze.map.cell_at(robot.position()).is_some() {
-            Some(1)
-        } else {
-            Some(0)
+    fn in_region(&self, name: &str, robot: &Pose) -> bool {
+        if let Some([x0, y0, x1, y1]) = self.scenario.rect_regions.get(name) {
+            return (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y);
         }
+        match name {
+            "room" => self
+                .ground
+                .room
+                .as_ref()
+                .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
+            _ => {
+                let (Some(cells), Some(map)) = (&self.ground.cells, &self.scenario.map) else {
+                    return false;
+                };
+                let Some(cell) = cells.cell_at(robot.position()) else {
+                    return false;
+                };
+                map.regions.get(name).is_some_and(|region| region.contains(&cell))
+            }
+        }
+    }
+
+    fn holds(&self, condition: &Condition, robot: &Pose, teammate: Option<&Teammate>) -> bool {
+        condition.holds(&|atom| self.truth(atom, robot, teammate))
+    }
+
+    /// The phase of the derived fitness in force, if the scenario has phases.
+    fn phase(&self, robot: &Pose, teammate: Option<&Teammate>) -> Option<u8> {
+        self.scenario
+            .phases
+            .iter()
+            .position(|phase| self.holds(&phase.when, robot, teammate))
+            .map(|idx| idx as u8)
     }
 
     fn check(
@@ -620,44 +721,48 @@ impl<'a> Judge<'a> {
         robot: &Pose,
         teammate: Option<&Teammate>,
         task: &TaskConfig,
+        lights: &[LiveLight],
     ) -> Option<Ending> {
-        match self {
-            Judge::Room { room, closest } => {
-                *closest = closest.min(robot.distance_to(room.exit_center));
-                let out = room.depth_beyond_exit(robot.position());
-                (out > task.room.wall_thickness + task.robot.radius).then_some(Ending::Solved)
-            }
-            Judge::Cells { goal } => {
-                let cell = goal.map.cell_at(robot.position())?;
-                if cell == goal.goal {
-                    Some(Ending::Solved)
-                } else if goal.on_path[cell] {
-                    None
-                } else if !task.wrong_branch_at_end_only
-                    || goal.reached_wrong_end(robot.position(), task.robot.radius)
-                {
-                    Some(Ending::WrongBranch)
-                } else {
-                    None
-                }
-            }
-            Judge::Rescue {
-                room,
-                maze,
-                exited,
-                found,
-            } => {
-                let cell = maze.map.cell_at(robot.position());
-                *exited |= cell.is_some();
-                if task.end_on_wrong_branch && cell.is_some_and(|cell| !maze.on_path[cell]) {
-                    return Some(Ending::WrongBranch);
-                }
-                let mate = teammate?;
-                *found |= mate.following;
-                (*found && room.depth_beyond_exit(mate.pose.position()) < -task.robot.radius)
-                    .then_some(Ending::Solved)
+        let scenario = self.scenario;
+        if let Some(room) = &self.ground.room {
+            self.closest_exit = self.closest_exit.min(robot.distance_to(room.exit_center));
+        }
+        for ((_, closest), light) in self.light_approach.iter_mut().zip(lights) {
+            *closest = closest.min(robot.distance_to(light.position));
+        }
+        for (idx, stage) in scenario.stages.iter().enumerate() {
+            if !self.reached[idx] && self.holds(&stage.reached, robot, teammate) {
+                self.reached[idx] = true;
             }
         }
+        self.found |= teammate.is_some_and(|mate| mate.following);
+        if scenario.wrong_branch
+            && (scenario.wrong_branch_ends || task.end_on_wrong_branch)
+            && let Some(goal) = &self.ground.goal
+            && let Some(cell) = goal.map.cell_at(robot.position())
+            && !goal.on_path[cell]
+            && (!task.wrong_branch_at_end_only
+                || goal.reached_wrong_end(robot.position(), task.robot.radius))
+        {
+            return Some(Ending::WrongBranch);
+        }
+        let solved = match &scenario.solved {
+            Solved::InGoal => self.truth(&Atom::InGoal, robot, teammate),
+            Solved::BeyondExit => self.ground.room.as_ref().is_some_and(|room| {
+                room.depth_beyond_exit(robot.position())
+                    > task.room.wall_thickness + task.robot.radius
+            }),
+            Solved::TeammateInRoom => {
+                self.found
+                    && self.ground.room.as_ref().is_some_and(|room| {
+                        teammate.is_some_and(|mate| {
+                            room.depth_beyond_exit(mate.pose.position()) < -task.robot.radius
+                        })
+                    })
+            }
+            Solved::Near(light) => self.truth(&Atom::Near(*light), robot, teammate),
+        };
+        solved.then_some(Ending::Solved)
     }
 
     fn fitness(
@@ -670,61 +775,56 @@ impl<'a> Judge<'a> {
     ) -> f32 {
         let max_cycles = task.max_cycles() as f32;
         let time_bonus = (max_cycles - cycles as f32) / max_cycles;
-        match self {
-            // f1 (SPEC 5).
-            Judge::Room { room, closest } => {
-                if ending == Ending::Solved {
-                    5.0 + time_bonus
-                } else {
-                    let to_exit = (room.center[0] - room.exit_center[0])
-                        .hypot(room.center[1] - room.exit_center[1]);
-                    ((to_exit - closest) / to_exit).clamp(0.0, 1.0)
-                }
-            }
-            // f3, derived: the share of correct sub-controller choices in each sub-task, and
-            // optionally (the authors' code) the time bonus of a finished rescue.
-            Judge::Rescue { .. } => {
-                let bonus = if task.rescue_time_bonus && ending == Ending::Solved {
-                    time_bonus
-                } else {
-                    0.0
-                };
-                sub_task_choices.derived_fitness() + bonus
-            }
-            Judge::Cells { goal } => {
-                if ending == Ending::Solved {
-                    return 1.0 + time_bonus;
-                }
+        let value_of = |quantity: &Quantity| match quantity {
+            Quantity::Constant(value) => *value,
+            Quantity::TimeBonus => time_bonus,
+            Quantity::Progress => self.ground.goal.as_ref().map_or(0.0, |goal| {
                 let current = goal
                     .distance_from(robot.position())
                     .unwrap_or(goal.total_distance);
-                let progress =
-                    ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0);
-                let maze_task = matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom);
-                match (ending, maze_task) {
-                    // f2: a wrong branch or collision scores the distance covered, a timeout 0.
-                    (Ending::Timeout, true) => 0.0,
-                    (_, true) => progress / 3.0,
-                    // Corridor progress: as f2 but a timeout still scores half the progress so
-                    // that evolution of a primitive bootstraps from slow drivers.
-                    (Ending::Timeout, false) => progress / 2.0,
-                    (_, false) => progress / 3.0,
-                }
+                ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0)
+            }),
+            Quantity::ApproachExit => self.ground.room.as_ref().map_or(0.0, |room| {
+                let to_exit = (room.center[0] - room.exit_center[0])
+                    .hypot(room.center[1] - room.exit_center[1]);
+                ((to_exit - self.closest_exit) / to_exit).clamp(0.0, 1.0)
+            }),
+            Quantity::ApproachLight(light) => {
+                self.light_approach
+                    .get(*light)
+                    .map_or(0.0, |&(start, closest)| {
+                        if start > 0.0 {
+                            ((start - closest) / start).clamp(0.0, 1.0)
+                        } else {
+                            1.0
+                        }
+                    })
             }
+            Quantity::Derived => sub_task_choices.derived_fitness(),
+        };
+        let slot = match ending {
+            Ending::Solved => ending_slot::SOLVED,
+            Ending::WrongBranch => ending_slot::WRONG_BRANCH,
+            Ending::Collision => ending_slot::COLLISION,
+            Ending::Timeout => ending_slot::TIMEOUT,
+        };
+        let fitness = self.scenario.fitness[slot].eval(&value_of);
+        // The authors' code rewards finishing: a solved derived fitness earns the time bonus.
+        if task.rescue_time_bonus && ending == Ending::Solved {
+            fitness + time_bonus
+        } else {
+            fitness
         }
     }
 
     fn stage(&self, ending: Ending) -> u8 {
-        match self {
-            Judge::Rescue { exited, found, .. } => {
-                if ending == Ending::Solved {
-                    3
-                } else {
-                    u8::from(*exited) + u8::from(*found)
-                }
-            }
-            _ => u8::from(ending == Ending::Solved),
+        if ending == Ending::Solved {
+            return self.scenario.max_stage();
         }
+        self.reached[..self.scenario.stages.len()]
+            .iter()
+            .filter(|&&r| r)
+            .count() as u8
     }
 }
 

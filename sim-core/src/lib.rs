@@ -14,6 +14,7 @@ pub mod sensors;
 pub mod env;
 pub mod evaluate;
 pub mod robot;
+pub mod scenario;
 pub mod scene;
 pub mod task;
 
@@ -25,4 +26,5 @@ pub const MODEL_VERSION: u32 = 4;
 pub use evaluate::{
     Ending, Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle,
 };
-pub use task::{TaskConfig, TaskKind};
+pub use scenario::Scenario;
+pub use task::TaskConfig;

@@ -1,98 +1,17 @@
-//! Tasks: which environment a sample runs in, how long it may take, and every number of the
-//! robot, sensors and environment generators, as one serialisable configuration. The paper's
-//! values are the defaults; everything the paper leaves open is a documented config value here.
+//! Tasks: a scenario (what the world is made of and how a sample is judged) with every number
+//! of the robot, sensors and environment generators in force, as one serialisable
+//! configuration. A scenario file's own numbers are its task's defaults; an experiment node may
+//! override any of them (`[node.task_config]`). Everything the paper leaves open is a
+//! documented config value here.
 
-use crate::env::maze::MAZE_CELL_SIZE;
 use crate::env::room::RoomConfig;
 use crate::robot::RobotConfig;
+use crate::scenario::Scenario;
 use crate::sensors::ir::IrConfig;
+use crate::env::corridor::MAZE_CELL_SIZE;
 use crate::sensors::light::LightConfig;
 use serde::{Deserialize, Serialize};
-
-/// The tasks of the paper (SPEC section 5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskKind {
-    /// Leave a room with obstacles through its narrow exit (f1).
-    ExitRoom,
-    /// Drive to the end of a straight corridor (corridor progress fitness).
-    FollowWall,
-    /// Drive through a corridor with one left turn.
-    TurnLeft,
-    /// Drive through a corridor with one right turn.
-    TurnRight,
-    /// Reach the teammate's branch of the double T-maze, told by the lights (f2). The
-    /// single-network baseline (`maze_single`) runs this same task.
-    #[serde(alias = "maze_single")]
-    SolveMaze,
-    /// From a branch end back to the maze entrance (f2 on the distance to the entrance).
-    ReturnRoom,
-    /// The whole rescue, scored by the derived fitness f3.
-    Rescue,
-}
-
-impl TaskKind {
-    /// Every task.
-    pub const ALL: [TaskKind; 7] = [
-        TaskKind::ExitRoom,
-        TaskKind::FollowWall,
-        TaskKind::TurnLeft,
-        TaskKind::TurnRight,
-        TaskKind::SolveMaze,
-        TaskKind::ReturnRoom,
-        TaskKind::Rescue,
-    ];
-
-    /// The snake_case name used in files and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            TaskKind::ExitRoom => "exit_room",
-            TaskKind::FollowWall => "follow_wall",
-            TaskKind::TurnLeft => "turn_left",
-            TaskKind::TurnRight => "turn_right",
-            TaskKind::SolveMaze => "solve_maze",
-            TaskKind::ReturnRoom => "return_room",
-            TaskKind::Rescue => "rescue",
-        }
-    }
-
-    /// The last stage a sample can reach: 3 in the rescue (out of the room, at the teammate,
-    /// back), else 1 (solved).
-    pub fn max_stage(self) -> u8 {
-        if self == TaskKind::Rescue { 3 } else { 1 }
-    }
-
-    /// Parses a task name (also accepts `maze_single`).
-    pub fn from_name(name: &str) -> Option<TaskKind> {
-        if name == "maze_single" {
-            return Some(TaskKind::SolveMaze);
-        }
-        TaskKind::ALL.into_iter().find(|kind| kind.name() == name)
-    }
-
-    /// The paper's cycle limit, or hevo's choice for the corridor primitives: 400 cycles (40 s),
-    /// about twice (1.9 times) the 21 s the longest default corridor needs at the default full
-    /// speed (2.1 m from the first cell's centre to the last's, 8 cells straight or 4 + 4 with
-    /// a turn, at v_max 0.1 m/s; see `docs/decisions/0005-corridor-fitness.md`).
-    pub fn default_max_cycles(self) -> u32 {
-        match self {
-            TaskKind::ExitRoom | TaskKind::SolveMaze | TaskKind::ReturnRoom => 1000,
-            TaskKind::Rescue => 2000,
-            TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => 400,
-        }
-    }
-
-    /// Whether the task has light configurations (post-evaluation reports per configuration).
-    pub fn has_light_configurations(self) -> bool {
-        matches!(self, TaskKind::SolveMaze | TaskKind::Rescue)
-    }
-}
-
-impl std::fmt::Display for TaskKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+use std::sync::Arc;
 
 /// Corridor shapes for the maze primitives.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -159,59 +78,82 @@ impl Default for StartConfig {
     }
 }
 
-/// Everything that defines a task's samples.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Everything that defines a task's samples: the scenario and the numbers in force.
+#[derive(Debug, Clone)]
 pub struct TaskConfig {
-    /// Which task.
-    pub kind: TaskKind,
-    /// Cycle limit; the task's default when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// What the world is and how a sample is judged.
+    pub scenario: Arc<Scenario>,
+    /// Cycle limit; the scenario's when absent.
     pub max_cycles: Option<u32>,
     /// Whether touching a wall ends the sample (SPEC: most tasks do).
-    #[serde(default = "default_true")]
     pub end_on_collision: bool,
-    /// Rescue only: whether entering a maze cell off the teammate's path ends the sample, as a
-    /// wrong branch ends a solve-maze sample. Off by default: the paper does not say, and a
-    /// rescuer may turn round and search on (see
-    /// `docs/decisions/0006-goals-and-wrong-branches.md`; the ablation with it on is
-    /// `docs/decisions/0020-rescue-wrong-branch-ablation.md`). Left out of the serialised task
-    /// when off, so existing task hashes and run fingerprints stay valid.
-    #[serde(default, skip_serializing_if = "is_false")]
+    /// Whether entering a cell off the path ends the sample in a scenario whose wrong branches
+    /// do not end it by default (the rescue: the paper does not say, and a rescuer may turn
+    /// round and search on; see `docs/decisions/0006-goals-and-wrong-branches.md`, and for the
+    /// ablation with it on `docs/decisions/0020-rescue-wrong-branch-ablation.md`).
     pub end_on_wrong_branch: bool,
-    /// Rescue only: whether a solved sample's derived fitness f3 also earns the time bonus
-    /// (maxCycles - spentCycles) / maxCycles, so that f3 reaches 4 and rewards finishing the
-    /// rescue, not only choosing the right child. The authors' JBotEvolver code
-    /// (`RoomMazeBackBehaviorsEvaluationFunction`) adds it; the paper's text gives f3 a
-    /// maximum of 3, so it is off by default. Left out of the serialised task when off.
-    #[serde(default, skip_serializing_if = "is_false")]
+    /// For a scenario with a derived fitness: whether a solved sample also earns the time bonus
+    /// (maxCycles - spentCycles) / maxCycles, as in the authors' JBotEvolver code
+    /// (`RoomMazeBackBehaviorsEvaluationFunction`); the paper's text gives f3 a maximum of 3,
+    /// so it is off by default.
     pub rescue_time_bonus: bool,
-    /// Maze tasks (solve maze, return to room) only: whether a wrong branch ends the sample
-    /// only once the robot's bounding box meets the central half of another branch's end
-    /// cell, as in the authors' JBotEvolver code (`TMazeEnvironment`'s forbidden squares), so
-    /// that a robot may drive into a wrong branch and come back out. Off: any cell off the
-    /// path ends the sample, hevo's reading of the paper's "wrong turn". Left out of the
-    /// serialised task when off.
-    #[serde(default, skip_serializing_if = "is_false")]
+    /// For a map whose wrong branches end a sample: whether a wrong branch ends it only once
+    /// the robot's bounding box meets the central half of another branch's end cell, as in the
+    /// authors' code (`TMazeEnvironment`'s forbidden squares). Off: any cell off the path.
     pub wrong_branch_at_end_only: bool,
     /// Robot body and motors.
-    #[serde(default)]
     pub robot: RobotConfig,
     /// IR proximity sensors.
-    #[serde(default)]
     pub ir: IrConfig,
     /// Light-flash sensing.
-    #[serde(default)]
     pub light: LightConfig,
     /// The room generator.
-    #[serde(default)]
     pub room: RoomConfig,
     /// The corridor generator.
-    #[serde(default)]
     pub corridor: CorridorConfig,
     /// Start placement in corridors and the maze.
-    #[serde(default)]
     pub start: StartConfig,
+}
+
+impl PartialEq for TaskConfig {
+    fn eq(&self, other: &TaskConfig) -> bool {
+        self.scenario.source == other.scenario.source && self.wire() == other.wire()
+    }
+}
+
+/// A task as it is serialised: the shape tasks had before scenarios, with the scenario given
+/// by its legacy task name (`kind`) for the shipped paper tasks, so their content hashes and
+/// run fingerprints stay what they were, and by its text (`scenario`) for any other, so a
+/// worker needs no file. The numbers follow.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TaskWire {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    kind: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scenario: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    max_cycles: Option<u32>,
+    #[serde(default = "default_true")]
+    end_on_collision: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    end_on_wrong_branch: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    rescue_time_bonus: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    wrong_branch_at_end_only: bool,
+    #[serde(default)]
+    robot: RobotConfig,
+    #[serde(default)]
+    ir: IrConfig,
+    #[serde(default)]
+    light: LightConfig,
+    #[serde(default)]
+    room: RoomConfig,
+    #[serde(default)]
+    corridor: CorridorConfig,
+    #[serde(default)]
+    start: StartConfig,
 }
 
 fn default_true() -> bool {
@@ -222,59 +164,130 @@ fn is_false(value: &bool) -> bool {
     !value
 }
 
+impl Serialize for TaskConfig {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        self.wire().serialize(serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for TaskConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let wire = TaskWire::deserialize(deserializer)?;
+        let scenario = match (&wire.kind, &wire.scenario) {
+            (Some(name), None) => Scenario::shipped(name).ok_or_else(|| {
+                D::Error::custom(format!(
+                    "unknown task '{}', expected one of {}",
+                    crate::scenario::bounded(name),
+                    Scenario::shipped_names().join(", ")
+                ))
+            })?,
+            (None, Some(text)) => Arc::new(
+                Scenario::parse(text, "the task's scenario").map_err(D::Error::custom)?,
+            ),
+            _ => {
+                return Err(D::Error::custom(
+                    "a task names a shipped scenario (`kind`) or carries one (`scenario`)",
+                ));
+            }
+        };
+        Ok(TaskConfig {
+            scenario,
+            max_cycles: wire.max_cycles,
+            end_on_collision: wire.end_on_collision,
+            end_on_wrong_branch: wire.end_on_wrong_branch,
+            rescue_time_bonus: wire.rescue_time_bonus,
+            wrong_branch_at_end_only: wire.wrong_branch_at_end_only,
+            robot: wire.robot,
+            ir: wire.ir,
+            light: wire.light,
+            room: wire.room,
+            corridor: wire.corridor,
+            start: wire.start,
+        })
+    }
+}
+
 impl TaskConfig {
-    /// The paper's settings for a task.
-    pub fn new(kind: TaskKind) -> TaskConfig {
+    /// A scenario's task with the scenario's own numbers.
+    pub fn from_scenario(scenario: Arc<Scenario>) -> TaskConfig {
+        let file = &scenario.file;
         TaskConfig {
-            kind,
             max_cycles: None,
-            end_on_collision: true,
+            end_on_collision: file.end_on_collision,
             end_on_wrong_branch: false,
             rescue_time_bonus: false,
             wrong_branch_at_end_only: false,
-            robot: RobotConfig::default(),
-            ir: IrConfig::default(),
-            light: LightConfig::default(),
-            room: RoomConfig::default(),
-            corridor: match kind {
-                // A turning primitive meets both maze junctions in the maze (see
-                // env/corridor.rs), so it trains on both, and on a few plain bends.
-                TaskKind::TurnLeft | TaskKind::TurnRight => CorridorConfig {
-                    junction_share: 0.4,
-                    side_junction_share: 0.4,
-                    start_advance: MAZE_CELL_SIZE,
-                    ..CorridorConfig::default()
-                },
-                _ => CorridorConfig::default(),
-            },
-            start: match kind {
-                // In the rescue the robot finds its teammate driving into the branch end, so
-                // the return starts facing the dead end as often as facing out: any heading.
-                TaskKind::ReturnRoom => StartConfig {
-                    heading_jitter_deg: 180.0,
-                    ..StartConfig::default()
-                },
-                _ => StartConfig::default(),
-            },
+            robot: file.robot.clone(),
+            ir: file.ir.clone(),
+            light: file.light.clone(),
+            room: file.room.clone(),
+            corridor: file.corridor.clone(),
+            start: file.start.clone(),
+            scenario,
+        }
+    }
+
+    /// A shipped scenario's task (the paper's settings), by name or alias.
+    pub fn shipped(name: &str) -> Option<TaskConfig> {
+        Scenario::shipped(name).map(TaskConfig::from_scenario)
+    }
+
+    /// The scenario's name.
+    pub fn name(&self) -> &str {
+        self.scenario.name()
+    }
+
+    fn wire(&self) -> TaskWire {
+        let (kind, scenario) = match self.scenario.legacy() {
+            Some(kind) => (Some(kind.to_string()), None),
+            None => (None, Some(self.scenario.source.clone())),
+        };
+        TaskWire {
+            kind,
+            scenario,
+            max_cycles: self.max_cycles,
+            end_on_collision: self.end_on_collision,
+            end_on_wrong_branch: self.end_on_wrong_branch,
+            rescue_time_bonus: self.rescue_time_bonus,
+            wrong_branch_at_end_only: self.wrong_branch_at_end_only,
+            robot: self.robot.clone(),
+            ir: self.ir.clone(),
+            light: self.light.clone(),
+            room: self.room.clone(),
+            corridor: self.corridor.clone(),
+            start: self.start.clone(),
         }
     }
 
     /// The cycle limit in force.
     pub fn max_cycles(&self) -> u32 {
-        self.max_cycles
-            .unwrap_or_else(|| self.kind.default_max_cycles())
+        self.max_cycles.unwrap_or(self.scenario.file.max_cycles)
     }
 
-    /// The lowest and highest fitness a sample of this task can score: f1 is 5 plus the time
-    /// bonus when solved, else a share of the way to the exit; f2 and the corridor fitness 1
-    /// plus the time bonus, else a share of the progress; f3 up to one per sub-task, plus the
-    /// time bonus when asked for.
+    /// The lowest and highest fitness a sample of this task can score: every formula's range
+    /// with each quantity in its own (the time bonus, progress and approach in [0, 1], the
+    /// derived fitness up to one per phase), and the time bonus added to a solved derived
+    /// fitness when asked for.
     pub fn fitness_range(&self) -> (f32, f32) {
-        match self.kind {
-            TaskKind::ExitRoom => (0.0, 6.0),
-            TaskKind::Rescue => (0.0, if self.rescue_time_bonus { 4.0 } else { 3.0 }),
-            _ => (0.0, 2.0),
+        use crate::scenario::formula::Quantity;
+        let n_phases = self.scenario.phases.len() as f32;
+        let range_of = |q: &Quantity| match q {
+            Quantity::Constant(value) => (*value, *value),
+            Quantity::Derived => (0.0, n_phases),
+            _ => (0.0, 1.0),
+        };
+        let mut low = f32::INFINITY;
+        let mut high = f32::NEG_INFINITY;
+        for (slot, formula) in self.scenario.fitness.iter().enumerate() {
+            let (a, mut b) = formula.range(&range_of);
+            if slot == crate::scenario::ending_slot::SOLVED && self.rescue_time_bonus {
+                b += 1.0;
+            }
+            low = low.min(a);
+            high = high.max(b);
         }
+        (low, high)
     }
 
     /// How far around a grid cell the scene must list solids: the body, the IR range and a
@@ -290,32 +303,36 @@ impl TaskConfig {
         if self.max_cycles() == 0 {
             return Err(invalid("max_cycles", "must be at least 1".into()));
         }
-        if self.rescue_time_bonus && self.kind != TaskKind::Rescue {
+        let scenario = &self.scenario;
+        if self.rescue_time_bonus && !scenario.has_phases() {
             return Err(invalid(
                 "rescue_time_bonus",
                 format!(
-                    "applies to the rescue only ({} has no derived fitness)",
-                    self.kind.name()
+                    "applies to scenarios with a derived fitness only ({} has none)",
+                    scenario.name()
                 ),
             ));
         }
-        if self.end_on_wrong_branch && self.kind != TaskKind::Rescue {
+        if self.end_on_wrong_branch && !(scenario.wrong_branch && !scenario.wrong_branch_ends) {
             return Err(invalid(
                 "end_on_wrong_branch",
                 format!(
-                    "applies to the rescue only ({} always ends on a wrong branch or has none)",
-                    self.kind.name()
+                    "applies to scenarios whose wrong branches do not end a sample ({} always \
+                     ends on a wrong branch or has none)",
+                    scenario.name()
                 ),
             ));
         }
-        if self.wrong_branch_at_end_only
-            && !matches!(self.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom)
-        {
+        let map_wrong_branches = scenario.wrong_branch
+            && scenario.wrong_branch_ends
+            && scenario.world == crate::scenario::WorldKind::Map;
+        if self.wrong_branch_at_end_only && !map_wrong_branches {
             return Err(invalid(
                 "wrong_branch_at_end_only",
                 format!(
-                    "applies to solve_maze and return_room only, not to {}",
-                    self.kind.name()
+                    "applies to maps whose wrong branches end a sample (solve_maze, \
+                     return_room), not to {}",
+                    scenario.name()
                 ),
             ));
         }
@@ -419,28 +436,32 @@ pub(crate) fn invalid(key: &str, message: String) -> ConfigError {
 mod tests {
     use super::*;
 
+    fn shipped(name: &str) -> TaskConfig {
+        TaskConfig::shipped(name).unwrap()
+    }
+
     /// A boolean task option, off by default: absent from the serialised task when off (so
     /// task hashes and run fingerprints written before it existed stay valid), present and
     /// round-tripping when on, and refused, with a message naming it, where it does not apply.
     fn assert_optional_flag(
         name: &str,
         switch_on: fn(&mut TaskConfig),
-        applies_to: &[TaskKind],
-        refused_on: TaskKind,
+        applies_to: &[&str],
+        refused_on: &str,
         refusal: &str,
     ) {
-        for &kind in applies_to {
-            let task = TaskConfig::new(kind);
+        for &scenario in applies_to {
+            let task = shipped(scenario);
             let json = serde_json::to_string(&task).unwrap();
             assert!(!json.contains(name), "{json}");
             let mut on = task.clone();
             switch_on(&mut on);
-            assert!(on.validate().is_ok(), "{name} on {}", kind.name());
+            assert!(on.validate().is_ok(), "{name} on {scenario}");
             let json = serde_json::to_string(&on).unwrap();
             assert!(json.contains(name), "{json}");
             assert_eq!(serde_json::from_str::<TaskConfig>(&json).unwrap(), on);
         }
-        let mut refused = TaskConfig::new(refused_on);
+        let mut refused = shipped(refused_on);
         switch_on(&mut refused);
         let error = refused.validate().unwrap_err();
         assert_eq!(error.key, name);
@@ -452,38 +473,81 @@ mod tests {
         assert_optional_flag(
             "end_on_wrong_branch",
             |task| task.end_on_wrong_branch = true,
-            &[TaskKind::Rescue],
-            TaskKind::SolveMaze,
-            "end_on_wrong_branch applies to the rescue only (solve_maze always ends on a wrong \
-             branch or has none)",
+            &["rescue"],
+            "solve_maze",
+            "end_on_wrong_branch applies to scenarios whose wrong branches do not end a sample \
+             (solve_maze always ends on a wrong branch or has none)",
         );
         assert_optional_flag(
             "rescue_time_bonus",
             |task| task.rescue_time_bonus = true,
-            &[TaskKind::Rescue],
-            TaskKind::ReturnRoom,
-            "rescue_time_bonus applies to the rescue only (return_room has no derived fitness)",
+            &["rescue"],
+            "return_room",
+            "rescue_time_bonus applies to scenarios with a derived fitness only (return_room \
+             has none)",
         );
         assert_optional_flag(
             "wrong_branch_at_end_only",
             |task| task.wrong_branch_at_end_only = true,
-            &[TaskKind::SolveMaze, TaskKind::ReturnRoom],
-            TaskKind::Rescue,
-            "wrong_branch_at_end_only applies to solve_maze and return_room only, not to rescue",
+            &["solve_maze", "return_room"],
+            "rescue",
+            "wrong_branch_at_end_only applies to maps whose wrong branches end a sample \
+             (solve_maze, return_room), not to rescue",
         );
+    }
+
+    /// The content hashes of the paper's tasks as they were before tasks became scenarios
+    /// (computed by that code): the run fingerprints of every checked-in run directory
+    /// depend on them, so a shipped scenario must serialise exactly as its task did.
+    #[test]
+    fn the_paper_tasks_keep_their_content_hashes() {
+        for (name, hash) in [
+            ("exit_room", "44fa0eab1aeaf484"),
+            ("follow_wall", "45bf78a8932c4cb0"),
+            ("turn_left", "8838b6c402312308"),
+            ("turn_right", "5ff3b307f045fbd5"),
+            ("solve_maze", "9a2389abb39dcc4b"),
+            ("return_room", "006cd0df2df231b2"),
+            ("rescue", "3bbfbfe762587df1"),
+        ] {
+            assert_eq!(
+                crate::batch::task_content_hash(&shipped(name)),
+                hash,
+                "{name}: {}",
+                serde_json::to_string(&shipped(name)).unwrap()
+            );
+        }
     }
 
     #[test]
     fn names_round_trip_and_alias_works() {
-        for kind in TaskKind::ALL {
-            assert_eq!(TaskKind::from_name(kind.name()), Some(kind));
+        for name in Scenario::shipped_names() {
+            assert!(TaskConfig::shipped(name).is_some(), "{name}");
         }
-        assert_eq!(
-            TaskKind::from_name("maze_single"),
-            Some(TaskKind::SolveMaze)
-        );
+        assert_eq!(shipped("maze_single").name(), "solve_maze");
         let parsed: TaskConfig = serde_json::from_str(r#"{"kind":"maze_single"}"#).unwrap();
-        assert_eq!(parsed.kind, TaskKind::SolveMaze);
+        assert_eq!(parsed.name(), "solve_maze");
+        let error = serde_json::from_str::<TaskConfig>(r#"{"kind":"teleport"}"#).unwrap_err();
+        assert!(error.to_string().contains("unknown task 'teleport'"), "{error}");
+    }
+
+    #[test]
+    fn a_scenario_that_is_not_shipped_travels_as_its_text() {
+        let text = crate::scenario::SHIPPED[0]
+            .1
+            .replace("name = \"exit_room\"", "name = \"my_room\"")
+            .replace("legacy = \"exit_room\"\n", "");
+        let scenario = Arc::new(Scenario::parse(&text, "my_room.toml").unwrap());
+        let task = TaskConfig::from_scenario(scenario);
+        let json = serde_json::to_string(&task).unwrap();
+        assert!(json.contains("\"scenario\":") && !json.contains("\"kind\""), "{json}");
+        let back: TaskConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, task);
+        assert_eq!(back.name(), "my_room");
+        assert_ne!(
+            crate::batch::task_content_hash(&task),
+            crate::batch::task_content_hash(&shipped("exit_room"))
+        );
     }
 
     #[test]
@@ -495,16 +559,24 @@ mod tests {
 
     #[test]
     fn defaults_are_the_papers() {
-        assert_eq!(TaskConfig::new(TaskKind::Rescue).max_cycles(), 2000);
-        assert_eq!(TaskConfig::new(TaskKind::ExitRoom).max_cycles(), 1000);
-        for kind in TaskKind::ALL {
-            assert_eq!(TaskConfig::new(kind).validate(), Ok(()));
+        assert_eq!(shipped("rescue").max_cycles(), 2000);
+        assert_eq!(shipped("exit_room").max_cycles(), 1000);
+        assert_eq!(shipped("turn_left").max_cycles(), 400);
+        for name in Scenario::shipped_names() {
+            assert_eq!(shipped(name).validate(), Ok(()), "{name}");
         }
+        assert_eq!(shipped("exit_room").fitness_range(), (0.0, 6.0));
+        assert_eq!(shipped("solve_maze").fitness_range(), (0.0, 2.0));
+        assert_eq!(shipped("follow_wall").fitness_range(), (0.0, 2.0));
+        assert_eq!(shipped("rescue").fitness_range(), (0.0, 3.0));
+        let mut bonus = shipped("rescue");
+        bonus.rescue_time_bonus = true;
+        assert_eq!(bonus.fitness_range(), (0.0, 4.0));
     }
 
     #[test]
     fn a_start_advance_must_stay_inside_the_corridor() {
-        let mut task = TaskConfig::new(TaskKind::TurnLeft);
+        let mut task = shipped("turn_left");
         task.corridor.start_advance = 0.5;
         let error = task.validate().unwrap_err();
         assert_eq!(error.key, "corridor.start_advance", "{error}");

@@ -211,6 +211,32 @@ impl CellMap {
     }
 }
 
+/// The cells of a shortest path from `from` to `to` through open borders, both ends included;
+/// `None` when `to` cannot be reached. Ties go to the first neighbour in side order (top,
+/// right, bottom, left), so the path is the same on every run.
+pub fn path_between(map: &CellMap, from: usize, to: usize) -> Option<Vec<usize>> {
+    let mut previous = vec![usize::MAX; map.cells.len()];
+    previous[from] = from;
+    let mut queue = VecDeque::from([from]);
+    while let Some(cell_idx) = queue.pop_front() {
+        if cell_idx == to {
+            let mut path = vec![to];
+            while *path.last().expect("non-empty") != from {
+                path.push(previous[*path.last().expect("non-empty")]);
+            }
+            path.reverse();
+            return Some(path);
+        }
+        for next in map.neighbours(cell_idx) {
+            if previous[next] == usize::MAX {
+                previous[next] = cell_idx;
+                queue.push_back(next);
+            }
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

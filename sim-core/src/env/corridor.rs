@@ -9,7 +9,11 @@
 //! junction breaks.
 
 use super::cells::{Cell, CellMap, Side};
-use super::maze::{MAZE_CELL_SIZE, MAZE_WALL_THICKNESS};
+
+/// The maze's cell side (JBotEvolver's default): corridors are built of the maze's own cells.
+pub const MAZE_CELL_SIZE: f32 = 0.30;
+/// The maze's wall thickness, which leaves a 0.20 m corridor in a 0.30 m cell.
+pub const MAZE_WALL_THICKNESS: f32 = 0.10;
 use serde::{Deserialize, Serialize};
 
 /// Which way a corridor turns.

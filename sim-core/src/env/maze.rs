@@ -1,6 +1,8 @@
-//! The double T-maze of the rescue task, read from the layout file shipped in `data/` (a grid of
-//! 0.30 m cells, four correct paths, one per light configuration, and the two rows of lights in
-//! the stem). Parsing is strict: a malformed line is an error naming its line number.
+//! The authors' layout format (JBotEvolver's `W`/`S`/`L` lines), read only by tests: the
+//! double T-maze in `data/double-t-maze.txt` is the reference the shipped scenario map
+//! (`scenarios/maps/double_t_maze.toml`) is checked against, cell by cell, wall by wall,
+//! path by path and light by light. Parsing is strict: a malformed line is an error naming
+//! its line number.
 
 use super::cells::{Cell, CellMap};
 use std::sync::OnceLock;
@@ -39,10 +41,7 @@ pub struct MazeError {
     pub message: String,
 }
 
-/// Cell side used by the layout file (JBotEvolver's default).
-pub const MAZE_CELL_SIZE: f32 = 0.30;
-/// Wall thickness that leaves a 0.20 m corridor in a 0.30 m cell.
-pub const MAZE_WALL_THICKNESS: f32 = 0.10;
+use super::corridor::{MAZE_CELL_SIZE, MAZE_WALL_THICKNESS};
 
 impl MazeLayout {
     /// The shipped layout, parsed once.

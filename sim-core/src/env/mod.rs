@@ -1,48 +1,49 @@
-//! Environments: everything a sample's world holds that does not move by itself. For each task
-//! this builds, from the sample's environment stream, the scene, the start pose, the teammate,
-//! the lights and the ground truth the task judges against (goal cells, the room's exit).
-//! Layouts that never change (the maze) are built once per evaluator and shared.
+//! Environments: everything a sample's world holds that does not move by itself. From the
+//! task's scenario and the sample's environment stream this builds the scene, the start pose,
+//! the teammate, the lights and the ground truth the task judges against (the goal's cells and
+//! path, the room's exit). The draws come in one order for every scenario: the variant (when
+//! there are several and the sample does not fix one), the world's generators, the start's
+//! jitter, the start's advance. Layouts that never change (a fixed map) are built once per
+//! evaluator and shared.
 
 pub mod cells;
 pub mod corridor;
+#[cfg(test)]
 pub mod maze;
 pub mod room;
 
 use crate::rng::SimRng;
 use crate::robot::Pose;
+use crate::scenario::{Facing, PlaceAt, Scenario, Trigger, WorldKind};
 use crate::scene::{Rect, Scene};
-use crate::task::{TaskConfig, TaskKind};
+use crate::task::TaskConfig;
 use cells::{CellMap, Side};
 use corridor::{Junction, Turn};
-use maze::MazeLayout;
 use rand::RngExt;
 use room::{Placement, Room};
-use std::f32::consts::{FRAC_PI_2, PI};
+use std::f32::consts::PI;
 use std::sync::Arc;
 
-/// A light of the maze stem as one sample sees it.
+/// A light as one sample sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightSpec {
     /// Position, metres.
     pub position: [f32; 2],
-    /// Whether this light flashes in the sample's light configuration.
+    /// Whether this light lights in the sample's variant.
     pub flashes: bool,
+    /// When it lights.
+    pub trigger: Trigger,
 }
 
 /// What a sample's task judges progress against.
-#[derive(Debug, Clone)]
-pub enum Ground {
-    /// Exit the room.
-    Room(Room),
-    /// Reach the last cell of a path of corridor cells without leaving the path.
-    Cells(CellGoal),
-    /// Rescue: leave the room, find the teammate in the maze, bring it back.
-    Rescue {
-        /// The room (its exit opens onto the maze entrance).
-        room: Room,
-        /// The maze and the teammate's branch.
-        maze: CellGoal,
-    },
+#[derive(Debug, Clone, Default)]
+pub struct Ground {
+    /// The room, in worlds with one.
+    pub room: Option<Room>,
+    /// The goal in cells and the path to it, when the variant has one.
+    pub goal: Option<CellGoal>,
+    /// The cells of the world, in worlds made of cells ("in maze").
+    pub cells: Option<Arc<CellMap>>,
 }
 
 /// A goal in a cell world: the path, the goal cell and the corridor-distance table.
@@ -110,187 +111,96 @@ pub struct Environment {
     pub start: Pose,
     /// The teammate's start pose, and whether it already follows.
     pub teammate: Option<(Pose, bool)>,
-    /// Lights of the stem, for maze tasks.
+    /// The lights.
     pub lights: Vec<LightSpec>,
     /// The ground truth.
     pub ground: Ground,
-    /// Light configuration (maze tasks), branch (return to room) or corridor shape index.
+    /// The variant (light configuration, start branch), or a turning corridor's shape.
     pub variant: u32,
 }
 
 /// Geometry shared by all samples of an evaluator: built once.
 #[derive(Debug)]
 pub struct Statics {
-    maze_closed: Option<(Arc<Scene>, Arc<CellMap>)>,
+    closed_map: Option<(Arc<Scene>, Arc<CellMap>)>,
 }
 
 impl Statics {
     /// Builds what never changes between samples of this task.
     pub fn new(task: &TaskConfig) -> Statics {
-        let maze_closed =
-            matches!(task.kind, TaskKind::SolveMaze | TaskKind::ReturnRoom).then(|| {
-                let layout = MazeLayout::builtin();
-                let scene = Scene::new(layout.map.wall_rects(&[]), task.query_margin());
-                (Arc::new(scene), Arc::new(layout.map.clone()))
-            });
-        Statics { maze_closed }
+        let scenario = &task.scenario;
+        let closed_map = match (&scenario.world, &scenario.map) {
+            (WorldKind::Map, Some(map)) => {
+                let scene = Scene::new(map.map.wall_rects(&[]), task.query_margin());
+                Some((Arc::new(scene), Arc::new(map.map.clone())))
+            }
+            _ => None,
+        };
+        Statics { closed_map }
     }
 }
 
-/// Number of variants a task has: light configurations for the maze, start branches for the
-/// return, 1 otherwise.
-pub fn n_variants(kind: TaskKind) -> u32 {
-    match kind {
-        TaskKind::SolveMaze | TaskKind::ReturnRoom | TaskKind::Rescue => {
-            MazeLayout::builtin().n_configurations()
-        }
-        _ => 1,
-    }
+/// The cell of a map region (its first cell).
+fn region_cell(scenario: &Scenario, region: &str) -> usize {
+    scenario
+        .map
+        .as_ref()
+        .and_then(|map| map.regions.get(region))
+        .map(|cells| cells[0])
+        .expect("regions are checked when the scenario is compiled")
 }
 
-/// How many values a sample's reported variant can take: the variants of [`n_variants`], and
-/// for the turning tasks the corridor's shape (bend, T end, side junction), which is drawn,
-/// never asked for.
-pub fn reported_variants(kind: TaskKind) -> u32 {
-    match kind {
-        TaskKind::TurnLeft | TaskKind::TurnRight => 3,
-        _ => n_variants(kind),
-    }
-}
-
-/// Builds the environment of one sample. `variant` fixes the light configuration (or start
-/// branch); `None` draws it from the stream.
+/// Builds the environment of one sample. `variant` fixes the variant; `None` draws it from
+/// the stream when there are several.
 pub fn build(
     task: &TaskConfig,
     statics: &Statics,
     variant: Option<u32>,
     rng: &mut SimRng,
 ) -> Environment {
-    let maze = MazeLayout::builtin();
-    let pick_variant =
-        |rng: &mut SimRng| variant.unwrap_or_else(|| rng.random_range(0..n_variants(task.kind)));
+    let scenario = &task.scenario;
+    let n_variants = scenario.n_variants();
+    let variant_idx = match variant {
+        Some(v) => v.min(n_variants - 1),
+        None if n_variants > 1 => rng.random_range(0..n_variants),
+        None => 0,
+    };
+    let plan = &scenario.variants[variant_idx as usize];
     let margin = task.query_margin();
-    match task.kind {
-        TaskKind::ExitRoom => {
+
+    // The world: its scene, cells, room, and a generated corridor's path and shape.
+    let mut reported = variant_idx;
+    let mut room_made = None;
+    let mut corridor_path = None;
+    let (scene, cells) = match &scenario.world {
+        WorldKind::Room => {
             let room = room::generate(&task.room, Placement::Standalone, rng);
-            Environment {
-                scene: Arc::new(Scene::new(room.rects.clone(), margin)),
-                start: room.start,
-                teammate: None,
-                lights: Vec::new(),
-                ground: Ground::Room(room),
-                variant: 0,
-            }
+            let scene = Arc::new(Scene::new(room.rects.clone(), margin));
+            room_made = Some(room);
+            (scene, None)
         }
-        TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => {
-            let c = &task.corridor;
-            let (turn, before, after) = match task.kind {
-                TaskKind::FollowWall => (
-                    Turn::Straight,
-                    rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
-                    0,
-                ),
-                kind => (
-                    if kind == TaskKind::TurnLeft {
-                        Turn::Left
-                    } else {
-                        Turn::Right
-                    },
-                    rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
-                    rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
-                ),
-            };
-            // One draw picks the turn's shape, so tasks without side junctions draw exactly
-            // what they drew before side junctions existed.
-            let junction = if turn == Turn::Straight {
-                Junction::Bend
-            } else {
-                let draw = rng.random::<f32>();
-                if draw < c.junction_share {
-                    Junction::TEnd
-                } else if draw < c.junction_share + c.side_junction_share {
-                    Junction::Side
-                } else {
-                    Junction::Bend
-                }
-            };
-            let corridor = corridor::build(turn, before, after, junction);
-            let map = Arc::new(corridor.map);
-            let mut start = stem_start(map.center(corridor.path[0]), FRAC_PI_2, task, rng);
-            // Drawn only when asked for, so tasks without an advance keep their draws.
-            if c.start_advance > 0.0 {
-                start.y += rng.random_range(0.0..=c.start_advance);
-            }
-            Environment {
-                scene: Arc::new(Scene::new(map.wall_rects(&[]), margin)),
-                start,
-                teammate: None,
-                lights: Vec::new(),
-                ground: Ground::Cells(CellGoal::new(map, &corridor.path)),
-                variant: junction.index(),
-            }
+        WorldKind::Corridor(turn) => {
+            let (map, path, junction) = generate_corridor(*turn, task, rng);
+            reported = junction.index();
+            let map = Arc::new(map);
+            corridor_path = Some(path);
+            (Arc::new(Scene::new(map.wall_rects(&[]), margin)), Some(map))
         }
-        TaskKind::SolveMaze => {
+        WorldKind::Map => {
             let (scene, map) = statics
-                .maze_closed
+                .closed_map
                 .clone()
-                .expect("maze statics are built for maze tasks");
-            let config = pick_variant(rng);
-            let path = &maze.paths[config as usize];
-            let start = stem_start(map.center(path[0]), FRAC_PI_2, task, rng);
-            let goal = CellGoal::new(map, path);
-            Environment {
-                scene,
-                start,
-                teammate: Some((teammate_at_branch_end(&goal, task), false)),
-                lights: lights_for(maze, config),
-                ground: Ground::Cells(goal),
-                variant: config,
-            }
+                .expect("map statics are built for map worlds");
+            (scene, Some(map))
         }
-        TaskKind::ReturnRoom => {
-            let (scene, map) = statics
-                .maze_closed
-                .clone()
-                .expect("maze statics are built for maze tasks");
-            let branch = pick_variant(rng);
-            let mut path = maze.paths[branch as usize].clone();
-            path.reverse();
-            let goal = CellGoal::new(map.clone(), &path);
-            // The robot starts in the branch end facing back out, just in front of the
-            // teammate, which already follows it (it was found there).
-            let end = map.center(path[0]);
-            let out = map.center(path[1]);
-            let heading = (out[1] - end[1]).atan2(out[0] - end[0]);
-            let dir = [heading.cos(), heading.sin()];
-            let start = stem_start(
-                [end[0] + 0.05 * dir[0], end[1] + 0.05 * dir[1]],
-                heading,
-                task,
-                rng,
-            );
-            let mate = Pose {
-                x: end[0] - 0.06 * dir[0],
-                y: end[1] - 0.06 * dir[1],
-                heading,
-            };
-            Environment {
-                scene,
-                start,
-                teammate: Some((mate, true)),
-                lights: Vec::new(),
-                ground: Ground::Cells(goal),
-                variant: branch,
-            }
-        }
-        TaskKind::Rescue => {
-            let config = pick_variant(rng);
-            let entrance = maze.entrance();
-            let entrance_center = maze.map.center(entrance);
-            let half = 0.5 * maze.map.cell_size;
+        WorldKind::RoomBelowMap => {
+            let map = &scenario.map.as_ref().expect("checked when compiled").map;
+            let entrance = region_cell(scenario, "entrance");
+            let entrance_center = map.center(entrance);
+            let half = 0.5 * map.cell_size;
             let room_exit = [
                 entrance_center[0],
-                entrance_center[1] - half - 0.5 * maze.map.wall_thickness,
+                entrance_center[1] - half - 0.5 * map.wall_thickness,
             ];
             let room = room::generate(
                 &task.room,
@@ -299,22 +209,152 @@ pub fn build(
                 },
                 rng,
             );
-            // The room's top wall is the maze's lower border, so the maze leaves its
-            // entrance border open and the room's exit gap is the way in.
-            let mut rects: Vec<Rect> = maze.map.wall_rects(&[(entrance, Side::Bottom)]);
+            // The room's top wall is the map's lower border, so the map leaves its entrance
+            // border open and the room's exit gap is the way in.
+            let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
             rects.extend(room.rects.iter().copied());
-            let map = Arc::new(maze.map.clone());
-            let goal = CellGoal::new(map, &maze.paths[config as usize]);
-            Environment {
-                scene: Arc::new(Scene::new(rects, margin)),
-                start: room.start,
-                teammate: Some((teammate_at_branch_end(&goal, task), false)),
-                lights: lights_for(maze, config),
-                ground: Ground::Rescue { room, maze: goal },
-                variant: config,
-            }
+            room_made = Some(room);
+            (Arc::new(Scene::new(rects, margin)), Some(Arc::new(map.clone())))
         }
+    };
+
+    // The path from the start to the goal, in cells.
+    let start_cell = |cells: &CellMap| -> Option<usize> {
+        match &scenario.place.at {
+            PlaceAt::VariantStart => plan.start.as_deref().map(|r| region_cell(scenario, r)),
+            PlaceAt::Region(region) => Some(region_cell(scenario, region)),
+            PlaceAt::CorridorStart => corridor_path.as_ref().map(|p| p[0]),
+            // From the room the robot enters the map at its entrance.
+            PlaceAt::RoomStart => scenario
+                .map
+                .as_ref()
+                .filter(|m| m.regions.contains_key("entrance"))
+                .map(|_| region_cell(scenario, "entrance"))
+                .filter(|&c| c < cells.cells.len()),
+        }
+    };
+    let path: Option<Vec<usize>> = match (&corridor_path, &cells, &plan.goal) {
+        (Some(path), _, _) => Some(path.clone()),
+        (None, Some(cells), Some(goal)) => start_cell(cells).and_then(|from| {
+            cells::path_between(cells, from, region_cell(scenario, goal))
+        }),
+        _ => None,
+    };
+    let goal = match (&cells, &path) {
+        (Some(cells), Some(path)) => Some(CellGoal::new(cells.clone(), path)),
+        _ => None,
+    };
+
+    // The start.
+    let place = &scenario.place;
+    let mut facing = (0.0f32, [0.0f32, 0.0]);
+    let start = match &place.at {
+        PlaceAt::RoomStart => room_made.as_ref().expect("a room world").start,
+        _ => {
+            let cells = cells.as_ref().expect("cell starts are in cell worlds");
+            let from = match &path {
+                Some(path) => path[0],
+                None => start_cell(cells).expect("checked when compiled"),
+            };
+            let center = cells.center(from);
+            let heading = match place.facing.expect("checked when compiled") {
+                Facing::Heading(heading) => heading,
+                Facing::Path => {
+                    let next = path.as_ref().map_or(center, |p| cells.center(p[1]));
+                    (next[1] - center[1]).atan2(next[0] - center[0])
+                }
+            };
+            let dir = [heading.cos(), heading.sin()];
+            facing = (heading, dir);
+            let at = if place.ahead_m != 0.0 {
+                [
+                    center[0] + place.ahead_m * dir[0],
+                    center[1] + place.ahead_m * dir[1],
+                ]
+            } else {
+                center
+            };
+            let mut start = stem_start(at, heading, task, rng);
+            // Drawn only when asked for, so tasks without an advance keep their draws.
+            if place.advance && task.corridor.start_advance > 0.0 {
+                start.y += rng.random_range(0.0..=task.corridor.start_advance);
+            }
+            start
+        }
+    };
+
+    // The teammate.
+    let teammate = scenario.teammate.as_ref().map(|mate| {
+        let pose = if mate.branch_end {
+            teammate_at_branch_end(goal.as_ref().expect("checked when compiled"), task)
+        } else {
+            let cells = cells.as_ref().expect("cell worlds");
+            let end = match &path {
+                Some(path) => cells.center(path[0]),
+                None => start_cell(cells).map_or([start.x, start.y], |c| cells.center(c)),
+            };
+            let (heading, dir) = facing;
+            Pose {
+                x: end[0] - mate.behind_m * dir[0],
+                y: end[1] - mate.behind_m * dir[1],
+                heading,
+            }
+        };
+        (pose, mate.following)
+    });
+
+    let lights = scenario
+        .lights
+        .iter()
+        .zip(&plan.flashes)
+        .map(|(light, &flashes)| LightSpec {
+            position: light.position,
+            flashes,
+            trigger: light.trigger,
+        })
+        .collect();
+
+    Environment {
+        scene,
+        start,
+        teammate,
+        lights,
+        ground: Ground {
+            room: room_made,
+            goal,
+            cells,
+        },
+        variant: reported,
     }
+}
+
+/// A corridor drawn from the stream as the turning and following primitives need it: its
+/// cells, its path, and the shape of its turn.
+fn generate_corridor(turn: Turn, task: &TaskConfig, rng: &mut SimRng) -> (CellMap, Vec<usize>, Junction) {
+    let c = &task.corridor;
+    let (before, after) = match turn {
+        Turn::Straight => (rng.random_range(c.straight_cells[0]..=c.straight_cells[1]), 0),
+        _ => (
+            rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
+            rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
+        ),
+    };
+    // One draw picks the turn's shape, so tasks without side junctions draw exactly what they
+    // drew before side junctions existed.
+    let junction = if turn == Turn::Straight {
+        Junction::Bend
+    } else {
+        let draw = rng.random::<f32>();
+        if draw < c.junction_share {
+            Junction::TEnd
+        } else if draw < c.junction_share + c.side_junction_share {
+            Junction::Side
+        } else {
+            Junction::Bend
+        }
+    };
+    let corridor = corridor::build(turn, before, after, junction);
+    (corridor.map, corridor.path, junction)
 }
 
 /// A start pose at a corridor cell: jittered sideways and in heading (SPEC is silent; the
@@ -356,16 +396,6 @@ fn teammate_at_branch_end(goal: &CellGoal, task: &TaskConfig) -> Pose {
         y: end[1] - back * heading.sin(),
         heading,
     }
-}
-
-fn lights_for(maze: &MazeLayout, config: u32) -> Vec<LightSpec> {
-    maze.lights
-        .iter()
-        .map(|light| LightSpec {
-            position: light.position,
-            flashes: light.configurations.contains(&config),
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -1,0 +1,305 @@
+//! The scenario file as written: the serde schema of `hevo.scenario/1`, strict (an unknown key
+//! is an error), and the map file format. Nothing here checks that the parts fit together;
+//! [`super::compile`] does.
+
+use crate::env::room::RoomConfig;
+use crate::robot::RobotConfig;
+use crate::sensors::ir::IrConfig;
+use crate::sensors::light::LightConfig;
+use crate::task::{CorridorConfig, StartConfig};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// One scenario file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioFile {
+    /// `hevo.scenario/1`.
+    pub schema: String,
+    /// A short name, used in outputs and to refer to a shipped scenario.
+    pub name: String,
+    /// Other names a shipped scenario answers to (`maze_single` for `solve_maze`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aliases: Vec<String>,
+    /// Shipped paper tasks only: the task name that content hashes of this scenario are
+    /// computed under, so that runs made before scenarios existed keep their fingerprints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub legacy: Option<String>,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Cycle limit of a sample.
+    pub max_cycles: u32,
+    /// Whether touching a wall ends the sample.
+    #[serde(default = "default_true")]
+    pub end_on_collision: bool,
+    /// The robot's body and motors.
+    #[serde(default)]
+    pub robot: RobotConfig,
+    /// The IR proximity sensors.
+    #[serde(default)]
+    pub ir: IrConfig,
+    /// Light-flash sensing.
+    #[serde(default)]
+    pub light: LightConfig,
+    /// The room generator's numbers, for worlds with a room.
+    #[serde(default)]
+    pub room: RoomConfig,
+    /// The corridor generator's numbers, for corridor worlds.
+    #[serde(default)]
+    pub corridor: CorridorConfig,
+    /// How a start pose is jittered.
+    #[serde(default)]
+    pub start: StartConfig,
+    /// What the world is made of.
+    pub world: WorldDecl,
+    /// Named regions besides those the world provides.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub regions: BTreeMap<String, RegionDecl>,
+    /// Lights.
+    #[serde(default, rename = "light", skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<LightDecl>,
+    /// The variants a sample may be: which lights flash, where the goal and the start are.
+    #[serde(default, rename = "variant", skip_serializing_if = "Vec::is_empty")]
+    pub variants: Vec<VariantDecl>,
+    /// Where the robot starts.
+    pub place: PlaceDecl,
+    /// Another robot, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub teammate: Option<TeammateDecl>,
+    /// When a sample ends.
+    pub end: EndDecl,
+    /// The fitness of a sample, per way of ending.
+    pub fitness: FitnessDecl,
+    /// For an arbitrator: the phases of the derived fitness, each asking for one child.
+    #[serde(default, rename = "phase", skip_serializing_if = "Vec::is_empty")]
+    pub phases: Vec<PhaseDecl>,
+    /// The stages post-evaluation reports, in order; a solved sample has passed them all.
+    #[serde(default, rename = "stage", skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<StageDecl>,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+/// `[world]`: a fixed map, a generated room or corridor, or a room joined under a map.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldDecl {
+    /// A map: the name of a shipped map, or the map itself.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<MapRef>,
+    /// A generated room (`[room]` has its numbers): `"standalone"` (centred, the exit in any
+    /// wall, a short corridor stub outside) or `"below entrance"` (under the map, its exit the
+    /// map's entrance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub room: Option<String>,
+    /// A generated corridor (`[corridor]` has its numbers): `"straight"`, `"left"` or
+    /// `"right"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corridor: Option<String>,
+}
+
+/// A map, by shipped name or written out.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MapRef {
+    /// A shipped map (`scenarios/maps/NAME.toml`).
+    Shipped(String),
+    /// The map itself.
+    Inline(MapFile),
+}
+
+/// A map of square cells drawn as text: one character per cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapFile {
+    /// Cell side, metres.
+    pub cell_size: f32,
+    /// Wall thickness on the border between an open and a solid cell, metres.
+    pub wall_thickness: f32,
+    /// The cell coordinates of the grid's top-left character (x right, y up; a cell's centre
+    /// is its coordinates times the cell size).
+    pub origin: [i32; 2],
+    /// Rows of characters, the top row first.
+    pub grid: String,
+    /// What each character means: `"open"`, `"solid"`, or the name of a region of open
+    /// cells.
+    pub legend: BTreeMap<String, String>,
+}
+
+/// A named region written in the scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionDecl {
+    /// A rectangle `[x0, y0, x1, y1]`, metres.
+    pub rect: [f32; 4],
+}
+
+/// `[[light]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightDecl {
+    /// Its name, for variants.
+    pub name: String,
+    /// Position in cell units of the map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell: Option<[f32; 2]>,
+    /// Position in metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<[f32; 2]>,
+    /// When it lights: `"passed"` (once, when the robot's centre first crosses its row going
+    /// up, within its distance from the centre line, for `light.flash_cycles` cycles),
+    /// `"always"` (a beacon), or `{ after_cycles = N }` (once, at cycle N).
+    pub trigger: TriggerDecl,
+}
+
+/// When a light lights.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum TriggerDecl {
+    /// `"passed"` or `"always"`.
+    Named(String),
+    /// At a cycle.
+    AfterCycles {
+        /// The cycle.
+        after_cycles: u32,
+    },
+}
+
+/// `[[variant]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VariantDecl {
+    /// Its name, in reports.
+    pub name: String,
+    /// The lights that flash in it (the others stay dark).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flash: Vec<String>,
+    /// The goal region.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<String>,
+    /// The start region.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<String>,
+}
+
+/// `[place]`: where and how the robot starts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaceDecl {
+    /// `room.start` (the room generator's start), `corridor.start`, `start` (the variant's
+    /// start region), or a region's name: the centre of its first cell.
+    pub at: String,
+    /// `"up"`, `"down"`, `"left"`, `"right"`, or `"path"` (towards the next cell of the path
+    /// to the goal). Not for `room.start`, which draws its own heading.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub facing: Option<String>,
+    /// How far ahead, along the facing, of the cell's centre, metres.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub ahead_m: f32,
+    /// Also move the start a uniform distance of up to `corridor.start_advance` along the
+    /// corridor.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub advance: bool,
+}
+
+fn is_zero(value: &f32) -> bool {
+    *value == 0.0
+}
+
+/// `[teammate]`: the robot to rescue.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeammateDecl {
+    /// `"goal"` (the variant's goal region) or `"start"` (the variant's start region).
+    pub at: String,
+    /// `"branch_end"`: in the goal cell, towards its dead end, clear of the end wall;
+    /// absent: behind the robot's start by `behind_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub placement: Option<String>,
+    /// With no placement: this far behind the robot's start, metres.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub behind_m: f32,
+    /// Whether it follows from the start (else once the robot comes within range).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub following: bool,
+    /// `"follow"` (the default: follows the robot's trail, keeping a gap) or `"fixed"`
+    /// (stays where it is).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behaviour: Option<String>,
+}
+
+/// `[end]`: what ends a sample besides a collision and the time limit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EndDecl {
+    /// When the sample is solved: `"in goal"` (the robot's centre in the goal region),
+    /// `"beyond room.exit"` (a body radius beyond the exit wall's outer face), `"teammate in
+    /// room"` (the teammate back in the room, a body radius inside), or `"near NAME"` (within
+    /// `near_m` of a light).
+    pub solved: String,
+    /// `"off path"`: entering a cell off the path to the goal is a wrong branch.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrong_branch: Option<String>,
+    /// Whether a wrong branch ends the sample (true by default; the rescue lets the robot
+    /// search on, and `end_on_wrong_branch = true` changes that).
+    #[serde(default = "default_true")]
+    pub wrong_branch_ends: bool,
+    /// For `near NAME`: how close counts, metres.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub near_m: f32,
+}
+
+/// `[fitness]`: a formula per way of ending (see `scenario::fitness`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitnessDecl {
+    /// When solved.
+    pub solved: String,
+    /// After a wrong branch (when no `otherwise`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrong_branch: Option<String>,
+    /// After a collision (when no `otherwise`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub collision: Option<String>,
+    /// After the time limit (when no `otherwise`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timeout: Option<String>,
+    /// Every ending but solved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub otherwise: Option<String>,
+}
+
+/// `[[phase]]`: a phase of the derived fitness.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseDecl {
+    /// Its name, in reports.
+    pub name: String,
+    /// The child the arbitrator should drive with in it: its name, or its index.
+    pub child: ChildRef,
+    /// When the phase is in force (see `scenario::condition`); phases are tried in order.
+    pub when: String,
+}
+
+/// A child of the arbitrator, by name or index.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ChildRef {
+    /// By output index.
+    Index(usize),
+    /// By the child's node name.
+    Name(String),
+}
+
+/// `[[stage]]`: a stage post-evaluation reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageDecl {
+    /// Its name, in reports.
+    pub name: String,
+    /// Reached once this condition has held in some cycle.
+    pub reached: String,
+}

@@ -1,0 +1,1063 @@
+//! Scenarios: a task as a file. A scenario says what the world is (a map of cells drawn as text,
+//! a generated room or corridor, or a room under a map), which lights and which other robot it
+//! holds, its named regions, its variants (which lights flash, where the goal and the start
+//! are), where the robot starts, what ends a sample, the fitness of each ending, and for an
+//! arbitrator the phases of its derived fitness and the stages post-evaluation reports. The
+//! paper's seven tasks are the shipped scenarios in `scenarios/`; a researcher's own task is
+//! one more file.
+//!
+//! A scenario is compiled once ([`Scenario::parse`]) into what the evaluator runs: the map's
+//! cells and regions, resolved light and region indices, parsed formulas and conditions. The
+//! control loop interprets nothing but a handful of resolved conditions per cycle.
+//!
+//! Building blocks, and where to add one: a world generator is a `WorldKind` variant and its
+//! arm in `env::build`; a fitness quantity a [`formula::Quantity`] variant, its parse and its
+//! value in `evaluate.rs`; a condition a [`formula::Atom`]; a robot behaviour a
+//! `TeammateBehaviour`. Each is matched in one place per concern.
+
+pub mod file;
+pub mod formula;
+
+use crate::env::cells::{Cell, CellMap};
+use crate::hash::fnv1a_hex;
+use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
+use formula::{Condition, Formula, Quantity};
+use std::collections::BTreeMap;
+use std::sync::{Arc, OnceLock};
+
+/// The schema tag of a scenario file.
+pub const SCHEMA: &str = "hevo.scenario/1";
+
+/// The most phases a derived fitness may have.
+pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
+
+/// The scenarios shipped with hevo: the paper's tasks.
+pub const SHIPPED: [(&str, &str); 7] = [
+    ("exit_room", include_str!("../../../scenarios/exit_room.toml")),
+    ("follow_wall", include_str!("../../../scenarios/follow_wall.toml")),
+    ("turn_left", include_str!("../../../scenarios/turn_left.toml")),
+    ("turn_right", include_str!("../../../scenarios/turn_right.toml")),
+    ("solve_maze", include_str!("../../../scenarios/solve_maze.toml")),
+    ("return_room", include_str!("../../../scenarios/return_room.toml")),
+    ("rescue", include_str!("../../../scenarios/rescue.toml")),
+];
+
+/// The maps shipped with hevo, by name.
+pub const SHIPPED_MAPS: [(&str, &str); 1] = [(
+    "double_t_maze",
+    include_str!("../../../scenarios/maps/double_t_maze.toml"),
+)];
+
+/// A problem with a scenario file: where (the file, the key path, the line when known) and
+/// what.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{origin}:{}{} {message}", line.map(|l| format!("{l}:")).unwrap_or_default(), at_key(path))]
+pub struct ScenarioError {
+    /// The file (or `scenario NAME` for a shipped one).
+    pub origin: String,
+    /// The key path, e.g. `variant[2].goal`.
+    pub path: String,
+    /// The line, when known.
+    pub line: Option<usize>,
+    /// What is wrong.
+    pub message: String,
+}
+
+fn at_key(path: &str) -> String {
+    if path.is_empty() {
+        String::new()
+    } else {
+        format!(" at `{path}`:")
+    }
+}
+
+/// How the world is made.
+#[derive(Debug, Clone, PartialEq)]
+pub enum WorldKind {
+    /// A generated room, centred, its exit in any wall.
+    Room,
+    /// A generated corridor.
+    Corridor(crate::env::corridor::Turn),
+    /// A fixed map.
+    Map,
+    /// A generated room under the map, its exit the map's entrance.
+    RoomBelowMap,
+}
+
+/// A map, compiled: its cells and the regions its legend names.
+#[derive(Debug)]
+pub struct CompiledMap {
+    /// The cells.
+    pub map: CellMap,
+    /// Region name -> its cells.
+    pub regions: BTreeMap<String, Vec<usize>>,
+}
+
+/// A light, compiled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightDef {
+    /// Its name.
+    pub name: String,
+    /// Position, metres.
+    pub position: [f32; 2],
+    /// When it lights.
+    pub trigger: Trigger,
+}
+
+/// When a light lights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Trigger {
+    /// Once, when the robot's centre first crosses its row going up within its distance from
+    /// the centre line.
+    Passed,
+    /// Always (a beacon).
+    Always,
+    /// Once, at this cycle.
+    AfterCycles(u32),
+}
+
+/// A variant, compiled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variant {
+    /// Its name.
+    pub name: String,
+    /// Whether each light flashes in it.
+    pub flashes: Vec<bool>,
+    /// The goal region's name.
+    pub goal: Option<String>,
+    /// The start region's name.
+    pub start: Option<String>,
+}
+
+/// Where the robot starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlaceAt {
+    /// The room generator's start pose.
+    RoomStart,
+    /// The corridor's first cell.
+    CorridorStart,
+    /// The variant's start region.
+    VariantStart,
+    /// A named region's first cell.
+    Region(String),
+}
+
+/// Which way a placed robot faces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Facing {
+    /// A fixed heading, radians.
+    Heading(f32),
+    /// Towards the next cell of the path.
+    Path,
+}
+
+/// The start rule.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Place {
+    /// Where.
+    pub at: PlaceAt,
+    /// Facing (not for the room's start).
+    pub facing: Option<Facing>,
+    /// Ahead of the cell's centre along the facing, metres.
+    pub ahead_m: f32,
+    /// Whether to advance the start along the corridor.
+    pub advance: bool,
+}
+
+/// How the teammate is placed and behaves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TeammatePlan {
+    /// At the variant's goal (true) or start (false).
+    pub at_goal: bool,
+    /// In the goal cell towards its dead end (true), or behind the start by `behind_m`.
+    pub branch_end: bool,
+    /// Behind the robot's start, metres.
+    pub behind_m: f32,
+    /// Whether it follows from the start.
+    pub following: bool,
+    /// Whether it follows at all (else it stays put).
+    pub follows: bool,
+}
+
+/// When a sample is solved.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Solved {
+    /// The robot's centre in the goal cell.
+    InGoal,
+    /// A body radius beyond the room's exit wall.
+    BeyondExit,
+    /// The teammate back in the room, a body radius inside.
+    TeammateInRoom,
+    /// Within `near_m` of a light.
+    Near(usize),
+}
+
+/// One phase of the derived fitness.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Phase {
+    /// Its name.
+    pub name: String,
+    /// The child it asks for, as written.
+    pub child: ChildRef,
+    /// When it is in force.
+    pub when: Condition,
+}
+
+/// One stage post-evaluation reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stage {
+    /// Its name.
+    pub name: String,
+    /// Reached once this has held.
+    pub reached: Condition,
+}
+
+/// A compiled scenario. Cheap to share (`Arc`); immutable.
+#[derive(Debug)]
+pub struct Scenario {
+    /// The file as written (its numbers are the task's defaults).
+    pub file: ScenarioFile,
+    /// The text it was parsed from: what travels to workers and what its hash covers.
+    pub source: String,
+    /// How the world is made.
+    pub world: WorldKind,
+    /// The map, for map worlds.
+    pub map: Option<Arc<CompiledMap>>,
+    /// Named rectangles, metres.
+    pub rect_regions: BTreeMap<String, [f32; 4]>,
+    /// The lights.
+    pub lights: Vec<LightDef>,
+    /// The variants (one unnamed variant when the file lists none).
+    pub variants: Vec<Variant>,
+    /// The start rule.
+    pub place: Place,
+    /// The teammate.
+    pub teammate: Option<TeammatePlan>,
+    /// When solved.
+    pub solved: Solved,
+    /// Whether wrong branches are judged (cells off the path).
+    pub wrong_branch: bool,
+    /// Whether a wrong branch ends the sample by default.
+    pub wrong_branch_ends: bool,
+    /// `near` distance, metres.
+    pub near_m: f32,
+    /// Fitness when solved, after a wrong branch, a collision, a timeout.
+    pub fitness: [Formula; 4],
+    /// The derived fitness's phases.
+    pub phases: Vec<Phase>,
+    /// The stages.
+    pub stages: Vec<Stage>,
+}
+
+/// Fitness formula slots.
+pub mod ending_slot {
+    /// Solved.
+    pub const SOLVED: usize = 0;
+    /// Wrong branch.
+    pub const WRONG_BRANCH: usize = 1;
+    /// Collision.
+    pub const COLLISION: usize = 2;
+    /// Timeout.
+    pub const TIMEOUT: usize = 3;
+}
+
+impl Scenario {
+    /// Parses and compiles a scenario file; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+        let error = |path: &str, line: Option<usize>, message: String| ScenarioError {
+            origin: origin.to_string(),
+            path: path.to_string(),
+            line,
+            message,
+        };
+        let deserializer = toml::Deserializer::parse(text).map_err(|e| {
+            error(
+                "",
+                e.span().map(|span| line_of(text, span.start)),
+                crate::scenario::bounded(&e.to_string()),
+            )
+        })?;
+        let file: ScenarioFile = serde_path_to_error::deserialize(deserializer).map_err(|e| {
+            let line = e.inner().span().map(|span| line_of(text, span.start));
+            error(
+                &e.path().to_string(),
+                line,
+                crate::scenario::bounded(e.inner().message()),
+            )
+        })?;
+        compile(file, text, origin)
+    }
+
+    /// A shipped scenario by name (or alias), compiled once per process.
+    pub fn shipped(name: &str) -> Option<Arc<Scenario>> {
+        static COMPILED: OnceLock<Vec<Arc<Scenario>>> = OnceLock::new();
+        let all = COMPILED.get_or_init(|| {
+            SHIPPED
+                .iter()
+                .map(|(name, text)| {
+                    Arc::new(
+                        Scenario::parse(text, &format!("scenarios/{name}.toml"))
+                            .unwrap_or_else(|e| panic!("a shipped scenario is invalid: {e}")),
+                    )
+                })
+                .collect()
+        });
+        all.iter()
+            .find(|s| s.file.name == name || s.file.aliases.iter().any(|a| a == name))
+            .cloned()
+    }
+
+    /// The names of the shipped scenarios (and their aliases).
+    pub fn shipped_names() -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = SHIPPED.iter().map(|(name, _)| *name).collect();
+        names.push("maze_single");
+        names
+    }
+
+    /// Its name.
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+
+    /// The task name its content hash is computed under, for the shipped paper tasks.
+    pub fn legacy(&self) -> Option<&str> {
+        self.file.legacy.as_deref()
+    }
+
+    /// How many variants a sample can be asked for (1 when the file lists none).
+    pub fn n_variants(&self) -> u32 {
+        self.variants.len() as u32
+    }
+
+    /// How many values a sample's reported variant can take: the variants, or for a turning
+    /// corridor its shape (bend, T end, side junction), which is drawn, never asked for.
+    pub fn reported_variants(&self) -> u32 {
+        match self.world {
+            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => 3,
+            _ => self.n_variants(),
+        }
+    }
+
+    /// The name of variant `idx` as reports show it.
+    pub fn variant_label(&self, idx: u32) -> Option<String> {
+        match self.world {
+            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => {
+                Some(
+                    ["L-bend", "T-junction", "side junction"]
+                        .get(idx as usize)
+                        .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
+                )
+            }
+            _ if self.variants.len() > 1 => self.variants.get(idx as usize).map(|v| v.name.clone()),
+            _ => None,
+        }
+    }
+
+    /// The last stage a sample can reach: one per stage, and solved.
+    pub fn max_stage(&self) -> u8 {
+        self.stages.len() as u8 + 1
+    }
+
+    /// The stages' names, then `solved`.
+    pub fn stage_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.stages.iter().map(|s| s.name.clone()).collect();
+        names.push("solved".into());
+        names
+    }
+
+    /// Whether it has a derived fitness (an arbitrator's scenario).
+    pub fn has_phases(&self) -> bool {
+        !self.phases.is_empty()
+    }
+
+    /// A content hash of the scenario's text.
+    pub fn content_hash(&self) -> String {
+        fnv1a_hex(self.source.as_bytes())
+    }
+
+    /// Resolves each phase's child to an output index of an arbitrator with these children.
+    pub fn phase_children(&self, children: &[String]) -> Result<Vec<usize>, String> {
+        self.phases
+            .iter()
+            .map(|phase| match &phase.child {
+                ChildRef::Index(idx) if *idx < children.len() => Ok(*idx),
+                ChildRef::Index(idx) => Err(format!(
+                    "phase '{}' asks for child {idx}, the arbitrator has {}",
+                    phase.name,
+                    children.len()
+                )),
+                ChildRef::Name(name) => children.iter().position(|c| c == name).ok_or_else(|| {
+                    format!(
+                        "phase '{}' asks for the child '{name}', the arbitrator's children are {}",
+                        phase.name,
+                        children.join(", ")
+                    )
+                }),
+            })
+            .collect()
+    }
+}
+
+/// The line (from 1) of byte offset `at` in `text`.
+fn line_of(text: &str, at: usize) -> usize {
+    text[..at.min(text.len())].matches('\n').count() + 1
+}
+
+/// A parser's message cut to a bounded length: an error must not quote a huge input back.
+pub fn bounded(message: &str) -> String {
+    const MAX: usize = 400;
+    let message = message.trim();
+    if message.chars().count() <= MAX {
+        message.to_string()
+    } else {
+        format!("{} …", message.chars().take(MAX).collect::<String>())
+    }
+}
+
+/// A shipped map, by name.
+fn shipped_map(name: &str) -> Option<&'static str> {
+    SHIPPED_MAPS
+        .iter()
+        .find(|(map, _)| *map == name)
+        .map(|(_, text)| *text)
+}
+
+/// Builds the cells and regions of a map drawn as text.
+pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
+    let bad = |path: &str, message: String| Err((path.to_string(), message));
+    if !(file.cell_size > 0.0 && file.cell_size.is_finite()) {
+        return bad("cell_size", "must be a positive number".into());
+    }
+    if !(file.wall_thickness > 0.0 && file.wall_thickness < file.cell_size) {
+        return bad(
+            "wall_thickness",
+            "must be positive and thinner than a cell".into(),
+        );
+    }
+    let mut meaning: BTreeMap<char, Option<String>> = BTreeMap::new();
+    for (symbol, what) in &file.legend {
+        let mut chars = symbol.chars();
+        let (Some(c), None) = (chars.next(), chars.next()) else {
+            return bad(
+                &format!("legend.{symbol}"),
+                "a legend key is one character".into(),
+            );
+        };
+        let region = match what.as_str() {
+            "solid" => None,
+            "open" => Some(String::new()),
+            name => Some(name.to_string()),
+        };
+        meaning.insert(c, region);
+    }
+    let rows: Vec<&str> = file
+        .grid
+        .lines()
+        .map(str::trim_end)
+        .filter(|l| !l.is_empty())
+        .collect();
+    if rows.is_empty() {
+        return bad("grid", "is empty".into());
+    }
+    let mut open: Vec<([i32; 2], Option<String>)> = Vec::new();
+    for (row_idx, row) in rows.iter().enumerate() {
+        for (col_idx, c) in row.chars().enumerate() {
+            let Some(region) = meaning.get(&c) else {
+                return bad(
+                    "grid",
+                    format!(
+                        "unknown map symbol '{c}' at row {} column {}: add it to [legend]",
+                        row_idx + 1,
+                        col_idx + 1
+                    ),
+                );
+            };
+            if let Some(region) = region {
+                let at = [
+                    file.origin[0] + col_idx as i32,
+                    file.origin[1] - row_idx as i32,
+                ];
+                open.push((at, (!region.is_empty()).then(|| region.clone())));
+            }
+        }
+    }
+    if open.is_empty() {
+        return bad("grid", "has no open cell".into());
+    }
+    let is_open = |at: [i32; 2]| open.iter().any(|(cell, _)| *cell == at);
+    let cells: Vec<Cell> = open
+        .iter()
+        .map(|(at, _)| Cell {
+            at: *at,
+            walls: crate::env::cells::Side::ALL.map(|side| {
+                let [dx, dy] = side.offset();
+                !is_open([at[0] + dx, at[1] + dy])
+            }),
+        })
+        .collect();
+    let mut regions: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (cell_idx, (_, region)) in open.iter().enumerate() {
+        if let Some(region) = region {
+            regions.entry(region.clone()).or_default().push(cell_idx);
+        }
+    }
+    for name in meaning.values().flatten().filter(|n| !n.is_empty()) {
+        if !regions.contains_key(name) {
+            return bad(
+                &format!("legend"),
+                format!("the region '{name}' has no cell in the grid"),
+            );
+        }
+    }
+    Ok(CompiledMap {
+        map: CellMap::new(cells, file.cell_size, file.wall_thickness),
+        regions,
+    })
+}
+
+/// Turns a parsed file into a scenario, checking that its parts fit together.
+fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+    let error = |path: &str, message: String| ScenarioError {
+        origin: origin.to_string(),
+        path: path.to_string(),
+        line: None,
+        message,
+    };
+    if file.schema != SCHEMA {
+        return Err(error(
+            "schema",
+            format!("'{}' is not {SCHEMA}", crate::scenario::bounded(&file.schema)),
+        ));
+    }
+    if file.name.trim().is_empty() || file.name.len() > 64 {
+        return Err(error("name", "must be 1 to 64 characters".into()));
+    }
+    if file.max_cycles == 0 || file.max_cycles > 1_000_000 {
+        return Err(error("max_cycles", "must be between 1 and 1000000".into()));
+    }
+
+    // The world.
+    let w = &file.world;
+    let world = match (&w.map, w.room.as_deref(), w.corridor.as_deref()) {
+        (None, Some("standalone"), None) => WorldKind::Room,
+        (Some(_), Some("below entrance"), None) => WorldKind::RoomBelowMap,
+        (Some(_), None, None) => WorldKind::Map,
+        (None, None, Some(turn)) => WorldKind::Corridor(match turn {
+            "straight" => crate::env::corridor::Turn::Straight,
+            "left" => crate::env::corridor::Turn::Left,
+            "right" => crate::env::corridor::Turn::Right,
+            other => {
+                return Err(error(
+                    "world.corridor",
+                    format!("'{other}' is not straight, left or right"),
+                ));
+            }
+        }),
+        (None, Some(room), None) => {
+            return Err(error(
+                "world.room",
+                format!("'{room}': a room alone is \"standalone\""),
+            ));
+        }
+        (Some(_), Some(room), None) => {
+            return Err(error(
+                "world.room",
+                format!("'{room}': a room with a map is \"below entrance\""),
+            ));
+        }
+        _ => {
+            return Err(error(
+                "world",
+                "give a map, a room (\"standalone\"), a corridor, or a map and a room \
+                 (\"below entrance\")"
+                    .into(),
+            ));
+        }
+    };
+    let map = match &w.map {
+        None => None,
+        Some(MapRef::Shipped(name)) => {
+            let text = shipped_map(name).ok_or_else(|| {
+                error(
+                    "world.map",
+                    format!(
+                        "no shipped map is named '{name}'; shipped: {}",
+                        SHIPPED_MAPS.map(|(n, _)| n).join(", ")
+                    ),
+                )
+            })?;
+            let map_file: MapFile = toml::from_str(text)
+                .map_err(|e| error("world.map", format!("shipped map '{name}': {e}")))?;
+            Some(compile_map(&map_file).map_err(|(path, message)| {
+                error(&format!("world.map.{path}"), message)
+            })?)
+        }
+        Some(MapRef::Inline(map_file)) => Some(compile_map(map_file).map_err(|(path, message)| {
+            error(&format!("world.map.{path}"), message)
+        })?),
+    }
+    .map(Arc::new);
+    if world == WorldKind::RoomBelowMap
+        && !map
+            .as_ref()
+            .is_some_and(|m| m.regions.get("entrance").is_some_and(|c| c.len() == 1))
+    {
+        return Err(error(
+            "world.room",
+            "a room below the map's entrance needs a one-cell region 'entrance' in the map".into(),
+        ));
+    }
+
+    // Regions: the map's, the generators', and rectangles.
+    let mut region_names: Vec<String> = map
+        .as_ref()
+        .map(|m| m.regions.keys().cloned().collect())
+        .unwrap_or_default();
+    if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) {
+        region_names.extend(["room".to_string(), "room.exit".to_string()]);
+    }
+    if matches!(world, WorldKind::Corridor(_)) {
+        region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
+    }
+    let mut rect_regions = BTreeMap::new();
+    for (name, region) in &file.regions {
+        let [x0, y0, x1, y1] = region.rect;
+        if !(x0 < x1 && y0 < y1) || [x0, y0, x1, y1].iter().any(|v| !v.is_finite()) {
+            return Err(error(
+                &format!("regions.{name}.rect"),
+                "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1: an empty region".into(),
+            ));
+        }
+        rect_regions.insert(name.clone(), region.rect);
+        region_names.push(name.clone());
+    }
+    let has_region = |name: &str| region_names.iter().any(|r| r == name);
+    let cell_region = |name: &str| map.as_ref().is_some_and(|m| m.regions.contains_key(name));
+
+    // Lights.
+    let mut lights = Vec::new();
+    for (idx, light) in file.lights.iter().enumerate() {
+        let at = |key: &str| format!("light[{idx}].{key}");
+        if lights.iter().any(|l: &LightDef| l.name == light.name) {
+            return Err(error(&at("name"), format!("'{}' is declared twice", light.name)));
+        }
+        let position = match (light.cell, light.at) {
+            (Some([x, y]), None) => {
+                let Some(map) = &map else {
+                    return Err(error(&at("cell"), "cell units need a map world".into()));
+                };
+                [x * map.map.cell_size, y * map.map.cell_size]
+            }
+            (None, Some(p)) => p,
+            _ => return Err(error(&at("at"), "give either `cell` or `at`".into())),
+        };
+        let trigger = match &light.trigger {
+            TriggerDecl::Named(name) if name == "passed" => Trigger::Passed,
+            TriggerDecl::Named(name) if name == "always" => Trigger::Always,
+            TriggerDecl::AfterCycles { after_cycles } => Trigger::AfterCycles(*after_cycles),
+            TriggerDecl::Named(other) => {
+                return Err(error(
+                    &at("trigger"),
+                    format!("'{other}' is not passed, always or {{ after_cycles = N }}"),
+                ));
+            }
+        };
+        lights.push(LightDef {
+            name: light.name.clone(),
+            position,
+            trigger,
+        });
+    }
+    let light_index = |name: &str| lights.iter().position(|l| l.name == name);
+
+    // Variants.
+    let mut variants = Vec::new();
+    for (idx, variant) in file.variants.iter().enumerate() {
+        let at = |key: &str| format!("variant[{idx}].{key}");
+        let mut flashes = vec![false; lights.len()];
+        for name in &variant.flash {
+            let light = light_index(name)
+                .ok_or_else(|| error(&at("flash"), format!("no light is named '{name}'")))?;
+            flashes[light] = true;
+        }
+        for (key, region) in [("goal", &variant.goal), ("start", &variant.start)] {
+            if let Some(region) = region
+                && !cell_region(region)
+            {
+                return Err(error(
+                    &at(key),
+                    format!("'{region}' is not a region of the map"),
+                ));
+            }
+        }
+        variants.push(Variant {
+            name: variant.name.clone(),
+            flashes,
+            goal: variant.goal.clone(),
+            start: variant.start.clone(),
+        });
+    }
+    if variants.is_empty() {
+        // Without variants every light behaves as its trigger says.
+        variants.push(Variant {
+            name: String::new(),
+            flashes: vec![true; lights.len()],
+            goal: None,
+            start: None,
+        });
+    }
+    // A light that flashes in no variant, with a trigger that only matters for flashes,
+    // is probably a mistake in the variants.
+    for (light_idx, light) in lights.iter().enumerate() {
+        if light.trigger == Trigger::Passed
+            && file.variants.len() > 1
+            && !variants.iter().any(|v| v.flashes[light_idx])
+        {
+            return Err(error(
+                &format!("light[{light_idx}]"),
+                format!("'{}' flashes in no variant", light.name),
+            ));
+        }
+    }
+
+    // Start.
+    let place_decl = &file.place;
+    let at = match place_decl.at.as_str() {
+        "room.start" if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) => {
+            PlaceAt::RoomStart
+        }
+        "corridor.start" if matches!(world, WorldKind::Corridor(_)) => PlaceAt::CorridorStart,
+        "start" => {
+            if variants.iter().any(|v| v.start.is_none()) {
+                return Err(error(
+                    "place.at",
+                    "'start' is the variant's start region, but a variant has none".into(),
+                ));
+            }
+            PlaceAt::VariantStart
+        }
+        region if cell_region(region) => PlaceAt::Region(region.to_string()),
+        other => {
+            return Err(error(
+                "place.at",
+                format!(
+                    "'{other}' is no start here: use room.start, corridor.start, start, or a \
+                     region of the map"
+                ),
+            ));
+        }
+    };
+    let facing = match place_decl.facing.as_deref() {
+        None => None,
+        Some("up") => Some(Facing::Heading(std::f32::consts::FRAC_PI_2)),
+        Some("down") => Some(Facing::Heading(-std::f32::consts::FRAC_PI_2)),
+        Some("right") => Some(Facing::Heading(0.0)),
+        Some("left") => Some(Facing::Heading(std::f32::consts::PI)),
+        Some("path") => Some(Facing::Path),
+        Some(other) => {
+            return Err(error(
+                "place.facing",
+                format!("'{other}' is not up, down, left, right or path"),
+            ));
+        }
+    };
+    if (at == PlaceAt::RoomStart) == facing.is_some() {
+        return Err(error(
+            "place.facing",
+            if at == PlaceAt::RoomStart {
+                "the room's start draws its own heading: leave facing out".into()
+            } else {
+                "say which way the robot faces: up, down, left, right or path".into()
+            },
+        ));
+    }
+    if place_decl.advance && !matches!(world, WorldKind::Corridor(_)) {
+        return Err(error(
+            "place.advance",
+            "advancing the start is for corridors".into(),
+        ));
+    }
+    let place = Place {
+        at,
+        facing,
+        ahead_m: place_decl.ahead_m,
+        advance: place_decl.advance,
+    };
+
+    // Teammate.
+    let teammate = match &file.teammate {
+        None => None,
+        Some(t) => {
+            let at_goal = match t.at.as_str() {
+                "goal" => true,
+                "start" => false,
+                other => {
+                    return Err(error(
+                        "teammate.at",
+                        format!("'{other}' is not goal or start"),
+                    ));
+                }
+            };
+            let branch_end = match t.placement.as_deref() {
+                None => false,
+                Some("branch_end") => true,
+                Some(other) => {
+                    return Err(error(
+                        "teammate.placement",
+                        format!("'{other}' is not branch_end"),
+                    ));
+                }
+            };
+            let follows = match t.behaviour.as_deref() {
+                None | Some("follow") => true,
+                Some("fixed") => false,
+                Some(other) => {
+                    return Err(error(
+                        "teammate.behaviour",
+                        format!("'{other}' is not follow or fixed"),
+                    ));
+                }
+            };
+            let regions_named = variants
+                .iter()
+                .all(|v| if at_goal { v.goal.is_some() } else { v.start.is_some() });
+            if !regions_named {
+                return Err(error(
+                    "teammate.at",
+                    format!("'{}': a variant has no {} region", t.at, t.at),
+                ));
+            }
+            Some(TeammatePlan {
+                at_goal,
+                branch_end,
+                behind_m: t.behind_m,
+                following: t.following,
+                follows,
+            })
+        }
+    };
+
+    // Endings.
+    let end = &file.end;
+    let solved = match end.solved.as_str() {
+        "in goal" => {
+            let goals = matches!(world, WorldKind::Corridor(_))
+                || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
+            if !goals {
+                return Err(error(
+                    "end.solved",
+                    "'in goal' needs a corridor, or a map and a goal in every variant".into(),
+                ));
+            }
+            Solved::InGoal
+        }
+        "beyond room.exit" if world == WorldKind::Room => Solved::BeyondExit,
+        "teammate in room" if world == WorldKind::RoomBelowMap && teammate.is_some() => {
+            Solved::TeammateInRoom
+        }
+        other => {
+            if let Some(name) = other.strip_prefix("near ") {
+                let light = light_index(name.trim()).ok_or_else(|| {
+                    error("end.solved", format!("no light is named '{}'", name.trim()))
+                })?;
+                if !(end.near_m > 0.0) {
+                    return Err(error("end.near_m", "must be positive for 'near'".into()));
+                }
+                Solved::Near(light)
+            } else {
+                return Err(error(
+                    "end.solved",
+                    format!(
+                        "'{other}' does not fit this world: use 'in goal', 'beyond room.exit' \
+                         (a room), 'teammate in room' (a room below a map, with a teammate) or \
+                         'near LIGHT'"
+                    ),
+                ));
+            }
+        }
+    };
+    let wrong_branch = match end.wrong_branch.as_deref() {
+        None => false,
+        Some("off path") => {
+            let paths = matches!(world, WorldKind::Corridor(_))
+                || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
+            if !paths {
+                return Err(error(
+                    "end.wrong_branch",
+                    "'off path' needs a corridor, or a map and a goal in every variant".into(),
+                ));
+            }
+            true
+        }
+        Some(other) => {
+            return Err(error(
+                "end.wrong_branch",
+                format!("'{other}' is not 'off path'"),
+            ));
+        }
+    };
+
+    // Fitness.
+    let f = &file.fitness;
+    let parse = |key: &str, text: &str| {
+        Formula::parse(text, &light_index).map_err(|message| error(&format!("fitness.{key}"), message))
+    };
+    let other = |key: &str, own: &Option<String>| -> Result<Formula, ScenarioError> {
+        match (own, &f.otherwise) {
+            (Some(text), _) => parse(key, text),
+            (None, Some(text)) => parse("otherwise", text),
+            (None, None) => Err(error(
+                &format!("fitness.{key}"),
+                "give it, or `otherwise` for every ending but solved".into(),
+            )),
+        }
+    };
+    let fitness = [
+        parse("solved", &f.solved)?,
+        other("wrong_branch", &f.wrong_branch)?,
+        other("collision", &f.collision)?,
+        other("timeout", &f.timeout)?,
+    ];
+    for (key, formula) in ["solved", "wrong_branch", "collision", "timeout"]
+        .iter()
+        .zip(&fitness)
+    {
+        if formula.uses(&|q| *q == Quantity::Progress) && !(solved == Solved::InGoal) {
+            return Err(error(
+                &format!("fitness.{key}"),
+                "progress needs a goal in cells ('in goal')".into(),
+            ));
+        }
+        if formula.uses(&|q| *q == Quantity::ApproachExit)
+            && !matches!(world, WorldKind::Room | WorldKind::RoomBelowMap)
+        {
+            return Err(error(
+                &format!("fitness.{key}"),
+                "approach room.exit needs a room".into(),
+            ));
+        }
+        if formula.uses(&|q| *q == Quantity::Derived) && file.phases.is_empty() {
+            return Err(error(
+                &format!("fitness.{key}"),
+                "derived needs [[phase]]s".into(),
+            ));
+        }
+    }
+
+    // Phases and stages.
+    let condition = |path: String, text: &str| {
+        Condition::parse(text, &has_region, &light_index).map_err(|message| error(&path, message))
+    };
+    if file.phases.len() > MAX_PHASES {
+        return Err(error(
+            "phase",
+            format!("{} phases, at most {MAX_PHASES}", file.phases.len()),
+        ));
+    }
+    let mut phases = Vec::new();
+    for (idx, phase) in file.phases.iter().enumerate() {
+        phases.push(Phase {
+            name: phase.name.clone(),
+            child: phase.child.clone(),
+            when: condition(format!("phase[{idx}].when"), &phase.when)?,
+        });
+    }
+    let mut stages = Vec::new();
+    for (idx, stage) in file.stages.iter().enumerate() {
+        stages.push(Stage {
+            name: stage.name.clone(),
+            reached: condition(format!("stage[{idx}].reached"), &stage.reached)?,
+        });
+    }
+    if stages.len() > 8 {
+        return Err(error("stage", "at most 8 stages".into()));
+    }
+    for (idx, phase) in phases.iter().chain([]).enumerate() {
+        let uses_teammate = phase
+            .when
+            .atoms
+            .iter()
+            .any(|(_, a)| *a == formula::Atom::TeammateFollowing);
+        if uses_teammate && teammate.is_none() {
+            return Err(error(
+                &format!("phase[{idx}].when"),
+                "'teammate following' needs a [teammate]".into(),
+            ));
+        }
+    }
+
+    // Goals reachable from starts, in map worlds.
+    if let Some(map) = &map {
+        for (idx, variant) in variants.iter().enumerate() {
+            let start = match &place.at {
+                PlaceAt::VariantStart => variant.start.clone(),
+                PlaceAt::Region(region) => Some(region.clone()),
+                _ => map.regions.get("entrance").map(|_| "entrance".to_string()),
+            };
+            if let (Some(start), Some(goal)) = (start, &variant.goal) {
+                let (Some(from), Some(to)) = (map.regions.get(&start), map.regions.get(goal)) else {
+                    continue;
+                };
+                if crate::env::cells::path_between(&map.map, from[0], to[0]).is_none() {
+                    return Err(error(
+                        &format!("variant[{idx}].goal"),
+                        format!("no start can reach the goal '{goal}' from '{start}'"),
+                    ));
+                }
+            }
+        }
+    }
+
+    Ok(Scenario {
+        source: text.to_string(),
+        world,
+        map,
+        rect_regions,
+        lights,
+        variants,
+        place,
+        teammate,
+        solved,
+        wrong_branch,
+        wrong_branch_ends: end.wrong_branch_ends,
+        near_m: end.near_m,
+        fitness,
+        phases,
+        stages,
+        file,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_shipped_scenario_compiles() {
+        for (name, _) in SHIPPED {
+            let scenario = Scenario::shipped(name).unwrap();
+            assert_eq!(scenario.name(), name);
+            assert_eq!(scenario.legacy(), Some(name));
+        }
+        assert_eq!(Scenario::shipped("maze_single").unwrap().name(), "solve_maze");
+        assert!(Scenario::shipped("nope").is_none());
+    }
+
+    #[test]
+    fn the_double_t_maze_map_has_the_paper_layout() {
+        let maze = Scenario::shipped("solve_maze").unwrap();
+        let map = maze.map.as_ref().unwrap();
+        assert_eq!(map.map.cells.len(), 19);
+        for (region, at) in [
+            ("entrance", [0, -5]),
+            ("branch_a", [3, 1]),
+            ("branch_b", [3, -3]),
+            ("branch_c", [-3, 1]),
+            ("branch_d", [-3, -3]),
+        ] {
+            let cells = &map.regions[region];
+            assert_eq!(cells.len(), 1);
+            assert_eq!(map.map.cells[cells[0]].at, at, "{region}");
+        }
+    }
+}
