@@ -8,7 +8,7 @@ use hevo_sim_core::batch::BatchEvaluator;
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::rng::SimRng;
-use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use hevo_sim_core::{Sample, TaskConfig};
 use rand::{RngExt, SeedableRng};
 
 fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
@@ -38,7 +38,7 @@ fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
 
 fn bench_cycles(c: &mut Criterion) {
     let (file, genes) = maze_arbitrator();
-    let mut task = TaskConfig::new(TaskKind::SolveMaze);
+    let mut task = TaskConfig::shipped("solve_maze").unwrap();
     task.end_on_collision = false;
     let batch = BatchEvaluator::new(file, task).expect("valid benchmark setup");
     let samples: Vec<Sample> = (0..4)

@@ -138,14 +138,14 @@ impl SampleSummary {
                 self.cycles
             ));
         }
-        let max_stage = task.kind.max_stage();
+        let max_stage = task.scenario.max_stage();
         if self.stage > max_stage || (self.solved && self.stage != max_stage) {
             return Err(format!(
                 "stage {} does not fit (solved: {}, the task's last stage is {max_stage})",
                 self.stage, self.solved
             ));
         }
-        let n_variants = crate::env::reported_variants(task.kind);
+        let n_variants = task.scenario.reported_variants();
         if self.variant >= n_variants {
             return Err(format!(
                 "variant {} is out of range: the task has {n_variants}",
@@ -155,7 +155,7 @@ impl SampleSummary {
         // Only a task with variants to ask for answers the one asked for (the turning tasks
         // report their corridor's shape, drawn whatever the sample says).
         if let Some(asked) = sample.variant
-            && crate::env::n_variants(task.kind) > 1
+            && task.scenario.n_variants() > 1
             && asked != self.variant
         {
             return Err(format!(
@@ -164,7 +164,7 @@ impl SampleSummary {
             ));
         }
         let choices = &self.sub_task_choices;
-        if task.kind != crate::TaskKind::Rescue && *choices != SubTaskChoices::default() {
+        if !task.scenario.has_phases() && *choices != SubTaskChoices::default() {
             return Err("sub-task choices for a task without sub-tasks".into());
         }
         if choices.cycles.iter().map(|&c| u64::from(c)).sum::<u64>() > u64::from(self.cycles)
@@ -244,7 +244,6 @@ pub fn task_content_hash(task: &TaskConfig) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::TaskKind;
     use crate::controller::NodeSpec;
     use crate::frame::InputGroup;
 
@@ -268,8 +267,8 @@ mod tests {
     /// genomes, samples with and without a fixed variant.
     #[test]
     fn every_real_summary_passes_its_check() {
-        for kind in TaskKind::ALL {
-            let task = TaskConfig::new(kind);
+        for name in crate::scenario::Scenario::shipped_names() {
+            let task = TaskConfig::shipped(name).unwrap();
             let evaluator = BatchEvaluator::new(template(), task.clone()).unwrap();
             let n_nodes = template().node_paths().len();
             let n_genes = evaluator.n_free_genes();
@@ -277,7 +276,7 @@ mod tests {
                 let genes: Vec<f32> = (0..n_genes)
                     .map(|i| ((i as u32 * 31 + genome_idx * 17) % 21) as f32 - 10.0)
                     .collect();
-                let fixed = crate::env::n_variants(kind) - 1;
+                let fixed = task.scenario.n_variants() - 1;
                 let samples = [
                     Sample::seeded(u64::from(genome_idx)),
                     Sample {
@@ -292,8 +291,7 @@ mod tests {
                     assert_eq!(
                         summary.check(&task, n_nodes, sample),
                         Ok(()),
-                        "{} {summary:?}",
-                        kind.name()
+                        "{name} {summary:?}",
                     );
                 }
             }
@@ -302,7 +300,7 @@ mod tests {
 
     #[test]
     fn impossible_summaries_are_named() {
-        let task = TaskConfig::new(TaskKind::SolveMaze);
+        let task = TaskConfig::shipped("solve_maze").unwrap();
         let sample = Sample {
             seed: 1,
             variant: Some(2),
@@ -324,7 +322,7 @@ mod tests {
             (|s| s.variant = 3, "variant 3 answers a sample of variant 2"),
             (|s| s.variant = 4, "variant 4 is out of range"),
             (
-                |s| s.sub_task_choices.cycles = [1, 0, 0],
+                |s| s.sub_task_choices.cycles[0] = 1,
                 "sub-task choices for a task without",
             ),
         ];

@@ -3,7 +3,7 @@
 //! threads; each call owns its own world and random streams, so results depend only on
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
-use crate::env::{self, Environment, Ground, Statics};
+use crate::env::{self, Environment, Ground, LightSpec, Statics};
 use crate::scenario::formula::{Atom, Condition, Quantity};
 use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
@@ -358,7 +358,13 @@ impl Evaluator {
                 lit_cycles_left: 0,
             })
             .collect();
-        let mut judge = Judge::new(&task.scenario, &env, robot, policy);
+        let mut judge = Judge::new(
+            &task.scenario,
+            &env.ground,
+            &env.lights,
+            robot,
+            phase_children(&task.scenario, policy),
+        );
         let mut active_cycles = vec![0u32; policy.n_nodes()];
         let mut activations = vec![0u32; policy.n_nodes()];
         // Which nodes were active in the previous cycle, to count activations.
@@ -622,32 +628,38 @@ struct Judge<'a> {
     phase_child: [usize; N_SUB_TASKS],
 }
 
+/// The child each phase of `scenario` asks for, as an output index of the policy's root: a
+/// child named in the scenario is looked up among the root's children, and a name the policy
+/// does not know (a scripted policy) asks for the child at the phase's own position.
+fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usize; N_SUB_TASKS] {
+    let mut phase_child = [usize::MAX; N_SUB_TASKS];
+    for (idx, phase) in scenario.phases.iter().enumerate() {
+        phase_child[idx] = match &phase.child {
+            crate::scenario::file::ChildRef::Index(child) => *child,
+            crate::scenario::file::ChildRef::Name(name) => {
+                policy.root_child_index(name).unwrap_or(idx)
+            }
+        };
+    }
+    phase_child
+}
+
 impl<'a> Judge<'a> {
     fn new(
         scenario: &'a Scenario,
-        env: &'a Environment,
+        ground: &'a Ground,
+        lights: &[LightSpec],
         start: Pose,
-        policy: &impl Policy,
+        phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
-        let mut phase_child = [usize::MAX; N_SUB_TASKS];
-        for (idx, phase) in scenario.phases.iter().enumerate() {
-            phase_child[idx] = match &phase.child {
-                crate::scenario::file::ChildRef::Index(child) => *child,
-                crate::scenario::file::ChildRef::Name(name) => {
-                    policy.root_child_index(name).unwrap_or(idx)
-                }
-            };
-        }
         Judge {
             scenario,
-            ground: &env.ground,
-            closest_exit: env
-                .ground
+            ground,
+            closest_exit: ground
                 .room
                 .as_ref()
                 .map_or(f32::INFINITY, |room| start.distance_to(room.exit_center)),
-            light_approach: env
-                .lights
+            light_approach: lights
                 .iter()
                 .map(|light| {
                     let d = start.distance_to(light.position);
@@ -882,11 +894,45 @@ mod tests {
 
     /// The fitness a cell task's judge gives a sample that ended so, after so many cycles, with
     /// the robot at `end`.
-    fn cells_fitness(kind: TaskKind, ending: Ending, cycles: u32, end: Pose) -> f32 {
+    fn cells_fitness(name: &str, ending: Ending, cycles: u32, end: Pose) -> f32 {
         let goal = t_end_goal();
-        let judge = Judge::Cells { goal: &goal };
-        let task = TaskConfig::new(kind);
-        judge.fitness(&task, ending, cycles, &end, &SubTaskChoices::default())
+        let ground = Ground {
+            cells: Some(goal.map.clone()),
+            goal: Some(goal),
+            room: None,
+        };
+        let task = shipped(name);
+        judge(&task, &ground, origin()).fitness(
+            &task,
+            ending,
+            cycles,
+            &end,
+            &SubTaskChoices::default(),
+        )
+    }
+
+    fn shipped(name: &str) -> TaskConfig {
+        TaskConfig::shipped(name).unwrap()
+    }
+
+    /// A judge of `task` over `ground`, without lights, whose phases ask for the children in
+    /// their order.
+    fn judge<'a>(task: &'a TaskConfig, ground: &'a Ground, start: Pose) -> Judge<'a> {
+        Judge::new(
+            &task.scenario,
+            ground,
+            &[],
+            start,
+            std::array::from_fn(|idx| idx),
+        )
+    }
+
+    /// Choices counted in the first three phases.
+    fn choices(cycles: [u32; 3], correct: [u32; 3]) -> SubTaskChoices {
+        let mut all = SubTaskChoices::default();
+        all.cycles[..3].copy_from_slice(&cycles);
+        all.correct[..3].copy_from_slice(&correct);
+        all
     }
 
     fn assert_close(got: f32, expected: f32, what: &str) {
@@ -918,7 +964,7 @@ mod tests {
     #[test]
     fn f2_of_a_solved_sample_is_one_plus_the_share_of_cycles_left() {
         // solve maze and return to room: 1000 cycles.
-        for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom] {
+        for kind in ["solve_maze", "return_room"] {
             for (cycles, expected) in [
                 (250, 1.0 + (1000.0 - 250.0) / 1000.0),
                 (1, 1.0 + (1000.0 - 1.0) / 1000.0),
@@ -929,14 +975,14 @@ mod tests {
             }
         }
         assert_eq!(
-            cells_fitness(TaskKind::SolveMaze, Ending::Solved, 250, origin()),
+            cells_fitness("solve_maze", Ending::Solved, 250, origin()),
             1.75
         );
     }
 
     #[test]
     fn f2_of_a_wrong_branch_or_collision_is_a_third_of_the_progress_and_of_a_timeout_zero() {
-        for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom] {
+        for kind in ["solve_maze", "return_room"] {
             for (end, distance) in progress_cases() {
                 let progress = (1.2 - distance) / 1.2;
                 for ending in [Ending::WrongBranch, Ending::Collision] {
@@ -956,11 +1002,7 @@ mod tests {
     #[test]
     fn corridor_fitness_is_f2_with_half_the_progress_for_a_timeout() {
         // follow wall, turn left, turn right: 400 cycles.
-        for kind in [
-            TaskKind::FollowWall,
-            TaskKind::TurnLeft,
-            TaskKind::TurnRight,
-        ] {
+        for kind in ["follow_wall", "turn_left", "turn_right"] {
             for (cycles, expected) in [
                 (100, 1.0 + (400.0 - 100.0) / 400.0),
                 (399, 1.0 + (400.0 - 399.0) / 400.0),
@@ -987,7 +1029,7 @@ mod tests {
 
     #[test]
     fn progress_is_clamped_and_zero_outside_the_cells() {
-        for kind in [TaskKind::SolveMaze, TaskKind::FollowWall] {
+        for kind in ["solve_maze", "follow_wall"] {
             // Below the first cell's centre the corridor distance exceeds the total: 0, not
             // negative.
             assert_eq!(
@@ -1003,7 +1045,7 @@ mod tests {
         // At the goal's centre without being judged solved (not a real ending, but the top of
         // the range): progress 1.
         assert_close(
-            cells_fitness(TaskKind::SolveMaze, Ending::WrongBranch, 10, at(-0.6, 0.6)),
+            cells_fitness("solve_maze", Ending::WrongBranch, 10, at(-0.6, 0.6)),
             1.0 / 3.0,
             "progress 1",
         );
@@ -1024,15 +1066,16 @@ mod tests {
 
     #[test]
     fn f1_is_five_plus_the_time_left_or_the_share_of_the_way_to_the_exit() {
-        let room = square_room();
-        let task = TaskConfig::new(TaskKind::ExitRoom);
+        let ground = Ground {
+            room: Some(square_room()),
+            ..Ground::default()
+        };
+        let task = shipped("exit_room");
         let none = SubTaskChoices::default();
         let fitness = |closest: f32, ending: Ending, cycles: u32| {
-            Judge::Room {
-                room: &room,
-                closest,
-            }
-            .fitness(&task, ending, cycles, &origin(), &none)
+            let mut judge = judge(&task, &ground, origin());
+            judge.closest_exit = closest;
+            judge.fitness(&task, ending, cycles, &origin(), &none)
         };
         // Exited at cycle 400 of 1000.
         assert_close(
@@ -1060,13 +1103,15 @@ mod tests {
 
     #[test]
     fn the_room_judge_keeps_the_closest_approach_from_the_start_on() {
-        let room = square_room();
-        let task = TaskConfig::new(TaskKind::ExitRoom);
+        let task = shipped("exit_room");
         // Starts 0.4 m from the exit, drives to 0.15 m from it, then back.
-        let ground = Ground::Room(room);
-        let mut judge = Judge::new(&ground, at(0.0, 0.1));
+        let ground = Ground {
+            room: Some(square_room()),
+            ..Ground::default()
+        };
+        let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &task), None);
+            assert_eq!(judge.check(&at(0.0, y), None, &task, &[]), None);
         }
         let f = judge.fitness(
             &task,
@@ -1077,7 +1122,7 @@ mod tests {
         );
         assert_close(f, (0.5 - 0.15) / 0.5, "closest 0.15");
         // A judge whose robot never moves keeps its start's distance, hypot(0.1, 0.4).
-        let still = Judge::new(&ground, at(0.1, 0.1));
+        let still = self::judge(&task, &ground, at(0.1, 0.1));
         let f = still.fitness(
             &task,
             Ending::Timeout,
@@ -1088,12 +1133,22 @@ mod tests {
         assert_close(f, (0.5 - 0.1f32.hypot(0.4)) / 0.5, "start");
         // Exited: the centre a body radius beyond the exit wall's outer face, 0.10 + 0.0375 m
         // past the inner face.
-        let mut judge = Judge::new(&ground, at(0.0, 0.0));
-        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None, &task), None);
+        let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
+        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None, &task, &[]), None);
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &task),
+            judge.check(&at(0.0, 0.5 + 0.138), None, &task, &[]),
             Some(Ending::Solved)
         );
+    }
+
+    /// The square room with the T-end corridor's cells above it.
+    fn rescue_ground() -> Ground {
+        let goal = t_end_goal();
+        Ground {
+            room: Some(square_room()),
+            cells: Some(goal.map.clone()),
+            goal: Some(goal),
+        }
     }
 
     /// The rescue's judge, over a hand-built room and maze (f3 does not look at them).
@@ -1103,27 +1158,20 @@ mod tests {
         cycles: u32,
         choices: SubTaskChoices,
     ) -> f32 {
-        let room = square_room();
-        let maze = t_end_goal();
-        Judge::Rescue {
-            room: &room,
-            maze: &maze,
-            exited: true,
-            found: true,
-        }
-        .fitness(task, ending, cycles, &origin(), &choices)
+        let ground = rescue_ground();
+        judge(task, &ground, origin()).fitness(task, ending, cycles, &origin(), &choices)
     }
 
     #[test]
     fn f3_sums_each_reached_sub_tasks_share_of_correct_choices() {
-        let task = TaskConfig::new(TaskKind::Rescue);
+        let task = shipped("rescue");
         // 100 cycles in the room (90 right), 300 in the maze (150 right), 200 on the way back
         // (50 right).
-        let all_three = SubTaskChoices {
-            cycles: [100, 300, 200],
-            correct: [90, 150, 50],
-        };
-        assert_eq!(all_three.shares(), [Some(0.9), Some(0.5), Some(0.25)]);
+        let all_three = choices([100, 300, 200], [90, 150, 50]);
+        assert_eq!(
+            all_three.shares()[..4],
+            [Some(0.9), Some(0.5), Some(0.25), None]
+        );
         assert_close(
             all_three.derived_fitness(),
             0.9 + 0.5 + 0.25,
@@ -1137,42 +1185,30 @@ mod tests {
             );
         }
         // The teammate never found: the return is left out of the sum, not counted as 0 of 0.
-        let two = SubTaskChoices {
-            cycles: [40, 1960, 0],
-            correct: [40, 490, 0],
-        };
-        assert_eq!(two.shares(), [Some(1.0), Some(0.25), None]);
+        let two = choices([40, 1960, 0], [40, 490, 0]);
+        assert_eq!(two.shares()[..3], [Some(1.0), Some(0.25), None]);
         assert_close(
             rescue_fitness(&task, Ending::Timeout, 2000, two),
             1.0 + 0.25,
             "two sub-tasks",
         );
         // Never left the room, always wrong: 0.
-        let none_right = SubTaskChoices {
-            cycles: [2000, 0, 0],
-            correct: [0, 0, 0],
-        };
+        let none_right = choices([2000, 0, 0], [0, 0, 0]);
         assert_eq!(
             rescue_fitness(&task, Ending::Timeout, 2000, none_right),
             0.0
         );
         // Everything right in every sub-task: the maximum, 3.
-        let perfect = SubTaskChoices {
-            cycles: [7, 11, 13],
-            correct: [7, 11, 13],
-        };
+        let perfect = choices([7, 11, 13], [7, 11, 13]);
         assert_eq!(rescue_fitness(&task, Ending::Solved, 31, perfect), 3.0);
         assert_eq!(SubTaskChoices::default().derived_fitness(), 0.0);
     }
 
     #[test]
     fn the_rescue_time_bonus_is_the_share_of_cycles_left_of_a_solved_sample() {
-        let mut task = TaskConfig::new(TaskKind::Rescue);
+        let mut task = shipped("rescue");
         task.rescue_time_bonus = true;
-        let choices = SubTaskChoices {
-            cycles: [100, 300, 200],
-            correct: [90, 150, 50],
-        };
+        let choices = choices([100, 300, 200], [90, 150, 50]);
         assert_close(
             rescue_fitness(&task, Ending::Solved, 1500, choices),
             0.9 + 0.5 + 0.25 + (2000.0 - 1500.0) / 2000.0,
@@ -1189,26 +1225,24 @@ mod tests {
 
     #[test]
     fn the_rescue_sub_task_is_return_once_the_teammate_follows_else_maze_inside_a_cell() {
-        let room = square_room();
-        let maze = t_end_goal();
-        let judge = Judge::Rescue {
-            room: &room,
-            maze: &maze,
-            exited: false,
-            found: false,
-        };
+        let ground = rescue_ground();
+        let task = shipped("rescue");
+        let judge = self::judge(&task, &ground, origin());
         let waiting = Teammate::new(at(-0.6, 0.6), false, 10);
         let following = Teammate::new(at(-0.6, 0.6), true, 10);
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
-        assert_eq!(judge.sub_task(&at(0.0, -0.2), Some(&waiting)), Some(0));
-        assert_eq!(judge.sub_task(&at(0.0, 0.1), Some(&waiting)), Some(1));
-        assert_eq!(judge.sub_task(&at(0.0, -0.2), Some(&following)), Some(2));
-        assert_eq!(judge.sub_task(&at(0.0, 0.1), Some(&following)), Some(2));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(&waiting)), Some(0));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(&waiting)), Some(1));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(&following)), Some(2));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(&following)), Some(2));
         // The boundary of the first cell, half a cell below its centre.
-        assert_eq!(judge.sub_task(&at(0.0, -0.1499), Some(&waiting)), Some(1));
-        assert_eq!(judge.sub_task(&at(0.0, -0.1501), Some(&waiting)), Some(0));
+        assert_eq!(judge.phase(&at(0.0, -0.1499), Some(&waiting)), Some(1));
+        assert_eq!(judge.phase(&at(0.0, -0.1501), Some(&waiting)), Some(0));
         // Other tasks have no sub-tasks.
-        let goal = t_end_goal();
-        assert_eq!(Judge::Cells { goal: &goal }.sub_task(&origin(), None), None);
+        let solve_maze = shipped("solve_maze");
+        assert_eq!(
+            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None),
+            None
+        );
     }
 }

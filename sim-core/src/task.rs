@@ -273,7 +273,6 @@ impl TaskConfig {
         use crate::scenario::formula::Quantity;
         let n_phases = self.scenario.phases.len() as f32;
         let range_of = |q: &Quantity| match q {
-            Quantity::Constant(value) => (*value, *value),
             Quantity::Derived => (0.0, n_phases),
             _ => (0.0, 1.0),
         };

@@ -12,13 +12,14 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
+use hevo_sim_core::scenario::SHIPPED_NAMES;
 use hevo_sim_core::frame::{N_IR, SensorFrame};
 use hevo_sim_core::rng::{Stream, stream_rng};
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scene::Rect;
 use hevo_sim_core::sensors::IrMapping;
 use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
-use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig, TaskKind, Trace};
+use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig, Trace};
 use proptest::prelude::*;
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
@@ -66,15 +67,15 @@ fn segments() -> impl Strategy<Value = Vec<(u32, [f32; 2])>> {
     prop::collection::vec(prop_oneof![any, push], 1..24)
 }
 
-fn task_kind() -> impl Strategy<Value = TaskKind> {
-    prop::sample::select(TaskKind::ALL.to_vec())
+fn task_kind() -> impl Strategy<Value = &'static str> {
+    prop::sample::select(SHIPPED_NAMES.to_vec())
 }
 
-fn evaluator(kind: TaskKind, max_cycles: Option<u32>, end_on_collision: bool) -> Evaluator {
+fn evaluator(kind: &'static str, max_cycles: Option<u32>, end_on_collision: bool) -> Evaluator {
     let task = TaskConfig {
         max_cycles,
         end_on_collision,
-        ..TaskConfig::new(kind)
+        ..TaskConfig::shipped(kind).unwrap()
     };
     Evaluator::new(task).expect("the paper's task configurations are valid")
 }
@@ -108,7 +109,7 @@ fn clearance(pose: &Pose, rects: &[Rect]) -> (f32, usize) {
 /// Every pose of the trace keeps the robot's disc out of every rectangle, and a cycle whose
 /// move collided leaves the robot where it was.
 fn assert_never_inside(trace: &Trace, radius: f32) {
-    let context = |cycle: usize| format!("{} {:?} cycle {cycle}", trace.task, trace.sample);
+    let context = |cycle: usize| format!("{} {:?} cycle {cycle}", trace.scenario, trace.sample);
     let poses = trace
         .cycles
         .iter()
@@ -144,15 +145,16 @@ fn assert_never_inside(trace: &Trace, radius: f32) {
 }
 
 /// A scripted policy for any task: used where a second, very different driver is needed.
-fn scripted_trace(evaluator: &Evaluator, kind: TaskKind, sample: Sample) -> Trace {
+fn scripted_trace(evaluator: &Evaluator, kind: &'static str, sample: Sample) -> Trace {
     match kind {
-        TaskKind::ExitRoom => evaluator.evaluate_traced(&mut RoomExiter::new(), sample),
-        TaskKind::FollowWall => evaluator.evaluate_traced(&mut CorridorFollower::new(), sample),
-        TaskKind::TurnLeft => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Left), sample),
-        TaskKind::TurnRight => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Right), sample),
-        TaskKind::SolveMaze => evaluator.evaluate_traced(&mut MazeSolver::new(), sample),
-        TaskKind::ReturnRoom => evaluator.evaluate_traced(&mut Returner::new(), sample),
-        TaskKind::Rescue => evaluator.evaluate_traced(&mut Rescuer::new(), sample),
+        "exit_room" => evaluator.evaluate_traced(&mut RoomExiter::new(), sample),
+        "follow_wall" => evaluator.evaluate_traced(&mut CorridorFollower::new(), sample),
+        "turn_left" => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Left), sample),
+        "turn_right" => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Right), sample),
+        "solve_maze" => evaluator.evaluate_traced(&mut MazeSolver::new(), sample),
+        "return_room" => evaluator.evaluate_traced(&mut Returner::new(), sample),
+        "rescue" => evaluator.evaluate_traced(&mut Rescuer::new(), sample),
+        other => panic!("no scripted policy for {other}"),
     }
 }
 
@@ -161,7 +163,7 @@ proptest! {
 
     #[test]
     fn robots_never_enter_walls_or_obstacles(kind in task_kind(), seed in any::<u64>(), segments in segments()) {
-        let radius = TaskConfig::new(kind).robot.radius;
+        let radius = TaskConfig::shipped(kind).unwrap().robot.radius;
         let evaluator = evaluator(kind, Some(1500), false);
         let trace = evaluator.evaluate_traced(&mut Wander::new(segments), Sample::seeded(seed));
         assert_never_inside(&trace, radius);
@@ -207,7 +209,7 @@ proptest! {
 fn wandering_does_press_against_walls() {
     // The property above is only worth something if the random drivers do touch walls: turn
     // about 100 degrees, then push straight on for 30 s.
-    for kind in TaskKind::ALL {
+    for kind in SHIPPED_NAMES {
         let evaluator = evaluator(kind, Some(400), false);
         let mut pusher = Wander::new(vec![(5, [0.0, 1.0]), (300, [1.0, 1.0])]);
         let touching = (0..8)
@@ -224,8 +226,8 @@ fn wandering_does_press_against_walls() {
 #[test]
 fn the_scripted_policies_never_enter_walls_either() {
     // They drive close to walls on purpose (the room exiter at about 2 cm).
-    for kind in TaskKind::ALL {
-        let radius = TaskConfig::new(kind).robot.radius;
+    for kind in SHIPPED_NAMES {
+        let radius = TaskConfig::shipped(kind).unwrap().robot.radius;
         let evaluator = evaluator(kind, None, false);
         for seed in 0..12 {
             assert_never_inside(
@@ -238,11 +240,11 @@ fn the_scripted_policies_never_enter_walls_either() {
 
 #[test]
 fn every_start_pose_is_free() {
-    for kind in TaskKind::ALL {
-        let task = TaskConfig::new(kind);
+    for kind in SHIPPED_NAMES {
+        let task = TaskConfig::shipped(kind).unwrap();
         let radius = task.robot.radius;
         let evaluator = evaluator(kind, Some(1), true);
-        let seeds = if matches!(kind, TaskKind::ExitRoom | TaskKind::Rescue) {
+        let seeds = if matches!(kind, "exit_room" | "rescue") {
             0..1500
         } else {
             0..200
@@ -269,7 +271,7 @@ fn every_start_pose_is_free() {
 fn light_configurations_and_branches_can_be_fixed_or_drawn() {
     // A fixed variant is used as given; a drawn one covers every variant and is the same for
     // the same seed whatever the policy.
-    for kind in [TaskKind::SolveMaze, TaskKind::ReturnRoom, TaskKind::Rescue] {
+    for kind in ["solve_maze", "return_room", "rescue"] {
         let evaluator = evaluator(kind, Some(5), true);
         for variant in 0..4 {
             let o = evaluator.evaluate(
@@ -358,7 +360,7 @@ fn ir_inputs_meet_the_spec_with_the_default_mapping() {
 /// Cycle-0 IR inputs of exit-room samples whose start has nothing within the sensors' reach
 /// (obstacles kept 0.4 m from the room's centre): each must be about 0.
 fn empty_room_start_readings(mapping: IrMapping) -> Vec<String> {
-    let mut task = TaskConfig::new(TaskKind::ExitRoom);
+    let mut task = TaskConfig::shipped("exit_room").unwrap();
     task.ir.mapping = mapping;
     task.room.start_clearance = 0.4;
     let reach = task.robot.radius + task.ir.range_m;
@@ -437,7 +439,7 @@ proptest! {
             .iter()
             .flat_map(|&(child, length)| std::iter::repeat_n(child, length))
             .collect();
-        let mut task = TaskConfig::new(TaskKind::FollowWall);
+        let mut task = TaskConfig::shipped("follow_wall").unwrap();
         task.max_cycles = Some(schedule.len() as u32);
         let evaluator = Evaluator::new(task).unwrap();
         let mut policy = Flicker { schedule: schedule.clone(), cycle: 0, path: [0, 0] };

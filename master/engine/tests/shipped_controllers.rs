@@ -8,7 +8,7 @@
 use hevo_engine::post_evaluation::{post_evaluation_samples, report};
 use hevo_sim_core::batch::SampleSummary;
 use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::{Evaluator, TaskConfig, TaskKind};
+use hevo_sim_core::{Evaluator, TaskConfig};
 use std::path::PathBuf;
 
 /// Samples per light configuration (or start branch).
@@ -56,8 +56,8 @@ fn shipped_controllers_solve_their_tasks() {
         let text = std::fs::read_to_string(&path).expect("shipped controller is readable");
         let controller_file = ControllerFile::from_json_str(&text)
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let kind = TaskKind::from_name(task).expect("known task");
-        let evaluator = Evaluator::new(TaskConfig::new(kind)).expect("valid task");
+        let kind = &'static str::from_name(task).expect("known task");
+        let evaluator = Evaluator::new(TaskConfig::shipped(kind).unwrap()).expect("valid task");
         let summaries: Vec<SampleSummary> = post_evaluation_samples(kind, N_SAMPLES, 1)
             .into_iter()
             .map(|sample| {

@@ -402,7 +402,7 @@ fn teammate_at_branch_end(goal: &CellGoal, task: &TaskConfig) -> Pose {
 mod tests {
     use super::*;
     use crate::rng::{Stream, stream_rng};
-    use maze::MAZE_CELL_SIZE;
+    use corridor::MAZE_CELL_SIZE;
 
     /// How far along +y each of `n` samples' starts lie beyond their first cell's centre.
     fn start_advances(task: &TaskConfig, n: u64) -> Vec<f32> {
@@ -415,7 +415,7 @@ mod tests {
                     None,
                     &mut stream_rng(seed, Stream::Environment),
                 );
-                let Ground::Cells(goal) = &env.ground else {
+                let Some(goal) = &env.ground.goal else {
                     panic!("corridor tasks are judged on cells");
                 };
                 env.start.y - goal.map.center(0)[1]
@@ -425,7 +425,7 @@ mod tests {
 
     #[test]
     fn turning_starts_spread_from_the_first_cell_to_the_junction() {
-        let advances = start_advances(&TaskConfig::new(TaskKind::TurnLeft), 400);
+        let advances = start_advances(&TaskConfig::shipped("turn_left").unwrap(), 400);
         assert!(
             advances
                 .iter()
@@ -438,7 +438,7 @@ mod tests {
 
     #[test]
     fn the_other_branches_ends_are_the_wrong_ends() {
-        let task = TaskConfig::new(TaskKind::SolveMaze);
+        let task = TaskConfig::shipped("solve_maze").unwrap();
         let statics = Statics::new(&task);
         let radius = task.robot.radius;
         for configuration in 0..4 {
@@ -448,7 +448,7 @@ mod tests {
                 Some(configuration),
                 &mut stream_rng(0, Stream::Environment),
             );
-            let Ground::Cells(goal) = &env.ground else {
+            let Some(goal) = &env.ground.goal else {
                 panic!("maze tasks are judged on cells");
             };
             // The double T-maze has four branch ends; the goal is one of them.
@@ -468,7 +468,7 @@ mod tests {
 
     #[test]
     fn following_starts_stay_at_the_first_cell_centre() {
-        let advances = start_advances(&TaskConfig::new(TaskKind::FollowWall), 100);
+        let advances = start_advances(&TaskConfig::shipped("follow_wall").unwrap(), 100);
         assert!(advances.iter().all(|&a| a.abs() < 1e-6), "{advances:?}");
     }
 }

@@ -39,8 +39,9 @@ pub struct ScenarioFile {
     /// The IR proximity sensors.
     #[serde(default)]
     pub ir: IrConfig,
-    /// Light-flash sensing.
-    #[serde(default)]
+    /// Light-flash sensing and how long a flash lasts (`[light_sensor]`; `[[light]]` lists
+    /// the lights themselves).
+    #[serde(default, rename = "light_sensor")]
     pub light: LightConfig,
     /// The room generator's numbers, for worlds with a room.
     #[serde(default)]

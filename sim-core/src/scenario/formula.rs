@@ -98,10 +98,13 @@ impl Formula {
         self.terms.iter().any(|term| q(&term.quantity))
     }
 
-    /// The formula's value, given each quantity's.
+    /// The formula's value, given each quantity's (`value_of` is not asked for numbers).
     pub fn eval(&self, value_of: &dyn Fn(&Quantity) -> f32) -> f32 {
         let mut terms = self.terms.iter().map(|term| {
-            let value = value_of(&term.quantity);
+            let value = match term.quantity {
+                Quantity::Constant(value) => value,
+                ref quantity => value_of(quantity),
+            };
             match term.scale {
                 Some((true, d)) => value / d,
                 Some((false, f)) => value * f,
@@ -112,10 +115,14 @@ impl Formula {
         terms.fold(first, |sum, value| sum + value)
     }
 
-    /// The formula's smallest and largest value when every quantity lies in its range.
+    /// The formula's smallest and largest value when every quantity lies in its range
+    /// (`range_of` is not asked for numbers).
     pub fn range(&self, range_of: &dyn Fn(&Quantity) -> (f32, f32)) -> (f32, f32) {
         self.terms.iter().fold((0.0, 0.0), |(low, high), term| {
-            let (a, b) = range_of(&term.quantity);
+            let (a, b) = match term.quantity {
+                Quantity::Constant(value) => (value, value),
+                ref quantity => range_of(quantity),
+            };
             let (a, b) = match term.scale {
                 Some((true, d)) => (a / d, b / d),
                 Some((false, f)) => (a * f, b * f),

@@ -42,6 +42,18 @@ pub const SHIPPED: [(&str, &str); 7] = [
     ("rescue", include_str!("../../../scenarios/rescue.toml")),
 ];
 
+/// The names of the shipped scenarios, in the paper's order of the task tree's leaves up to
+/// its root.
+pub const SHIPPED_NAMES: [&str; 7] = [
+    "exit_room",
+    "follow_wall",
+    "turn_left",
+    "turn_right",
+    "solve_maze",
+    "return_room",
+    "rescue",
+];
+
 /// The maps shipped with hevo, by name.
 pub const SHIPPED_MAPS: [(&str, &str); 1] = [(
     "double_t_maze",
