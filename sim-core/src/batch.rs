@@ -30,6 +30,10 @@ impl Policy for Controller {
     fn n_nodes(&self) -> usize {
         Controller::n_nodes(self)
     }
+
+    fn root_child_index(&self, name: &str) -> Option<usize> {
+        Controller::root_child_index(self, name)
+    }
 }
 
 /// Why a batch cannot be evaluated.

@@ -769,6 +769,15 @@ impl Controller {
         self.nodes.first().and_then(|root| root.active_child)
     }
 
+    /// The position among the root's children of the child named `name`, `None` if the root
+    /// is a primitive or has no such child.
+    pub fn root_child_index(&self, name: &str) -> Option<usize> {
+        let root = self.nodes.first()?;
+        root.children
+            .iter()
+            .position(|&child| self.nodes.get(child).is_some_and(|node| node.name == name))
+    }
+
     /// The child position node `node_idx` activated in its last step since its last reset.
     pub fn active_child(&self, node_idx: usize) -> Option<usize> {
         self.nodes.get(node_idx).and_then(|node| node.active_child)

@@ -9,7 +9,7 @@ use hevo_sim_core::batch::BatchEvaluator;
 use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::rng::SimRng;
-use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use hevo_sim_core::{Sample, TaskConfig};
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 use std::sync::Arc;
@@ -88,23 +88,26 @@ fn return_room_arbitrator(children: Vec<NodeSpec>, rng: &mut SimRng) -> NodeSpec
     )
 }
 
-/// The paper's controller for a task (Figure 4 topologies), with random fixed genes: what the
-/// benchmark runs, so each task is measured with the network sizes it is evolved with.
-pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
+/// The controller a task is benchmarked with, with random fixed genes: for the paper's tasks
+/// the paper's (Figure 4 topologies), so each is measured with the network sizes it is evolved
+/// with; for another scenario an arbitrator over one primitive per phase of its derived
+/// fitness, or a primitive, seeing every input group.
+pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
     let rng = &mut SimRng::seed_from_u64(seed);
-    let root = match kind {
-        TaskKind::ExitRoom => exit_room_primitive(rng),
-        TaskKind::FollowWall | TaskKind::TurnLeft | TaskKind::TurnRight => node(
-            kind.name(),
+    let scenario = &task.scenario;
+    let root = match scenario.legacy().unwrap_or_default() {
+        "exit_room" => exit_room_primitive(rng),
+        name @ ("follow_wall" | "turn_left" | "turn_right") => node(
+            name,
             NodeKind::Primitive,
             vec![InputGroup::Ir],
             3,
             vec![],
             rng,
         ),
-        TaskKind::SolveMaze => solve_maze_arbitrator(rng),
-        TaskKind::ReturnRoom => return_room_arbitrator(maze_primitives(rng), rng),
-        TaskKind::Rescue => {
+        "solve_maze" => solve_maze_arbitrator(rng),
+        "return_room" => return_room_arbitrator(maze_primitives(rng), rng),
+        "rescue" => {
             let exit = exit_room_primitive(rng);
             let maze = solve_maze_arbitrator(rng);
             let mut back = maze_primitives(rng);
@@ -120,6 +123,27 @@ pub fn paper_controller(kind: TaskKind, seed: u64) -> ControllerFile {
                 vec![exit, maze, ret],
                 rng,
             )
+        }
+        _ => {
+            let all_inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+            let primitive =
+                |name: &str, rng: &mut SimRng| node(name, NodeKind::Primitive, all_inputs.clone(), 4, vec![], rng);
+            if scenario.has_phases() {
+                let children = scenario
+                    .phases
+                    .iter()
+                    .enumerate()
+                    .map(|(idx, phase)| match &phase.child {
+                        hevo_sim_core::scenario::file::ChildRef::Name(name) => primitive(name, rng),
+                        hevo_sim_core::scenario::file::ChildRef::Index(_) => {
+                            primitive(&format!("child_{idx}"), rng)
+                        }
+                    })
+                    .collect();
+                node(scenario.name(), NodeKind::Arbitrator, all_inputs.clone(), 10, children, rng)
+            } else {
+                primitive(scenario.name(), rng)
+            }
         }
     };
     ControllerFile::new(root)
@@ -156,12 +180,16 @@ pub enum BenchError {
 }
 
 /// Raw simulator throughput: `threads` threads run samples for `seconds`.
-pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchReport, BenchError> {
-    let mut task = TaskConfig::new(kind);
+pub fn simulator(
+    mut task: TaskConfig,
+    threads: usize,
+    seconds: f64,
+) -> Result<BenchReport, BenchError> {
     // Collisions do not end samples, so every sample runs to its limit and the figure measures
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
-    let evaluator = BatchEvaluator::new(paper_controller(kind, 1), task)?;
+    let name = task.name().to_string();
+    let evaluator = BatchEvaluator::new(paper_controller(&task, 1), task)?;
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
     let samples = AtomicU64::new(0);
@@ -191,7 +219,7 @@ pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchRe
     let elapsed = started.elapsed().as_secs_f64();
     let cycles = cycles.load(Ordering::Relaxed) as f64;
     Ok(BenchReport {
-        task: kind.name().into(),
+        task: name,
         threads: threads.max(1),
         mode: "simulator".into(),
         cycles_per_second: cycles / elapsed,
@@ -204,14 +232,14 @@ pub fn simulator(kind: TaskKind, threads: usize, seconds: f64) -> Result<BenchRe
 /// The `hevo run` path: generations of 100 genomes x `samples` through the dispatcher and a
 /// local pool of `threads` workers, repeated for `seconds`.
 pub async fn pipeline(
-    kind: TaskKind,
+    mut task: TaskConfig,
     threads: usize,
     seconds: f64,
     samples: u32,
 ) -> Result<BenchReport, BenchError> {
-    let mut template = paper_controller(kind, 1);
+    let mut template = paper_controller(&task, 1);
     let genes = template.root.genome.take().unwrap_or_default();
-    let mut task = TaskConfig::new(kind);
+    let name = task.name().to_string();
     // As in `simulator`: every sample runs to its limit, as most do once a population avoids
     // walls. Random genomes crash within about 80 cycles, and a benchmark of such samples
     // measures per-sample set-up rather than the pipeline an evolution run spends its time in.
@@ -257,7 +285,7 @@ pub async fn pipeline(
     let elapsed = started.elapsed().as_secs_f64();
     pool.stop().await;
     Ok(BenchReport {
-        task: kind.name().into(),
+        task: name,
         threads: threads.max(1),
         mode: "pipeline".into(),
         cycles_per_second: cycles as f64 / elapsed,
@@ -273,12 +301,13 @@ mod tests {
 
     #[test]
     fn paper_controllers_have_the_papers_topologies() {
-        let rescue = paper_controller(TaskKind::Rescue, 1);
+        let shipped = |name: &str| TaskConfig::shipped(name).unwrap();
+        let rescue = paper_controller(&shipped("rescue"), 1);
         rescue.validate().unwrap();
         assert_eq!(rescue.root.topology().to_string(), "5-10-3");
         assert_eq!(rescue.root.children[1].topology().to_string(), "6-10-3");
         assert_eq!(
-            paper_controller(TaskKind::ExitRoom, 1)
+            paper_controller(&shipped("exit_room"), 1)
                 .root
                 .topology()
                 .to_string(),

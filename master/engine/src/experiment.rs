@@ -4,11 +4,13 @@
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
 use hevo_sim_core::TaskConfig;
+use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::InputGroup;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The bounds every experiment is held to, by `hevo run` and a service alike, so that no
 /// file can make hevo allocate without limit: a generation's results are held in memory
@@ -237,8 +239,9 @@ pub struct NodeDecl {
     /// is the paper's activator, which may switch in any cycle.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub min_active_cycles: u32,
-    /// The task the node is evolved on (`exit_room`, `follow_wall`, `turn_left`, `turn_right`,
-    /// `solve_maze`, `maze_single`, `return_room`, `rescue`).
+    /// The task the node is evolved on: a shipped scenario (`exit_room`, `follow_wall`,
+    /// `turn_left`, `turn_right`, `solve_maze`, `maze_single`, `return_room`, `rescue`) or a
+    /// scenario file, a path ending in `.toml` relative to the experiment file.
     pub task: String,
     /// Samples per genome per generation.
     pub samples: u32,
@@ -618,20 +621,8 @@ impl Experiment {
                     format!("must be between 1 and 1000, got {}", node.hidden),
                 ));
             }
-            let kind = hevo_sim_core::TaskKind::from_name(&node.task).ok_or_else(|| {
-                let names: Vec<&str> = hevo_sim_core::TaskKind::ALL
-                    .iter()
-                    .map(|k| k.name())
-                    .collect();
-                invalid(
-                    at("task"),
-                    format!(
-                        "unknown task '{}', expected one of {} or maze_single",
-                        cut(&node.task, 80),
-                        names.join(", ")
-                    ),
-                )
-            })?;
+            let scenario =
+                node_scenario(&node.task, files).map_err(|message| invalid(at("task"), message))?;
             for (key, value, max) in [
                 ("samples", node.samples, limits::SAMPLES),
                 ("generations", node.generations, limits::GENERATIONS),
@@ -656,11 +647,36 @@ impl Experiment {
                 };
                 invalid(path, message)
             })?;
-            let task =
-                task_config(kind, node).map_err(|(key, message)| invalid(at(&key), message))?;
+            if scenario.has_phases() {
+                // The names the composed controller's root will know its children by.
+                let children: Vec<String> = node
+                    .children
+                    .iter()
+                    .enumerate()
+                    .map(|(child_idx, child)| match (child, fixed_children.get(&child_idx)) {
+                        (ChildDecl::Node(name), _) => name.clone(),
+                        (_, Some(controller)) => controller.root.name.clone(),
+                        (_, None) => String::new(),
+                    })
+                    .collect();
+                if node.kind != NodeKind::Arbitrator {
+                    return Err(invalid(
+                        at("task"),
+                        format!(
+                            "scenario '{}' scores an arbitrator's choices (it has phases); this node is a primitive",
+                            scenario.name()
+                        ),
+                    ));
+                }
+                scenario
+                    .phase_children(&children)
+                    .map_err(|message| invalid(at("children"), message))?;
+            }
+            let task = task_config(scenario.clone(), node)
+                .map_err(|(key, message)| invalid(at(&key), message))?;
             let per_generation = u64::from(evolution.population) * u64::from(node.samples);
             let post_evaluation = u64::from(evolution.post_evaluation_samples)
-                * u64::from(hevo_sim_core::env::n_variants(kind));
+                * u64::from(scenario.n_variants());
             for (what, evaluations) in [
                 ("samples", per_generation),
                 ("evolution.post_evaluation_samples", post_evaluation),
@@ -806,12 +822,20 @@ fn read_fixed_child(
     Ok(controller)
 }
 
-/// The files an experiment reads from elsewhere (its fixed children), relative to it.
+/// The files an experiment reads from elsewhere (its fixed children and scenario files),
+/// relative to it.
 pub fn external_files(experiment: &Experiment) -> Vec<String> {
     experiment
         .nodes
         .iter()
-        .flat_map(|plan| plan.decl.children.iter().flat_map(ChildDecl::files))
+        .flat_map(|plan| {
+            let scenario = plan.decl.task.ends_with(".toml").then(|| plan.decl.task.clone());
+            plan.decl
+                .children
+                .iter()
+                .flat_map(ChildDecl::files)
+                .chain(scenario)
+        })
         .collect()
 }
 
@@ -953,19 +977,21 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
 /// The node's task configuration: the paper's defaults, the node's `task_config` overrides
 /// (checked key by key against sim-core's schema), then `cycles`.
 fn task_config(
-    kind: hevo_sim_core::TaskKind,
+    scenario: Arc<Scenario>,
     node: &NodeDecl,
 ) -> Result<TaskConfig, (String, String)> {
-    let mut value = serde_json::to_value(TaskConfig::new(kind))
+    let mut value = serde_json::to_value(TaskConfig::from_scenario(scenario))
         .map_err(|e| ("task".to_string(), e.to_string()))?;
     if let Some(overrides) = &node.task_config {
         let overrides = serde_json::to_value(overrides)
             .map_err(|e| ("task_config".to_string(), e.to_string()))?;
-        if overrides.get("kind").is_some() {
-            return Err((
-                "task_config.kind".into(),
-                "set the task with the node's `task` key".into(),
-            ));
+        for key in ["kind", "scenario"] {
+            if overrides.get(key).is_some() {
+                return Err((
+                    format!("task_config.{key}"),
+                    "set the task with the node's `task` key".into(),
+                ));
+            }
         }
         merge(&mut value, overrides);
     }
@@ -981,6 +1007,26 @@ fn task_config(
     task.validate()
         .map_err(|error| (format!("task_config.{}", error.key), error.message))?;
     Ok(task)
+}
+
+/// A node's scenario: a shipped one by name, or a scenario file (a path ending in `.toml`,
+/// relative to the experiment file).
+fn node_scenario(task: &str, files: &dyn ExternalFiles) -> Result<Arc<Scenario>, String> {
+    if task.ends_with(".toml") {
+        let text = files
+            .read(task)
+            .map_err(|e| format!("{}: cannot read the scenario file ({e})", cut(task, 200)))?;
+        return Scenario::parse(&text, task)
+            .map(Arc::new)
+            .map_err(|e| e.to_string());
+    }
+    Scenario::shipped(task).ok_or_else(|| {
+        format!(
+            "unknown task '{}', expected a scenario file (a path ending in .toml) or one of {}",
+            cut(task, 80),
+            Scenario::shipped_names().join(", ")
+        )
+    })
 }
 
 /// Deep-merges `overrides` into `base` (tables merge key by key, anything else replaces).

@@ -1,13 +1,15 @@
-//! Post-evaluation: a controller's solve rate over many fresh samples, per light configuration
-//! (or start branch) where the task has them, per stage for rescue, with mean fitness and
-//! collisions. Used after each evolutionary run and by `hevo eval`. Evaluations go through the
+//! Post-evaluation: a controller's solve rate over many fresh samples, per variant (light
+//! configuration, start branch) where the task's scenario has them, per stage and per phase of
+//! the derived fitness where it has those, with mean fitness and collisions. The paper's
+//! tasks keep the report shape they had before scenarios (the rescue's `stages`); any other
+//! scenario's report names its variants, stages and phases as its file does. Used after each evolutionary run and by `hevo eval`. Evaluations go through the
 //! dispatcher, so they spread over every worker like a generation does.
 
 use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
 use hevo_sim_core::batch::SampleSummary;
 use hevo_sim_core::controller::ControllerFile;
 use hevo_sim_core::rng::derive_seed;
-use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use hevo_sim_core::{Sample, TaskConfig};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -16,6 +18,9 @@ use std::sync::Arc;
 pub struct VariantReport {
     /// Light configuration or start branch.
     pub variant: u32,
+    /// Its name in the scenario file (scenarios other than the paper's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Samples run.
     pub samples: u32,
     /// Share solved.
@@ -43,6 +48,14 @@ pub struct EvalReport {
     /// Rescue only: shares that left the room, reached the teammate, brought it back.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stages: Option<StageReport>,
+    /// Scenarios other than the paper's, with stages: the share of samples that reached each
+    /// stage, in the file's order, then `solved`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_stage: Vec<StageShare>,
+    /// Scenarios other than the paper's, with a derived fitness: per phase, how often the
+    /// arbitrator chose the child the phase asks for.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_phase: Vec<PhaseShare>,
     /// How the controller's nodes below the root took turns, in pre-order; empty for a lone
     /// primitive (and in reports written before hevo counted it).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -93,6 +106,35 @@ impl NodeUseReport {
     }
 }
 
+/// The share of samples that reached one stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageShare {
+    /// The stage's name.
+    pub stage: String,
+    /// Share of samples that reached it.
+    pub share: f64,
+}
+
+/// How often the arbitrator chose the right child in one phase of the derived fitness.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhaseShare {
+    /// The phase's name.
+    pub phase: String,
+    /// The share of the phase's cycles in which the arbitrator chose its child, averaged over
+    /// the samples that reached the phase; `None` when none did.
+    pub right_choice: Option<f64>,
+}
+
+/// Each phase's share of right choices, averaged over the samples that reached it.
+fn mean_phase_shares(summaries: &[SampleSummary], phase: usize) -> Option<f64> {
+    let shares: Vec<f64> = summaries
+        .iter()
+        .filter_map(|s| s.sub_task_choices.shares()[phase])
+        .map(f64::from)
+        .collect();
+    (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
+}
+
 /// The rescue's stage rates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StageReport {
@@ -125,14 +167,7 @@ pub struct RightChoice {
 impl RightChoice {
     /// Averages each sub-task's share over the samples that reached it.
     fn of(summaries: &[SampleSummary]) -> RightChoice {
-        let mean = |sub_task: usize| {
-            let shares: Vec<f64> = summaries
-                .iter()
-                .filter_map(|s| s.sub_task_choices.shares()[sub_task])
-                .map(f64::from)
-                .collect();
-            (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
-        };
+        let mean = |phase: usize| mean_phase_shares(summaries, phase);
         RightChoice {
             exit_room: mean(0),
             solve_maze: mean(1),
@@ -148,8 +183,8 @@ impl RightChoice {
 
 /// The samples of a post-evaluation: `per_variant` samples of each variant of the task (one
 /// variant for tasks without), seeds derived from `seed` alone.
-pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> Vec<Sample> {
-    let n_variants = hevo_sim_core::env::n_variants(kind);
+pub fn post_evaluation_samples(task: &TaskConfig, per_variant: u32, seed: u64) -> Vec<Sample> {
+    let n_variants = task.scenario.n_variants();
     let variant_fixed = n_variants > 1;
     (0..per_variant)
         .flat_map(|i| {
@@ -163,11 +198,14 @@ pub fn post_evaluation_samples(kind: TaskKind, per_variant: u32, seed: u64) -> V
 
 /// Summarises sample outcomes of the controller whose nodes have the paths `node_paths`
 /// ([`ControllerFile::node_paths`]).
-pub fn report(kind: TaskKind, summaries: &[SampleSummary], node_paths: &[String]) -> EvalReport {
+pub fn report(task: &TaskConfig, summaries: &[SampleSummary], node_paths: &[String]) -> EvalReport {
+    let scenario = &task.scenario;
+    // The paper's tasks keep the report they had before scenarios.
+    let paper = scenario.legacy().is_some();
     let n = summaries.len().max(1) as f64;
     let share =
         |f: &dyn Fn(&SampleSummary) -> bool| summaries.iter().filter(|s| f(s)).count() as f64 / n;
-    let n_variants = hevo_sim_core::env::n_variants(kind);
+    let n_variants = scenario.n_variants();
     let per_variant = if n_variants > 1 {
         (0..n_variants)
             .map(|variant| {
@@ -175,6 +213,7 @@ pub fn report(kind: TaskKind, summaries: &[SampleSummary], node_paths: &[String]
                     summaries.iter().filter(|s| s.variant == variant).collect();
                 VariantReport {
                     variant,
+                    name: (!paper).then(|| scenario.variants[variant as usize].name.clone()),
                     samples: of.len() as u32,
                     solve_rate: of.iter().filter(|s| s.solved).count() as f64
                         / of.len().max(1) as f64,
@@ -185,19 +224,45 @@ pub fn report(kind: TaskKind, summaries: &[SampleSummary], node_paths: &[String]
         Vec::new()
     };
     EvalReport {
-        task: kind.name().to_string(),
+        task: scenario.name().to_string(),
         samples: summaries.len() as u32,
         solve_rate: share(&|s| s.solved),
         mean_fitness: summaries.iter().map(|s| f64::from(s.fitness)).sum::<f64>() / n,
         collision_rate: share(&|s| s.collided),
         mean_cycles: summaries.iter().map(|s| f64::from(s.cycles)).sum::<f64>() / n,
         per_variant,
-        stages: (kind == TaskKind::Rescue).then(|| StageReport {
+        stages: (paper && scenario.has_phases()).then(|| StageReport {
             exited_room: share(&|s| s.stage >= 1),
             reached_teammate: share(&|s| s.stage >= 2),
             returned: share(&|s| s.stage >= 3),
             right_choice: Some(RightChoice::of(summaries)),
         }),
+        per_stage: if paper || scenario.stages.is_empty() {
+            Vec::new()
+        } else {
+            scenario
+                .stage_names()
+                .into_iter()
+                .enumerate()
+                .map(|(idx, stage)| StageShare {
+                    stage,
+                    share: share(&|s| usize::from(s.stage) > idx),
+                })
+                .collect()
+        },
+        per_phase: if paper {
+            Vec::new()
+        } else {
+            scenario
+                .phases
+                .iter()
+                .enumerate()
+                .map(|(idx, phase)| PhaseShare {
+                    phase: phase.name.clone(),
+                    right_choice: mean_phase_shares(summaries, idx),
+                })
+                .collect()
+        },
         node_use: NodeUseReport::of(summaries, node_paths),
     }
 }
@@ -243,10 +308,9 @@ pub async fn evaluate_controller(
     task: TaskConfig,
     samples: Vec<Sample>,
 ) -> Result<EvalReport, DispatchError> {
-    let kind = task.kind;
     let node_paths = controller.node_paths();
-    let summaries = evaluate_samples(dispatcher, job, controller, task, samples).await?;
-    Ok(report(kind, &summaries, &node_paths))
+    let summaries = evaluate_samples(dispatcher, job, controller, task.clone(), samples).await?;
+    Ok(report(&task, &summaries, &node_paths))
 }
 
 /// Evaluates a complete controller on the given samples: one outcome per sample, in order.
@@ -283,7 +347,10 @@ pub fn describe(report: &EvalReport) -> String {
         let parts: Vec<String> = report
             .per_variant
             .iter()
-            .map(|v| format!("{}: {:.1}%", v.variant, 100.0 * v.solve_rate))
+            .map(|v| {
+                let name = v.name.as_ref().map_or_else(|| v.variant.to_string(), |n| format!("{} ({n})", v.variant));
+                format!("{name}: {:.1}%", 100.0 * v.solve_rate)
+            })
             .collect();
         text.push_str(&format!(
             "\n  per light configuration / branch: {}",
@@ -304,6 +371,25 @@ pub fn describe(report: &EvalReport) -> String {
                  on the way back {back}"
             ));
         }
+    }
+    if !report.per_stage.is_empty() {
+        let parts: Vec<String> = report
+            .per_stage
+            .iter()
+            .map(|s| format!("{} {}", s.stage, percent(s.share)))
+            .collect();
+        text.push_str(&format!("\n  stages: {}", parts.join(", ")));
+    }
+    if !report.per_phase.is_empty() {
+        let parts: Vec<String> = report
+            .per_phase
+            .iter()
+            .map(|p| format!("{} {}", p.phase, percent_or_dash(p.right_choice)))
+            .collect();
+        text.push_str(&format!(
+            "\n  right child chosen (the terms of the derived fitness): {}",
+            parts.join(", ")
+        ));
     }
     if !report.node_use.is_empty() {
         text.push_str(&describe_node_use(&report.node_use));
@@ -342,18 +428,26 @@ pub fn percent_or_dash(share: Option<f64>) -> String {
     share.map_or_else(|| "-".to_string(), percent)
 }
 
-/// How many samples failed and how many of those touched a wall, and for the rescue where
-/// they stopped (in the room, in the maze, on the way back): where a researcher starts looking.
-pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
+/// How many samples failed and how many of those touched a wall, and for a scenario with
+/// stages the last stage they reached (the rescue: in the room, in the maze, on the way back):
+/// where a researcher starts looking.
+pub fn describe_failures(task: &TaskConfig, failures: &[FailedSample]) -> String {
     let count = |group: &[&FailedSample]| {
         let collided = group.iter().filter(|f| f.collided).count();
         format!("{} ({collided} touched a wall)", group.len())
     };
     let all: Vec<&FailedSample> = failures.iter().collect();
     let mut text = format!("unsolved samples: {}", count(&all));
-    if kind == TaskKind::Rescue {
-        const STAGES: [&str; 3] = ["still in the room", "in the maze", "on the way back"];
-        for (stage, place) in STAGES.iter().enumerate() {
+    let scenario = &task.scenario;
+    if !scenario.stages.is_empty() {
+        let places: Vec<String> = if scenario.legacy() == Some("rescue") {
+            ["still in the room", "in the maze", "on the way back"].map(String::from).to_vec()
+        } else {
+            std::iter::once("before any stage".to_string())
+                .chain(scenario.stages.iter().map(|s| format!("after {}", s.name)))
+                .collect()
+        };
+        for (stage, place) in places.iter().enumerate() {
             let group: Vec<&FailedSample> = failures
                 .iter()
                 .filter(|f| usize::from(f.stage) == stage)
@@ -367,6 +461,10 @@ pub fn describe_failures(kind: TaskKind, failures: &[FailedSample]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn shipped(name: &str) -> TaskConfig {
+        TaskConfig::shipped(name).unwrap()
+    }
     use hevo_sim_core::NodeUse;
     use hevo_sim_core::SubTaskChoices;
 
@@ -380,33 +478,33 @@ mod tests {
             cycles: 10,
         };
         let failures = [failed(0, true), failed(0, false), failed(2, false)];
-        let rescue = describe_failures(TaskKind::Rescue, &failures);
+        let rescue = describe_failures(&shipped("rescue"), &failures);
         assert_eq!(
             rescue,
             "unsolved samples: 3 (1 touched a wall)\n  still in the room: 2 (1 touched a wall)\n  \
              in the maze: 0 (0 touched a wall)\n  on the way back: 1 (0 touched a wall)"
         );
         assert_eq!(
-            describe_failures(TaskKind::ExitRoom, &failures[..1]),
+            describe_failures(&shipped("exit_room"), &failures[..1]),
             "unsolved samples: 1 (1 touched a wall)"
         );
     }
 
     #[test]
     fn maze_post_evaluation_balances_light_configurations() {
-        let samples = post_evaluation_samples(TaskKind::SolveMaze, 100, 1);
+        let samples = post_evaluation_samples(&shipped("solve_maze"), 100, 1);
         assert_eq!(samples.len(), 400);
         for v in 0..4 {
             assert_eq!(samples.iter().filter(|s| s.variant == Some(v)).count(), 100);
         }
-        let room = post_evaluation_samples(TaskKind::ExitRoom, 100, 1);
+        let room = post_evaluation_samples(&shipped("exit_room"), 100, 1);
         assert_eq!(room.len(), 100);
         assert!(room.iter().all(|s| s.variant.is_none()));
     }
 
     #[test]
     fn failed_samples_keep_the_seed_and_variant_that_replay_them() {
-        let samples = post_evaluation_samples(TaskKind::SolveMaze, 2, 7);
+        let samples = post_evaluation_samples(&shipped("solve_maze"), 2, 7);
         let summaries: Vec<SampleSummary> = samples
             .iter()
             .enumerate()
@@ -448,7 +546,7 @@ mod tests {
             s(false, 1, 0),
             s(false, 0, 1),
         ];
-        let r = report(TaskKind::Rescue, &summaries, &[]);
+        let r = report(&shipped("rescue"), &summaries, &[]);
         assert_eq!(r.solve_rate, 0.25);
         let stages = r.stages.unwrap();
         assert_eq!(
@@ -472,7 +570,7 @@ mod tests {
             s([100, 200, 50], [100, 100, 50]),
             s([300, 100, 0], [150, 0, 0]),
         ];
-        let r = report(TaskKind::Rescue, &summaries, &[]);
+        let r = report(&shipped("rescue"), &summaries, &[]);
         let right_choice = r.stages.as_ref().unwrap().right_choice.clone().unwrap();
         assert_eq!(right_choice.shares(), [Some(0.75), Some(0.25), Some(1.0)]);
         // The same counts give each sample's f3.
@@ -501,7 +599,7 @@ mod tests {
         let paths: Vec<String> = ["root", "root/a", "root/b", "root/c"]
             .map(String::from)
             .to_vec();
-        let r = report(TaskKind::ReturnRoom, &summaries, &paths);
+        let r = report(&shipped("return_room"), &summaries, &paths);
         let expected = [
             ("root/a", 0.9, 1.0, Some(180.0)),
             ("root/b", 0.0, 0.0, None),
@@ -526,13 +624,13 @@ mod tests {
 
         // Counts for another tree, or none at all, give no table rather than a wrong one.
         assert!(
-            report(TaskKind::ReturnRoom, &summaries, &paths[..3])
+            report(&shipped("return_room"), &summaries, &paths[..3])
                 .node_use
                 .is_empty()
         );
         let plain = [SampleSummary::default()];
         assert!(
-            report(TaskKind::ReturnRoom, &plain, &paths)
+            report(&shipped("return_room"), &plain, &paths)
                 .node_use
                 .is_empty()
         );

@@ -285,7 +285,7 @@ pub fn node_statuses(
         let node_dir = rundir::node_dir(&settings.out_dir, &name);
         let summary_path = node_dir.join(SUMMARY);
         let node_summary = read_json::<NodeSummary>(&summary_path)?;
-        let n_variants = u64::from(hevo_sim_core::env::n_variants(plan.task.kind));
+        let n_variants = u64::from(plan.task.scenario.n_variants());
         let evaluations_per_generation =
             u64::from(plan.evolution.population) * u64::from(plan.decl.samples);
         let post_evaluation_samples =
@@ -312,7 +312,7 @@ pub fn node_statuses(
         let finished = node_summary.is_some_and(|summary| summary.runs.len() >= runs as usize);
         statuses.push(NodeStatus {
             node: name.clone(),
-            task: plan.task.kind.name().to_string(),
+            task: plan.task.name().to_string(),
             runs,
             generations,
             evaluations_per_generation,
@@ -542,7 +542,7 @@ fn summarize_node(
         / run_summaries.len() as f64;
     let summary = NodeSummary {
         node: name.clone(),
-        task: plan.task.kind.name().to_string(),
+        task: plan.task.name().to_string(),
         fingerprint,
         best_run: best as u32,
         best_solve_rate: run_summaries[best].post_evaluation.solve_rate,
@@ -619,7 +619,7 @@ async fn run_one(
     std::fs::create_dir_all(run_dir).map_err(|e| io_error(run_dir, e))?;
 
     let shared = Arc::new(RequestShared::new(template.clone(), plan.task.clone()));
-    let n_variants = hevo_sim_core::env::n_variants(plan.task.kind);
+    let n_variants = plan.task.scenario.n_variants();
     while checkpoint.generation < generations {
         let generation = checkpoint.generation;
         // Every genome of a generation meets the same samples; tasks with light
@@ -699,7 +699,7 @@ async fn run_one(
         .map_err(|e| io_error(&best_path, e))?;
     write_atomic(&best_path, json.as_bytes()).map_err(|e| io_error(&best_path, e))?;
     let samples = post_evaluation::post_evaluation_samples(
-        plan.task.kind,
+        &plan.task,
         plan.evolution.post_evaluation_samples,
         ea::post_evaluation_seeds(run_seed, 1)[0],
     );
