@@ -280,6 +280,45 @@ fn two_workers_give_exactly_the_local_results() {
     eprintln!("two workers: {:.1} s", started.elapsed().as_secs_f64());
 }
 
+/// The id of the batch a worker's log shows it evaluating: the last `leased a batch` line (a
+/// debug line) when no `batch done` or `result not needed` line for that batch follows it.
+fn batch_in_hand(log: &str) -> Option<u64> {
+    let field = |line: &str, name: &str| -> Option<u64> {
+        let start = line.find(&format!(" {name}="))? + name.len() + 2;
+        line[start..]
+            .split(|c: char| !c.is_ascii_digit())
+            .next()?
+            .parse()
+            .ok()
+    };
+    let mut held = None;
+    for line in log.lines() {
+        if line.contains("leased a batch") {
+            held = field(line, "batch_id");
+        } else if line.contains("batch done") || line.contains("result not needed") {
+            if field(line, "batch_id") == held {
+                held = None;
+            }
+        }
+    }
+    held
+}
+
+/// The master's `lease expired` log lines, as (worker, batch id).
+fn lease_expiries(master_log: &str) -> Vec<(String, u64)> {
+    master_log
+        .lines()
+        .filter(|line| line.contains("lease expired"))
+        .filter_map(|line| {
+            let value = |name: &str| {
+                let start = line.find(&format!(" {name}="))? + name.len() + 2;
+                line[start..].split_whitespace().next().map(str::to_string)
+            };
+            Some((value("worker")?, value("batch_id")?.parse().ok()?))
+        })
+        .collect()
+}
+
 #[test]
 fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let expected = reference();
@@ -294,12 +333,25 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
         &["--lease-seconds", "2", "--metrics-listen", "127.0.0.1:0"],
         "master.log",
     );
-    let mut doomed = start_worker(
-        &master.url,
-        WORKER_TOKEN,
+    // The doomed worker logs each batch it leases (at debug level), so that it can be killed
+    // while it holds one.
+    let doomed_log = scratch.join("doomed.log");
+    let mut doomed = Proc::spawn(
         "doomed",
-        &[],
-        &scratch.join("doomed.log"),
+        Command::new(&binaries().worker)
+            .args([
+                "--master",
+                &master.url,
+                "--threads",
+                "1",
+                "--name",
+                "doomed",
+            ])
+            .env("HEVO_TOKEN", WORKER_TOKEN)
+            .env("RUST_LOG", "info,hevo_worker=debug")
+            .env_remove("HEVO_MASTER")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&doomed_log).unwrap()),
     );
     let _survivor = start_worker(
         &master.url,
@@ -312,31 +364,69 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let (mut watch, lines) = spawn_watch(&master, &job, &[]);
     wait_for_line(&lines, LONG, |l| l.contains("top run 0 generation 2/"))
         .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
-    // Into the next generation's batches, then SIGKILL: no goodbye, no hand-back.
-    std::thread::sleep(Duration::from_millis(40));
-    doomed.kill();
+    // Into the next generation's batches: as soon as the doomed worker takes a new batch, stop
+    // it (SIGSTOP, so it cannot finish the batch while we look), check that it still holds
+    // the batch, and SIGKILL it: no goodbye, no hand-back.
+    let read_log = || std::fs::read_to_string(&doomed_log).unwrap_or_default();
+    let before = batch_in_hand(&read_log());
+    let killed_batch = loop {
+        assert!(
+            started.elapsed() < LONG,
+            "the doomed worker took no new batch:\n{}",
+            read_log()
+        );
+        match batch_in_hand(&read_log()) {
+            Some(batch) if Some(batch) != before => {
+                doomed.signal("STOP");
+                if batch_in_hand(&read_log()) == Some(batch) {
+                    doomed.kill();
+                    break batch;
+                }
+                doomed.signal("CONT");
+            }
+            _ => std::thread::sleep(Duration::from_millis(5)),
+        }
+    };
     let status = watch.wait_timeout(LONG).expect("the job did not finish");
     assert!(status.success());
+
+    // The fault happened: the batch the worker held when it died ran out of lease and was
+    // evaluated again elsewhere.
+    let master_log = std::fs::read_to_string(scratch.join("master.log")).unwrap();
+    let expiries = lease_expiries(&master_log);
+    assert!(
+        expiries.contains(&("doomed".to_string(), killed_batch)),
+        "no lease expiry for batch {killed_batch} of the killed worker: {expiries:?}\n{master_log}"
+    );
+    let metrics = metrics_text(&master);
+    let counted = metric(&metrics, "hevo_lease_expiries_total");
+    assert!(
+        counted >= 1.0 && counted == expiries.len() as f64,
+        "{counted} lease expiries counted, {} logged: {expiries:?}",
+        expiries.len()
+    );
+
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
-    let metrics = metrics_text(&master);
     eprintln!(
-        "killed worker: {:.1} s, lease expiries {}",
+        "killed worker: {:.1} s, lease expiries {counted}",
         started.elapsed().as_secs_f64(),
-        metric(&metrics, "hevo_lease_expiries_total")
     );
 }
 
 #[test]
 fn a_master_killed_and_restarted_resumes_to_the_same_results() {
+    use std::os::unix::process::ExitStatusExt;
     let expected = reference();
     let _turn = exclusive();
     let started = Instant::now();
     let scratch = Scratch::new("killed-master");
     let file = write_experiment(scratch.path());
     let job;
+    let first_pid;
     {
         let mut master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-1.log");
+        first_pid = master.proc.id();
         let _workers = two_workers(&master, &scratch, "a");
         job = submit(&master, &file, &[]);
         let (_watch, lines) = spawn_watch(&master, &job, &[]);
@@ -344,16 +434,41 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
             .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
         std::thread::sleep(Duration::from_millis(40));
         // kill -9 in the middle of a generation; its workers and watcher go with the guards.
-        master.proc.kill();
+        master.proc.child().kill().unwrap();
+        let status = master.proc.child().wait().unwrap();
+        assert_eq!(
+            status.signal(),
+            Some(9),
+            "the master died of the SIGKILL, not before it: {status}"
+        );
     }
+    let log = std::fs::read_to_string(scratch.join("master-1.log")).unwrap();
+    assert!(
+        log.contains("job started") && !log.contains("job succeeded"),
+        "the first master did not die in the middle of the job:\n{log}"
+    );
     // A new master on the same state directory (on another port), new workers.
     let master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-2.log");
+    assert_ne!(master.proc.id(), first_pid, "a new master process");
     let _workers = two_workers(&master, &scratch, "b");
     watch_to_end(&master, &job, &[]);
     let log = std::fs::read_to_string(scratch.join("master-2.log")).unwrap();
     assert!(
-        log.contains("resuming job") && log.contains("resuming at generation"),
+        log.contains("resuming job"),
         "the job was not resumed:\n{log}"
+    );
+    // From the checkpoint the first master wrote, not from the start: generation 3 had been
+    // reported, so at least 2 generations of top's run 0 were checkpointed.
+    let resumed_at: u32 = log
+        .lines()
+        .find_map(|line| {
+            let rest = &line[line.find("top run 0: resuming at generation ")?..];
+            rest.split_whitespace().nth(6)?.parse().ok()
+        })
+        .unwrap_or_else(|| panic!("top run 0 did not resume from a checkpoint:\n{log}"));
+    assert!(
+        (2..8).contains(&resumed_at),
+        "resumed at generation {resumed_at}"
     );
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
