@@ -295,10 +295,10 @@ fn batch_in_hand(log: &str) -> Option<u64> {
     for line in log.lines() {
         if line.contains("leased a batch") {
             held = field(line, "batch_id");
-        } else if line.contains("batch done") || line.contains("result not needed") {
-            if field(line, "batch_id") == held {
-                held = None;
-            }
+        } else if (line.contains("batch done") || line.contains("result not needed"))
+            && field(line, "batch_id") == held
+        {
+            held = None;
         }
     }
     held

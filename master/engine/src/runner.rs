@@ -844,6 +844,9 @@ runs = 1
             .collect()
     }
 
+    /// The genomes (index, genes) a worker was given, by the seed of the sample.
+    type GenomesBySample = HashMap<u64, Vec<(u32, Vec<f32>)>>;
+
     #[derive(Default)]
     struct Recorder(Mutex<Vec<ProgressEvent>>);
 
@@ -883,7 +886,7 @@ runs = 1
 
         // A fake worker on the dispatcher, recording every genome it is given, by sample.
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
-        let seen: Arc<Mutex<HashMap<u64, Vec<(u32, Vec<f32>)>>>> = Arc::default();
+        let seen: Arc<Mutex<GenomesBySample>> = Arc::default();
         let worker = tokio::spawn({
             let (dispatcher, seen) = (dispatcher.clone(), seen.clone());
             async move {
