@@ -280,23 +280,25 @@ fn two_workers_give_exactly_the_local_results() {
     eprintln!("two workers: {:.1} s", started.elapsed().as_secs_f64());
 }
 
-/// The id of the batch a worker's log shows it evaluating: the last `leased a batch` line (a
-/// debug line) when no `batch done` or `result not needed` line for that batch follows it.
-fn batch_in_hand(log: &str) -> Option<u64> {
-    let field = |line: &str, name: &str| -> Option<u64> {
-        let start = line.find(&format!(" {name}="))? + name.len() + 2;
-        line[start..]
-            .split(|c: char| !c.is_ascii_digit())
-            .next()?
-            .parse()
-            .ok()
-    };
+/// A `name=value` field of a log line.
+fn log_field(line: &str, name: &str) -> Option<u64> {
+    let start = line.find(&format!(" {name}="))? + name.len() + 2;
+    line[start..]
+        .split(|c: char| !c.is_ascii_digit())
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// The (batch id, lease id) a worker's log shows it evaluating: the last `leased a batch` line
+/// (a debug line) when no `batch done` or `result not needed` line for that batch follows it.
+fn batch_in_hand(log: &str) -> Option<(u64, u64)> {
     let mut held = None;
     for line in log.lines() {
         if line.contains("leased a batch") {
-            held = field(line, "batch_id");
+            held = log_field(line, "batch_id").zip(log_field(line, "lease_id"));
         } else if (line.contains("batch done") || line.contains("result not needed"))
-            && field(line, "batch_id") == held
+            && log_field(line, "batch_id") == held.map(|(batch, _)| batch)
         {
             held = None;
         }
@@ -304,19 +306,20 @@ fn batch_in_hand(log: &str) -> Option<u64> {
     held
 }
 
-/// The master's `lease expired` log lines, as (worker, batch id).
-fn lease_expiries(master_log: &str) -> Vec<(String, u64)> {
-    master_log
-        .lines()
-        .filter(|line| line.contains("lease expired"))
-        .filter_map(|line| {
-            let value = |name: &str| {
-                let start = line.find(&format!(" {name}="))? + name.len() + 2;
-                line[start..].split_whitespace().next().map(str::to_string)
-            };
-            Some((value("worker")?, value("batch_id")?.parse().ok()?))
-        })
-        .collect()
+/// Whether the master's log shows it taking back `worker`'s lease of a batch: revoked when the
+/// worker's connection closed (`worker gone`, naming the lease) or run out (`lease expired`,
+/// naming the batch).
+fn lease_taken_back(master_log: &str, worker: &str, (batch, lease): (u64, u64)) -> bool {
+    // The master names a lease's holder `<worker>@<peer>`.
+    let named = format!("worker={worker}");
+    let held_by = |word: &str| {
+        word == named || word.strip_prefix(named.as_str()).is_some_and(|rest| rest.starts_with('@'))
+    };
+    master_log.lines().any(|line| {
+        line.split_whitespace().any(held_by)
+            && ((line.contains("worker gone") && log_field(line, "lease_id") == Some(lease))
+                || (line.contains("lease expired") && log_field(line, "batch_id") == Some(batch)))
+    })
 }
 
 #[test]
@@ -390,26 +393,26 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let status = watch.wait_timeout(LONG).expect("the job did not finish");
     assert!(status.success());
 
-    // The fault happened: the batch the worker held when it died ran out of lease and was
-    // evaluated again elsewhere.
+    // The fault happened: the lease the worker held when it died was taken back (its
+    // connection closed, or the lease ran out) and its batch evaluated again elsewhere.
     let master_log = std::fs::read_to_string(scratch.join("master.log")).unwrap();
-    let expiries = lease_expiries(&master_log);
+    let (batch, lease) = killed_batch;
     assert!(
-        expiries.contains(&("doomed".to_string(), killed_batch)),
-        "no lease expiry for batch {killed_batch} of the killed worker: {expiries:?}\n{master_log}"
+        lease_taken_back(&master_log, "doomed", killed_batch),
+        "the master did not take back lease {lease} (batch {batch}) of the killed worker:\n{master_log}"
     );
     let metrics = metrics_text(&master);
-    let counted = metric(&metrics, "hevo_lease_expiries_total");
+    let expiries = metric(&metrics, "hevo_lease_expiries_total");
+    let revocations = metric(&metrics, "hevo_lease_revocations_total");
     assert!(
-        counted >= 1.0 && counted == expiries.len() as f64,
-        "{counted} lease expiries counted, {} logged: {expiries:?}",
-        expiries.len()
+        expiries + revocations >= 1.0,
+        "no lease expiry or revocation counted:\n{metrics}"
     );
 
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
     eprintln!(
-        "killed worker: {:.1} s, lease expiries {counted}",
+        "killed worker: {:.1} s, lease expiries {expiries}, revocations {revocations}",
         started.elapsed().as_secs_f64(),
     );
 }
