@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # One box: hevo's cluster path (a `hevo serve` master and N `hevo-worker` processes talking gRPC)
 # on this machine's loopback, for trying the distributed setup without a cluster. It generates a
-# token, starts the master and the workers, submits an experiment, watches it to the end, fetches
-# the results into --out and stops every process it started, also on Ctrl-C, on SIGTERM and on
-# failure.
+# client token and a worker token, starts the master and the workers, submits an experiment,
+# watches it to the end, fetches the results into --out and stops every process it started, also
+# on Ctrl-C, on SIGTERM and on failure.
 #
 #   deploy/local/one-box.sh --workers 3 deploy/local/tiny.toml --out results/
 #
-# Run it with --help for the options. The master's state, the token and the logs live in a
+# Run it with --help for the options. The master's state, the tokens and the logs live in a
 # scratch directory that is removed after a successful run and kept (and named) after a failure.
 set -euo pipefail
 
@@ -23,7 +23,7 @@ options:
   --out <DIR>        where the results are fetched to (default results)
   --bin-dir <DIR>    where hevo and hevo-worker are (default: target/release of this
                      repository when built, else PATH)
-  --work-dir <DIR>   keep the master's state, the token and the logs in DIR (default: a
+  --work-dir <DIR>   keep the master's state, the tokens and the logs in DIR (default: a
                      temporary directory, removed after a successful run)
   --grace <S>        seconds a worker gets to hand back its batch when stopped (default 90)
   --node <N>, --runs <R>, --generations <G>, --seed <S>
@@ -186,20 +186,27 @@ trap cleanup EXIT
 trap 'exit 130' INT
 trap 'exit 143' TERM
 
-# A fresh random token: the master refuses workers and clients without it. It goes through a
-# file, not the command line, so that it does not show in `ps`.
-token_file=$work_dir/token
-(
-    umask 077
-    od -An -N32 -tx1 /dev/urandom | tr -d ' \n' >"$token_file"
-)
+# Two fresh random tokens, one per role: the master takes the clients' (submit, watch, fetch)
+# and the workers' and refuses anyone without the one of their role. They go through files, not
+# the command line, so that they do not show in `ps`.
+new_token() {
+    (
+        umask 077
+        od -An -N32 -tx1 /dev/urandom | tr -d ' \n' >"$1"
+    )
+}
+client_token_file=$work_dir/token
+worker_token_file=$work_dir/worker-token
+new_token "$client_token_file"
+new_token "$worker_token_file"
 
 log "starting the master ($hevo)"
 # Created here, not by the background job's redirection, so the loop below never reads a file
 # that does not exist yet.
 : >"$work_dir/master.out"
 "$hevo" serve --listen 127.0.0.1:0 --metrics-listen 127.0.0.1:0 --state-dir "$work_dir/state" \
-    --token-file "$token_file" >"$work_dir/master.out" 2>"$work_dir/master.log" &
+    --token-file "$client_token_file" --worker-token-file "$worker_token_file" \
+    >"$work_dir/master.out" 2>"$work_dir/master.log" &
 master_pid=$!
 
 # Port 0 lets the kernel pick a free port, so several one-boxes (and CI jobs) can run side by
@@ -217,18 +224,18 @@ metrics=$(awk '/^metrics on / { print $3; exit }' "$work_dir/master.out")
 log "master at $master_url${metrics:+, metrics at http://$metrics/metrics}"
 
 for ((i = 1; i <= workers; i++)); do
-    "$hevo_worker" --master "$master_url" --token-file "$token_file" --threads "$threads" \
+    "$hevo_worker" --master "$master_url" --token-file "$worker_token_file" --threads "$threads" \
         --name "one-box-$i" >"$work_dir/worker-$i.log" 2>&1 &
     worker_pids+=("$!")
 done
 log "started $workers workers with $threads threads each"
 
-job=$("$hevo" submit --master "$master_url" --token-file "$token_file" "$experiment" ${submit_args[@]+"${submit_args[@]}"})
+job=$("$hevo" submit --master "$master_url" --token-file "$client_token_file" "$experiment" ${submit_args[@]+"${submit_args[@]}"})
 log "submitted $experiment as job $job"
 
 # In the background and waited for, so that Ctrl-C interrupts the wait at once instead of
 # waiting for the job to end.
-"$hevo" watch --master "$master_url" --token-file "$token_file" "$job" &
+"$hevo" watch --master "$master_url" --token-file "$client_token_file" "$job" &
 watch_pid=$!
 watch_status=0
 wait "$watch_pid" || watch_status=$?
@@ -236,5 +243,5 @@ watch_pid=""
 ((watch_status == 0)) || die "job $job did not succeed (hevo watch exited $watch_status)"
 
 mkdir -p "$out"
-"$hevo" fetch --master "$master_url" --token-file "$token_file" "$job" --out "$out"
+"$hevo" fetch --master "$master_url" --token-file "$client_token_file" "$job" --out "$out"
 log "results of job $job are in $out"

@@ -280,6 +280,48 @@ fn two_workers_give_exactly_the_local_results() {
     eprintln!("two workers: {:.1} s", started.elapsed().as_secs_f64());
 }
 
+/// A `name=value` field of a log line.
+fn log_field(line: &str, name: &str) -> Option<u64> {
+    let start = line.find(&format!(" {name}="))? + name.len() + 2;
+    line[start..]
+        .split(|c: char| !c.is_ascii_digit())
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// The (batch id, lease id) a worker's log shows it evaluating: the last `leased a batch` line
+/// (a debug line) when no `batch done` or `result not needed` line for that batch follows it.
+fn batch_in_hand(log: &str) -> Option<(u64, u64)> {
+    let mut held = None;
+    for line in log.lines() {
+        if line.contains("leased a batch") {
+            held = log_field(line, "batch_id").zip(log_field(line, "lease_id"));
+        } else if (line.contains("batch done") || line.contains("result not needed"))
+            && log_field(line, "batch_id") == held.map(|(batch, _)| batch)
+        {
+            held = None;
+        }
+    }
+    held
+}
+
+/// Whether the master's log shows it taking back `worker`'s lease of a batch: revoked when the
+/// worker's connection closed (`worker gone`, naming the lease) or run out (`lease expired`,
+/// naming the batch).
+fn lease_taken_back(master_log: &str, worker: &str, (batch, lease): (u64, u64)) -> bool {
+    // The master names a lease's holder `<worker>@<peer>`.
+    let named = format!("worker={worker}");
+    let held_by = |word: &str| {
+        word == named || word.strip_prefix(named.as_str()).is_some_and(|rest| rest.starts_with('@'))
+    };
+    master_log.lines().any(|line| {
+        line.split_whitespace().any(held_by)
+            && ((line.contains("worker gone") && log_field(line, "lease_id") == Some(lease))
+                || (line.contains("lease expired") && log_field(line, "batch_id") == Some(batch)))
+    })
+}
+
 #[test]
 fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let expected = reference();
@@ -294,12 +336,25 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
         &["--lease-seconds", "2", "--metrics-listen", "127.0.0.1:0"],
         "master.log",
     );
-    let mut doomed = start_worker(
-        &master.url,
-        WORKER_TOKEN,
+    // The doomed worker logs each batch it leases (at debug level), so that it can be killed
+    // while it holds one.
+    let doomed_log = scratch.join("doomed.log");
+    let mut doomed = Proc::spawn(
         "doomed",
-        &[],
-        &scratch.join("doomed.log"),
+        Command::new(&binaries().worker)
+            .args([
+                "--master",
+                &master.url,
+                "--threads",
+                "1",
+                "--name",
+                "doomed",
+            ])
+            .env("HEVO_TOKEN", WORKER_TOKEN)
+            .env("RUST_LOG", "info,hevo_worker=debug")
+            .env_remove("HEVO_MASTER")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&doomed_log).unwrap()),
     );
     let _survivor = start_worker(
         &master.url,
@@ -312,31 +367,69 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let (mut watch, lines) = spawn_watch(&master, &job, &[]);
     wait_for_line(&lines, LONG, |l| l.contains("top run 0 generation 2/"))
         .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
-    // Into the next generation's batches, then SIGKILL: no goodbye, no hand-back.
-    std::thread::sleep(Duration::from_millis(40));
-    doomed.kill();
+    // Into the next generation's batches: as soon as the doomed worker takes a new batch, stop
+    // it (SIGSTOP, so it cannot finish the batch while we look), check that it still holds
+    // the batch, and SIGKILL it: no goodbye, no hand-back.
+    let read_log = || std::fs::read_to_string(&doomed_log).unwrap_or_default();
+    let before = batch_in_hand(&read_log());
+    let killed_batch = loop {
+        assert!(
+            started.elapsed() < LONG,
+            "the doomed worker took no new batch:\n{}",
+            read_log()
+        );
+        match batch_in_hand(&read_log()) {
+            Some(batch) if Some(batch) != before => {
+                doomed.signal("STOP");
+                if batch_in_hand(&read_log()) == Some(batch) {
+                    doomed.kill();
+                    break batch;
+                }
+                doomed.signal("CONT");
+            }
+            _ => std::thread::sleep(Duration::from_millis(5)),
+        }
+    };
     let status = watch.wait_timeout(LONG).expect("the job did not finish");
     assert!(status.success());
+
+    // The fault happened: the lease the worker held when it died was taken back (its
+    // connection closed, or the lease ran out) and its batch evaluated again elsewhere.
+    let master_log = std::fs::read_to_string(scratch.join("master.log")).unwrap();
+    let (batch, lease) = killed_batch;
+    assert!(
+        lease_taken_back(&master_log, "doomed", killed_batch),
+        "the master did not take back lease {lease} (batch {batch}) of the killed worker:\n{master_log}"
+    );
+    let metrics = metrics_text(&master);
+    let expiries = metric(&metrics, "hevo_lease_expiries_total");
+    let revocations = metric(&metrics, "hevo_lease_revocations_total");
+    assert!(
+        expiries + revocations >= 1.0,
+        "no lease expiry or revocation counted:\n{metrics}"
+    );
+
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
-    let metrics = metrics_text(&master);
     eprintln!(
-        "killed worker: {:.1} s, lease expiries {}",
+        "killed worker: {:.1} s, lease expiries {expiries}, revocations {revocations}",
         started.elapsed().as_secs_f64(),
-        metric(&metrics, "hevo_lease_expiries_total")
     );
 }
 
 #[test]
 fn a_master_killed_and_restarted_resumes_to_the_same_results() {
+    use std::os::unix::process::ExitStatusExt;
     let expected = reference();
     let _turn = exclusive();
     let started = Instant::now();
     let scratch = Scratch::new("killed-master");
     let file = write_experiment(scratch.path());
     let job;
+    let first_pid;
     {
         let mut master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-1.log");
+        first_pid = master.proc.id();
         let _workers = two_workers(&master, &scratch, "a");
         job = submit(&master, &file, &[]);
         let (_watch, lines) = spawn_watch(&master, &job, &[]);
@@ -344,16 +437,41 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
             .unwrap_or_else(|seen| panic!("no progress: {seen:#?}"));
         std::thread::sleep(Duration::from_millis(40));
         // kill -9 in the middle of a generation; its workers and watcher go with the guards.
-        master.proc.kill();
+        master.proc.child().kill().unwrap();
+        let status = master.proc.child().wait().unwrap();
+        assert_eq!(
+            status.signal(),
+            Some(9),
+            "the master died of the SIGKILL, not before it: {status}"
+        );
     }
+    let log = std::fs::read_to_string(scratch.join("master-1.log")).unwrap();
+    assert!(
+        log.contains("job started") && !log.contains("job succeeded"),
+        "the first master did not die in the middle of the job:\n{log}"
+    );
     // A new master on the same state directory (on another port), new workers.
     let master = master_with(&scratch, "state", &["--lease-seconds", "2"], "master-2.log");
+    assert_ne!(master.proc.id(), first_pid, "a new master process");
     let _workers = two_workers(&master, &scratch, "b");
     watch_to_end(&master, &job, &[]);
     let log = std::fs::read_to_string(scratch.join("master-2.log")).unwrap();
     assert!(
-        log.contains("resuming job") && log.contains("resuming at generation"),
+        log.contains("resuming job"),
         "the job was not resumed:\n{log}"
+    );
+    // From the checkpoint the first master wrote, not from the start: generation 3 had been
+    // reported, so at least 2 generations of top's run 0 were checkpointed.
+    let resumed_at: u32 = log
+        .lines()
+        .find_map(|line| {
+            let rest = &line[line.find("top run 0: resuming at generation ")?..];
+            rest.split_whitespace().nth(6)?.parse().ok()
+        })
+        .unwrap_or_else(|| panic!("top run 0 did not resume from a checkpoint:\n{log}"));
+    assert!(
+        (2..8).contains(&resumed_at),
+        "resumed at generation {resumed_at}"
     );
     fetch(&master, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);

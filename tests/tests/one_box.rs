@@ -11,8 +11,58 @@ use hevo_tests::{Proc, Scratch, binaries, repo_root};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, ExitStatus, Stdio};
-use std::sync::mpsc;
+use std::sync::{Mutex, MutexGuard, mpsc};
 use std::time::{Duration, Instant};
+
+/// The tests take turns: each starts a master, two or three workers and the client commands,
+/// and two cores running three such clusters at once make the time limits below meaningless.
+fn exclusive() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Evaluations deploy/local/tiny.toml needs: 2 runs x 3 generations x 10 genomes x 3 samples,
+/// and each run's post-evaluation of 10 samples (follow_wall has one configuration).
+const TINY_EVALUATIONS: u64 = 2 * 3 * 10 * 3 + 2 * 10;
+
+/// What a worker's log says it did: the `worker stopped` line it writes when it stops cleanly,
+/// as (batches, evaluations) accepted by the master.
+fn work_done(log: &str) -> Option<(u64, u64)> {
+    let line = log.lines().rev().find(|l| l.contains("worker stopped"))?;
+    let field = |name: &str| -> Option<u64> {
+        let start = line.find(&format!("{name}="))? + name.len() + 1;
+        let digits: String = line[start..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        digits.parse().ok()
+    };
+    Some((field("batches")?, field("evaluations")?))
+}
+
+/// Every worker log stopped cleanly, and together they account for every evaluation the tiny
+/// job needed, each once.
+fn assert_workers_did_the_job(logs: &[(String, String)]) {
+    let mut total = 0;
+    let mut working = 0;
+    for (name, log) in logs {
+        assert!(
+            log.contains("connected to the master"),
+            "{name} never connected:\n{log}"
+        );
+        let (batches, evaluations) =
+            work_done(log).unwrap_or_else(|| panic!("{name} did not stop cleanly:\n{log}"));
+        assert_eq!(batches == 0, evaluations == 0, "{name}:\n{log}");
+        eprintln!("{name}: {batches} batches, {evaluations} evaluations");
+        total += evaluations;
+        working += usize::from(batches > 0);
+    }
+    assert_eq!(
+        total, TINY_EVALUATIONS,
+        "the workers' evaluations do not add up to the job's: {logs:#?}"
+    );
+    assert!(working >= 2, "the work did not spread: {logs:#?}");
+}
 
 /// The directory holding `hevo` and `hevo-worker` (the scripts take one directory for both).
 fn bin_dir() -> &'static Path {
@@ -169,6 +219,7 @@ fn kill_leftovers(needle: &str) {
 
 #[test]
 fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
+    let _turn = exclusive();
     let dir = Scratch::new("one-box-job");
     let work = dir.join("work");
     let results = dir.join("results");
@@ -218,15 +269,21 @@ fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
             }
         }
     }
-    // The three workers ran and were stopped by the script.
-    for worker in 1..=3 {
-        let log = work.join(format!("worker-{worker}.log"));
-        assert!(log.exists(), "{} is missing", log.display());
-    }
+    // The three workers did the job's evaluations between them and were stopped by the script.
+    let logs: Vec<(String, String)> = (1..=3)
+        .map(|worker| {
+            let log = work.join(format!("worker-{worker}.log"));
+            let text =
+                std::fs::read_to_string(&log).unwrap_or_else(|e| panic!("{}: {e}", log.display()));
+            (format!("worker-{worker}"), text)
+        })
+        .collect();
+    assert_workers_did_the_job(&logs);
 }
 
 #[test]
 fn one_box_stops_every_process_on_sigterm() {
+    let _turn = exclusive();
     let dir = Scratch::new("one-box-stop");
     let work = dir.join("work");
     // Long enough that the job is still running when the signal comes.
@@ -323,6 +380,7 @@ exit "$status"
 #[test]
 fn slurm_script_runs_a_job_with_a_stand_in_srun() {
     use std::os::unix::fs::PermissionsExt;
+    let _turn = exclusive();
     let dir = Scratch::new("one-box-slurm");
     let shims = dir.join("bin");
     std::fs::create_dir_all(&shims).unwrap();
@@ -382,12 +440,15 @@ fn slurm_script_runs_a_job_with_a_stand_in_srun() {
     );
     let job = std::fs::read_to_string(dir.join("state/job-id")).unwrap();
     assert!(!job.trim().is_empty(), "no job id was recorded");
-    for worker in ["worker-0.log", "worker-1.log"] {
-        assert!(
-            dir.join("state").join(worker).exists(),
-            "{worker} is missing:\n{logs}"
-        );
-    }
+    let worker_logs: Vec<(String, String)> = ["worker-0.log", "worker-1.log"]
+        .iter()
+        .map(|worker| {
+            let text = std::fs::read_to_string(dir.join("state").join(worker))
+                .unwrap_or_else(|e| panic!("{worker}: {e}\n{logs}"));
+            (worker.to_string(), text)
+        })
+        .collect();
+    assert_workers_did_the_job(&worker_logs);
     for run in 0..2 {
         let run_dir = dir.join("results/follow_wall").join(format!("run-{run}"));
         for file in ["fitness.csv", "best.json", "summary.json"] {

@@ -273,6 +273,13 @@ impl Worker {
     }
 
     async fn process(&mut self, batch: v1::Batch) -> Result<(), WorkerError> {
+        tracing::debug!(
+            batch_id = batch.batch_id,
+            lease_id = batch.lease_id,
+            genomes = batch.genomes.len(),
+            samples = batch.samples.len(),
+            "leased a batch"
+        );
         let batch = Arc::new(batch);
         let abort = Arc::new(AtomicBool::new(false));
         let started = Instant::now();

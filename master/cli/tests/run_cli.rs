@@ -92,7 +92,10 @@ fn assert_same_tree(a: &Path, b: &Path) {
 #[test]
 fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     let dir = tempfile::tempdir().unwrap();
-    let experiment = write_experiment(dir.path(), SMALL);
+    // 2 runs of 30 generations: a run takes a second or two, long enough to be killed in.
+    let long = SMALL.replace("generations = 10", "generations = 30");
+    assert_ne!(long, SMALL, "the fixture sets generations = 10");
+    let experiment = write_experiment(dir.path(), &long);
     let experiment = experiment.to_str().unwrap();
 
     let straight = dir.path().join("straight");
@@ -119,7 +122,9 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     ]);
     assert_same_tree(&straight, &single);
 
-    // Kill -9 in the middle of the first run, then run the same command again.
+    // Kill -9 in the middle of the run, then run the same command again. The kill comes at
+    // the first checkpoint of either run, with most of the 60 generations still to do, and
+    // the exit status shows that it landed before the end.
     let killed = dir.path().join("killed");
     let mut child = Command::new(HEVO)
         .args([
@@ -135,15 +140,17 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let checkpoint = killed.join("exit_room/run-0/checkpoint.json");
+    let checkpoints = [0, 1].map(|run| killed.join(format!("exit_room/run-{run}/checkpoint.json")));
     let started = Instant::now();
-    loop {
-        let generation = std::fs::read_to_string(&checkpoint)
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-            .and_then(|v| v["generation"].as_u64());
-        if generation.is_some_and(|g| g >= 3) {
-            break;
+    let killed_at = loop {
+        let generation = checkpoints.iter().find_map(|checkpoint| {
+            std::fs::read_to_string(checkpoint)
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .and_then(|v| v["generation"].as_u64())
+        });
+        if let Some(generation) = generation.filter(|&g| g >= 1) {
+            break generation;
         }
         assert!(
             started.elapsed() < Duration::from_secs(120),
@@ -151,12 +158,20 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         );
         assert!(
             child.try_wait().unwrap().is_none(),
-            "the run finished before it could be killed; make SMALL slower"
+            "the run finished before it could be killed; give it more generations"
         );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+        std::thread::sleep(Duration::from_millis(5));
+    };
     child.kill().unwrap();
-    child.wait().unwrap();
+    let status = child.wait().unwrap();
+    {
+        use std::os::unix::process::ExitStatusExt;
+        assert_eq!(
+            status.signal(),
+            Some(9),
+            "the run ended before the kill (checkpoint at generation {killed_at}): {status}"
+        );
+    }
     assert!(
         !killed.join("exit_room/summary.json").exists(),
         "killed before the end"
@@ -176,7 +191,7 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     assert_same_tree(&straight, &single);
 
     // Changing the experiment under existing results is refused.
-    let changed = write_experiment(dir.path(), &SMALL.replace("hidden = 4", "hidden = 5"));
+    let changed = write_experiment(dir.path(), &long.replace("hidden = 4", "hidden = 5"));
     let out = hevo(&[
         "run",
         changed.to_str().unwrap(),
@@ -382,8 +397,13 @@ fn eval_and_bench_report_what_they_measured() {
         "--json",
     ]);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // What the fixed-seed run and eval's default samples give: a one-generation controller
+    // leaves the room on none of the 5 samples, touches a wall on 1, and runs out the 1000
+    // cycles on all but one (which ends at its collision at cycle 968).
     assert_eq!(report["samples"], 5);
-    assert!(report["solve_rate"].as_f64().unwrap() <= 1.0);
+    assert_eq!(report["solve_rate"].as_f64(), Some(0.0), "{report}");
+    assert_eq!(report["collision_rate"].as_f64(), Some(0.2), "{report}");
+    assert_eq!(report["mean_cycles"].as_f64(), Some(993.6), "{report}");
 
     // A 4-input primitive runs in the maze too (it just ignores the lights): 2 per light configuration.
     let eval_maze = |extra: &[&str]| {
@@ -552,7 +572,35 @@ fn eval_and_bench_report_what_they_measured() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["task"], "follow_wall");
     assert_eq!(report["threads"], 1);
-    assert!(report["cycles_per_second"].as_f64().unwrap() > 0.0);
+    assert_eq!(report["mode"], "simulator");
+    // The rates are the counts the command printed over the time it printed: at least the
+    // 0.3 s asked for, and at most that plus the sample in hand when the time was up.
+    let number = |key: &str| {
+        report[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key}: {report}"))
+    };
+    let (cycles, evaluations, seconds) =
+        (number("cycles"), number("evaluations"), number("seconds"));
+    assert!((0.3..5.0).contains(&seconds), "{report}");
+    let close = |rate: f64, expected: f64| (rate - expected).abs() <= 1e-9 * expected;
+    assert!(
+        close(number("cycles_per_second"), cycles / seconds),
+        "{report}"
+    );
+    assert!(
+        close(number("cycles_per_second_per_thread"), cycles / seconds),
+        "{report}"
+    );
+    assert!(
+        close(number("evaluations_per_second"), evaluations / seconds),
+        "{report}"
+    );
+    // Every sample ran at least one cycle and at most follow_wall's 400.
+    assert!(
+        evaluations >= 1.0 && evaluations <= cycles && cycles <= 400.0 * evaluations,
+        "{report}"
+    );
 }
 
 /// `hevo eval ... | head` closes the pipe before hevo has printed everything: hevo stops
@@ -604,9 +652,11 @@ fn eval_and_replay_take_a_nodes_task_from_an_experiment_file() {
     };
     let node_flags = ["--experiment", experiment, "--node", "exit_room"];
 
+    // Under the paper's task it leaves the room on all 4 samples, after 280.5 cycles on
+    // average (eval's default samples).
     let paper = json(&["--task", "exit_room"]);
-    assert!(paper["solve_rate"].as_f64().unwrap() >= 0.75, "{paper}");
-    assert!(paper["mean_cycles"].as_f64().unwrap() > 60.0, "{paper}");
+    assert_eq!(paper["solve_rate"].as_f64(), Some(1.0), "{paper}");
+    assert_eq!(paper["mean_cycles"].as_f64(), Some(280.5), "{paper}");
     let short = json(&node_flags);
     assert_eq!(short["solve_rate"].as_f64(), Some(0.0), "{short}");
     let failures = short["failures"].as_array().unwrap();

@@ -166,6 +166,10 @@ pub struct BenchReport {
     pub evaluations_per_second: f64,
     /// Wall time measured, seconds.
     pub seconds: f64,
+    /// Control cycles simulated in that time (all threads).
+    pub cycles: u64,
+    /// Samples (evaluations) run in that time.
+    pub evaluations: u64,
 }
 
 /// Why a benchmark could not run.
@@ -217,15 +221,20 @@ pub fn simulator(
         stop.store(true, Ordering::Relaxed);
     });
     let elapsed = started.elapsed().as_secs_f64();
-    let cycles = cycles.load(Ordering::Relaxed) as f64;
+    let (cycles, samples) = (
+        cycles.load(Ordering::Relaxed),
+        samples.load(Ordering::Relaxed),
+    );
     Ok(BenchReport {
         task: name,
         threads: threads.max(1),
         mode: "simulator".into(),
-        cycles_per_second: cycles / elapsed,
-        cycles_per_second_per_thread: cycles / elapsed / threads.max(1) as f64,
-        evaluations_per_second: samples.load(Ordering::Relaxed) as f64 / elapsed,
+        cycles_per_second: cycles as f64 / elapsed,
+        cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
+        evaluations_per_second: samples as f64 / elapsed,
         seconds: elapsed,
+        cycles,
+        evaluations: samples,
     })
 }
 
@@ -292,6 +301,8 @@ pub async fn pipeline(
         cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
         evaluations_per_second: evaluations as f64 / elapsed,
         seconds: elapsed,
+        cycles,
+        evaluations,
     })
 }
 

@@ -933,11 +933,11 @@ mod tests {
     use super::*;
     use hevo_sim_core::controller::NodeSpec;
     use hevo_sim_core::frame::InputGroup;
-    use hevo_sim_core::{TaskConfig, TaskKind};
+    use hevo_sim_core::TaskConfig;
 
     fn request(job: &str, n_genomes: usize, n_samples: usize) -> EvaluationRequest {
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 1));
-        let task = TaskConfig::new(TaskKind::FollowWall);
+        let task = TaskConfig::shipped("follow_wall").unwrap();
         EvaluationRequest {
             job: job.into(),
             shared: Arc::new(RequestShared::new(template, task)),

@@ -172,14 +172,16 @@ mod tests {
             vec![None; 5]
         );
 
+        // Drawn from the run's own stream: these draws are part of every stored run made with
+        // `training_variants = "random"`, so they must not change.
         let random = generation_variants(TrainingVariants::Random, 7, 3, 50, 4);
+        let first_twelve = |variants: &[Option<u32>]| -> Vec<u32> {
+            variants[..12].iter().map(|v| v.unwrap()).collect()
+        };
+        assert_eq!(first_twelve(&random), [0, 3, 3, 3, 0, 3, 1, 1, 1, 2, 3, 2]);
         assert_eq!(
-            random,
-            generation_variants(TrainingVariants::Random, 7, 3, 50, 4)
-        );
-        assert_ne!(
-            random,
-            generation_variants(TrainingVariants::Random, 7, 4, 50, 4)
+            first_twelve(&generation_variants(TrainingVariants::Random, 7, 4, 50, 4)),
+            [3, 1, 1, 0, 1, 2, 3, 0, 3, 0, 0, 1]
         );
         assert!(random.iter().all(|v| v.is_some_and(|v| v < 4)));
         // Over many generations every configuration gets about a quarter, but single
@@ -205,16 +207,129 @@ mod tests {
         EvolutionParams::default()
     }
 
+    /// The parent of a genome of [`marked_population`]: the marker most of its genes still carry
+    /// (a copy's genes are mutated with probability 0.1, so most are left as they were).
+    fn parent_of(genome: &[f32], population: &[Vec<f32>]) -> Option<usize> {
+        population.iter().position(|parent| {
+            let kept = genome.iter().zip(parent).filter(|(a, b)| a == b).count();
+            2 * kept > genome.len()
+        })
+    }
+
+    /// `n` genomes of 50 genes; genome i has every gene equal to its own marker i / 10 - 5, so
+    /// any gene a copy still has unmutated names its parent.
+    fn marked_population(n: usize) -> Vec<Vec<f32>> {
+        (0..n).map(|i| vec![i as f32 / 10.0 - 5.0; 50]).collect()
+    }
+
     #[test]
-    fn elites_survive_unchanged_in_rank_order() {
-        let population: Vec<Vec<f32>> = (0..100).map(|i| vec![i as f32 / 10.0; 5]).collect();
-        let fitness: Vec<f64> = (0..100).map(|i| f64::from((i * 37) % 100)).collect();
+    fn the_five_fittest_are_kept_in_rank_order_each_with_nineteen_mutated_copies() {
+        // The paper's scheme (SPEC section 6): population 100, 5 elites, each copied unchanged
+        // and followed by 19 mutated copies.
+        let population = marked_population(100);
+        let mut fitness = vec![-1.0; 100];
+        for (genome, value) in [
+            (63, 0.97),
+            // A tie inside the elites: the lower index ranks first.
+            (70, 0.9),
+            (7, 0.9),
+            // A tie across the cut after the fifth: 12 and 40 are kept, 88 is not.
+            (88, 0.5),
+            (40, 0.5),
+            (12, 0.5),
+            (99, 0.49),
+            (0, 0.0),
+            (1, -0.5),
+        ] {
+            fitness[genome] = value;
+        }
+        const ELITES: [usize; 5] = [63, 7, 70, 12, 40];
+
         let next = next_generation(&population, &fitness, &params(), 1, 0);
         assert_eq!(next.len(), 100);
-        let ranked = ranking(&fitness);
-        for elite in 0..5 {
-            assert_eq!(next[elite * 20], population[ranked[elite]], "elite {elite}");
+        let mut mutated_genes = 0;
+        for (rank, &elite) in ELITES.iter().enumerate() {
+            let block = &next[20 * rank..20 * (rank + 1)];
+            assert_eq!(
+                block[0], population[elite],
+                "elite {rank} is genome {elite}"
+            );
+            for (copy, genome) in block[1..].iter().enumerate() {
+                assert_eq!(
+                    parent_of(genome, &population),
+                    Some(elite),
+                    "copy {copy} of elite {rank}"
+                );
+                mutated_genes += genome
+                    .iter()
+                    .zip(&population[elite])
+                    .filter(|(a, b)| a != b)
+                    .count();
+            }
         }
+        // Every genome of the next generation descends from one of the five: 20 each.
+        let mut children = [0; 100];
+        for genome in &next {
+            children[parent_of(genome, &population).expect("a parent")] += 1;
+        }
+        let parents: Vec<(usize, usize)> = children
+            .iter()
+            .enumerate()
+            .filter(|&(_, &n)| n > 0)
+            .map(|(genome, &n)| (genome, n))
+            .collect();
+        assert_eq!(parents, [(7, 20), (12, 20), (40, 20), (63, 20), (70, 20)]);
+        // The copies are mutated copies: 95 copies x 50 genes at probability 0.1 is 475 genes
+        // expected, with a standard deviation of about 21.
+        assert!(
+            (380..=570).contains(&mutated_genes),
+            "{mutated_genes} genes mutated"
+        );
+    }
+
+    #[test]
+    fn a_smaller_scheme_keeps_its_elites_with_population_over_elites_minus_one_copies() {
+        // Population 10 with 2 elites: each elite and 4 mutated copies.
+        let params = EvolutionParams {
+            population: 10,
+            elites: 2,
+            ..params()
+        };
+        let population = marked_population(10);
+        let fitness = [0.1, 0.7, -0.2, 0.3, 0.7, 0.0, 0.69, 0.2, 0.1, 0.0];
+        let next = next_generation(&population, &fitness, &params, 3, 5);
+        let parents: Vec<Option<usize>> = next.iter().map(|g| parent_of(g, &population)).collect();
+        assert_eq!(
+            parents,
+            [1, 1, 1, 1, 1, 4, 4, 4, 4, 4].map(Some),
+            "genomes 1 and 4 tie at 0.7 for first; 6 at 0.69 is third and not kept"
+        );
+        assert_eq!(next[0], population[1]);
+        assert_eq!(next[5], population[4]);
+    }
+
+    #[test]
+    fn ranking_orders_best_first_with_ties_by_index() {
+        assert_eq!(ranking(&[]), Vec::<usize>::new());
+        assert_eq!(ranking(&[0.4]), [0]);
+        assert_eq!(ranking(&[0.1, 0.9, 0.5]), [1, 2, 0]);
+        // Ties keep the lower index first, wherever they fall.
+        assert_eq!(ranking(&[0.5, 0.5, 0.9, 0.5]), [2, 0, 1, 3]);
+        // Negative fitness ranks below zero; large and tiny magnitudes keep their order.
+        assert_eq!(
+            ranking(&[-3.0, 1e-300, -1e-300, 2.5e6, -2.5e6, 0.25]),
+            [3, 5, 1, 2, 0, 4]
+        );
+        // The order is IEEE 754's total order (`f64::total_cmp`), so 0.0 ranks above -0.0 even
+        // though they compare equal: a "tie" between them is not broken by index.
+        assert_eq!(ranking(&[-0.0, 0.0, -0.0]), [1, 0, 2]);
+        // Fitness is a mean of finite sample values (the dispatcher refuses non-finite ones),
+        // so infinities and NaN do not reach here; for completeness, the total order puts
+        // +inf first and -inf last.
+        assert_eq!(
+            ranking(&[0.0, f64::NEG_INFINITY, f64::INFINITY, 1.0]),
+            [2, 3, 0, 1]
+        );
     }
 
     #[test]
@@ -276,9 +391,27 @@ mod tests {
 
     #[test]
     fn seeds_are_reproducible_and_distinct() {
-        assert_eq!(run_seed(1, "a", 0), run_seed(1, "a", 0));
-        assert_ne!(run_seed(1, "a", 0), run_seed(1, "a", 1));
-        assert_ne!(run_seed(1, "a", 0), run_seed(1, "b", 0));
+        // Every stored run was evolved from these derivations: a change would silently make
+        // resumed and repeated runs differ from the stored ones.
+        assert_eq!(run_seed(1, "a", 0), 0x173d_0976_75ae_e7da);
+        assert_eq!(run_seed(1, "a", 1), 0xe02c_b183_381b_4605);
+        assert_eq!(run_seed(1, "b", 0), 0xddd4_7351_9f92_c9c1);
+        assert_eq!(
+            generation_seeds(7, 0, 3),
+            [
+                2_057_445_736_543_846_425,
+                8_621_178_369_640_015_854,
+                8_320_524_326_695_012_408
+            ]
+        );
+        assert_eq!(
+            post_evaluation_seeds(7, 3),
+            [
+                16_845_980_654_590_289_509,
+                10_955_549_134_701_683_763,
+                12_004_978_764_694_499_027
+            ]
+        );
         let gen0 = generation_seeds(7, 0, 10);
         let gen1 = generation_seeds(7, 1, 10);
         let post = post_evaluation_seeds(7, 10);

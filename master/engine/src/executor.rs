@@ -183,7 +183,6 @@ pub fn evaluate_genomes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::TaskKind;
     use hevo_sim_core::controller::NodeSpec;
     use hevo_sim_core::frame::InputGroup;
 
@@ -192,7 +191,7 @@ mod tests {
     }
 
     fn task() -> TaskConfig {
-        let mut task = TaskConfig::new(TaskKind::FollowWall);
+        let mut task = TaskConfig::shipped("follow_wall").unwrap();
         task.max_cycles = Some(60);
         task
     }

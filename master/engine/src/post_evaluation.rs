@@ -2,8 +2,9 @@
 //! configuration, start branch) where the task's scenario has them, per stage and per phase of
 //! the derived fitness where it has those, with mean fitness and collisions. The paper's
 //! tasks keep the report shape they had before scenarios (the rescue's `stages`); any other
-//! scenario's report names its variants, stages and phases as its file does. Used after each evolutionary run and by `hevo eval`. Evaluations go through the
-//! dispatcher, so they spread over every worker like a generation does.
+//! scenario's report names its variants, stages and phases as its file does. Used after each
+//! evolutionary run and by `hevo eval`. Evaluations go through the dispatcher, so they spread
+//! over every worker like a generation does.
 
 use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
 use hevo_sim_core::batch::SampleSummary;
@@ -560,9 +561,14 @@ mod tests {
 
     #[test]
     fn right_choices_average_each_sub_task_over_the_samples_that_reached_it() {
-        let s = |cycles, correct| SampleSummary {
-            sub_task_choices: SubTaskChoices { cycles, correct },
-            ..SampleSummary::default()
+        let s = |cycles: [u32; 3], correct: [u32; 3]| {
+            let mut choices = SubTaskChoices::default();
+            choices.cycles[..3].copy_from_slice(&cycles);
+            choices.correct[..3].copy_from_slice(&correct);
+            SampleSummary {
+                sub_task_choices: choices,
+                ..SampleSummary::default()
+            }
         };
         // Two samples reach the maze; one chose right in half its maze cycles, one never.
         // Only the first reaches the teammate.

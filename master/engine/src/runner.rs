@@ -757,3 +757,262 @@ fn log_row(generation: u32, fitness: &[f64]) -> FitnessRow {
 fn write_fitness_csv(path: &Path, log: &[FitnessRow]) -> Result<(), RunError> {
     write_atomic(path, rundir::fitness_csv(log).as_bytes()).map_err(|e| io_error(path, e))
 }
+
+#[cfg(test)]
+mod tests {
+    //! The run-level selection invariant, with a fake evaluation whose fitness is computed from
+    //! the genes. Elites are re-evaluated on each generation's fresh samples, so a generation's
+    //! best fitness may be lower than the previous one's; what must hold is that the elites of
+    //! generation g (its five fittest, by the fitness evaluated in g) appear unchanged in
+    //! generation g+1's population, first in rank order, and that the best fitness reported for
+    //! g is the best of the fitness evaluated in g.
+
+    use super::*;
+    use crate::dispatch::{Batch, DispatchConfig};
+    use hevo_sim_core::batch::SampleSummary;
+    use std::collections::HashMap;
+    use std::sync::Mutex;
+    use std::time::Duration;
+
+    const EXPERIMENT: &str = r#"
+[experiment]
+name = "planted"
+seed = 3
+
+[evolution]
+post_evaluation_samples = 2
+
+[[node]]
+name = "exit_room"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 2
+task = "exit_room"
+samples = 4
+generations = 6
+runs = 1
+"#;
+
+    const GENERATIONS: u32 = 6;
+    const SAMPLES: u32 = 4;
+    /// Every gene of the planted genome: far from the initial genes, drawn from N(0, 2^2).
+    const PLANTED_GENE: f32 = 7.5;
+    /// Where it is planted in the first population.
+    const PLANTED_AT: usize = 37;
+
+    /// A uniform draw in [0, 1) from a sample's seed and a genome's genes.
+    fn unit(seed: u64, genes: &[f32]) -> f32 {
+        let mut bytes = seed.to_le_bytes().to_vec();
+        bytes.extend(genes.iter().flat_map(|g| g.to_le_bytes()));
+        (hevo_sim_core::hash::fnv1a(&bytes) % 1000) as f32 / 1000.0
+    }
+
+    /// A sample's fake fitness, inside exit_room's range [0, 6] (the dispatcher refuses any
+    /// other): an offset in [0, 3) from the sample's seed alone, plus 3 exp(-d s) for the
+    /// squared distance d to the planted genome scaled by a factor s in (0.5, 1] drawn from the
+    /// sample and the genes. The planted genome (d = 0) scores the offset plus 3, strictly more
+    /// than any other genome on the same sample; the others' order changes from sample to
+    /// sample.
+    fn fake_fitness(genes: &[f32], seed: u64) -> f32 {
+        let distance: f32 = genes.iter().map(|g| (g - PLANTED_GENE).powi(2)).sum();
+        let offset = (seed % 1000) as f32 * 0.003;
+        offset + 3.0 * (-distance * (1.0 - 0.5 * unit(seed, genes))).exp()
+    }
+
+    /// A genome's fitness as the runner computes it: the mean of its sample fitness.
+    fn fitness_of(genes: &[f32], seeds: &[u64]) -> f64 {
+        seeds
+            .iter()
+            .map(|&seed| f64::from(fake_fitness(genes, seed)))
+            .sum::<f64>()
+            / seeds.len() as f64
+    }
+
+    fn fake_results(batch: &Batch) -> Vec<Vec<SampleSummary>> {
+        batch
+            .genomes
+            .iter()
+            .map(|(_, genes)| {
+                batch
+                    .samples
+                    .iter()
+                    .map(|sample| SampleSummary {
+                        fitness: fake_fitness(genes, sample.seed),
+                        cycles: 1,
+                        ..SampleSummary::default()
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The genomes (index, genes) a worker was given, by the seed of the sample.
+    type GenomesBySample = HashMap<u64, Vec<(u32, Vec<f32>)>>;
+
+    #[derive(Default)]
+    struct Recorder(Mutex<Vec<ProgressEvent>>);
+
+    impl Progress for Recorder {
+        fn event(&self, event: &ProgressEvent) {
+            self.0.lock().unwrap().push(event.clone());
+        }
+    }
+
+    #[tokio::test]
+    async fn a_planted_best_genome_survives_every_generation_and_elites_are_kept_unchanged() {
+        let dir = tempfile::tempdir().unwrap();
+        let out_dir = dir.path().to_path_buf();
+        let experiment = Experiment::parse(EXPERIMENT, &out_dir.join("planted.toml")).unwrap();
+        let plan = experiment.node("exit_room").unwrap();
+        let template = node_template(plan, &out_dir).unwrap();
+        let n_genes = template.free_node_topology().unwrap().1.n_genes();
+        let run_seed = ea::run_seed(3, "exit_room", 0);
+
+        // Plant: the first population is the run's own, with one genome replaced, written as
+        // the checkpoint of a run that has not evaluated anything yet.
+        let planted = vec![PLANTED_GENE; n_genes];
+        let mut first = ea::initial_population(n_genes, &plan.evolution, run_seed);
+        assert!(!first.contains(&planted));
+        first[PLANTED_AT] = planted.clone();
+        let run_dir = run_dir(&rundir::node_dir(&out_dir, "exit_room"), 0);
+        std::fs::create_dir_all(&run_dir).unwrap();
+        let checkpoint = Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            fingerprint: fingerprint(plan, &template, 3, GENERATIONS),
+            generation: 0,
+            population: first.clone(),
+            best: None,
+            log: Vec::new(),
+        };
+        write_json_atomic(&run_dir.join(CHECKPOINT), &checkpoint).unwrap();
+
+        // A fake worker on the dispatcher, recording every genome it is given, by sample.
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let seen: Arc<Mutex<GenomesBySample>> = Arc::default();
+        let worker = tokio::spawn({
+            let (dispatcher, seen) = (dispatcher.clone(), seen.clone());
+            async move {
+                loop {
+                    let Some(batch) = dispatcher
+                        .lease("fake", 1, Duration::from_millis(200))
+                        .await
+                    else {
+                        continue;
+                    };
+                    {
+                        let mut seen = seen.lock().unwrap();
+                        for sample in batch.samples.iter() {
+                            for (idx, genes) in &batch.genomes {
+                                seen.entry(sample.seed)
+                                    .or_default()
+                                    .push((*idx, genes.to_vec()));
+                            }
+                        }
+                    }
+                    let results = fake_results(&batch);
+                    dispatcher
+                        .complete(batch.lease_id, batch.batch_id, "fake", results)
+                        .expect("the dispatcher takes the fake results");
+                }
+            }
+        });
+        let settings = RunSettings {
+            out_dir: out_dir.clone(),
+            overrides: Overrides::default(),
+            job: "planted".into(),
+        };
+        let recorder = Recorder::default();
+        let summaries = run_experiment(&experiment, &settings, &dispatcher, &recorder)
+            .await
+            .unwrap();
+        worker.abort();
+
+        // Each generation's population, as it was sent out, and its fitness.
+        let seen = seen.lock().unwrap();
+        let mut populations = Vec::new();
+        let mut fitness = Vec::new();
+        for generation in 0..GENERATIONS {
+            let seeds = ea::generation_seeds(run_seed, generation, SAMPLES);
+            let mut population = vec![None; 100];
+            for (idx, genes) in &seen[&seeds[0]] {
+                assert!(population[*idx as usize].replace(genes.clone()).is_none());
+            }
+            let population: Vec<Vec<f32>> = population.into_iter().map(Option::unwrap).collect();
+            fitness.push(
+                population
+                    .iter()
+                    .map(|genes| fitness_of(genes, &seeds))
+                    .collect::<Vec<f64>>(),
+            );
+            populations.push(population);
+        }
+        assert_eq!(
+            populations[0], first,
+            "the run started from the planted checkpoint"
+        );
+
+        for generation in 0..GENERATIONS as usize {
+            let f = &fitness[generation];
+            // The five fittest of this generation, best first, ties to the lower index.
+            let mut order: Vec<usize> = (0..f.len()).collect();
+            order.sort_by(|&a, &b| f[b].partial_cmp(&f[a]).unwrap().then(a.cmp(&b)));
+            let planted_at = if generation == 0 { PLANTED_AT } else { 0 };
+            assert_eq!(
+                order[0], planted_at,
+                "generation {generation}: the planted genome is the fittest"
+            );
+            assert_eq!(populations[generation][planted_at], planted);
+            if let Some(next) = populations.get(generation + 1) {
+                for (rank, &elite) in order.iter().take(5).enumerate() {
+                    assert_eq!(
+                        next[20 * rank],
+                        populations[generation][elite],
+                        "generation {generation}'s elite {rank} (genome {elite}) is kept unchanged"
+                    );
+                }
+            }
+        }
+
+        // The reported best is the best of the evaluated fitness, in the log and the events.
+        let best: Vec<f64> = fitness
+            .iter()
+            .map(|f| f.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+            .collect();
+        let mean: Vec<f64> = fitness
+            .iter()
+            .map(|f| f.iter().sum::<f64>() / f.len() as f64)
+            .collect();
+        let csv = std::fs::read_to_string(run_dir.join(FITNESS_CSV)).unwrap();
+        let log = rundir::parse_fitness_csv(&csv).unwrap();
+        assert_eq!(log.iter().map(|r| r.best).collect::<Vec<_>>(), best);
+        assert_eq!(log.iter().map(|r| r.mean).collect::<Vec<_>>(), mean);
+        let events = recorder.0.lock().unwrap();
+        let reported: Vec<(f64, f64)> = events
+            .iter()
+            .filter_map(|event| match event {
+                ProgressEvent::Generation { best, mean, .. } => Some((*best, *mean)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            reported,
+            best.iter()
+                .copied()
+                .zip(mean.iter().copied())
+                .collect::<Vec<_>>()
+        );
+        // The same elite scores differently on fresh samples: the best is not monotone.
+        assert!(
+            best.windows(2).any(|pair| pair[1] < pair[0]),
+            "the test's samples should make the best go down once: {best:?}"
+        );
+
+        // The run's best controller is the planted genome, and its summary says so.
+        let summary = &summaries[0].runs[0];
+        assert_eq!(summary.final_best_fitness, best[GENERATIONS as usize - 1]);
+        let text = std::fs::read_to_string(run_dir.join(BEST)).unwrap();
+        let controller = ControllerFile::from_json_str(&text).unwrap();
+        assert_eq!(controller.root.genome.as_deref(), Some(&planted[..]));
+        assert!(!run_dir.join(CHECKPOINT).exists());
+    }
+}

@@ -367,21 +367,53 @@ mod tests {
     use super::*;
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn a_short_load_run_moves_batches() {
-        let report = run(LoadConfig {
+    async fn a_short_load_run_moves_batches_as_its_configuration_implies() {
+        let config = LoadConfig {
             workers: 8,
             seconds: 0.5,
             batch_cost: Duration::from_millis(2),
             jobs: 2,
             genomes: 40,
             samples: 2,
-        })
-        .await
-        .unwrap();
-        assert!(report.batches > 0, "{report:?}");
+        };
+        let report = run(config).await.unwrap();
+        let r = &report;
+        eprintln!("{report:?}");
+        assert_eq!(r.workers, 8);
+        assert_eq!(r.batch_cost_ms, 2.0);
+        assert_eq!(r.ideal_batches_per_second, 4000.0, "8 workers / 2 ms");
+        // The window lasts the time asked for, plus the batches in hand at its end.
+        assert!((0.5..2.0).contains(&r.seconds), "{report:?}");
+        assert_eq!(r.batches_per_second, r.batches as f64 / r.seconds);
+        // Once the 8 workers have asked for work (in the one-second warm-up), a generation of
+        // 40 genomes x 2 samples is split for 8 x 3 = 24 batches: 20 batches of 2 genomes x 2
+        // samples, so every batch completed in the window holds 4 evaluations.
+        let evaluations = (r.evaluations_per_second * r.seconds).round() as u64;
+        assert_eq!(evaluations, 4 * r.batches, "{report:?}");
+        // No faster than a master without overhead: a worker completes at most one batch per
+        // 2 ms of the window, and the one it held when the window began.
+        let ceiling = (r.ideal_batches_per_second * r.seconds) as u64 + 8;
+        // And at least a generation of each job: 40 batches in half a second, where a
+        // master without overhead does 2000.
         assert!(
-            report.leases > 0 && report.lease_latency_ms[0] > 0.0,
+            (40..=ceiling).contains(&r.batches),
+            "{} batches, at most {ceiling}: {report:?}",
+            r.batches
+        );
+        // Every batch completed in the window was leased in it, but for at most one per worker
+        // leased before it; and at most one per worker was leased and not completed in it.
+        let batches = r.batches as usize;
+        assert!(
+            r.leases + 8 >= batches && r.leases <= batches + 8,
             "{report:?}"
         );
+        let [p50, p90, p99, max] = r.lease_latency_ms;
+        assert!(
+            0.0 < p50 && p50 <= p90 && p90 <= p99 && p99 <= max,
+            "{report:?}"
+        );
+        // The lease waits at most one second for work (plus the round trip).
+        assert!(max < 1_500.0, "{report:?}");
+        assert_eq!(r.reconnects, 0, "a loopback connection broke: {report:?}");
     }
 }
