@@ -50,13 +50,12 @@ pub fn sample_from_proto(sample: &v1::SampleSpec) -> Sample {
 
 /// One (genome, sample) outcome for the wire.
 pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
-    // Other tasks send nothing rather than six zeros per sample.
+    // Only the phases up to the last one reached: tasks without phases send nothing rather
+    // than twelve zeros per sample.
     let choices = summary.sub_task_choices;
-    let (sub_task_cycles, sub_task_correct) = if choices == SubTaskChoices::default() {
-        (Vec::new(), Vec::new())
-    } else {
-        (choices.cycles.to_vec(), choices.correct.to_vec())
-    };
+    let n_phases = choices.cycles.iter().rposition(|&c| c > 0).map_or(0, |last| last + 1);
+    let sub_task_cycles = choices.cycles[..n_phases].to_vec();
+    let sub_task_correct = choices.correct[..n_phases].to_vec();
     v1::SampleResult {
         fitness: summary.fitness,
         solved: summary.solved,
@@ -101,7 +100,8 @@ fn node_use_from_proto(result: &v1::SampleResult, field: &str) -> Result<NodeUse
     })
 }
 
-/// The rescue sub-task counts from the wire: both empty, or three each with no sub-task
+/// The phase counts of a derived fitness from the wire: both empty, or as many of each (at
+/// most one per phase a scenario may have; phases left out were not reached), with no phase
 /// counting more correct cycles than it had.
 fn sub_task_choices_from_proto(
     result: &v1::SampleResult,
@@ -110,13 +110,20 @@ fn sub_task_choices_from_proto(
     if result.sub_task_cycles.is_empty() && result.sub_task_correct.is_empty() {
         return Ok(SubTaskChoices::default());
     }
+    let n_phases = result.sub_task_cycles.len();
     let counts = |values: &[u32], name: &str| -> Result<[u32; N_SUB_TASKS], ConvertError> {
-        <[u32; N_SUB_TASKS]>::try_from(values).map_err(|_| {
-            field_error(
+        if values.len() != n_phases || n_phases > N_SUB_TASKS {
+            return Err(field_error(
                 format!("{field}.{name}"),
-                format!("{} values, expected {N_SUB_TASKS}", values.len()),
-            )
-        })
+                format!(
+                    "{} values, expected as many as sub_task_cycles and at most {N_SUB_TASKS}",
+                    values.len()
+                ),
+            ));
+        }
+        let mut all = [0; N_SUB_TASKS];
+        all[..n_phases].copy_from_slice(values);
+        Ok(all)
     };
     let choices = SubTaskChoices {
         cycles: counts(&result.sub_task_cycles, "sub_task_cycles")?,
@@ -244,7 +251,6 @@ pub fn cache_key(template_hash: &str, task_hash: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::TaskKind;
     use hevo_sim_core::controller::NodeSpec;
     use hevo_sim_core::frame::InputGroup;
 
@@ -277,8 +283,8 @@ mod tests {
                 .zip(&back_genes)
                 .all(|(a, b)| a.to_bits() == b.to_bits())
         );
-        for kind in TaskKind::ALL {
-            let task = TaskConfig::new(kind);
+        for name in hevo_sim_core::scenario::SHIPPED_NAMES {
+            let task = TaskConfig::shipped(name).unwrap();
             let hash = task_content_hash(&task);
             assert_eq!(task_from_json(&task_to_json(&task), &hash).unwrap(), task);
         }
@@ -289,7 +295,7 @@ mod tests {
         let file = template(None);
         let err = template_from_json(&template_to_json(&file), "0000000000000000").unwrap_err();
         assert!(err.to_string().contains("template_hash"), "{err}");
-        let task = TaskConfig::new(TaskKind::FollowWall);
+        let task = TaskConfig::shipped("follow_wall").unwrap();
         assert!(task_from_json(&task_to_json(&task), "x").is_err());
         assert!(
             task_from_json("{", "x")
@@ -309,8 +315,8 @@ mod tests {
             variant: 2,
             cycles: 777,
             sub_task_choices: SubTaskChoices {
-                cycles: [300, 400, 77],
-                correct: [300, 0, 70],
+                cycles: [300, 400, 77, 0, 0, 0],
+                correct: [300, 0, 70, 0, 0, 0],
             },
             node_use: NodeUse {
                 active_cycles: vec![777, 300, 400, 77],

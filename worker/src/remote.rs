@@ -467,7 +467,7 @@ mod tests {
         use hevo_sim_core::controller::{ControllerFile, NodeSpec};
         use hevo_sim_core::frame::InputGroup;
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 2));
-        let mut task = hevo_sim_core::TaskConfig::new(hevo_sim_core::TaskKind::FollowWall);
+        let mut task = hevo_sim_core::TaskConfig::shipped("follow_wall").unwrap();
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();
         let mut batch = v1::Batch {

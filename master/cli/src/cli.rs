@@ -14,7 +14,8 @@ use hevo_engine::runner::{self, Overrides, RunSettings};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::{Evaluator, Sample, TaskConfig, TaskKind};
+use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -162,8 +163,8 @@ struct EvalOutput<'a> {
 /// `hevo bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// The task.
-    #[arg(long, default_value = "solve_maze", value_parser = task_names())]
+    /// The task: a shipped scenario's name or a scenario file.
+    #[arg(long, default_value = "solve_maze")]
     pub task: String,
     /// Seconds to measure.
     #[arg(long, default_value_t = 5.0)]
@@ -192,12 +193,13 @@ pub struct BenchArgs {
 /// cycle limit (so a controller evolved under an ablation's rules is judged by them).
 #[derive(Debug, Args)]
 pub struct TaskArgs {
-    /// The task, at the paper's settings.
+    /// The task at its scenario's own settings: a shipped scenario (exit_room, follow_wall,
+    /// turn_left, turn_right, solve_maze, maze_single, return_room, rescue) or a scenario file
+    /// (a path ending in .toml).
     #[arg(
         long,
         required_unless_present = "experiment",
-        conflicts_with = "experiment",
-        value_parser = task_names()
+        conflicts_with = "experiment"
     )]
     pub task: Option<String>,
     /// Instead of --task: the task of a node of this experiment file (with --node).
@@ -212,7 +214,7 @@ impl TaskArgs {
     /// The task configuration these flags name.
     pub fn task_config(&self) -> Result<TaskConfig> {
         match (&self.task, &self.experiment, &self.node) {
-            (Some(task), _, _) => Ok(TaskConfig::new(parse_task(task)?)),
+            (Some(task), _, _) => parse_task(task),
             (None, Some(file), Some(node)) => {
                 let experiment = Experiment::load(file)?;
                 let plan = experiment.named_node(node)?;
@@ -378,13 +380,6 @@ pub fn execute(cli: Cli) -> Result<()> {
     }
 }
 
-/// The task names `--task` takes, listed by `--help` and in its errors.
-fn task_names() -> clap::builder::PossibleValuesParser {
-    let mut names: Vec<&'static str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
-    names.push("maze_single");
-    clap::builder::PossibleValuesParser::new(names)
-}
-
 /// A note when a controller looks evolved for another task than the one it is judged on:
 /// its root node is named after a task (as `hevo run` names nodes), and not this one.
 fn other_task_warning(
@@ -392,24 +387,32 @@ fn other_task_warning(
     controller: &ControllerFile,
     task: &TaskConfig,
 ) -> Option<String> {
-    let evolved_for = TaskKind::from_name(&controller.root.name)?;
-    (evolved_for != task.kind).then(|| {
+    let evolved_for = Scenario::shipped(&controller.root.name)?;
+    (evolved_for.name() != task.name()).then(|| {
         format!(
             "note: {} looks evolved for {} (its root node is named '{}'); judging it on {}",
             path.display(),
             evolved_for.name(),
             controller.root.name,
-            task.kind.name()
+            task.name()
         )
     })
 }
 
-fn parse_task(name: &str) -> Result<TaskKind> {
-    TaskKind::from_name(name).with_context(|| {
-        let names: Vec<&str> = TaskKind::ALL.iter().map(|k| k.name()).collect();
+/// A task by `--task`'s value: a shipped scenario's name, or a scenario file.
+fn parse_task(name: &str) -> Result<TaskConfig> {
+    if name.ends_with(".toml") {
+        let text = std::fs::read_to_string(name)
+            .with_context(|| format!("cannot read scenario file {name}"))?;
+        let scenario = Scenario::parse(&text, name)?;
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        task.validate().with_context(|| format!("{name}: invalid settings"))?;
+        return Ok(task);
+    }
+    TaskConfig::shipped(name).with_context(|| {
         format!(
-            "unknown task '{name}'; expected one of {} (or maze_single)",
-            names.join(", ")
+            "unknown task '{name}'; expected a scenario file (a path ending in .toml) or one of {}",
+            Scenario::shipped_names().join(", ")
         )
     })
 }
@@ -447,7 +450,7 @@ fn run(args: RunArgs) -> Result<()> {
     };
     if args.dry_run || args.file.is_none() {
         let statuses = runner::node_statuses(&experiment, &settings)?;
-        let plan = describe_plan(&statuses, threads)?;
+        let plan = describe_plan(&experiment, &statuses, threads)?;
         if args.dry_run {
             crate::outln!("{plan}");
             return Ok(());
@@ -487,7 +490,11 @@ fn run(args: RunArgs) -> Result<()> {
 const PLAN_BENCH_SECONDS: f64 = 0.3;
 
 /// The nodes a run evolves, what is done, and at most how long the rest takes on this machine.
-fn describe_plan(statuses: &[runner::NodeStatus], threads: usize) -> Result<String> {
+fn describe_plan(
+    experiment: &Experiment,
+    statuses: &[runner::NodeStatus],
+    threads: usize,
+) -> Result<String> {
     use std::fmt::Write as _;
     let mut speeds: std::collections::BTreeMap<String, f64> = Default::default();
     let mut text = format!(
@@ -511,11 +518,11 @@ fn describe_plan(statuses: &[runner::NodeStatus], threads: usize) -> Result<Stri
         let seconds = if cycles == 0 {
             0.0
         } else {
-            let kind = parse_task(&status.task)?;
+            let task = experiment.named_node(&status.node)?.task.clone();
             let speed = match speeds.get(&status.task) {
                 Some(&speed) => speed,
                 None => {
-                    let report = bench::simulator(kind, threads, PLAN_BENCH_SECONDS)?;
+                    let report = bench::simulator(task, threads, PLAN_BENCH_SECONDS)?;
                     speeds.insert(status.task.clone(), report.cycles_per_second);
                     report.cycles_per_second
                 }
@@ -559,7 +566,6 @@ fn human_duration(seconds: f64) -> String {
 
 fn eval(args: EvalArgs) -> Result<()> {
     let task = args.task.task_config()?;
-    let kind = task.kind;
     let controller = load_controller(&args.controller)?;
     if let Some(warning) = other_task_warning(&args.controller, &controller, &task) {
         eprintln!("{warning}");
@@ -569,13 +575,19 @@ fn eval(args: EvalArgs) -> Result<()> {
     }
     let threads = default_threads(args.threads);
     Evaluator::new(task.clone())?;
-    let samples = post_evaluation::post_evaluation_samples(kind, args.samples, args.seed);
+    let samples = post_evaluation::post_evaluation_samples(&task, args.samples, args.seed);
     let node_paths = controller.node_paths();
     let summaries = with_local_workers(threads, async |dispatcher| {
-        post_evaluation::evaluate_samples(dispatcher, "eval", controller, task, samples.clone())
-            .await
+        post_evaluation::evaluate_samples(
+            dispatcher,
+            "eval",
+            controller,
+            task.clone(),
+            samples.clone(),
+        )
+        .await
     })?;
-    let report = post_evaluation::report(kind, &summaries, &node_paths);
+    let report = post_evaluation::report(&task, &summaries, &node_paths);
     let failures = post_evaluation::failed_samples(&samples, &summaries);
     if args.json {
         let output = EvalOutput {
@@ -587,9 +599,9 @@ fn eval(args: EvalArgs) -> Result<()> {
     }
     crate::outln!("{}", post_evaluation::describe(&report));
     if args.failures {
-        crate::outln!("{}", post_evaluation::describe_failures(kind, &failures));
+        crate::outln!("{}", post_evaluation::describe_failures(&task, &failures));
         for failure in &failures {
-            crate::outln!("  {}", describe_failure(failure, kind, &args));
+            crate::outln!("  {}", describe_failure(failure, &task, &args));
         }
     }
     Ok(())
@@ -598,7 +610,7 @@ fn eval(args: EvalArgs) -> Result<()> {
 /// One failed sample as a line: how far it got, and the command that replays it.
 fn describe_failure(
     failure: &post_evaluation::FailedSample,
-    kind: TaskKind,
+    task: &TaskConfig,
     args: &EvalArgs,
 ) -> String {
     let wall = if failure.collided {
@@ -606,8 +618,9 @@ fn describe_failure(
     } else {
         ""
     };
-    // Stages mean something only in rescue (left the room, reached the teammate, returned).
-    let stage = if kind == TaskKind::Rescue {
+    // Stages mean something only where the scenario names some (the rescue: left the room,
+    // reached the teammate).
+    let stage = if !task.scenario.stages.is_empty() {
         format!(", stage {}", failure.stage)
     } else {
         String::new()
@@ -627,7 +640,7 @@ fn describe_failure(
 }
 
 fn bench_command(args: BenchArgs) -> Result<()> {
-    let kind = parse_task(&args.task)?;
+    let task = parse_task(&args.task)?;
     let threads = default_threads(args.threads);
     if !(args.seconds > 0.0 && args.seconds.is_finite()) {
         bail!("--seconds must be a positive number");
@@ -637,10 +650,10 @@ fn bench_command(args: BenchArgs) -> Result<()> {
     }
     let report = if args.pipeline {
         runtime()?
-            .block_on(bench::pipeline(kind, threads, args.seconds, 10))
+            .block_on(bench::pipeline(task, threads, args.seconds, 10))
             .map_err(anyhow::Error::msg)?
     } else {
-        bench::simulator(kind, threads, args.seconds).map_err(anyhow::Error::msg)?
+        bench::simulator(task, threads, args.seconds).map_err(anyhow::Error::msg)?
     };
     if args.json {
         crate::outln!("{}", serde_json::to_string(&report)?);
@@ -660,7 +673,8 @@ fn bench_command(args: BenchArgs) -> Result<()> {
 
 fn replay(args: ReplayArgs) -> Result<()> {
     let task = args.task.task_config()?;
-    let kind = task.kind;
+    let task_name = task.name().to_string();
+    let n_variants = task.scenario.n_variants();
     let file = load_controller(&args.controller)?;
     if let Some(warning) = other_task_warning(&args.controller, &file, &task) {
         eprintln!("{warning}");
@@ -668,11 +682,10 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let mut controller = Controller::new(&file, None)?;
     let evaluator = Evaluator::new(task)?;
     if let Some(k) = args.light_config {
-        let n = hevo_sim_core::env::n_variants(kind);
+        let n = n_variants;
         if k >= n {
             bail!(
-                "--light-config {k} is out of range: task {} has {n} configuration(s) (0..{})",
-                kind.name(),
+                "--light-config {k} is out of range: task {task_name} has {n} configuration(s) (0..{})",
                 n - 1
             );
         }
@@ -698,7 +711,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     crate::outln!(
         "{}: {:?} after {} cycles, fitness {:.3} -> {}",
-        kind.name(),
+        task_name,
         trace.outcome.ending,
         trace.outcome.cycles,
         trace.outcome.fitness,

@@ -14,7 +14,7 @@ use hevo_proto::client::{ClientOptions, worker_client};
 use hevo_proto::v1;
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::{Sample, TaskConfig, TaskKind};
+use hevo_sim_core::{Sample, TaskConfig};
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -63,7 +63,7 @@ pub struct LoadReport {
 
 fn template() -> (ControllerFile, TaskConfig) {
     let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3));
-    (template, TaskConfig::new(TaskKind::FollowWall))
+    (template, TaskConfig::shipped("follow_wall").expect("a shipped task"))
 }
 
 /// Why the load benchmark did not finish.

@@ -9,7 +9,7 @@
 use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour, text_width};
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scene::RectKind;
-use hevo_sim_core::{Ending, TaskKind, Trace};
+use hevo_sim_core::{Ending, Trace};
 use std::collections::BTreeMap;
 
 /// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
@@ -315,17 +315,13 @@ fn trajectory_point(trace: &Trace, index: usize) -> [f32; 2] {
         .map_or(trace.final_robot.position(), |c| c.robot.position())
 }
 
-/// The caption's words for the sample's variant, when the task has variants.
-fn variant_text(task: TaskKind, variant: u32) -> Option<String> {
-    match task {
-        TaskKind::SolveMaze | TaskKind::Rescue => Some(format!("light configuration {variant}")),
-        TaskKind::ReturnRoom => Some(format!("start branch {variant}")),
-        TaskKind::TurnLeft | TaskKind::TurnRight => Some(if variant == 1 {
-            "T-junction".to_string()
-        } else {
-            "L-bend".to_string()
-        }),
-        TaskKind::ExitRoom | TaskKind::FollowWall => None,
+/// The caption's words for the sample's variant, when the task has variants: the paper's tasks
+/// say it as the paper does, any other scenario by its variant's name.
+fn variant_text(trace: &Trace, variant: u32) -> Option<String> {
+    match trace.scenario.as_str() {
+        "solve_maze" | "rescue" => Some(format!("light configuration {variant}")),
+        "return_room" => Some(format!("start branch {variant}")),
+        _ => trace.variant_label.clone(),
     }
 }
 
@@ -352,8 +348,8 @@ fn rescue_stage_text(stage: u8) -> &'static str {
 /// Two caption lines: what was run, and how it went.
 fn caption_lines(trace: &Trace) -> [String; 2] {
     let outcome = &trace.outcome;
-    let mut first = format!("task {} · seed {}", trace.task, trace.sample.seed);
-    if let Some(variant) = variant_text(trace.task, outcome.variant) {
+    let mut first = format!("task {} · seed {}", trace.scenario, trace.sample.seed);
+    if let Some(variant) = variant_text(trace, outcome.variant) {
         first.push_str(&format!(" · {variant}"));
     }
     let mut second = format!(
@@ -363,7 +359,7 @@ fn caption_lines(trace: &Trace) -> [String; 2] {
         outcome.cycles as f64 * CYCLE_SECONDS,
         outcome.fitness
     );
-    if trace.task == TaskKind::Rescue {
+    if trace.scenario == "rescue" {
         second.push_str(&format!(
             " · stage {}/3, {}",
             outcome.stage.min(3),
@@ -478,7 +474,7 @@ pub fn replay_svg(
     let title = options
         .title
         .clone()
-        .unwrap_or_else(|| format!("Replay: {}", trace.task));
+        .unwrap_or_else(|| format!("Replay: {}", trace.scenario));
     doc.title(&title);
     doc.text(
         Tag::new("text")
@@ -1448,7 +1444,7 @@ mod tests {
 
     fn maze_trace(seed: u64) -> (Evaluator, Trace) {
         let evaluator =
-            Evaluator::new(TaskConfig::new(TaskKind::SolveMaze)).expect("task is valid");
+            Evaluator::new(TaskConfig::shipped("solve_maze").unwrap()).expect("task is valid");
         let trace = evaluator.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(seed));
         (evaluator, trace)
     }
@@ -1677,7 +1673,7 @@ mod tests {
 
     #[test]
     fn collision_markers_appear_exactly_when_a_cycle_collided() {
-        let room = Evaluator::new(TaskConfig::new(TaskKind::ExitRoom)).expect("task is valid");
+        let room = Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
         let mut seen_collision = false;
         let mut seen_clean = false;
         for seed in 0..6 {
@@ -1832,7 +1828,7 @@ mod tests {
         let svg = replay_svg(&trace, &animated, &|pose| evaluator.ir_cones(pose));
         std::fs::write("/tmp/replay_maze_animated.svg", svg).expect("write");
 
-        let room = Evaluator::new(TaskConfig::new(TaskKind::ExitRoom)).expect("task is valid");
+        let room = Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
         let trace = room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(2));
         let options = ReplayOptions {
             rays_at_cycles: vec![0, 120],
@@ -1841,7 +1837,7 @@ mod tests {
         let svg = replay_svg(&trace, &options, &|pose| room.ir_cones(pose));
         std::fs::write("/tmp/replay_room.svg", svg).expect("write");
 
-        let rescue = Evaluator::new(TaskConfig::new(TaskKind::Rescue)).expect("task is valid");
+        let rescue = Evaluator::new(TaskConfig::shipped("rescue").unwrap()).expect("task is valid");
         let trace = rescue.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(4));
         let svg = replay_svg(&trace, &maze_options(), &|pose| rescue.ir_cones(pose));
         std::fs::write("/tmp/replay_rescue.svg", svg).expect("write");

@@ -1104,6 +1104,7 @@ mod tests {
             .map(
                 |(variant, &solve_rate)| hevo_engine::post_evaluation::VariantReport {
                     variant: variant as u32,
+                    name: None,
                     samples: 100,
                     solve_rate,
                 },
