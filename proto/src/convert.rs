@@ -336,7 +336,7 @@ mod tests {
         short[0].samples[0].sub_task_correct.pop();
         assert_eq!(
             results_from_proto(&short).unwrap_err().to_string(),
-            "genomes[0].samples[0].sub_task_correct: 2 values, expected 3"
+            "genomes[0].samples[0].sub_task_correct: 2 values, expected as many as sub_task_cycles and at most 6"
         );
         let mut too_many = wire.clone();
         too_many[1].samples[0].sub_task_correct[2] = 78;

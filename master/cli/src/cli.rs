@@ -57,6 +57,8 @@ pub enum Command {
     Cancel(service::JobArgs),
     /// Write REPRODUCTION.md (paper versus hevo) from run output directories.
     Report(ReportArgs),
+    /// Check a scenario file (a task as data) and draw its world.
+    Scenario(crate::scenario_command::ScenarioArgs),
 }
 
 /// `hevo report`.
@@ -371,6 +373,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Jobs(args) => service::jobs(args),
         Command::Fetch(args) => service::fetch(args),
         Command::Cancel(args) => service::cancel(args),
+        Command::Scenario(args) => crate::scenario_command::scenario(args),
         Command::Report(args) => {
             let n =
                 hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;

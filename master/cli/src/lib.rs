@@ -6,4 +6,5 @@ pub mod cli;
 pub mod client;
 pub mod output;
 pub mod progress;
+pub mod scenario_command;
 pub mod service_commands;

@@ -484,8 +484,8 @@ fn eval_and_bench_report_what_they_measured() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("invalid value 'teleport' for '--task")
-            && stderr.contains("possible values")
+        stderr.contains("unknown task 'teleport'")
+            && stderr.contains("scenario file")
             && stderr.contains("solve_maze"),
         "{stderr}"
     );

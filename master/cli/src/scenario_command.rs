@@ -1,0 +1,193 @@
+//! `hevo scenario`: check a scenario file and draw its world before evolving anything on it.
+//! `check` compiles the file (every error names the file, the key and the line), builds a few
+//! samples of every variant and refuses a world whose robot starts inside a wall; `draw` writes
+//! one sample's world, start and goal as an SVG picture.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// `hevo scenario`.
+#[derive(Debug, Args)]
+pub struct ScenarioArgs {
+    /// What to do with the scenario.
+    #[command(subcommand)]
+    pub command: ScenarioCommand,
+}
+
+/// `hevo scenario` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ScenarioCommand {
+    /// Compile scenario files, build samples of every variant, and print what each holds.
+    Check(CheckArgs),
+    /// Draw one sample's world (walls, lights, start, teammate, goal) as SVG.
+    Draw(DrawArgs),
+}
+
+/// `hevo scenario check`.
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// Scenario files, or names of shipped scenarios.
+    #[arg(required = true)]
+    pub files: Vec<String>,
+    /// Samples built per variant.
+    #[arg(long, default_value_t = 20)]
+    pub samples: u32,
+}
+
+/// `hevo scenario draw`.
+#[derive(Debug, Args)]
+pub struct DrawArgs {
+    /// A scenario file, or the name of a shipped scenario.
+    pub file: String,
+    /// The sample's seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The variant (from 0); drawn from the seed when absent.
+    #[arg(long)]
+    pub variant: Option<u32>,
+    /// The SVG file to write.
+    #[arg(long, default_value = "scenario.svg")]
+    pub out: PathBuf,
+}
+
+/// Runs `hevo scenario`.
+pub fn scenario(args: ScenarioArgs) -> Result<()> {
+    match args.command {
+        ScenarioCommand::Check(args) => {
+            for file in &args.files {
+                let task = load(file)?;
+                crate::outln!("{}", check(&task, args.samples).with_context(|| file.clone())?);
+            }
+            Ok(())
+        }
+        ScenarioCommand::Draw(args) => draw(&args),
+    }
+}
+
+/// A scenario's task by file path (ending in `.toml`) or shipped name.
+fn load(file: &str) -> Result<TaskConfig> {
+    let task = if file.ends_with(".toml") {
+        let text = std::fs::read_to_string(file)
+            .with_context(|| format!("cannot read scenario file {file}"))?;
+        TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, file)?))
+    } else {
+        TaskConfig::shipped(file).with_context(|| {
+            format!(
+                "'{file}' is neither a scenario file (a path ending in .toml) nor one of {}",
+                Scenario::shipped_names().join(", ")
+            )
+        })?
+    };
+    task.validate()
+        .with_context(|| format!("{file}: invalid settings"))?;
+    Ok(task)
+}
+
+/// A policy that does not move: one cycle of it shows the world as a sample starts.
+struct Still;
+
+impl Policy for Still {
+    fn reset(&mut self) {}
+
+    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+        // Wheel outputs in [0, 1] map to [-v_max, v_max]: 0.5 is standing still.
+        [0.5, 0.5]
+    }
+}
+
+/// The first cycle of a sample, traced.
+fn first_cycle(task: &TaskConfig, sample: Sample) -> Result<hevo_sim_core::Trace> {
+    let mut one_cycle = task.clone();
+    one_cycle.max_cycles = Some(1);
+    let evaluator = Evaluator::new(one_cycle)?;
+    Ok(evaluator.evaluate_traced(&mut Still, sample))
+}
+
+/// What the scenario holds, after building `samples` samples of each variant.
+fn check(task: &TaskConfig, samples: u32) -> Result<String> {
+    let scenario = &task.scenario;
+    for variant in 0..scenario.n_variants() {
+        for seed in 0..u64::from(samples) {
+            let sample = Sample {
+                seed,
+                variant: (scenario.n_variants() > 1).then_some(variant),
+            };
+            let trace = first_cycle(task, sample)?;
+            if trace.outcome.ending == Ending::Collision {
+                bail!(
+                    "the robot starts touching a wall (variant {variant}, seed {seed}): \
+                     `hevo scenario draw` shows it"
+                );
+            }
+        }
+    }
+    let (low, high) = task.fitness_range();
+    let mut text = format!(
+        "{}: ok ({} variant(s), {} samples each built)\n  max cycles {}, fitness in [{low}, {high}]",
+        scenario.name(),
+        scenario.n_variants(),
+        samples,
+        task.max_cycles()
+    );
+    if scenario.n_variants() > 1 {
+        let names: Vec<String> = scenario.variants.iter().map(|v| v.name.clone()).collect();
+        text.push_str(&format!("\n  variants: {}", names.join("; ")));
+    }
+    if !scenario.stages.is_empty() {
+        text.push_str(&format!("\n  stages: {}", scenario.stage_names().join(", ")));
+    }
+    if scenario.has_phases() {
+        let phases: Vec<String> = scenario
+            .phases
+            .iter()
+            .map(|phase| match &phase.child {
+                hevo_sim_core::scenario::file::ChildRef::Name(child) => {
+                    format!("{} (child {child})", phase.name)
+                }
+                hevo_sim_core::scenario::file::ChildRef::Index(idx) => {
+                    format!("{} (child {idx})", phase.name)
+                }
+            })
+            .collect();
+        text.push_str(&format!(
+            "\n  derived fitness over the phases: {}",
+            phases.join(", ")
+        ));
+    }
+    Ok(text)
+}
+
+fn draw(args: &DrawArgs) -> Result<()> {
+    let task = load(&args.file)?;
+    let n_variants = task.scenario.n_variants();
+    if let Some(variant) = args.variant
+        && variant >= n_variants
+    {
+        bail!(
+            "--variant {variant} is out of range: {} has {n_variants} variant(s)",
+            task.name()
+        );
+    }
+    let trace = first_cycle(
+        &task,
+        Sample {
+            seed: args.seed,
+            variant: args.variant,
+        },
+    )?;
+    let options = hevo_viz::ReplayOptions {
+        title: Some(format!("Scenario: {} · seed {}", task.name(), args.seed)),
+        robot_radius: task.robot.radius,
+        ..hevo_viz::ReplayOptions::default()
+    };
+    let svg = hevo_viz::replay_svg(&trace, &options, &|_| Vec::new());
+    hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::outln!("{} -> {}", task.name(), args.out.display());
+    Ok(())
+}
