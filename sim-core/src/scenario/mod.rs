@@ -541,6 +541,14 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             format!("'{}' is not {SCHEMA}", crate::scenario::bounded(&file.schema)),
         ));
     }
+    // A legacy name makes the task travel as that paper task's name, so workers would run
+    // the shipped file instead of this one: only the shipped texts themselves may carry it.
+    if file.legacy.is_some() && !SHIPPED.iter().any(|(_, shipped)| *shipped == text) {
+        return Err(error(
+            "legacy",
+            "is reserved for the scenarios shipped with hevo; leave it out".into(),
+        ));
+    }
     if file.name.trim().is_empty() || file.name.len() > 64 {
         return Err(error("name", "must be 1 to 64 characters".into()));
     }

@@ -1,0 +1,146 @@
+//! Scenario files as a researcher writes them: the example scenarios compile and behave as their
+//! files say, and every kind of mistake is refused with the file, the key path and, where the
+//! parser knows it, the line.
+
+use hevo_sim_core::scenario::{SHIPPED, Scenario};
+use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
+use std::sync::Arc;
+
+const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
+
+fn t_maze() -> TaskConfig {
+    TaskConfig::from_scenario(Arc::new(
+        Scenario::parse(T_MAZE, "t_maze.toml").expect("the example compiles"),
+    ))
+}
+
+/// The error `text` gets, as printed.
+fn refusal(text: &str) -> String {
+    Scenario::parse(text, "mine.toml")
+        .expect_err("the scenario should be refused")
+        .to_string()
+}
+
+#[test]
+fn the_example_t_maze_compiles_with_two_variants_and_the_f2_range() {
+    let task = t_maze();
+    assert_eq!(task.validate(), Ok(()));
+    assert_eq!(task.name(), "t_maze");
+    assert_eq!(task.scenario.n_variants(), 2);
+    assert_eq!(task.fitness_range(), (0.0, 2.0));
+    assert_eq!(task.max_cycles(), 500);
+    // Not a paper task: it travels as its own text, which a worker can compile without files.
+    let json = serde_json::to_string(&task).unwrap();
+    let back: TaskConfig = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, task);
+}
+
+/// Drives straight ahead at full speed, whatever it senses.
+struct StraightOn;
+
+impl Policy for StraightOn {
+    fn reset(&mut self) {}
+
+    fn step(&mut self, _frame: &hevo_sim_core::frame::SensorFrame, _dt: f32) -> [f32; 2] {
+        [1.0, 1.0]
+    }
+}
+
+#[test]
+fn driving_straight_into_the_junction_wall_is_a_collision_in_both_variants() {
+    // The stem ends in the junction's far wall: a robot that never turns hits it, whatever
+    // light flashed, and scores a third of its progress.
+    let evaluator = Evaluator::new(t_maze()).unwrap();
+    for variant in 0..2 {
+        let outcome = evaluator.evaluate(
+            &mut StraightOn,
+            Sample {
+                seed: 3,
+                variant: Some(variant),
+            },
+        );
+        assert_eq!(outcome.ending, Ending::Collision, "variant {variant}");
+        assert_eq!(outcome.variant, variant);
+        assert!(
+            outcome.fitness > 0.0 && outcome.fitness < 1.0 / 3.0,
+            "variant {variant}: {}",
+            outcome.fitness
+        );
+    }
+}
+
+#[test]
+fn an_unknown_key_names_the_key_path_and_the_line() {
+    let text = T_MAZE.replace("goal = \"left_end\"", "goal = \"left_end\"\ngaol = 1");
+    let error = refusal(&text);
+    assert!(error.starts_with("mine.toml:"), "{error}");
+    assert!(error.contains("unknown field `gaol`"), "{error}");
+    let line = T_MAZE.lines().position(|l| l == "goal = \"left_end\"").unwrap() + 2;
+    assert!(error.contains(&format!(":{line}:")), "line {line}: {error}");
+}
+
+#[test]
+fn references_to_missing_things_are_named() {
+    for (from, to, expected) in [
+        (
+            "flash = [\"left\"]",
+            "flash = [\"lefty\"]",
+            "no light is named 'lefty'",
+        ),
+        (
+            "goal = \"left_end\"",
+            "goal = \"nowhere\"",
+            "nowhere",
+        ),
+        (
+            "timeout = \"0\"",
+            "timeout = \"progress / 0\"",
+            "division by zero",
+        ),
+        (
+            "timeout = \"0\"",
+            "timeout = \"speed\"",
+            "expected a number, time_bonus, progress",
+        ),
+        (
+            "schema = \"hevo.scenario/1\"",
+            "schema = \"hevo.scenario/9\"",
+            "is not hevo.scenario/1",
+        ),
+        ("max_cycles = 500", "max_cycles = 0", "max_cycles"),
+    ] {
+        assert!(T_MAZE.contains(from), "{from}");
+        let error = refusal(&T_MAZE.replace(from, to));
+        assert!(error.contains(expected), "{to}: {error}");
+        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+    }
+}
+
+#[test]
+fn a_map_with_a_symbol_the_legend_lacks_is_refused() {
+    let error = refusal(&T_MAZE.replace("###S###", "###S#?#"));
+    assert!(error.contains("world.map"), "{error}");
+    assert!(error.contains('?'), "{error}");
+}
+
+#[test]
+fn only_the_shipped_files_may_claim_a_paper_task() {
+    // Claiming a paper task's name would make workers run the shipped file instead.
+    let (_, rescue) = SHIPPED.iter().find(|(name, _)| *name == "rescue").unwrap();
+    let edited = rescue.replace("max_cycles = 2000", "max_cycles = 1500");
+    let error = refusal(&edited);
+    assert!(error.contains("`legacy`"), "{error}");
+    assert!(error.contains("reserved"), "{error}");
+    // The shipped text itself is the paper's task.
+    assert_eq!(
+        Scenario::parse(rescue, "rescue.toml").unwrap().legacy(),
+        Some("rescue")
+    );
+}
+
+#[test]
+fn a_huge_value_is_quoted_back_bounded() {
+    let long = "x".repeat(100_000);
+    let error = refusal(&T_MAZE.replace("name = \"t_maze\"", &format!("name = \"{long}\"")));
+    assert!(error.len() < 2_000, "{} bytes", error.len());
+}
