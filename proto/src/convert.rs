@@ -53,7 +53,11 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
     // Only the phases up to the last one reached: tasks without phases send nothing rather
     // than twelve zeros per sample.
     let choices = summary.sub_task_choices;
-    let n_phases = choices.cycles.iter().rposition(|&c| c > 0).map_or(0, |last| last + 1);
+    let n_phases = choices
+        .cycles
+        .iter()
+        .rposition(|&c| c > 0)
+        .map_or(0, |last| last + 1);
     let sub_task_cycles = choices.cycles[..n_phases].to_vec();
     let sub_task_correct = choices.correct[..n_phases].to_vec();
     v1::SampleResult {

@@ -4,11 +4,11 @@
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
 use crate::env::{self, Environment, Ground, LightSpec, Statics};
-use crate::scenario::formula::{Atom, Condition, Quantity};
-use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
+use crate::scenario::formula::{Atom, Condition, Quantity};
+use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
 use crate::scene::{Cone, Rect};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
 use crate::task::{ConfigError, TaskConfig};
@@ -681,15 +681,19 @@ impl<'a> Judge<'a> {
                 .cells
                 .as_ref()
                 .is_some_and(|cells| cells.cell_at(robot.position()).is_some()),
-            Atom::InGoal => self.ground.goal.as_ref().is_some_and(|goal| {
-                goal.map.cell_at(robot.position()) == Some(goal.goal)
-            }),
+            Atom::InGoal => self
+                .ground
+                .goal
+                .as_ref()
+                .is_some_and(|goal| goal.map.cell_at(robot.position()) == Some(goal.goal)),
             Atom::InRegion(name) => self.in_region(name, robot),
             Atom::TeammateFollowing => teammate.is_some_and(|mate| mate.following),
-            Atom::Near(light) => self.light_approach.get(*light).is_some() && {
-                let position = self.scenario.lights[*light].position;
-                robot.distance_to(position) < self.scenario.near_m
-            },
+            Atom::Near(light) => {
+                self.light_approach.get(*light).is_some() && {
+                    let position = self.scenario.lights[*light].position;
+                    robot.distance_to(position) < self.scenario.near_m
+                }
+            }
         }
     }
 
@@ -710,7 +714,9 @@ impl<'a> Judge<'a> {
                 let Some(cell) = cells.cell_at(robot.position()) else {
                     return false;
                 };
-                map.regions.get(name).is_some_and(|region| region.contains(&cell))
+                map.regions
+                    .get(name)
+                    .is_some_and(|region| region.contains(&cell))
             }
         }
     }

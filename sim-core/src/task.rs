@@ -4,11 +4,11 @@
 //! override any of them (`[node.task_config]`). Everything the paper leaves open is a
 //! documented config value here.
 
+use crate::env::corridor::MAZE_CELL_SIZE;
 use crate::env::room::RoomConfig;
 use crate::robot::RobotConfig;
 use crate::scenario::Scenario;
 use crate::sensors::ir::IrConfig;
-use crate::env::corridor::MAZE_CELL_SIZE;
 use crate::sensors::light::LightConfig;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -182,9 +182,9 @@ impl<'de> Deserialize<'de> for TaskConfig {
                     Scenario::shipped_names().join(", ")
                 ))
             })?,
-            (None, Some(text)) => Arc::new(
-                Scenario::parse(text, "the task's scenario").map_err(D::Error::custom)?,
-            ),
+            (None, Some(text)) => {
+                Arc::new(Scenario::parse(text, "the task's scenario").map_err(D::Error::custom)?)
+            }
             _ => {
                 return Err(D::Error::custom(
                     "a task names a shipped scenario (`kind`) or carries one (`scenario`)",
@@ -527,7 +527,10 @@ mod tests {
         let parsed: TaskConfig = serde_json::from_str(r#"{"kind":"maze_single"}"#).unwrap();
         assert_eq!(parsed.name(), "solve_maze");
         let error = serde_json::from_str::<TaskConfig>(r#"{"kind":"teleport"}"#).unwrap_err();
-        assert!(error.to_string().contains("unknown task 'teleport'"), "{error}");
+        assert!(
+            error.to_string().contains("unknown task 'teleport'"),
+            "{error}"
+        );
     }
 
     #[test]
@@ -539,7 +542,10 @@ mod tests {
         let scenario = Arc::new(Scenario::parse(&text, "my_room.toml").unwrap());
         let task = TaskConfig::from_scenario(scenario);
         let json = serde_json::to_string(&task).unwrap();
-        assert!(json.contains("\"scenario\":") && !json.contains("\"kind\""), "{json}");
+        assert!(
+            json.contains("\"scenario\":") && !json.contains("\"kind\""),
+            "{json}"
+        );
         let back: TaskConfig = serde_json::from_str(&json).unwrap();
         assert_eq!(back, task);
         assert_eq!(back.name(), "my_room");

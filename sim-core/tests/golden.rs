@@ -20,8 +20,8 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::scenario::SHIPPED_NAMES;
 use hevo_sim_core::robot::Pose;
+use hevo_sim_core::scenario::SHIPPED_NAMES;
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
 
 /// A pose as the bit patterns of x, y and heading.
@@ -68,8 +68,8 @@ fn pose_bits(pose: &Pose) -> PoseBits {
 }
 
 fn traced(kind: &'static str, sample: Sample) -> Trace {
-    let evaluator =
-        Evaluator::new(TaskConfig::shipped(kind).unwrap()).expect("the paper's task configurations are valid");
+    let evaluator = Evaluator::new(TaskConfig::shipped(kind).unwrap())
+        .expect("the paper's task configurations are valid");
     match kind {
         "exit_room" => run(&evaluator, RoomExiter::new(), sample),
         "follow_wall" => run(&evaluator, CorridorFollower::new(), sample),

@@ -75,7 +75,11 @@ fn an_unknown_key_names_the_key_path_and_the_line() {
     let error = refusal(&text);
     assert!(error.starts_with("mine.toml:"), "{error}");
     assert!(error.contains("unknown field `gaol`"), "{error}");
-    let line = T_MAZE.lines().position(|l| l == "goal = \"left_end\"").unwrap() + 2;
+    let line = T_MAZE
+        .lines()
+        .position(|l| l == "goal = \"left_end\"")
+        .unwrap()
+        + 2;
     assert!(error.contains(&format!(":{line}:")), "line {line}: {error}");
 }
 
@@ -87,11 +91,7 @@ fn references_to_missing_things_are_named() {
             "flash = [\"lefty\"]",
             "no light is named 'lefty'",
         ),
-        (
-            "goal = \"left_end\"",
-            "goal = \"nowhere\"",
-            "nowhere",
-        ),
+        ("goal = \"left_end\"", "goal = \"nowhere\"", "nowhere"),
         (
             "timeout = \"0\"",
             "timeout = \"progress / 0\"",
@@ -143,4 +143,56 @@ fn a_huge_value_is_quoted_back_bounded() {
     let long = "x".repeat(100_000);
     let error = refusal(&T_MAZE.replace("name = \"t_maze\"", &format!("name = \"{long}\"")));
     assert!(error.len() < 2_000, "{} bytes", error.len());
+}
+
+mod formulas {
+    use hevo_sim_core::scenario::formula::{Formula, Quantity};
+    use proptest::prelude::*;
+
+    /// A term as a file writes it: a number or a quantity, perhaps scaled.
+    fn term() -> impl Strategy<Value = String> {
+        let base = prop_oneof![
+            (0u32..20).prop_map(|n| n.to_string()),
+            Just("time_bonus".to_string()),
+            Just("progress".to_string()),
+            Just("derived".to_string()),
+            Just("approach room.exit".to_string()),
+        ];
+        let scale = prop_oneof![
+            Just(String::new()),
+            (1u32..9).prop_map(|n| format!(" / {n}")),
+            (1u32..9).prop_map(|n| format!(" * {n}")),
+        ];
+        (base, scale).prop_map(|(base, scale)| format!("{base}{scale}"))
+    }
+
+    proptest! {
+        /// Whatever the formula and wherever each quantity lies in its range, the value lies
+        /// in the range the checks of remote results use.
+        #[test]
+        fn a_formula_stays_inside_its_range(
+            terms in prop::collection::vec(term(), 1..5),
+            values in prop::array::uniform4(0.0f32..=1.0),
+            derived in 0.0f32..=3.0,
+        ) {
+            let text = terms.join(" + ");
+            let formula = Formula::parse(&text, &|_| None).unwrap();
+            let range_of = |q: &Quantity| match q {
+                Quantity::Derived => (0.0, 3.0),
+                _ => (0.0, 1.0),
+            };
+            let value_of = |q: &Quantity| match q {
+                Quantity::TimeBonus => values[0],
+                Quantity::Progress => values[1],
+                Quantity::ApproachExit => values[2],
+                Quantity::Derived => derived,
+                _ => values[3],
+            };
+            let (low, high) = formula.range(&range_of);
+            let value = formula.eval(&value_of);
+            // f32 sums in another order than the range's: allow a rounding step.
+            let slack = 1e-4 * (1.0 + high.abs());
+            prop_assert!(value >= low - slack && value <= high + slack, "{text}: {value} outside [{low}, {high}]");
+        }
+    }
 }

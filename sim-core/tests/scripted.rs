@@ -82,7 +82,11 @@ fn run_on(
 }
 
 /// `run_on` the specification-conforming task.
-fn run(kind: &'static str, policy: &mut impl Policy, variant: Option<u32>) -> Vec<(Sample, Outcome)> {
+fn run(
+    kind: &'static str,
+    policy: &mut impl Policy,
+    variant: Option<u32>,
+) -> Vec<(Sample, Outcome)> {
     run_on(&spec_task(kind), policy, variant)
 }
 

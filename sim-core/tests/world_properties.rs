@@ -12,10 +12,10 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::scenario::SHIPPED_NAMES;
 use hevo_sim_core::frame::{N_IR, SensorFrame};
 use hevo_sim_core::rng::{Stream, stream_rng};
 use hevo_sim_core::robot::Pose;
+use hevo_sim_core::scenario::SHIPPED_NAMES;
 use hevo_sim_core::scene::Rect;
 use hevo_sim_core::sensors::IrMapping;
 use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};

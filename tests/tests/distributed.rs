@@ -313,7 +313,10 @@ fn lease_taken_back(master_log: &str, worker: &str, (batch, lease): (u64, u64)) 
     // The master names a lease's holder `<worker>@<peer>`.
     let named = format!("worker={worker}");
     let held_by = |word: &str| {
-        word == named || word.strip_prefix(named.as_str()).is_some_and(|rest| rest.starts_with('@'))
+        word == named
+            || word
+                .strip_prefix(named.as_str())
+                .is_some_and(|rest| rest.starts_with('@'))
     };
     master_log.lines().any(|line| {
         line.split_whitespace().any(held_by)

@@ -409,7 +409,8 @@ fn parse_task(name: &str) -> Result<TaskConfig> {
             .with_context(|| format!("cannot read scenario file {name}"))?;
         let scenario = Scenario::parse(&text, name)?;
         let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
-        task.validate().with_context(|| format!("{name}: invalid settings"))?;
+        task.validate()
+            .with_context(|| format!("{name}: invalid settings"))?;
         return Ok(task);
     }
     TaskConfig::shipped(name).with_context(|| {

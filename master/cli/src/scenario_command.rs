@@ -61,7 +61,10 @@ pub fn scenario(args: ScenarioArgs) -> Result<()> {
         ScenarioCommand::Check(args) => {
             for file in &args.files {
                 let task = load(file)?;
-                crate::outln!("{}", check(&task, args.samples).with_context(|| file.clone())?);
+                crate::outln!(
+                    "{}",
+                    check(&task, args.samples).with_context(|| file.clone())?
+                );
             }
             Ok(())
         }
@@ -139,7 +142,10 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
         text.push_str(&format!("\n  variants: {}", names.join("; ")));
     }
     if !scenario.stages.is_empty() {
-        text.push_str(&format!("\n  stages: {}", scenario.stage_names().join(", ")));
+        text.push_str(&format!(
+            "\n  stages: {}",
+            scenario.stage_names().join(", ")
+        ));
     }
     if scenario.has_phases() {
         let phases: Vec<String> = scenario

@@ -126,8 +126,16 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
         }
         _ => {
             let all_inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
-            let primitive =
-                |name: &str, rng: &mut SimRng| node(name, NodeKind::Primitive, all_inputs.clone(), 4, vec![], rng);
+            let primitive = |name: &str, rng: &mut SimRng| {
+                node(
+                    name,
+                    NodeKind::Primitive,
+                    all_inputs.clone(),
+                    4,
+                    vec![],
+                    rng,
+                )
+            };
             if scenario.has_phases() {
                 let children = scenario
                     .phases
@@ -140,7 +148,14 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
                         }
                     })
                     .collect();
-                node(scenario.name(), NodeKind::Arbitrator, all_inputs.clone(), 10, children, rng)
+                node(
+                    scenario.name(),
+                    NodeKind::Arbitrator,
+                    all_inputs.clone(),
+                    10,
+                    children,
+                    rng,
+                )
             } else {
                 primitive(scenario.name(), rng)
             }

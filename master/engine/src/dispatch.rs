@@ -931,9 +931,9 @@ fn split(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hevo_sim_core::TaskConfig;
     use hevo_sim_core::controller::NodeSpec;
     use hevo_sim_core::frame::InputGroup;
-    use hevo_sim_core::TaskConfig;
 
     fn request(job: &str, n_genomes: usize, n_samples: usize) -> EvaluationRequest {
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 1));

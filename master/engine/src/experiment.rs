@@ -4,9 +4,9 @@
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -653,11 +653,13 @@ impl Experiment {
                     .children
                     .iter()
                     .enumerate()
-                    .map(|(child_idx, child)| match (child, fixed_children.get(&child_idx)) {
-                        (ChildDecl::Node(name), _) => name.clone(),
-                        (_, Some(controller)) => controller.root.name.clone(),
-                        (_, None) => String::new(),
-                    })
+                    .map(
+                        |(child_idx, child)| match (child, fixed_children.get(&child_idx)) {
+                            (ChildDecl::Node(name), _) => name.clone(),
+                            (_, Some(controller)) => controller.root.name.clone(),
+                            (_, None) => String::new(),
+                        },
+                    )
                     .collect();
                 if node.kind != NodeKind::Arbitrator {
                     return Err(invalid(
@@ -675,8 +677,8 @@ impl Experiment {
             let task = task_config(scenario.clone(), node)
                 .map_err(|(key, message)| invalid(at(&key), message))?;
             let per_generation = u64::from(evolution.population) * u64::from(node.samples);
-            let post_evaluation = u64::from(evolution.post_evaluation_samples)
-                * u64::from(scenario.n_variants());
+            let post_evaluation =
+                u64::from(evolution.post_evaluation_samples) * u64::from(scenario.n_variants());
             for (what, evaluations) in [
                 ("samples", per_generation),
                 ("evolution.post_evaluation_samples", post_evaluation),
@@ -829,7 +831,11 @@ pub fn external_files(experiment: &Experiment) -> Vec<String> {
         .nodes
         .iter()
         .flat_map(|plan| {
-            let scenario = plan.decl.task.ends_with(".toml").then(|| plan.decl.task.clone());
+            let scenario = plan
+                .decl
+                .task
+                .ends_with(".toml")
+                .then(|| plan.decl.task.clone());
             plan.decl
                 .children
                 .iter()
@@ -976,10 +982,7 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
 
 /// The node's task configuration: the paper's defaults, the node's `task_config` overrides
 /// (checked key by key against sim-core's schema), then `cycles`.
-fn task_config(
-    scenario: Arc<Scenario>,
-    node: &NodeDecl,
-) -> Result<TaskConfig, (String, String)> {
+fn task_config(scenario: Arc<Scenario>, node: &NodeDecl) -> Result<TaskConfig, (String, String)> {
     let mut value = serde_json::to_value(TaskConfig::from_scenario(scenario))
         .map_err(|e| ("task".to_string(), e.to_string()))?;
     if let Some(overrides) = &node.task_config {

@@ -349,7 +349,10 @@ pub fn describe(report: &EvalReport) -> String {
             .per_variant
             .iter()
             .map(|v| {
-                let name = v.name.as_ref().map_or_else(|| v.variant.to_string(), |n| format!("{} ({n})", v.variant));
+                let name = v
+                    .name
+                    .as_ref()
+                    .map_or_else(|| v.variant.to_string(), |n| format!("{} ({n})", v.variant));
                 format!("{name}: {:.1}%", 100.0 * v.solve_rate)
             })
             .collect();
@@ -442,7 +445,9 @@ pub fn describe_failures(task: &TaskConfig, failures: &[FailedSample]) -> String
     let scenario = &task.scenario;
     if !scenario.stages.is_empty() {
         let places: Vec<String> = if scenario.legacy() == Some("rescue") {
-            ["still in the room", "in the maze", "on the way back"].map(String::from).to_vec()
+            ["still in the room", "in the maze", "on the way back"]
+                .map(String::from)
+                .to_vec()
         } else {
             std::iter::once("before any stage".to_string())
                 .chain(scenario.stages.iter().map(|s| format!("after {}", s.name)))

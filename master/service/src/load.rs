@@ -63,7 +63,10 @@ pub struct LoadReport {
 
 fn template() -> (ControllerFile, TaskConfig) {
     let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3));
-    (template, TaskConfig::shipped("follow_wall").expect("a shipped task"))
+    (
+        template,
+        TaskConfig::shipped("follow_wall").expect("a shipped task"),
+    )
 }
 
 /// Why the load benchmark did not finish.

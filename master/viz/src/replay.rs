@@ -1673,7 +1673,8 @@ mod tests {
 
     #[test]
     fn collision_markers_appear_exactly_when_a_cycle_collided() {
-        let room = Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
+        let room =
+            Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
         let mut seen_collision = false;
         let mut seen_clean = false;
         for seed in 0..6 {
@@ -1828,7 +1829,8 @@ mod tests {
         let svg = replay_svg(&trace, &animated, &|pose| evaluator.ir_cones(pose));
         std::fs::write("/tmp/replay_maze_animated.svg", svg).expect("write");
 
-        let room = Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
+        let room =
+            Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
         let trace = room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(2));
         let options = ReplayOptions {
             rays_at_cycles: vec![0, 120],

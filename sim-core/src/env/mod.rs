@@ -214,7 +214,10 @@ pub fn build(
             let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
             rects.extend(room.rects.iter().copied());
             room_made = Some(room);
-            (Arc::new(Scene::new(rects, margin)), Some(Arc::new(map.clone())))
+            (
+                Arc::new(Scene::new(rects, margin)),
+                Some(Arc::new(map.clone())),
+            )
         }
     };
 
@@ -235,9 +238,8 @@ pub fn build(
     };
     let path: Option<Vec<usize>> = match (&corridor_path, &cells, &plan.goal) {
         (Some(path), _, _) => Some(path.clone()),
-        (None, Some(cells), Some(goal)) => start_cell(cells).and_then(|from| {
-            cells::path_between(cells, from, region_cell(scenario, goal))
-        }),
+        (None, Some(cells), Some(goal)) => start_cell(cells)
+            .and_then(|from| cells::path_between(cells, from, region_cell(scenario, goal))),
         _ => None,
     };
     let goal = match (&cells, &path) {
@@ -330,10 +332,17 @@ pub fn build(
 
 /// A corridor drawn from the stream as the turning and following primitives need it: its
 /// cells, its path, and the shape of its turn.
-fn generate_corridor(turn: Turn, task: &TaskConfig, rng: &mut SimRng) -> (CellMap, Vec<usize>, Junction) {
+fn generate_corridor(
+    turn: Turn,
+    task: &TaskConfig,
+    rng: &mut SimRng,
+) -> (CellMap, Vec<usize>, Junction) {
     let c = &task.corridor;
     let (before, after) = match turn {
-        Turn::Straight => (rng.random_range(c.straight_cells[0]..=c.straight_cells[1]), 0),
+        Turn::Straight => (
+            rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
+            0,
+        ),
         _ => (
             rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
             rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),

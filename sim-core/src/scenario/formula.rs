@@ -58,9 +58,10 @@ impl Formula {
             let (base, scale) = match raw.split_once(['/', '*']) {
                 Some((base, number)) => {
                     let divide = raw[base.len()..].starts_with('/');
-                    let value: f32 = number.trim().parse().map_err(|_| {
-                        format!("'{raw}': '{}' is not a number", number.trim())
-                    })?;
+                    let value: f32 = number
+                        .trim()
+                        .parse()
+                        .map_err(|_| format!("'{raw}': '{}' is not a number", number.trim()))?;
                     if divide && value == 0.0 {
                         return Err(format!("'{raw}': division by zero"));
                     }
@@ -220,7 +221,10 @@ mod tests {
     #[test]
     fn formulas_add_left_to_right_as_written() {
         let f = Formula::parse("5 + time_bonus", &no_light).unwrap();
-        assert_eq!(f.eval(&|q| if *q == Quantity::TimeBonus { 0.25 } else { 0.0 }), 5.25);
+        assert_eq!(
+            f.eval(&|q| if *q == Quantity::TimeBonus { 0.25 } else { 0.0 }),
+            5.25
+        );
         let f = Formula::parse("progress / 3", &no_light).unwrap();
         let third = f.eval(&|_| 0.5);
         assert_eq!(third, 0.5f32 / 3.0);
@@ -229,7 +233,11 @@ mod tests {
         assert_eq!(
             Formula::parse("1 + time_bonus", &no_light)
                 .unwrap()
-                .range(&|q| if *q == Quantity::TimeBonus { (0.0, 1.0) } else { (0.0, 0.0) }),
+                .range(&|q| if *q == Quantity::TimeBonus {
+                    (0.0, 1.0)
+                } else {
+                    (0.0, 0.0)
+                }),
             (1.0, 2.0)
         );
     }
@@ -250,8 +258,8 @@ mod tests {
 
     #[test]
     fn conditions_join_negated_atoms() {
-        let c = Condition::parse("in maze and not teammate following", &|_| false, &no_light)
-            .unwrap();
+        let c =
+            Condition::parse("in maze and not teammate following", &|_| false, &no_light).unwrap();
         let truth = |maze: bool, following: bool| {
             move |atom: &Atom| match atom {
                 Atom::InMaze => maze,

@@ -33,12 +33,30 @@ pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
 
 /// The scenarios shipped with hevo: the paper's tasks.
 pub const SHIPPED: [(&str, &str); 7] = [
-    ("exit_room", include_str!("../../../scenarios/exit_room.toml")),
-    ("follow_wall", include_str!("../../../scenarios/follow_wall.toml")),
-    ("turn_left", include_str!("../../../scenarios/turn_left.toml")),
-    ("turn_right", include_str!("../../../scenarios/turn_right.toml")),
-    ("solve_maze", include_str!("../../../scenarios/solve_maze.toml")),
-    ("return_room", include_str!("../../../scenarios/return_room.toml")),
+    (
+        "exit_room",
+        include_str!("../../../scenarios/exit_room.toml"),
+    ),
+    (
+        "follow_wall",
+        include_str!("../../../scenarios/follow_wall.toml"),
+    ),
+    (
+        "turn_left",
+        include_str!("../../../scenarios/turn_left.toml"),
+    ),
+    (
+        "turn_right",
+        include_str!("../../../scenarios/turn_right.toml"),
+    ),
+    (
+        "solve_maze",
+        include_str!("../../../scenarios/solve_maze.toml"),
+    ),
+    (
+        "return_room",
+        include_str!("../../../scenarios/return_room.toml"),
+    ),
     ("rescue", include_str!("../../../scenarios/rescue.toml")),
 ];
 
@@ -353,13 +371,11 @@ impl Scenario {
     /// The name of variant `idx` as reports show it.
     pub fn variant_label(&self, idx: u32) -> Option<String> {
         match self.world {
-            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => {
-                Some(
-                    ["L-bend", "T-junction", "side junction"]
-                        .get(idx as usize)
-                        .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
-                )
-            }
+            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => Some(
+                ["L-bend", "T-junction", "side junction"]
+                    .get(idx as usize)
+                    .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
+            ),
             _ if self.variants.len() > 1 => self.variants.get(idx as usize).map(|v| v.name.clone()),
             _ => None,
         }
@@ -538,7 +554,10 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     if file.schema != SCHEMA {
         return Err(error(
             "schema",
-            format!("'{}' is not {SCHEMA}", crate::scenario::bounded(&file.schema)),
+            format!(
+                "'{}' is not {SCHEMA}",
+                crate::scenario::bounded(&file.schema)
+            ),
         ));
     }
     // A legacy name makes the task travel as that paper task's name, so workers would run
@@ -608,13 +627,15 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             })?;
             let map_file: MapFile = toml::from_str(text)
                 .map_err(|e| error("world.map", format!("shipped map '{name}': {e}")))?;
-            Some(compile_map(&map_file).map_err(|(path, message)| {
-                error(&format!("world.map.{path}"), message)
-            })?)
+            Some(
+                compile_map(&map_file)
+                    .map_err(|(path, message)| error(&format!("world.map.{path}"), message))?,
+            )
         }
-        Some(MapRef::Inline(map_file)) => Some(compile_map(map_file).map_err(|(path, message)| {
-            error(&format!("world.map.{path}"), message)
-        })?),
+        Some(MapRef::Inline(map_file)) => Some(
+            compile_map(map_file)
+                .map_err(|(path, message)| error(&format!("world.map.{path}"), message))?,
+        ),
     }
     .map(Arc::new);
     if world == WorldKind::RoomBelowMap
@@ -659,7 +680,10 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     for (idx, light) in file.lights.iter().enumerate() {
         let at = |key: &str| format!("light[{idx}].{key}");
         if lights.iter().any(|l: &LightDef| l.name == light.name) {
-            return Err(error(&at("name"), format!("'{}' is declared twice", light.name)));
+            return Err(error(
+                &at("name"),
+                format!("'{}' is declared twice", light.name),
+            ));
         }
         let position = match (light.cell, light.at) {
             (Some([x, y]), None) => {
@@ -838,9 +862,13 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                     ));
                 }
             };
-            let regions_named = variants
-                .iter()
-                .all(|v| if at_goal { v.goal.is_some() } else { v.start.is_some() });
+            let regions_named = variants.iter().all(|v| {
+                if at_goal {
+                    v.goal.is_some()
+                } else {
+                    v.start.is_some()
+                }
+            });
             if !regions_named {
                 return Err(error(
                     "teammate.at",
@@ -920,7 +948,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     // Fitness.
     let f = &file.fitness;
     let parse = |key: &str, text: &str| {
-        Formula::parse(text, &light_index).map_err(|message| error(&format!("fitness.{key}"), message))
+        Formula::parse(text, &light_index)
+            .map_err(|message| error(&format!("fitness.{key}"), message))
     };
     let other = |key: &str, own: &Option<String>| -> Result<Formula, ScenarioError> {
         match (own, &f.otherwise) {
@@ -1015,7 +1044,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 _ => map.regions.get("entrance").map(|_| "entrance".to_string()),
             };
             if let (Some(start), Some(goal)) = (start, &variant.goal) {
-                let (Some(from), Some(to)) = (map.regions.get(&start), map.regions.get(goal)) else {
+                let (Some(from), Some(to)) = (map.regions.get(&start), map.regions.get(goal))
+                else {
                     continue;
                 };
                 if crate::env::cells::path_between(&map.map, from[0], to[0]).is_none() {
@@ -1059,7 +1089,10 @@ mod tests {
             assert_eq!(scenario.name(), name);
             assert_eq!(scenario.legacy(), Some(name));
         }
-        assert_eq!(Scenario::shipped("maze_single").unwrap().name(), "solve_maze");
+        assert_eq!(
+            Scenario::shipped("maze_single").unwrap().name(),
+            "solve_maze"
+        );
         assert!(Scenario::shipped("nope").is_none());
     }
 
