@@ -219,8 +219,8 @@ impl TaskConfig {
             rescue_time_bonus: false,
             wrong_branch_at_end_only: false,
             robot: file.robot.clone(),
-            ir: file.ir.clone(),
-            light: file.light.clone(),
+            ir: file.ir,
+            light: file.light,
             room: file.room.clone(),
             corridor: file.corridor.clone(),
             start: file.start.clone(),
@@ -252,8 +252,8 @@ impl TaskConfig {
             rescue_time_bonus: self.rescue_time_bonus,
             wrong_branch_at_end_only: self.wrong_branch_at_end_only,
             robot: self.robot.clone(),
-            ir: self.ir.clone(),
-            light: self.light.clone(),
+            ir: self.ir,
+            light: self.light,
             room: self.room.clone(),
             corridor: self.corridor.clone(),
             start: self.start.clone(),
@@ -312,7 +312,9 @@ impl TaskConfig {
                 ),
             ));
         }
-        if self.end_on_wrong_branch && !(scenario.wrong_branch && !scenario.wrong_branch_ends) {
+        // Only where wrong branches are judged but do not end a sample by themselves.
+        let wrong_branch_may_continue = scenario.wrong_branch && !scenario.wrong_branch_ends;
+        if self.end_on_wrong_branch && !wrong_branch_may_continue {
             return Err(invalid(
                 "end_on_wrong_branch",
                 format!(

@@ -44,7 +44,7 @@ struct Golden {
 
 /// The samples recorded, in the tasks' default configurations: each task with its scripted
 /// policy, two seeds each, and the maze in all four light configurations.
-const CASES: &[(&'static str, u64, Option<u32>)] = &[
+const CASES: &[(&str, u64, Option<u32>)] = &[
     ("follow_wall", 1, None),
     ("follow_wall", 2, None),
     ("turn_left", 3, None),

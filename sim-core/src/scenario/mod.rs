@@ -532,7 +532,7 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
     for name in meaning.values().flatten().filter(|n| !n.is_empty()) {
         if !regions.contains_key(name) {
             return bad(
-                &format!("legend"),
+                "legend",
                 format!("the region '{name}' has no cell in the grid"),
             );
         }
@@ -639,9 +639,9 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     }
     .map(Arc::new);
     if world == WorldKind::RoomBelowMap
-        && !map
+        && map
             .as_ref()
-            .is_some_and(|m| m.regions.get("entrance").is_some_and(|c| c.len() == 1))
+            .is_none_or(|m| m.regions.get("entrance").is_none_or(|c| c.len() != 1))
     {
         return Err(error(
             "world.room",
@@ -908,7 +908,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 let light = light_index(name.trim()).ok_or_else(|| {
                     error("end.solved", format!("no light is named '{}'", name.trim()))
                 })?;
-                if !(end.near_m > 0.0) {
+                // Also refuses NaN.
+                if end.near_m.is_nan() || end.near_m <= 0.0 {
                     return Err(error("end.near_m", "must be positive for 'near'".into()));
                 }
                 Solved::Near(light)
