@@ -1,6 +1,6 @@
 //! The scenario file as written: the serde schema of `hevo.scenario/1`, strict (an unknown key
 //! is an error), and the map file format. Nothing here checks that the parts fit together;
-//! [`super::compile`] does.
+//! compiling it ([`super::Scenario::parse`]) does.
 
 use crate::env::room::RoomConfig;
 use crate::robot::RobotConfig;
