@@ -171,8 +171,8 @@ impl Browser {
         }
     }
 
-    /// Signs in through the login form at `base_url` with `token`; returns the page's text
-    /// after the redirect.
+    /// Signs in through the login form at `base_url` with `token`; returns the text of the
+    /// page it leads to (the job list, or the form again saying why).
     pub async fn sign_in(&self, base_url: &str, token: &str) -> String {
         self.goto(&format!("{base_url}/login")).await;
         let field = self
@@ -190,7 +190,7 @@ impl Browser {
             .expect("submitting the login form");
         self.wait_for(
             "the page after signing in",
-            "return document.readyState === 'complete' && !document.querySelector('form.login');",
+            "return document.readyState === 'complete' && (!document.querySelector('form.login') || !!document.querySelector('.error-message'));",
             Duration::from_secs(10),
         )
         .await;
