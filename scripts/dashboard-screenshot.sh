@@ -29,7 +29,8 @@ cleanup() {
 }
 trap cleanup EXIT
 
-"$HEVO_BIN" dashboard "$repo/experiments/runs-wide-turn-starts" --listen 127.0.0.1:0 >"$scratch/out" &
+cd "$repo"
+"$HEVO_BIN" dashboard experiments/runs-wide-turn-starts --listen 127.0.0.1:0 >"$scratch/out" &
 dashboard_pid=$!
 for _ in $(seq 100); do
     grep -q '^dashboard on ' "$scratch/out" && break
