@@ -37,13 +37,19 @@ end_on_collision = false
 /// A master with separate client and worker tokens and its dashboard on port 0.
 pub fn master_with_dashboard(scratch: &Scratch) -> Master {
     let master = master_with_roles(scratch, &["--http-listen", "127.0.0.1:0"]);
-    assert!(master.dashboard.is_some(), "the master printed no dashboard address");
+    assert!(
+        master.dashboard.is_some(),
+        "the master printed no dashboard address"
+    );
     master
 }
 
 /// The dashboard's `http://127.0.0.1:PORT`.
 pub fn dashboard_url(master: &Master) -> &str {
-    master.dashboard.as_deref().expect("a master with its dashboard on")
+    master
+        .dashboard
+        .as_deref()
+        .expect("a master with its dashboard on")
 }
 
 /// Submits `toml` as the client; returns the job id.
@@ -118,7 +124,9 @@ pub fn request(url: &str, method: &str, path: &str, headers: &[&str], body: &str
     }
     text.push_str("\r\n");
     text.push_str(body);
-    stream.write_all(text.as_bytes()).expect("the request is sent");
+    stream
+        .write_all(text.as_bytes())
+        .expect("the request is sent");
     let mut bytes = Vec::new();
     let mut chunk = [0u8; 8192];
     while bytes.len() < 64 * 1024 {

@@ -4,10 +4,10 @@
 //! that the browser's scripts cannot read; a script's `Authorization: Bearer` header works;
 //! the workers' token is no client's.
 
+use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
 use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, request, submit};
 use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, runtime};
-use hevo_tests::Scratch;
 
 #[test]
 fn without_the_token_only_the_login_page_shows() {
@@ -31,7 +31,10 @@ fn without_the_token_only_the_login_page_shows() {
             // (The login form keeps the requested path, to come back to it: the only place the
             // id the requester typed appears.)
             let without_next = answer.body.replace(&format!("value=\"{path}\""), "");
-            assert!(!without_next.contains(&job), "GET {path} names no job: {answer:?}");
+            assert!(
+                !without_next.contains(&job),
+                "GET {path} names no job: {answer:?}"
+            );
             assert!(!answer.body.contains("exit_room"), "GET {path}: {answer:?}");
             assert!(!answer.body.contains("watchable"), "GET {path}: {answer:?}");
             let with_worker_token = request(
@@ -52,7 +55,11 @@ fn without_the_token_only_the_login_page_shows() {
         assert!(page.body.contains("exit_room"));
         let stream = request(&url, "GET", &format!("/jobs/{job}/events"), &[&bearer], "");
         assert_eq!(stream.status, 200);
-        assert!(stream.headers.contains("text/event-stream"), "{}", stream.headers);
+        assert!(
+            stream.headers.contains("text/event-stream"),
+            "{}",
+            stream.headers
+        );
         assert!(stream.body.contains("event: job"), "{}", stream.body);
 
         let login = request(
@@ -68,7 +75,10 @@ fn without_the_token_only_the_login_page_shows() {
             .lines()
             .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
             .unwrap_or_else(|| panic!("a cookie: {}", login.headers));
-        assert!(cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"), "{cookie}");
+        assert!(
+            cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"),
+            "{cookie}"
+        );
 
         let browser = Browser::start(&tools, &scratch).await;
         browser.goto(&format!("{url}/jobs/{job}")).await;
@@ -99,7 +109,11 @@ fn without_the_token_only_the_login_page_shows() {
             .await;
         assert!(browser.text().await.contains(&job));
         let visible_cookies = browser.eval("return document.cookie;").await;
-        assert_eq!(visible_cookies.as_str(), Some(""), "scripts cannot read the token");
+        assert_eq!(
+            visible_cookies.as_str(),
+            Some(""),
+            "scripts cannot read the token"
+        );
 
         browser.close().await;
     });

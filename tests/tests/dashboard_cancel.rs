@@ -2,11 +2,11 @@
 //! that is waiting for workers, the page says so, and the master agrees.
 
 use fantoccini::Locator;
+use hevo_proto::v1;
+use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
 use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, submit};
 use hevo_tests::service::{CLIENT_TOKEN, jobs, runtime, wait_until_final};
-use hevo_tests::Scratch;
-use hevo_proto::v1;
 use std::time::Duration;
 
 #[test]

@@ -2,10 +2,10 @@
 //! 404 page naming it, a malformed query or job id a 400 page, an unknown page a 404; never a
 //! panic (the master keeps serving afterwards).
 
+use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
 use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, request, submit};
 use hevo_tests::service::{CLIENT_TOKEN, runtime};
-use hevo_tests::Scratch;
 
 #[test]
 fn an_unknown_job_is_a_404_naming_it_and_a_bad_query_a_400() {
@@ -19,25 +19,49 @@ fn an_unknown_job_is_a_404_naming_it_and_a_bad_query_a_400() {
         let job = submit(&master, WATCHABLE).await;
         let bearer = format!("Authorization: Bearer {CLIENT_TOKEN}");
         let cases: [(String, u16, &str); 7] = [
-            ("/jobs/job-does-not-exist".into(), 404, "no job job-does-not-exist"),
-            ("/jobs/job-does-not-exist/events".into(), 404, "no job job-does-not-exist"),
+            (
+                "/jobs/job-does-not-exist".into(),
+                404,
+                "no job job-does-not-exist",
+            ),
+            (
+                "/jobs/job-does-not-exist/events".into(),
+                404,
+                "no job job-does-not-exist",
+            ),
             (format!("/jobs/{job}?seed=lots"), 400, "malformed query"),
             (format!("/jobs/{job}/plot.svg"), 400, "malformed query"),
-            (format!("/jobs/{job}/plot.svg?node=nope"), 404, "has no node nope"),
+            (
+                format!("/jobs/{job}/plot.svg?node=nope"),
+                404,
+                "has no node nope",
+            ),
             ("/jobs/%3Cscript%3E".into(), 400, "malformed job id"),
             ("/no/such/page".into(), 404, "no page /no/such/page"),
         ];
         for (path, status, says) in &cases {
             let answer = request(&url, "GET", path, &[&bearer], "");
             assert_eq!(answer.status, *status, "GET {path}: {answer:?}");
-            assert!(answer.body.contains(says), "GET {path} says {says:?}: {}", answer.body);
+            assert!(
+                answer.body.contains(says),
+                "GET {path} says {says:?}: {}",
+                answer.body
+            );
         }
-        let cancel = request(&url, "POST", "/jobs/job-does-not-exist/cancel", &[&bearer], "");
+        let cancel = request(
+            &url,
+            "POST",
+            "/jobs/job-does-not-exist/cancel",
+            &[&bearer],
+            "",
+        );
         assert_eq!(cancel.status, 404, "{cancel:?}");
 
         let browser = Browser::start(&tools, &scratch).await;
         browser.sign_in(&url, CLIENT_TOKEN).await;
-        browser.goto(&format!("{url}/jobs/job-does-not-exist")).await;
+        browser
+            .goto(&format!("{url}/jobs/job-does-not-exist"))
+            .await;
         let text = browser.text().await;
         assert!(text.contains("404"), "{text}");
         assert!(text.contains("no job job-does-not-exist"), "{text}");

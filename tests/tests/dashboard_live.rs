@@ -4,7 +4,9 @@
 //! brings them); when the job ends the page shows the post-evaluation table and the replay.
 
 use hevo_tests::browser::{Browser, require_browser};
-use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, plot_points_script, submit};
+use hevo_tests::dashboard::{
+    WATCHABLE, dashboard_url, master_with_dashboard, plot_points_script, submit,
+};
 use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, runtime};
 use hevo_tests::{Scratch, start_worker};
 use std::time::Duration;

@@ -157,8 +157,7 @@ pub trait Source: Send + Sync + 'static {
     /// A job's nodes with their runs and fitness logs, in the job's order.
     fn nodes(&self, id: &str) -> Result<Vec<NodeView>, SourceError>;
     /// A finished node's best controller; `None` before the node finished.
-    fn best_controller(&self, id: &str, node: &str)
-    -> Result<Option<BestController>, SourceError>;
+    fn best_controller(&self, id: &str, node: &str) -> Result<Option<BestController>, SourceError>;
     /// Cancels a job.
     fn cancel<'a>(&'a self, id: &'a str) -> BoxFuture<'a, Result<(), SourceError>>;
     /// The master's workers, when there are any.

@@ -106,7 +106,10 @@ pub fn run_logs(node: &NodeView) -> Vec<RunLog> {
 
 /// The fitness plot of a node (hevo-viz's).
 pub fn plot_svg(node: &NodeView) -> String {
-    hevo_viz::fitness_plot_svg(&format!("{}: fitness per generation", node.name), &run_logs(node))
+    hevo_viz::fitness_plot_svg(
+        &format!("{}: fitness per generation", node.name),
+        &run_logs(node),
+    )
 }
 
 /// One run's line of progress: `run 0: generation 12 of 50, best 1.234, mean 0.567`.

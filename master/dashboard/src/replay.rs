@@ -30,7 +30,9 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
     let evaluator = Evaluator::new(best.task.clone()).map_err(|e| e.to_string())?;
     let kind = best.task.kind;
     let variants: Vec<Option<u32>> = if kind.has_light_configurations() {
-        (0..hevo_sim_core::env::n_variants(kind)).map(Some).collect()
+        (0..hevo_sim_core::env::n_variants(kind))
+            .map(Some)
+            .collect()
     } else {
         vec![None]
     };

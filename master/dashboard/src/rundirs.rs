@@ -255,11 +255,7 @@ impl Source for RunDirSource {
         Ok(read_nodes(dir, &node_names(dir), &|_| None))
     }
 
-    fn best_controller(
-        &self,
-        id: &str,
-        node: &str,
-    ) -> Result<Option<BestController>, SourceError> {
+    fn best_controller(&self, id: &str, node: &str) -> Result<Option<BestController>, SourceError> {
         read_best(self.dir(id)?, node, None)
     }
 
@@ -330,7 +326,7 @@ mod tests {
             SourceError::NotFound("nope".into())
         );
         let missing = out.path().join("missing");
-        let error = RunDirSource::new(&[missing.clone()]).unwrap_err();
+        let error = RunDirSource::new(std::slice::from_ref(&missing)).unwrap_err();
         assert!(error.to_string().contains(&missing.display().to_string()));
     }
 
@@ -340,15 +336,15 @@ mod tests {
         let b = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(a.path().join("runs")).unwrap();
         std::fs::create_dir_all(b.path().join("runs")).unwrap();
-        let source =
-            RunDirSource::new(&[a.path().join("runs"), b.path().join("runs")]).unwrap();
+        let source = RunDirSource::new(&[a.path().join("runs"), b.path().join("runs")]).unwrap();
         let ids: Vec<String> = source.jobs().into_iter().map(|j| j.id).collect();
         assert_eq!(ids, ["runs", "runs-2"]);
     }
 
     #[test]
     fn the_checked_in_runs_have_best_controllers() {
-        let runs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/runs-wide-turn-starts");
+        let runs =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/runs-wide-turn-starts");
         let source = RunDirSource::new(&[runs]).unwrap();
         let job = &source.jobs()[0];
         assert!(job.finished, "{job:?}");

@@ -39,12 +39,16 @@ pub const DEFAULT_REPLAY_SEED: u64 = 1;
 const REPLAY_CACHE_ENTRIES: usize = 32;
 
 type ReplayResult = Arc<Result<Vec<ReplayFigure>, String>>;
+/// Computed replays by (job, node, seed), oldest first.
+type ReplayCache = Mutex<Vec<((String, String, u64), ReplayResult)>>;
+/// An error page, boxed (a response is large, and handlers pass it up with `?`).
+type Refusal = Box<Response>;
 
 struct Shared {
     source: Arc<dyn Source>,
     access: Access,
     open_streams: Arc<OpenStreams>,
-    replays: Mutex<Vec<((String, String, u64), ReplayResult)>>,
+    replays: ReplayCache,
     stopping: watch::Sender<bool>,
 }
 
@@ -129,9 +133,8 @@ async fn guard(State(dashboard): State<Dashboard>, request: Request, next: Next)
     if public || dashboard.shared.access.allows(request.headers()) {
         return next.run(request).await;
     }
-    let wants_page = request.method() == Method::GET
-        && !path.ends_with("/events")
-        && !path.ends_with(".svg");
+    let wants_page =
+        request.method() == Method::GET && !path.ends_with("/events") && !path.ends_with(".svg");
     if !wants_page {
         return (
             StatusCode::UNAUTHORIZED,
@@ -166,6 +169,10 @@ fn signed_in(dashboard: &Dashboard) -> bool {
     dashboard.shared.access.needs_token()
 }
 
+fn source_refusal(error: SourceError) -> Refusal {
+    Box::new(source_error(error))
+}
+
 fn source_error(error: SourceError) -> Response {
     let status = match &error {
         SourceError::NotFound(_) => StatusCode::NOT_FOUND,
@@ -177,7 +184,7 @@ fn source_error(error: SourceError) -> Response {
 }
 
 /// A job id as requests may name one: 1 to [`MAX_JOB_ID_CHARS`] of `A-Z a-z 0-9 - _ .`.
-fn check_job_id(id: &str) -> Result<(), Response> {
+fn check_job_id(id: &str) -> Result<(), Refusal> {
     let ok = !id.is_empty()
         && id.len() <= MAX_JOB_ID_CHARS
         && id
@@ -186,12 +193,10 @@ fn check_job_id(id: &str) -> Result<(), Response> {
     if ok {
         Ok(())
     } else {
-        Err(error_page(
+        Err(Box::new(error_page(
             StatusCode::BAD_REQUEST,
-            &format!(
-                "malformed job id: 1 to {MAX_JOB_ID_CHARS} letters, digits, '-', '_' or '.'"
-            ),
-        ))
+            &format!("malformed job id: 1 to {MAX_JOB_ID_CHARS} letters, digits, '-', '_' or '.'"),
+        )))
     }
 }
 
@@ -204,14 +209,14 @@ fn bad_query(rejection: QueryRejection) -> Response {
 
 /// Runs `read` on a blocking thread; a panic there (a bug) is a 500, not a crash.
 async fn blocking<T: Send + 'static>(
-    read: impl FnOnce() -> Result<T, Response> + Send + 'static,
-) -> Result<T, Response> {
+    read: impl FnOnce() -> Result<T, Refusal> + Send + 'static,
+) -> Result<T, Refusal> {
     match tokio::task::spawn_blocking(read).await {
         Ok(result) => result,
-        Err(_) => Err(error_page(
+        Err(_) => Err(Box::new(error_page(
             StatusCode::INTERNAL_SERVER_ERROR,
             "the page could not be made",
-        )),
+        ))),
     }
 }
 
@@ -230,7 +235,7 @@ async fn jobs_page(State(dashboard): State<Dashboard>) -> Response {
             let title = dashboard.shared.source.title();
             Html(page(&title, "jobs", &body, signed_in(&dashboard))).into_response()
         }
-        Err(response) => response,
+        Err(response) => *response,
     }
 }
 
@@ -275,7 +280,7 @@ async fn job_page(
     query: Result<Query<JobQuery>, QueryRejection>,
 ) -> Response {
     if let Err(response) = check_job_id(&id) {
-        return response;
+        return *response;
     }
     let seed = match query {
         Ok(Query(query)) => query.seed.unwrap_or(DEFAULT_REPLAY_SEED),
@@ -284,17 +289,20 @@ async fn job_page(
     let reader = dashboard.clone();
     let made = blocking(move || {
         let source = &reader.shared.source;
-        let job = source.job(&id).map_err(source_error)?;
-        let nodes = source.nodes(&id).map_err(source_error)?;
+        let job = source.job(&id).map_err(source_refusal)?;
+        let nodes = source.nodes(&id).map_err(source_refusal)?;
         let mut body = pages::job_header(&job, seed);
         for node in &nodes {
             let replays = node
                 .finished()
                 .then(|| cached_replays(&reader, &id, &node.name, seed))
                 .flatten();
-            let replays = replays
-                .as_ref()
-                .map(|r| r.as_ref().as_ref().map(Vec::as_slice).map_err(String::as_str));
+            let replays = replays.as_ref().map(|r| {
+                r.as_ref()
+                    .as_ref()
+                    .map(Vec::as_slice)
+                    .map_err(String::as_str)
+            });
             body.push_str(&pages::node_section(&id, node, replays));
         }
         Ok((job.name, body))
@@ -311,21 +319,21 @@ async fn job_page(
             )),
         )
             .into_response(),
-        Err(response) => response,
+        Err(response) => *response,
     }
 }
 
 async fn events(State(dashboard): State<Dashboard>, Path(id): Path<String>) -> Response {
     if let Err(response) = check_job_id(&id) {
-        return response;
+        return *response;
     }
     let source = dashboard.shared.source.clone();
     let checked = {
         let id = id.clone();
-        blocking(move || source.job(&id).map(|_| ()).map_err(source_error)).await
+        blocking(move || source.job(&id).map(|_| ()).map_err(source_refusal)).await
     };
     if let Err(response) = checked {
-        return response;
+        return *response;
     }
     (
         [(CACHE_CONTROL, "no-store")],
@@ -351,7 +359,7 @@ async fn plot(
     query: Result<Query<PlotQuery>, QueryRejection>,
 ) -> Response {
     if let Err(response) = check_job_id(&id) {
-        return response;
+        return *response;
     }
     let node = match query {
         Ok(Query(query)) => query.node,
@@ -359,12 +367,12 @@ async fn plot(
     };
     let source = dashboard.shared.source.clone();
     let svg = blocking(move || {
-        let nodes = source.nodes(&id).map_err(source_error)?;
+        let nodes = source.nodes(&id).map_err(source_refusal)?;
         let found = nodes.iter().find(|n| n.name == node).ok_or_else(|| {
-            error_page(
+            Box::new(error_page(
                 StatusCode::NOT_FOUND,
                 &format!("job {id} has no node {node}"),
-            )
+            ))
         })?;
         Ok(pages::plot_svg(found))
     })
@@ -378,13 +386,13 @@ async fn plot(
             svg,
         )
             .into_response(),
-        Err(response) => response,
+        Err(response) => *response,
     }
 }
 
 async fn cancel(State(dashboard): State<Dashboard>, Path(id): Path<String>) -> Response {
     if let Err(response) = check_job_id(&id) {
-        return response;
+        return *response;
     }
     match dashboard.shared.source.cancel(&id).await {
         Ok(()) => (StatusCode::SEE_OTHER, [(LOCATION, format!("/jobs/{id}"))]).into_response(),
@@ -413,11 +421,7 @@ async fn login(
     form: Result<Form<LoginForm>, FormRejection>,
 ) -> Response {
     let Ok(Form(form)) = form else {
-        return login_response(
-            StatusCode::BAD_REQUEST,
-            "/",
-            Some("the form needs a token"),
-        );
+        return login_response(StatusCode::BAD_REQUEST, "/", Some("the form needs a token"));
     };
     if !dashboard.shared.access.accepts(&form.token) {
         return login_response(
@@ -452,11 +456,7 @@ async fn style() -> Response {
 }
 
 async fn script() -> Response {
-    (
-        [(CONTENT_TYPE, "text/javascript; charset=utf-8")],
-        SCRIPT,
-    )
-        .into_response()
+    ([(CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT).into_response()
 }
 
 async fn not_found(request: Request) -> Response {

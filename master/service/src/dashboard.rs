@@ -40,7 +40,11 @@ impl JobsSource {
             created_unix_ms: Some(record.created_unix_ms),
             finished_unix_ms: record.finished_unix_ms,
             error: record.error.clone(),
-            nodes: record.plan.iter().map(|(node, _, _)| node.clone()).collect(),
+            nodes: record
+                .plan
+                .iter()
+                .map(|(node, _, _)| node.clone())
+                .collect(),
             cancellable: true,
             location: self.manager.out_dir(&record.id).display().to_string(),
         }
@@ -74,7 +78,11 @@ impl Source for JobsSource {
 
     fn nodes(&self, id: &str) -> Result<Vec<NodeView>, SourceError> {
         let record = self.record(id)?;
-        let names: Vec<String> = record.plan.iter().map(|(node, _, _)| node.clone()).collect();
+        let names: Vec<String> = record
+            .plan
+            .iter()
+            .map(|(node, _, _)| node.clone())
+            .collect();
         let planned = |name: &str| {
             record
                 .plan
@@ -85,11 +93,7 @@ impl Source for JobsSource {
         Ok(read_nodes(&self.manager.out_dir(id), &names, &planned))
     }
 
-    fn best_controller(
-        &self,
-        id: &str,
-        node: &str,
-    ) -> Result<Option<BestController>, SourceError> {
+    fn best_controller(&self, id: &str, node: &str) -> Result<Option<BestController>, SourceError> {
         let record = self.record(id)?;
         // The node's own task settings, as the job evolved it.
         let task = Experiment::parse_with(
