@@ -21,7 +21,7 @@ use tokio_stream::wrappers::ReceiverStream;
 /// The shortest time between two reads of a job for one stream.
 pub const MIN_INTERVAL: Duration = Duration::from_millis(250);
 
-/// Counts the streams open now; a stream's task holds one [`StreamGuard`].
+/// Counts the streams open now: each stream's task counts itself while it runs.
 #[derive(Debug, Default)]
 pub struct OpenStreams(AtomicUsize);
 
