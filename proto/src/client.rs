@@ -60,7 +60,7 @@ pub enum ConnectError {
 pub struct ClientOptions {
     /// `http://host:port`, `https://host:port` or `host:port`.
     pub url: String,
-    /// The shared token.
+    /// The token of the caller's role (a client's, or a worker's).
     pub token: Option<String>,
     /// A PEM CA certificate to trust for `https://` (instead of the web PKI roots).
     pub tls_ca: Option<PathBuf>,
@@ -74,7 +74,8 @@ pub struct MasterArgs {
     /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
     #[arg(long, env = "HEVO_MASTER")]
     pub master: String,
-    /// The master's shared token.
+    /// The token of this program's role: for `hevo` commands a client token, for `hevo-worker`
+    /// a worker token (the master's --token-file or --worker-token-file).
     #[arg(long, env = "HEVO_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
     /// Read the token from this file (wins over --token and HEVO_TOKEN).

@@ -316,7 +316,9 @@ mod tests {
             ..SampleSummary::default()
         };
         assert_eq!(good.check(&task, 4, &sample), Ok(()));
-        let cases: [(fn(&mut SampleSummary), &str); 7] = [
+        // A change that makes the summary impossible, and what the refusal must say.
+        type Damage = (fn(&mut SampleSummary), &'static str);
+        let cases: [Damage; 7] = [
             (|s| s.fitness = 2.5, "fitness 2.5 is outside"),
             (|s| s.fitness = f32::NAN, "fitness NaN"),
             (|s| s.cycles = 1001, "cycles 1001 exceeds"),

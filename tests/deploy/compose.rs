@@ -1,6 +1,8 @@
 //! deploy/compose.yaml: the master service (published ports, state on a named volume, a
 //! healthcheck that is a real client call), the workers (told where the master is, waiting for
-//! it to be healthy, given time to hand back their batch), one shared token.
+//! it to be healthy, given time to hand back their batch), and one token per role: the master
+//! gets the clients' and the workers', each worker only the workers' (as its `HEVO_TOKEN`) and
+//! the client service only the clients'.
 
 use super::invocation::{Program, container_invocation, port_of, url_host_port};
 use super::yaml::{Lines, at, parse_docs, scalar, str_at, strings};
@@ -41,6 +43,41 @@ pub fn duration_seconds(text: &str) -> Option<f64> {
     Some(total)
 }
 
+/// Where a token comes from, comparable across services: the variable of a `${VAR:?message}`
+/// reference (`${VAR}`), else the value as written.
+fn token_source(value: &str) -> String {
+    match value.strip_prefix("${") {
+        Some(rest) => {
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            format!("${{{name}}}")
+        }
+        None => value.to_string(),
+    }
+}
+
+/// A command line's token of one role: its file flag, its value flag, or its variable.
+fn role_token(
+    invocation: &super::invocation::Invocation,
+    (file_flag, flag, var): (&str, &str, &str),
+    env_values: &BTreeMap<String, String>,
+) -> Option<String> {
+    invocation
+        .flag(file_flag)
+        .map(str::to_string)
+        .or_else(|| invocation.flag(flag).map(str::to_string))
+        .or_else(|| env_values.get(var).map(|v| token_source(v)))
+}
+
+/// The clients' token: what `hevo` clients and the master's `--token` side read, and what
+/// hevo-worker reads as its (worker) token.
+const CLIENT_ROLE: (&str, &str, &str) = ("--token-file", "--token", "HEVO_TOKEN");
+/// The workers' token on the master's side.
+const WORKER_ROLE: (&str, &str, &str) =
+    ("--worker-token-file", "--worker-token", "HEVO_WORKER_TOKEN");
+
 /// A service's `command`/`entrypoint`: a list, or a string split as a shell would.
 fn argv_of(value: Option<&Value>) -> Option<Vec<String>> {
     match value? {
@@ -75,7 +112,11 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
     };
     let mut serve_services: BTreeMap<String, u16> = BTreeMap::new();
     let mut worker_masters: Vec<(String, String)> = Vec::new();
-    let mut tokens: BTreeMap<String, String> = BTreeMap::new();
+    // (origin, clients' token, workers' token) of the master; (origin, token, every source
+    // in the environment) of each worker and client service.
+    let mut master_tokens: Option<(String, Option<String>, Option<String>)> = None;
+    let mut worker_tokens: Vec<(String, Option<String>, BTreeSet<String>)> = Vec::new();
+    let mut client_tokens: Vec<(String, Option<String>, BTreeSet<String>)> = Vec::new();
     let lines = Lines::new(text);
     let services_line = lines.line(1, "services:").unwrap_or(1);
     for (name, service) in services {
@@ -125,14 +166,19 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
         else {
             continue;
         };
-        if let Some(token) = env_values.get("HEVO_TOKEN") {
-            tokens.insert(name.clone(), token.clone());
-        } else if invocation.flag("--token-file").is_none() && invocation.flag("--token").is_none()
-        {
-            problems.add(
-                &origin,
-                "runs hevo without the shared token (HEVO_TOKEN, --token or --token-file)",
-            );
+        // hevo-worker reads its (the workers') token where clients read theirs.
+        let token = role_token(&invocation, CLIENT_ROLE, &env_values);
+        let sources: BTreeSet<String> = env_values.values().map(|v| token_source(v)).collect();
+        if invocation.is_serve() {
+            master_tokens = Some((
+                origin.clone(),
+                token.clone(),
+                role_token(&invocation, WORKER_ROLE, &env_values),
+            ));
+        } else if invocation.program == Program::Worker {
+            worker_tokens.push((origin.clone(), token.clone(), sources));
+        } else {
+            client_tokens.push((origin.clone(), token.clone(), sources));
         }
         if invocation.is_serve() {
             record_serve(&invocation, problems, facts);
@@ -243,12 +289,64 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
             None => problems.add(&origin, format!("{url} is not a URL with a port")),
         }
     }
-    let distinct: BTreeSet<&String> = tokens.values().collect();
-    problems.check(
-        distinct.len() <= 1,
-        path,
-        format!("the services do not share one token: {tokens:?}"),
-    );
+    check_roles(master_tokens, &worker_tokens, &client_tokens, problems);
+}
+
+/// The master gets two different tokens; each worker the master's workers' token and nothing
+/// of the clients'; each client the master's clients' token and nothing of the workers'.
+fn check_roles(
+    master: Option<(String, Option<String>, Option<String>)>,
+    workers: &[(String, Option<String>, BTreeSet<String>)],
+    clients: &[(String, Option<String>, BTreeSet<String>)],
+    problems: &mut super::Scoped,
+) {
+    let Some((origin, client_token, worker_token)) = master else {
+        return;
+    };
+    let (Some(client_token), Some(worker_token)) = (client_token.clone(), worker_token.clone())
+    else {
+        problems.check(
+            client_token.is_some(),
+            &origin,
+            "the master gets no clients' token (HEVO_TOKEN, --token or --token-file)",
+        );
+        problems.check(
+            worker_token.is_some(),
+            &origin,
+            "the master gets no workers' token (HEVO_WORKER_TOKEN, --worker-token or --worker-token-file)",
+        );
+        return;
+    };
+    if client_token == worker_token {
+        problems.add(
+            &origin,
+            format!("the master gets one token, {client_token}, for both roles"),
+        );
+        return;
+    }
+    for (role, holders, own, other) in [
+        ("worker", workers, &worker_token, &client_token),
+        ("client", clients, &client_token, &worker_token),
+    ] {
+        for (origin, token, sources) in holders {
+            match token {
+                None => problems.add(
+                    origin,
+                    format!("the {role} gets no token (HEVO_TOKEN, --token or --token-file)"),
+                ),
+                Some(token) => problems.check(
+                    token == own,
+                    origin,
+                    format!("the {role}'s token is {token}, not the master's {role}s' token {own}"),
+                ),
+            }
+            problems.check(
+                !sources.contains(other),
+                origin,
+                format!("the {role} is given {other}, the other role's token"),
+            );
+        }
+    }
 }
 
 #[cfg(test)]

@@ -191,6 +191,10 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
     let mut container_ports: Vec<(Value, BTreeMap<String, u16>)> = Vec::new();
     let mut has_serve = false;
     let mut has_worker = false;
+    // (origin, clients' token, workers' token) of the master, each as (Secret, key); (origin,
+    // its token, every (Secret, key) it can read) of each worker.
+    let mut master_tokens: Option<(String, Option<SecretKey>, Option<SecretKey>)> = None;
+    let mut worker_tokens: Vec<(String, Option<SecretKey>, BTreeSet<SecretKey>)> = Vec::new();
     for workload in &workloads {
         let lines = Lines::new(files.get(&workload.origin));
         let object_line = lines
@@ -330,33 +334,21 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
             else {
                 continue;
             };
-            // The token: a file from a mounted Secret that has that key, or HEVO_TOKEN from one.
-            if let Some(token_file) = invocation.flag("--token-file") {
-                let (dir, key) = token_file.rsplit_once('/').unwrap_or(("", token_file));
-                let secret = mounts
-                    .iter()
-                    .find(|(_, path)| path.trim_end_matches('/') == dir)
-                    .and_then(|(volume, _)| volumes.get(volume))
-                    .and_then(|v| str_at(v, &["secret", "secretName"]));
-                match secret {
-                    None => problems.add(&origin, format!("--token-file {token_file} is not in a mounted Secret")),
-                    Some(secret) => problems.check(
-                        secret_keys.get(&secret).is_some_and(|keys| keys.contains(key)),
-                        &origin,
-                        format!("--token-file {token_file}: the Secret {secret} has no key {key} (has {:?})", secret_keys.get(&secret)),
-                    ),
-                }
-            } else {
-                let from_secret = seq(container.get("env")).iter().any(|e| {
-                    str_at(e, &["name"]).as_deref() == Some("HEVO_TOKEN")
-                        && str_at(e, &["valueFrom", "secretKeyRef", "name"])
-                            .is_some_and(|s| secret_keys.contains_key(&s))
-                });
-                problems.check(
-                    from_secret,
-                    &origin,
-                    "no token: neither --token-file from a Secret nor HEVO_TOKEN from one",
-                );
+            // The tokens: files of a mounted Secret, or variables from one.
+            let files = secret_files(&mounts, &volumes, &secret_keys);
+            let token = |file_flag: &str, var: &str, problems: &mut Scoped| {
+                secret_token(container, &invocation, (file_flag, var), &files, problems)
+            };
+            if invocation.is_serve() {
+                let client = token("--token-file", "HEVO_TOKEN", problems);
+                let worker = token("--worker-token-file", "HEVO_WORKER_TOKEN", problems);
+                master_tokens = Some((origin.clone(), client, worker));
+            } else if invocation.program == Program::Worker {
+                let own = token("--token-file", "HEVO_TOKEN", problems);
+                let mut readable: BTreeSet<(String, String)> =
+                    files.iter().map(|(_, key)| key.clone()).collect();
+                readable.extend(secret_refs(container));
+                worker_tokens.push((origin.clone(), own, readable));
             }
             if invocation.is_serve() {
                 has_serve = true;
@@ -577,6 +569,7 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
         "no HorizontalPodAutoscaler example",
     );
     problems.check(!secret_keys.is_empty(), base, "the token is not a Secret");
+    check_roles(master_tokens, &worker_tokens, problems);
     let grpc = facts
         .grpc_ports
         .iter()
@@ -590,6 +583,158 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
             })
         });
         problems.check(ok, &origin, format!("the worker dials {url}, which is no Service port in front of the master's gRPC port ({master_endpoints:?})"));
+    }
+}
+
+/// A key of a Secret: (Secret name, key).
+type SecretKey = (String, String);
+
+/// The files that a container's mounted Secret volumes put in it: (path, (Secret, key)). A
+/// volume with `items` holds only those keys, at their paths; one without holds every key.
+fn secret_files(
+    mounts: &[(String, String)],
+    volumes: &BTreeMap<String, Value>,
+    secret_keys: &BTreeMap<String, BTreeSet<String>>,
+) -> Vec<(String, SecretKey)> {
+    let mut files = Vec::new();
+    for (volume, mount_path) in mounts {
+        let Some(volume) = volumes.get(volume) else {
+            continue;
+        };
+        let Some(secret) = str_at(volume, &["secret", "secretName"]) else {
+            continue;
+        };
+        let dir = mount_path.trim_end_matches('/');
+        let items = seq(at(volume, &["secret", "items"]));
+        if items.is_empty() {
+            for key in secret_keys.get(&secret).into_iter().flatten() {
+                files.push((format!("{dir}/{key}"), (secret.clone(), key.clone())));
+            }
+        } else {
+            for item in items {
+                let key = str_at(item, &["key"]).unwrap_or_default();
+                let path = str_at(item, &["path"]).unwrap_or_else(|| key.clone());
+                files.push((format!("{dir}/{path}"), (secret.clone(), key)));
+            }
+        }
+    }
+    files
+}
+
+/// The (Secret, key) of every `secretKeyRef` in a container's env.
+fn secret_refs(container: &Value) -> Vec<SecretKey> {
+    seq(container.get("env"))
+        .iter()
+        .filter_map(|e| {
+            Some((
+                str_at(e, &["valueFrom", "secretKeyRef", "name"])?,
+                str_at(e, &["valueFrom", "secretKeyRef", "key"])?,
+            ))
+        })
+        .collect()
+}
+
+/// The (Secret, key) a command line's token of one role comes from: its file flag naming a
+/// file of a mounted Secret, or its variable from a `secretKeyRef`. A file that is not there
+/// is a problem; no token at all is the caller's.
+fn secret_token(
+    container: &Value,
+    invocation: &super::invocation::Invocation,
+    (file_flag, var): (&str, &str),
+    files: &[(String, SecretKey)],
+    problems: &mut Scoped,
+) -> Option<SecretKey> {
+    if let Some(file) = invocation.flag(file_flag) {
+        let found = files
+            .iter()
+            .find(|(path, _)| path == file)
+            .map(|(_, k)| k.clone());
+        if found.is_none() {
+            let (dir, key) = file.rsplit_once('/').unwrap_or(("", file));
+            let secrets: BTreeSet<&String> = files
+                .iter()
+                .filter(|(path, _)| path.rsplit_once('/').map(|(d, _)| d) == Some(dir))
+                .map(|(_, (secret, _))| secret)
+                .collect();
+            let origin = &invocation.origin;
+            match secrets.first() {
+                None => problems.add(origin, format!("{file_flag} {file} is not in a mounted Secret")),
+                Some(secret) => problems.add(
+                    origin,
+                    format!("{file_flag} {file}: the Secret {secret} has no key {key} there (the volume holds {files:?})"),
+                ),
+            }
+        }
+        return found;
+    }
+    seq(container.get("env"))
+        .iter()
+        .find(|e| str_at(e, &["name"]).as_deref() == Some(var))
+        .and_then(|e| {
+            Some((
+                str_at(e, &["valueFrom", "secretKeyRef", "name"])?,
+                str_at(e, &["valueFrom", "secretKeyRef", "key"])?,
+            ))
+        })
+}
+
+/// The master gets two different keys, the clients' and the workers'; each worker gets the
+/// master's workers' key and can read no other key (a worker never holds the clients' token).
+fn check_roles(
+    master: Option<(String, Option<SecretKey>, Option<SecretKey>)>,
+    workers: &[(String, Option<SecretKey>, BTreeSet<SecretKey>)],
+    problems: &mut Scoped,
+) {
+    let Some((origin, client, worker)) = master else {
+        return;
+    };
+    let (Some(client), Some(worker)) = (client.clone(), worker.clone()) else {
+        problems.check(
+            client.is_some(),
+            &origin,
+            "the master gets no clients' token (--token-file from a Secret, or HEVO_TOKEN from one)",
+        );
+        problems.check(
+            worker.is_some(),
+            &origin,
+            "the master gets no workers' token (--worker-token-file from a Secret, or HEVO_WORKER_TOKEN from one)",
+        );
+        return;
+    };
+    if client == worker {
+        problems.add(
+            &origin,
+            format!("the master gets one key, {client:?}, for both roles"),
+        );
+        return;
+    }
+    for (origin, token, readable) in workers {
+        match token {
+            None => problems.add(
+                origin,
+                "no token: neither --token-file from a Secret nor HEVO_TOKEN from one",
+            ),
+            Some(token) => problems.check(
+                *token == worker,
+                origin,
+                format!(
+                    "the worker's token is {token:?}, not the master's workers' token {worker:?}"
+                ),
+            ),
+        }
+        for key in readable.iter().filter(|k| **k != worker) {
+            problems.add(
+                origin,
+                format!(
+                    "the worker can read {key:?}{}, not only the workers' token {worker:?}",
+                    if *key == client {
+                        " (the clients' token)"
+                    } else {
+                        ""
+                    }
+                ),
+            );
+        }
     }
 }
 

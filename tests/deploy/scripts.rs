@@ -1,11 +1,13 @@
 //! The one-box and SLURM scripts: bash with a shebang, a comment saying what they are for and
 //! `set -euo pipefail`; `bash -n` passes; each runs the master, the workers, submit, watch and
-//! fetch, every hevo command with the token; the SLURM script has `#SBATCH` directives and
+//! fetch, each with the token of its role (the master with two different ones, the clients'
+//! and the workers', the workers with the master's workers' token, submit, watch and fetch
+//! with its clients' token); the SLURM script has `#SBATCH` directives and
 //! starts its workers with srun. Their command lines are recorded for the flag checks.
 
-use super::invocation::{Program, shell_invocations};
+use super::invocation::{Invocation, Program, shell_invocations};
 use super::shell::exported_names;
-use super::{Concern, DeployFiles, Facts, Problems};
+use super::{Concern, DeployFiles, Facts, Problems, Scoped};
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::process::{Command, Stdio};
@@ -39,6 +41,86 @@ fn bash_syntax(text: &str) -> Result<(), String> {
         Ok(())
     } else {
         Err(String::from_utf8_lossy(&output.stderr).into_owned())
+    }
+}
+
+/// A command line's token of one role: the value of its file flag or of its value flag, or the
+/// variable when it is exported.
+fn role_token(invocation: &Invocation, file_flag: &str, flag: &str, var: &str) -> Option<String> {
+    invocation
+        .flag(file_flag)
+        .map(str::to_string)
+        .or_else(|| invocation.flag(flag).map(str::to_string))
+        .or_else(|| invocation.env.contains(var).then(|| format!("${var}")))
+}
+
+/// The clients' token of a command line (for hevo-worker: its own, the workers').
+fn token(invocation: &Invocation) -> Option<String> {
+    role_token(invocation, "--token-file", "--token", "HEVO_TOKEN")
+}
+
+/// Each `hevo serve` of a script gets a clients' and a workers' token, two different ones;
+/// every worker gets the master's workers' token and every client command its clients' token.
+fn check_roles(invocations: &[Invocation], problems: &mut Scoped) {
+    let mut roles: Vec<(String, String)> = Vec::new();
+    for serve in invocations.iter().filter(|i| i.is_serve()) {
+        let client = token(serve);
+        let worker = role_token(
+            serve,
+            "--worker-token-file",
+            "--worker-token",
+            "HEVO_WORKER_TOKEN",
+        );
+        match (client, worker) {
+            (Some(client), Some(worker)) if client != worker => roles.push((client, worker)),
+            (Some(client), Some(_)) => problems.add(
+                &serve.origin,
+                format!("`hevo serve` gets one token, {client}, for both roles"),
+            ),
+            (client, worker) => {
+                problems.check(
+                    client.is_some(),
+                    &serve.origin,
+                    "`hevo serve` without the clients' token",
+                );
+                problems.check(
+                    worker.is_some(),
+                    &serve.origin,
+                    "`hevo serve` without the workers' token",
+                );
+            }
+        }
+    }
+    let Some((client_token, worker_token)) = roles.first() else {
+        return;
+    };
+    for invocation in invocations.iter().filter(|i| !i.is_serve()) {
+        let (own, other, role) = match invocation.program {
+            Program::Worker => (worker_token, client_token, "workers'"),
+            Program::Hevo => (client_token, worker_token, "clients'"),
+            _ => continue,
+        };
+        match token(invocation) {
+            None => problems.add(
+                &invocation.origin,
+                format!("`{}` without the token", invocation.name()),
+            ),
+            Some(token) if token == *other => problems.add(
+                &invocation.origin,
+                format!(
+                    "`{}` gets {token}, the other role's token, instead of the master's {role}, {own}",
+                    invocation.name()
+                ),
+            ),
+            Some(token) => problems.check(
+                token == *own,
+                &invocation.origin,
+                format!(
+                    "`{}` gets {token}, not the master's {role} token {own}",
+                    invocation.name()
+                ),
+            ),
+        }
     }
 }
 
@@ -103,17 +185,7 @@ pub fn check(files: &DeployFiles, problems: &mut Problems, facts: &mut Facts) {
                 format!("runs no `{expected}` (found {found:?})"),
             );
         }
-        for invocation in &facts.invocations[before..] {
-            if invocation.program == Program::Worker || invocation.program == Program::Hevo {
-                problems.check(
-                    invocation.flag("--token-file").is_some()
-                        || invocation.flag("--token").is_some()
-                        || invocation.env.contains("HEVO_TOKEN"),
-                    &invocation.origin,
-                    format!("`{}` without the token", invocation.name()),
-                );
-            }
-        }
+        check_roles(&facts.invocations[before..], problems);
         if path.ends_with(".sbatch") {
             problems.check(
                 text.lines().any(|l| l.starts_with("#SBATCH ")),

@@ -1,7 +1,8 @@
 //! deploy/compose.yaml: the master publishes only its own ports, keeps its state on a named
 //! volume and has a healthcheck that is a real client call on its port; the workers are told
-//! where the master is, wait for it to be healthy and get a minute and more to stop; all
-//! services share one token; and the file is valid against the Compose Specification's schema
+//! where the master is, wait for it to be healthy and get a minute and more to stop; the master
+//! gets two different tokens, the clients' and the workers', each worker only the workers' and
+//! the client service only the clients'; and the file is valid against the Compose Specification's schema
 //! (check-jsonschema's bundled copy).
 
 use hevo_tests::deploy::{Analysis, Concern, DeployFiles, Drift, assert_drift_detected};
@@ -58,9 +59,27 @@ fn compose_drift_is_reported() {
             },
             Drift {
                 path: "deploy/compose.yaml",
-                from: "    environment:\n      HEVO_MASTER: http://master:50051\n      HEVO_TOKEN:",
-                to: "    environment:\n      HEVO_MASTER: http://master:50051\n      HEVO_TOKEN: other\n      X:",
-                expected: "the services do not share one token",
+                from: "HEVO_TOKEN: ${HEVO_WORKER_TOKEN:?",
+                to: "HEVO_TOKEN: ${HEVO_TOKEN:?",
+                expected: "services.worker: the worker's token is ${HEVO_TOKEN}, not the master's workers' token ${HEVO_WORKER_TOKEN}",
+            },
+            Drift {
+                path: "deploy/compose.yaml",
+                from: "      # The clients' token.\n      HEVO_TOKEN: ${HEVO_TOKEN:?",
+                to: "      HEVO_TOKEN: ${HEVO_TOKEN:?create}\n      X: ${HEVO_WORKER_TOKEN:?",
+                expected: "services.hevo: the client is given ${HEVO_WORKER_TOKEN}, the other role's token",
+            },
+            Drift {
+                path: "deploy/compose.yaml",
+                from: "      HEVO_WORKER_TOKEN: ${HEVO_WORKER_TOKEN:?",
+                to: "      X: ${HEVO_WORKER_TOKEN:?",
+                expected: "services.master: the master gets no workers' token",
+            },
+            Drift {
+                path: "deploy/compose.yaml",
+                from: "      HEVO_WORKER_TOKEN: ${HEVO_WORKER_TOKEN:?",
+                to: "      HEVO_WORKER_TOKEN: ${HEVO_TOKEN:?",
+                expected: "services.master: the master gets one token, ${HEVO_TOKEN}, for both roles",
             },
         ],
     );

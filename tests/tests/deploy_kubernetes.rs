@@ -1,10 +1,11 @@
 //! deploy/k8s/: the manifests are wired together (see `hevo_tests::deploy::kubernetes` for the
 //! list: kustomization resources, selectors, Services in front of the master's gRPC port,
-//! probes, volumes, the token Secret, grace periods, non-root uids); each manifest is valid
+//! probes, volumes, grace periods, non-root uids, and the Secret's two keys: the master gets the
+//! clients' and the workers' token, the workers only the workers'); each manifest is valid
 //! against the Kubernetes API schemas (kubernetes-validate, which bundles the official ones,
 //! strict: unknown fields are errors); and the real kustomize (kubectl's) renders the base, with
 //! and without the autoscale component, into valid objects in the namespace `hevo` that use the
-//! generated Secret.
+//! generated Secret, with both keys, of which the workers mount only `worker-token`.
 
 use hevo_tests::deploy::yaml::{at, parse_docs, seq, str_at};
 use hevo_tests::deploy::{Analysis, Concern, DeployFiles, Drift, assert_drift_detected};
@@ -54,6 +55,30 @@ fn kubernetes_drift_is_reported() {
                 from: "- /etc/hevo/token/token",
                 to: "- /etc/hevo/token/secret",
                 expected: "the Secret hevo-token has no key secret",
+            },
+            Drift {
+                path: "deploy/k8s/worker.yaml",
+                from: "            items:\n              - key: worker-token\n                path: worker-token\n",
+                to: "",
+                expected: "the worker can read (\"hevo-token\", \"token\") (the clients' token)",
+            },
+            Drift {
+                path: "deploy/k8s/worker.yaml",
+                from: "- /etc/hevo/token/worker-token",
+                to: "- /etc/hevo/token/token",
+                expected: "--token-file /etc/hevo/token/token: the Secret hevo-token has no key token there",
+            },
+            Drift {
+                path: "deploy/k8s/master.yaml",
+                from: "            - --worker-token-file\n            - /etc/hevo/token/worker-token\n",
+                to: "",
+                expected: "container master: the master gets no workers' token",
+            },
+            Drift {
+                path: "deploy/k8s/master.yaml",
+                from: "- /etc/hevo/token/worker-token",
+                to: "- /etc/hevo/token/token",
+                expected: "container master: the master gets one key, (\"hevo-token\", \"token\"), for both roles",
             },
             Drift {
                 path: "deploy/k8s/pdb.yaml",
@@ -136,7 +161,7 @@ fn kustomize(test: &str) -> Option<(PathBuf, &'static str)> {
     tools::require("kubectl", test).map(|kubectl| (kubectl, "kustomize"))
 }
 
-/// Renders a copy of deploy/k8s (with a token file, which users create) with the autoscale
+/// Renders a copy of deploy/k8s (with the two token files, which users create) with the autoscale
 /// component on or off, validates the output, and returns its objects.
 fn render(
     kustomize: &(PathBuf, &str),
@@ -155,7 +180,12 @@ fn render(
         );
     }
     files.write_to(&dir);
-    std::fs::write(dir.join("deploy/k8s/token"), "test-token").expect("write the token file");
+    for (file, token) in [
+        ("token", "client-test-token"),
+        ("worker-token", "worker-test-token"),
+    ] {
+        std::fs::write(dir.join("deploy/k8s").join(file), token).expect("write a token file");
+    }
     let run = tools::run(&kustomize.0, &[kustomize.1, "deploy/k8s"], &dir);
     assert!(
         run.success,
@@ -223,7 +253,9 @@ fn kustomize_renders_the_base_and_the_autoscale_component() {
             .expect("a Secret");
         let secret_name = kind_name(secret).1;
         assert!(
-            secret_name.starts_with("hevo-token-") && at(secret, &["data", "token"]).is_some(),
+            secret_name.starts_with("hevo-token-")
+                && at(secret, &["data", "token"]).is_some()
+                && at(secret, &["data", "worker-token"]).is_some(),
             "{what}: the Secret is {secret:?}"
         );
         for object in &objects {
@@ -248,6 +280,14 @@ fn kustomize_renders_the_base_and_the_autoscale_component() {
                         secret, secret_name,
                         "{origin}: mounts a Secret kustomize did not generate"
                     );
+                    // The workers' pods get the workers' key alone.
+                    if kind == "Deployment" {
+                        let keys: Vec<String> = seq(at(volume, &["secret", "items"]))
+                            .iter()
+                            .filter_map(|item| str_at(item, &["key"]))
+                            .collect();
+                        assert_eq!(keys, ["worker-token"], "{origin}: mounts {volume:?}");
+                    }
                 }
             }
             for container in pod.map(|p| seq(p.get("containers"))).unwrap_or_default() {

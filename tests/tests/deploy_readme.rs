@@ -21,7 +21,7 @@ fn readme_drift_is_reported() {
                 path: "deploy/README.md",
                 from: "[`compose.yaml`](compose.yaml)",
                 to: "[`compose.yaml`](compose.yml)",
-                expected: "deploy/README.md:27: links to compose.yml, which does not exist",
+                expected: "deploy/README.md:42: links to compose.yml, which does not exist",
             },
             Drift {
                 path: "deploy/README.md",

@@ -1,6 +1,7 @@
 //! The one-box and SLURM scripts: bash with a shebang, a comment and `set -euo pipefail`,
-//! `bash -n` clean, running the master, the workers, submit, watch and fetch with the token
-//! (the SLURM script with `#SBATCH` directives and srun); and shellcheck finds nothing in them,
+//! `bash -n` clean, running the master (with the clients' and the workers' token, two
+//! different ones), the workers (with the workers'), submit, watch and fetch (with the
+//! clients') (the SLURM script with `#SBATCH` directives and srun); and shellcheck finds nothing in them,
 //! nor in the shell blocks of deploy/README.md.
 
 use hevo_tests::deploy::readme::shell_blocks;
@@ -9,7 +10,7 @@ use hevo_tests::{Scratch, tools};
 use std::path::Path;
 
 #[test]
-fn the_scripts_run_every_step_with_the_token() {
+fn the_scripts_run_every_step_with_the_token_of_its_role() {
     Analysis::of(&DeployFiles::load())
         .problems
         .assert_none(Concern::Scripts, "deploy/ scripts");
@@ -35,9 +36,33 @@ fn script_drift_is_reported() {
             },
             Drift {
                 path: "deploy/local/one-box.sh",
-                from: "\"$hevo\" fetch --master \"$master_url\" --token-file \"$token_file\"",
+                from: "\"$hevo\" fetch --master \"$master_url\" --token-file \"$client_token_file\"",
                 to: "\"$hevo\" fetch --master \"$master_url\"",
-                expected: "deploy/local/one-box.sh:236: `hevo fetch` without the token",
+                expected: "deploy/local/one-box.sh:246: `hevo fetch` without the token",
+            },
+            Drift {
+                path: "deploy/local/one-box.sh",
+                from: "\"$hevo_worker\" --master \"$master_url\" --token-file \"$worker_token_file\"",
+                to: "\"$hevo_worker\" --master \"$master_url\" --token-file \"$client_token_file\"",
+                expected: "deploy/local/one-box.sh:227: `hevo-worker` gets $client_token_file, the other role's token",
+            },
+            Drift {
+                path: "deploy/local/one-box.sh",
+                from: " --worker-token-file \"$worker_token_file\"",
+                to: "",
+                expected: "deploy/local/one-box.sh:207: `hevo serve` without the workers' token",
+            },
+            Drift {
+                path: "deploy/slurm/hevo.sbatch",
+                from: "--worker-token-file \"$worker_token_file\"",
+                to: "--worker-token-file \"$client_token_file\"",
+                expected: "deploy/slurm/hevo.sbatch:160: `hevo serve` gets one token, $client_token_file, for both roles",
+            },
+            Drift {
+                path: "deploy/slurm/hevo.sbatch",
+                from: "submit --master \"$HEVO_MASTER\" --token-file \"$client_token_file\"",
+                to: "submit --master \"$HEVO_MASTER\" --token-file \"$worker_token_file\"",
+                expected: "`hevo submit` gets $worker_token_file, the other role's token",
             },
             Drift {
                 path: "deploy/slurm/hevo.sbatch",

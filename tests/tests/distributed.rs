@@ -306,20 +306,47 @@ fn batch_in_hand(log: &str) -> Option<(u64, u64)> {
     held
 }
 
+/// The text of field `name` in a log line, without the quotes the log puts around string
+/// values (`worker="doomed@127.0.0.1:5000"`) and does not put around displayed ones
+/// (`worker=doomed@127.0.0.1:5000`).
+fn log_text_field<'l>(line: &'l str, name: &str) -> Option<&'l str> {
+    let start = line.find(&format!(" {name}="))? + name.len() + 2;
+    let rest = &line[start..];
+    match rest.strip_prefix('"') {
+        Some(quoted) => quoted.split('"').next(),
+        None => rest.split_whitespace().next(),
+    }
+}
+
 /// Whether the master's log shows it taking back `worker`'s lease of a batch: revoked when the
 /// worker's connection closed (`worker gone`, naming the lease) or run out (`lease expired`,
 /// naming the batch).
 fn lease_taken_back(master_log: &str, worker: &str, (batch, lease): (u64, u64)) -> bool {
     // The master names a lease's holder `<worker>@<peer>`.
-    let named = format!("worker={worker}");
-    let held_by = |word: &str| {
-        word == named || word.strip_prefix(named.as_str()).is_some_and(|rest| rest.starts_with('@'))
+    let held_by = |line: &str| {
+        log_text_field(line, "worker")
+            .and_then(|holder| holder.strip_prefix(worker))
+            .is_some_and(|rest| rest.starts_with('@'))
     };
     master_log.lines().any(|line| {
-        line.split_whitespace().any(held_by)
+        held_by(line)
             && ((line.contains("worker gone") && log_field(line, "lease_id") == Some(lease))
                 || (line.contains("lease expired") && log_field(line, "batch_id") == Some(batch)))
     })
+}
+
+#[test]
+fn the_master_log_names_the_holder_of_a_lease_taken_back() {
+    let log = "\
+2026-12-01T23:28:53.664593Z  WARN hevo_engine::dispatch: worker gone; its batch re-queued lease_id=184 worker=\"doomed@127.0.0.1:58458\"
+2026-12-01T23:28:55.000000Z  WARN hevo_engine::dispatch: lease expired; batch re-queued lease_id=190 batch_id=185 worker=survivor@127.0.0.1:58460";
+    assert!(lease_taken_back(log, "doomed", (179, 184)));
+    assert!(lease_taken_back(log, "survivor", (185, 190)));
+    // Another lease, another batch or another worker is not the one taken back.
+    assert!(!lease_taken_back(log, "doomed", (179, 183)));
+    assert!(!lease_taken_back(log, "survivor", (186, 190)));
+    assert!(!lease_taken_back(log, "survivor", (179, 184)));
+    assert!(!lease_taken_back(log, "doom", (179, 184)));
 }
 
 #[test]

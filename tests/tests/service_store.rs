@@ -67,6 +67,9 @@ fn assert_refused_before_listening(output: &std::process::Output, store: &Path, 
     );
 }
 
+/// A change made to the store file's bytes.
+type Damage = dyn Fn(&mut Vec<u8>);
+
 #[test]
 fn a_damaged_store_is_a_clear_error_before_listening() {
     let scratch = Scratch::new("store-damaged");
@@ -74,7 +77,7 @@ fn a_damaged_store_is_a_clear_error_before_listening() {
     let path = store(&scratch);
     let clean = std::fs::read(&path).unwrap();
     let middle = clean.len() / 2;
-    let damages: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 2] = [
+    let damages: [(&str, Box<Damage>); 2] = [
         (
             "20 flipped bytes",
             Box::new(|bytes: &mut Vec<u8>| {

@@ -619,7 +619,7 @@ impl Dispatcher {
         // Latest first to the front of the queue, so the earliest batch is leased first.
         held.sort_unstable_by(|a, b| b.cmp(a));
         for &lease_id in &held {
-            tracing::warn!(lease_id, worker, "worker gone; its batch re-queued");
+            tracing::warn!(lease_id, worker = %worker, "worker gone; its batch re-queued");
             revoke(&mut state, lease_id);
         }
         state.workers.remove(worker);

@@ -807,14 +807,16 @@ runs = 1
         (hevo_sim_core::hash::fnv1a(&bytes) % 1000) as f32 / 1000.0
     }
 
-    /// A sample's fake fitness: an offset in [0, 10) from the sample's seed alone, minus the
-    /// squared distance d to the planted genome scaled by a factor in (0.5, 1] drawn from the
-    /// sample and the genes. The planted genome (d = 0) scores the offset, strictly more than any
-    /// other genome on the same sample; the others' order changes from sample to sample.
+    /// A sample's fake fitness, inside exit_room's range [0, 6] (the dispatcher refuses any
+    /// other): an offset in [0, 3) from the sample's seed alone, plus 3 exp(-d s) for the
+    /// squared distance d to the planted genome scaled by a factor s in (0.5, 1] drawn from the
+    /// sample and the genes. The planted genome (d = 0) scores the offset plus 3, strictly more
+    /// than any other genome on the same sample; the others' order changes from sample to
+    /// sample.
     fn fake_fitness(genes: &[f32], seed: u64) -> f32 {
         let distance: f32 = genes.iter().map(|g| (g - PLANTED_GENE).powi(2)).sum();
-        let offset = (seed % 1000) as f32 / 100.0;
-        offset - distance * (1.0 - 0.5 * unit(seed, genes))
+        let offset = (seed % 1000) as f32 * 0.003;
+        offset + 3.0 * (-distance * (1.0 - 0.5 * unit(seed, genes))).exp()
     }
 
     /// A genome's fitness as the runner computes it: the mean of its sample fitness.
@@ -909,8 +911,8 @@ runs = 1
                     }
                     let results = fake_results(&batch);
                     dispatcher
-                        .complete(batch.lease_id, batch.batch_id, results)
-                        .unwrap();
+                        .complete(batch.lease_id, batch.batch_id, "fake", results)
+                        .expect("the dispatcher takes the fake results");
                 }
             }
         });

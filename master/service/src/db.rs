@@ -487,7 +487,7 @@ mod tests {
         }
         let (store, n) = JobStore::rebuild(&path, &jobs_dir).unwrap();
         assert_eq!(n, 1);
-        assert_eq!(store.list().unwrap(), [job.clone()]);
+        assert_eq!(store.list().unwrap(), std::slice::from_ref(&job));
         // The request index came back too.
         assert!(!store.insert_new(Some("req-1"), record).unwrap().1);
     }
