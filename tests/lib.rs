@@ -15,6 +15,12 @@ pub mod tools;
 #[path = "support/service.rs"]
 pub mod service;
 
+#[path = "support/browser.rs"]
+pub mod browser;
+
+#[path = "support/dashboard.rs"]
+pub mod dashboard;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
@@ -256,6 +262,8 @@ pub struct Master {
     pub url: String,
     /// `127.0.0.1:PORT` of the metrics endpoint, when enabled.
     pub metrics: Option<String>,
+    /// `http://127.0.0.1:PORT` of the dashboard, when enabled (`--http-listen`).
+    pub dashboard: Option<String>,
 }
 
 /// Starts a master on 127.0.0.1 port 0 with `args` after `serve --listen 127.0.0.1:0`, its
@@ -297,6 +305,14 @@ pub fn start_master_listening(listen: &str, args: &[&str], log: &Path) -> Master
             .unwrap_or_else(|| panic!("unexpected second line: {line}"))
             .to_string()
     });
+    let dashboard = args.contains(&"--http-listen").then(|| {
+        let line = lines
+            .recv_timeout(Duration::from_secs(5))
+            .expect("no dashboard line");
+        line.strip_prefix("dashboard on ")
+            .unwrap_or_else(|| panic!("unexpected dashboard line: {line}"))
+            .to_string()
+    });
     let tls = args.contains(&"--tls-cert");
     let url = if tls {
         format!(
@@ -306,7 +322,12 @@ pub fn start_master_listening(listen: &str, args: &[&str], log: &Path) -> Master
     } else {
         format!("http://{address}")
     };
-    Master { proc, url, metrics }
+    Master {
+        proc,
+        url,
+        metrics,
+        dashboard,
+    }
 }
 
 /// Starts a `hevo-worker` on `url` with one thread and the given extra arguments; its logs go

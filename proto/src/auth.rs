@@ -171,6 +171,12 @@ impl TokenSet {
         })
     }
 
+    /// Whether `token` is one of the set's (the same constant-time comparison as a call's
+    /// metadata gets; the dashboard checks its cookies and headers with it).
+    pub fn accepts(&self, token: &str) -> bool {
+        self.contains(&digest(token.as_bytes()))
+    }
+
     /// Whether the set shares a token with `other`.
     pub fn overlaps(&self, other: &TokenSet) -> bool {
         self.read().iter().any(|digest| other.contains(digest))

@@ -99,9 +99,25 @@ const RULES: &[Rule] = &[
         why: "the wire format depends on sim-core alone; its flags are behind the `cli` feature",
     },
     Rule {
+        package: "hevo-dashboard",
+        forbidden: &[
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "hevo-proto",
+            "hevo-service",
+            "hevo-cli",
+            "hevo-worker",
+        ],
+        why: "the dashboard reads a Source (run directories here, the master's jobs in the service); it knows no gRPC, store or command line",
+    },
+    Rule {
         package: "hevo-service",
-        forbidden: &["clap", "indicatif", "hevo-viz", "hevo-cli", "hevo-worker"],
-        why: "the service is a library over the engine; the command line and pictures are above it",
+        // (hevo-viz comes in through hevo-dashboard only: the service draws nothing itself.)
+        forbidden: &["clap", "indicatif", "hevo-cli", "hevo-worker"],
+        why: "the service is a library over the engine; the command line is above it",
     },
     Rule {
         package: "hevo-worker",

@@ -59,6 +59,26 @@ pub enum Command {
     Report(ReportArgs),
     /// Check a scenario file (a task as data) and draw its world.
     Scenario(crate::scenario_command::ScenarioArgs),
+    /// Serve the live dashboard over local run directories (what `hevo run --out` writes):
+    /// fitness curves that grow while a run is in progress, post-evaluation tables and the
+    /// best controllers' replays; prints its URL.
+    Dashboard(DashboardArgs),
+}
+
+/// `hevo dashboard`.
+#[derive(Debug, Args)]
+pub struct DashboardArgs {
+    /// Run output directories (as given to `hevo run --out`), each shown as one job.
+    #[arg(required = true, value_name = "RUNS_DIR")]
+    pub runs_dirs: Vec<PathBuf>,
+    /// Address to serve on (port 0: any free port); the URL is printed first on stdout as
+    /// `dashboard on http://ADDR`. The default is reachable from this machine only.
+    #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
+    pub listen: String,
+    /// Ask for one of the tokens in this file (one per line) before showing anything, as a
+    /// master's dashboard does; without it anyone who reaches the address sees the runs.
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
 }
 
 /// `hevo report`.
@@ -374,6 +394,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Fetch(args) => service::fetch(args),
         Command::Cancel(args) => service::cancel(args),
         Command::Scenario(args) => crate::scenario_command::scenario(args),
+        Command::Dashboard(args) => dashboard(args),
         Command::Report(args) => {
             let n =
                 hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;
@@ -722,6 +743,39 @@ fn replay(args: ReplayArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+fn dashboard(args: DashboardArgs) -> Result<()> {
+    let access = match &args.token_file {
+        Some(file) => {
+            let tokens = hevo_proto::auth::read_token_file(file)?;
+            if tokens.is_empty() {
+                bail!("{} holds no token", file.display());
+            }
+            hevo_dashboard::Access::tokens(tokens)
+        }
+        None => hevo_dashboard::Access::Open,
+    };
+    let source = hevo_dashboard::rundirs::RunDirSource::new(&args.runs_dirs)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(&args.listen)
+            .await
+            .with_context(|| format!("cannot listen on {}", args.listen))?;
+        let address = listener.local_addr()?;
+        crate::outln!("dashboard on http://{address}");
+        let source = Arc::new(source);
+        source.watch_for_changes();
+        let board = hevo_dashboard::Dashboard::new(source, access);
+        hevo_dashboard::serve(listener, board, async {
+            let _ = tokio::signal::ctrl_c().await;
+        })
+        .await
+        .context("the dashboard server failed")
+    })
 }
 
 fn plot(args: PlotArgs) -> Result<()> {

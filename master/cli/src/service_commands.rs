@@ -49,6 +49,14 @@ pub struct ServeArgs {
     /// Serve Prometheus metrics at http://ADDR/metrics (printed as `metrics on ADDR`).
     #[arg(long)]
     pub metrics_listen: Option<String>,
+    /// Serve the live dashboard at http://ADDR/ (port 0: any free port; printed after the
+    /// other addresses as `dashboard on http://ADDR`): the jobs and workers, each job's fitness
+    /// curves growing as generations finish, its post-evaluation tables, the best controllers'
+    /// replays with a cycle slider, and a cancel button. The clients' tokens guard every page
+    /// (a login form, or `Authorization: Bearer TOKEN`). Plain HTTP: put it behind a TLS proxy
+    /// off this machine.
+    #[arg(long, value_name = "ADDR")]
+    pub http_listen: Option<String>,
     /// A batch whose worker sends no heartbeat for this long is given to another worker.
     #[arg(long, default_value_t = 30)]
     pub lease_seconds: u64,
@@ -135,6 +143,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
         credentials,
         tls: args.tls_cert.zip(args.tls_key),
         metrics_listen: args.metrics_listen,
+        http_listen: args.http_listen,
         lease: Duration::from_secs(args.lease_seconds),
         max_lease: Duration::from_secs(args.max_lease_seconds),
         rebuild_store: args.rebuild_store,

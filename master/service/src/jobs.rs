@@ -107,6 +107,8 @@ struct Inner {
     records: Mutex<BTreeMap<String, JobRecord>>,
     live: Mutex<HashMap<String, Live>>,
     stopping: watch::Sender<bool>,
+    /// Moves on every published event (the dashboard's streams wait on it).
+    changes: watch::Sender<u64>,
 }
 
 /// The job manager. Cheap to clone.
@@ -177,6 +179,7 @@ impl JobManager {
                 records: Mutex::new(records),
                 live: Mutex::new(HashMap::new()),
                 stopping: watch::channel(false).0,
+                changes: watch::channel(0).0,
             }),
         };
         for id in unfinished {
@@ -289,6 +292,22 @@ impl JobManager {
         Ok((receiver, self.inner.stopping.subscribe()))
     }
 
+    /// A counter that moves whenever any job changes: submitted, progressed or finished.
+    pub fn changes(&self) -> watch::Receiver<u64> {
+        self.inner.changes.subscribe()
+    }
+
+    /// Tells a job's watchers and the change counter.
+    fn publish(&self, id: &str, event: v1::JobEvent) {
+        let _ = self.sender(id).send(event);
+        self.inner.changes.send_modify(|n| *n = n.wrapping_add(1));
+    }
+
+    /// The directory a job's runs are written to.
+    pub fn out_dir(&self, id: &str) -> PathBuf {
+        job_out_dir(&self.inner.state_dir, id)
+    }
+
     fn sender(&self, id: &str) -> broadcast::Sender<v1::JobEvent> {
         lock(&self.inner.live)
             .entry(id.to_string())
@@ -329,7 +348,7 @@ impl JobManager {
             self.keep_record_copy(record);
             record.clone()
         };
-        let _ = self.sender(id).send(status_event(&record));
+        self.publish(id, status_event(&record));
         Ok(record)
     }
 
@@ -372,7 +391,7 @@ impl JobManager {
                 return;
             }
         };
-        let _ = self.sender(&id).send(status_event(&record));
+        self.publish(&id, status_event(&record));
         let experiment = match Experiment::parse_with(
             &record.experiment_toml,
             Path::new(&record.file_name),
@@ -611,7 +630,7 @@ impl Progress for JobProgress {
             tracing::info!(job = %self.id, "{message}");
         }
         if let Some(proto) = self.manager.record_progress(&self.id, event, done) {
-            let _ = self.manager.sender(&self.id).send(proto);
+            self.manager.publish(&self.id, proto);
         }
     }
 }

@@ -10,6 +10,7 @@
 
 pub mod conn;
 pub mod convert;
+pub mod dashboard;
 pub mod db;
 pub mod grpc;
 pub mod jobs;
@@ -43,6 +44,8 @@ pub struct ServeConfig {
     pub tls: Option<(PathBuf, PathBuf)>,
     /// Where to serve metrics.
     pub metrics_listen: Option<String>,
+    /// Where to serve the dashboard (plain HTTP; the clients' tokens guard it).
+    pub http_listen: Option<String>,
     /// Lease duration without a heartbeat.
     pub lease: Duration,
     /// The longest a lease may last, heartbeats or not.
@@ -170,12 +173,23 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         ),
         None => None,
     };
+    let http_listener = match &config.http_listen {
+        Some(listen) => Some(
+            tokio::net::TcpListener::bind(listen)
+                .await
+                .with_context(|| format!("cannot listen on {listen} for the dashboard"))?,
+        ),
+        None => None,
+    };
     // The first lines on stdout tell scripts (and tests binding port 0) where we are.
     {
         let mut stdout = std::io::stdout().lock();
         writeln!(stdout, "listening on {address}")?;
         if let Some(metrics) = &metrics_listener {
             writeln!(stdout, "metrics on {}", metrics.local_addr()?)?;
+        }
+        if let Some(http) = &http_listener {
+            writeln!(stdout, "dashboard on http://{}", http.local_addr()?)?;
         }
         stdout.flush()?;
     }
@@ -234,6 +248,25 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         tokio::spawn(async move {
             if let Err(error) = metrics::serve(listener, metrics, stopped).await {
                 tracing::error!(%error, "metrics server failed");
+            }
+        });
+    }
+    if let Some(listener) = http_listener {
+        let access = match &roles {
+            Some(roles) => {
+                let clients = roles.clients.clone();
+                hevo_dashboard::Access::Tokens(Arc::new(move |token: &str| clients.accepts(token)))
+            }
+            None => hevo_dashboard::Access::Open,
+        };
+        let board = hevo_dashboard::Dashboard::new(
+            Arc::new(dashboard::JobsSource::new(manager.clone())),
+            access,
+        );
+        let stopped = until_stopped(stopped.clone());
+        tokio::spawn(async move {
+            if let Err(error) = hevo_dashboard::serve(listener, board, stopped).await {
+                tracing::error!(%error, "dashboard server failed");
             }
         });
     }

@@ -12,4 +12,4 @@ pub mod sampling;
 pub mod svg;
 
 pub use plot::{RunLog, fitness_plot_svg, read_run_logs};
-pub use replay::{IrCone, ReplayOptions, replay_svg};
+pub use replay::{IrCone, ReplayOptions, replay_scene_transform, replay_svg};

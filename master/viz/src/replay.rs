@@ -395,6 +395,17 @@ fn unwrapped_degrees(headings: &[f32]) -> Vec<f64> {
     out
 }
 
+/// Where [`replay_svg`] puts the world in its picture for this trace and robot radius (metres):
+/// a page that moves its own robot marker over the picture places it with this.
+pub fn replay_scene_transform(trace: &Trace, robot_radius: f32) -> SceneTransform {
+    let robot_radius = if robot_radius.is_finite() && robot_radius > 0.0 {
+        robot_radius as f64
+    } else {
+        0.0375
+    };
+    fit(world_bounds(trace, robot_radius)).0
+}
+
 /// Draws a replay of one traced sample. `cones` gives the IR cones at a pose (for example
 /// `|pose| evaluator.ir_cones(pose)`); it is only called for `options.rays_at_cycles`.
 ///

@@ -1,0 +1,192 @@
+// hevo dashboard: what the pages do with JavaScript on. A job page listens to its
+// Server-Sent Events stream and updates the state, the progress, each run's line and the
+// node's fitness plot (fetched again from the server, which draws it); when a node or the job
+// finishes it reloads to show the tables and replays. Each replay gets a robot marker, a cycle
+// slider and a play button. Without JavaScript the pages show the same facts, not live.
+(function () {
+  "use strict";
+  var SVG_NS = "http://www.w3.org/2000/svg";
+
+  function sectionOf(node) {
+    return document.querySelector('section.node[data-node="' + CSS.escape(node) + '"]');
+  }
+
+  function refreshPlot(section) {
+    var figure = section.querySelector("figure.fitness");
+    if (!figure) return;
+    if (figure.dataset.loading === "1") {
+      figure.dataset.dirty = "1";
+      return;
+    }
+    figure.dataset.loading = "1";
+    fetch(figure.dataset.plot, { credentials: "same-origin", cache: "no-store" })
+      .then(function (response) {
+        return response.ok ? response.text() : Promise.reject(response.status);
+      })
+      .then(function (svg) {
+        figure.innerHTML = svg;
+      })
+      .catch(function () {})
+      .then(function () {
+        figure.dataset.loading = "0";
+        if (figure.dataset.dirty === "1") {
+          figure.dataset.dirty = "0";
+          refreshPlot(section);
+        }
+      });
+  }
+
+  function reloadOnce(source) {
+    source.close();
+    window.location.reload();
+  }
+
+  function setProgress(cell, done, total) {
+    cell.textContent = "";
+    if (total) {
+      var bar = document.createElement("progress");
+      bar.max = total;
+      bar.value = Math.min(done, total);
+      cell.appendChild(bar);
+      cell.appendChild(document.createTextNode(" " + Math.min(done, total) + " of " + total + " generations"));
+    } else {
+      cell.textContent = done + " generations";
+    }
+  }
+
+  function initJob() {
+    var job = document.querySelector(".job[data-events]");
+    if (!job || !window.EventSource) return;
+    var wasFinished = job.dataset.finished === "1";
+    var finishedNodes = {};
+    document.querySelectorAll('section.node[data-finished="1"]').forEach(function (s) {
+      finishedNodes[s.dataset.node] = true;
+    });
+    var source = new EventSource(job.dataset.events);
+    job.dataset.live = "connecting";
+    source.onopen = function () {
+      job.dataset.live = "open";
+    };
+    source.onerror = function () {
+      job.dataset.live = "retrying";
+    };
+    source.addEventListener("job", function (event) {
+      var data = JSON.parse(event.data);
+      var state = job.querySelector(".job-state");
+      if (state) state.textContent = data.state;
+      var progress = job.querySelector(".job-progress");
+      if (progress) setProgress(progress, data.done, data.total);
+      if (data.finished) {
+        var cancel = job.querySelector("form.cancel");
+        if (cancel) cancel.remove();
+        if (!wasFinished) reloadOnce(source);
+      }
+    });
+    source.addEventListener("run", function (event) {
+      var data = JSON.parse(event.data);
+      var section = sectionOf(data.node);
+      if (!section) {
+        reloadOnce(source);
+        return;
+      }
+      var list = section.querySelector("ul.runs");
+      var item = list.querySelector('li[data-run="' + data.run + '"]');
+      if (!item) {
+        item = document.createElement("li");
+        item.dataset.run = data.run;
+        list.appendChild(item);
+      }
+      if (item.textContent !== data.text) {
+        item.textContent = data.text;
+        refreshPlot(section);
+      }
+      var state = section.querySelector(".node-state");
+      if (state && state.textContent.indexOf("not started") === 0) {
+        state.textContent = state.textContent.replace("not started", "running");
+      }
+    });
+    source.addEventListener("node", function (event) {
+      var data = JSON.parse(event.data);
+      if (!finishedNodes[data.node]) reloadOnce(source);
+    });
+    window.addEventListener("pagehide", function () {
+      source.close();
+    });
+  }
+
+  function initReplay(figure) {
+    var poses;
+    try {
+      poses = JSON.parse(figure.dataset.poses);
+    } catch (e) {
+      return;
+    }
+    var svg = figure.querySelector("svg");
+    var controls = figure.querySelector(".replay-controls");
+    if (!svg || !controls || !poses.length) return;
+    var radius = Math.max(parseFloat(figure.dataset.radius) || 0, 5);
+    var marker = document.createElementNS(SVG_NS, "g");
+    marker.setAttribute("class", "robot-marker");
+    var body = document.createElementNS(SVG_NS, "circle");
+    body.setAttribute("r", radius);
+    body.setAttribute("fill", "#ffffff");
+    body.setAttribute("fill-opacity", "0.6");
+    body.setAttribute("stroke", "#000000");
+    body.setAttribute("stroke-width", "2.5");
+    var nose = document.createElementNS(SVG_NS, "line");
+    nose.setAttribute("x1", "0");
+    nose.setAttribute("y1", "0");
+    nose.setAttribute("x2", radius * 1.7);
+    nose.setAttribute("y2", "0");
+    nose.setAttribute("stroke", "#000000");
+    nose.setAttribute("stroke-width", "2.5");
+    marker.appendChild(body);
+    marker.appendChild(nose);
+    svg.appendChild(marker);
+    controls.hidden = false;
+    var slider = controls.querySelector(".cycle-slider");
+    var label = controls.querySelector(".cycle-label");
+    var play = controls.querySelector(".play");
+    var last = poses.length - 1;
+    var timer = null;
+    function show(cycle) {
+      var pose = poses[cycle];
+      marker.setAttribute("transform", "translate(" + pose[0] + " " + pose[1] + ") rotate(" + pose[2] + ")");
+      marker.dataset.cycle = cycle;
+      label.textContent = cycle + " of " + last;
+    }
+    function stop() {
+      if (timer !== null) clearInterval(timer);
+      timer = null;
+      play.textContent = "Play";
+    }
+    slider.addEventListener("input", function () {
+      stop();
+      show(Number(slider.value));
+    });
+    play.addEventListener("click", function () {
+      if (timer !== null) {
+        stop();
+        return;
+      }
+      if (Number(slider.value) >= last) slider.value = 0;
+      play.textContent = "Pause";
+      // 0.1 s cycles shown 10 times faster than real time.
+      timer = setInterval(function () {
+        var next = Number(slider.value) + 1;
+        if (next > last) {
+          stop();
+          return;
+        }
+        slider.value = next;
+        show(next);
+      }, 10);
+    });
+    show(Number(slider.value));
+  }
+
+  document.addEventListener("DOMContentLoaded", function () {
+    initJob();
+    document.querySelectorAll("figure.replay").forEach(initReplay);
+  });
+})();

@@ -1,0 +1,379 @@
+//! The pages' HTML: the login form, the job list (with the master's workers) and a job's
+//! page (its nodes, each with its runs' progress, the fitness plot, the post-evaluation table
+//! once finished and the best controller's replays). The HTML is complete without scripts;
+//! `data-` attributes tell the script what to update.
+
+use crate::html::{escape, percent, utc};
+use crate::replay::{ReplayFigure, figure_html};
+use crate::{JobOverview, NodeView, WorkersView};
+use hevo_viz::RunLog;
+use std::fmt::Write;
+
+/// The login form; `message` says why it is shown again.
+pub fn login_body(next: &str, message: Option<&str>) -> String {
+    let message = message
+        .map(|m| format!("<p class=\"error-message\">{}</p>\n", escape(m)))
+        .unwrap_or_default();
+    format!(
+        r#"<h1>Sign in</h1>
+{message}<p>The dashboard takes the token a client gives <code>hevo submit</code> (<code>--token</code>, <code>--token-file</code> or <code>HEVO_TOKEN</code>).</p>
+<form class="login" method="post" action="/login">
+<input type="hidden" name="next" value="{next}">
+<label>Token <input type="password" name="token" autocomplete="current-password" autofocus required></label>
+<button type="submit">Sign in</button>
+</form>"#,
+        next = escape(next),
+    )
+}
+
+fn progress_html(job: &JobOverview) -> String {
+    match job.generations_total {
+        Some(total) if total > 0 => format!(
+            r#"<progress max="{total}" value="{done}"></progress> <span class="progress-text">{done} of {total} generations</span>"#,
+            done = job.generations_done.min(total),
+        ),
+        _ => format!(
+            r#"<span class="progress-text">{} generations</span>"#,
+            job.generations_done
+        ),
+    }
+}
+
+fn time_or_dash(time: Option<i64>) -> String {
+    time.map_or_else(|| "–".to_string(), utc)
+}
+
+/// The job list.
+pub fn jobs_body(title: &str, jobs: &[JobOverview], workers: Option<&WorkersView>) -> String {
+    let mut out = format!("<h1>{}</h1>\n", escape(title));
+    if jobs.is_empty() {
+        out.push_str("<p>No jobs yet.</p>\n");
+    } else {
+        out.push_str(
+            "<table class=\"jobs\">\n<thead><tr><th>job</th><th>name</th><th>state</th><th>progress</th><th>submitted</th><th>finished</th><th>nodes</th></tr></thead>\n<tbody>\n",
+        );
+        for job in jobs {
+            let _ = writeln!(
+                out,
+                r#"<tr data-job="{id}"><td><a href="/jobs/{id}">{id}</a></td><td>{name}</td><td class="state state-{state_class}">{state}</td><td>{progress}</td><td>{created}</td><td>{finished}</td><td>{nodes}</td></tr>"#,
+                id = escape(&job.id),
+                name = escape(&job.name),
+                state_class = escape(&job.state.replace(' ', "-")),
+                state = escape(&job.state),
+                progress = progress_html(job),
+                created = time_or_dash(job.created_unix_ms),
+                finished = time_or_dash(job.finished_unix_ms),
+                nodes = escape(&job.nodes.join(", ")),
+            );
+        }
+        out.push_str("</tbody>\n</table>\n");
+    }
+    if let Some(w) = workers {
+        let _ = write!(
+            out,
+            r#"<h2>Workers</h2>
+<table class="workers"><tbody>
+<tr><th>connected workers</th><td>{}</td></tr>
+<tr><th>their threads</th><td>{}</td></tr>
+<tr><th>batches on lease</th><td>{}</td></tr>
+<tr><th>batches waiting</th><td>{}</td></tr>
+<tr><th>batches completed</th><td>{}</td></tr>
+<tr><th>evaluations</th><td>{}</td></tr>
+</tbody></table>
+"#,
+            w.active_workers,
+            w.active_threads,
+            w.leased_batches,
+            w.queued_batches,
+            w.batches_completed,
+            w.evaluations
+        );
+    }
+    out
+}
+
+/// The run logs of a node, labelled for the plot's legend.
+pub fn run_logs(node: &NodeView) -> Vec<RunLog> {
+    node.runs
+        .iter()
+        .filter(|r| !r.rows.is_empty())
+        .map(|r| RunLog {
+            label: format!("run {}", r.run),
+            rows: r.rows.clone(),
+        })
+        .collect()
+}
+
+/// The fitness plot of a node (hevo-viz's).
+pub fn plot_svg(node: &NodeView) -> String {
+    hevo_viz::fitness_plot_svg(
+        &format!("{}: fitness per generation", node.name),
+        &run_logs(node),
+    )
+}
+
+/// One run's line of progress: `run 0: generation 12 of 50, best 1.234, mean 0.567`.
+pub fn run_progress_text(node: &NodeView, run: &crate::RunView) -> String {
+    let of = node
+        .planned
+        .map(|(_, generations)| format!(" of {generations}"))
+        .unwrap_or_default();
+    match run.rows.last() {
+        Some(last) => format!(
+            "run {}: {} generation{}{of}, best {:.3}, mean {:.3}{}",
+            run.run,
+            run.rows.len(),
+            if run.rows.len() == 1 { "" } else { "s" },
+            last.best,
+            last.mean,
+            if run.summary.is_some() {
+                ", finished"
+            } else {
+                ""
+            }
+        ),
+        None => format!("run {}: no generation yet", run.run),
+    }
+}
+
+fn post_evaluation_table(node: &NodeView) -> String {
+    let Some(summary) = &node.summary else {
+        return String::new();
+    };
+    let variants: Vec<u32> = summary
+        .runs
+        .iter()
+        .flat_map(|r| r.post_evaluation.per_variant.iter().map(|v| v.variant))
+        .collect::<std::collections::BTreeSet<u32>>()
+        .into_iter()
+        .collect();
+    let stages = summary
+        .runs
+        .iter()
+        .any(|r| r.post_evaluation.stages.is_some());
+    let mut out = String::from(
+        "<table class=\"post-evaluation\">\n<caption>Post-evaluation of each run's best controller</caption>\n<thead><tr><th>run</th><th>generations</th><th>final best fitness</th><th>samples</th><th>solved</th><th>collided</th><th>mean cycles</th>",
+    );
+    for variant in &variants {
+        let _ = write!(out, "<th>solved, light configuration {variant}</th>");
+    }
+    if stages {
+        out.push_str("<th>exited room</th><th>reached teammate</th><th>returned</th>");
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    for run in &summary.runs {
+        let report = &run.post_evaluation;
+        let best = run.run == summary.best_run;
+        let _ = write!(
+            out,
+            "<tr{}><td>{}{}</td><td>{}</td><td>{:.3}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td>",
+            if best { " class=\"best-run\"" } else { "" },
+            run.run,
+            if best { " (best)" } else { "" },
+            run.generations,
+            run.final_best_fitness,
+            report.samples,
+            percent(Some(report.solve_rate)),
+            percent(Some(report.collision_rate)),
+            report.mean_cycles,
+        );
+        for variant in &variants {
+            let share = report
+                .per_variant
+                .iter()
+                .find(|v| v.variant == *variant)
+                .map(|v| v.solve_rate);
+            let _ = write!(out, "<td>{}</td>", percent(share));
+        }
+        if stages {
+            match &report.stages {
+                Some(s) => {
+                    let _ = write!(
+                        out,
+                        "<td>{}</td><td>{}</td><td>{}</td>",
+                        percent(Some(s.exited_room)),
+                        percent(Some(s.reached_teammate)),
+                        percent(Some(s.returned))
+                    );
+                }
+                None => out.push_str("<td>–</td><td>–</td><td>–</td>"),
+            }
+        }
+        out.push_str("</tr>\n");
+    }
+    let _ = write!(
+        out,
+        "</tbody>\n<tfoot><tr><td colspan=\"{}\">solved on average {}, best run {} solved {}</td></tr></tfoot>\n</table>\n",
+        7 + variants.len() + if stages { 3 } else { 0 },
+        percent(Some(summary.mean_solve_rate)),
+        summary.best_run,
+        percent(Some(summary.best_solve_rate)),
+    );
+    out
+}
+
+/// A node's section of the job page; `replays` are its best controller's, or the reason
+/// there are none.
+pub fn node_section(
+    job_id: &str,
+    node: &NodeView,
+    replays: Option<Result<&[ReplayFigure], &str>>,
+) -> String {
+    let mut out = format!(
+        "<section class=\"node\" id=\"node-{name}\" data-node=\"{name}\" data-finished=\"{finished}\">\n<h2>{name}</h2>\n",
+        name = escape(&node.name),
+        finished = u8::from(node.finished()),
+    );
+    let planned = node
+        .planned
+        .map(|(runs, generations)| format!(", {runs} runs of {generations} generations planned"))
+        .unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "<p class=\"node-state\">{}{planned}</p>",
+        if node.finished() {
+            "finished"
+        } else if node.runs.is_empty() {
+            "not started"
+        } else {
+            "running"
+        }
+    );
+    out.push_str("<ul class=\"runs\">\n");
+    for run in &node.runs {
+        let _ = writeln!(
+            out,
+            "<li data-run=\"{}\">{}</li>",
+            run.run,
+            escape(&run_progress_text(node, run))
+        );
+    }
+    out.push_str("</ul>\n");
+    let _ = writeln!(
+        out,
+        "<figure class=\"fitness\" data-node=\"{name}\" data-plot=\"/jobs/{job}/plot.svg?node={name}\">\n{svg}\n</figure>",
+        name = escape(&node.name),
+        job = escape(job_id),
+        svg = plot_svg(node),
+    );
+    out.push_str(&post_evaluation_table(node));
+    match replays {
+        Some(Ok(figures)) => {
+            out.push_str("<h3>The best controller's replays</h3>\n<div class=\"replays\">\n");
+            for figure in figures {
+                out.push_str(&figure_html(&node.name, figure));
+                out.push('\n');
+            }
+            out.push_str("</div>\n");
+        }
+        Some(Err(reason)) => {
+            let _ = writeln!(
+                out,
+                "<p class=\"error-message\">No replay: {}</p>",
+                escape(reason)
+            );
+        }
+        None => {}
+    }
+    out.push_str("</section>\n");
+    out
+}
+
+/// The top of a job's page: its state, times and the cancel button.
+pub fn job_header(job: &JobOverview, seed: u64) -> String {
+    let mut out = format!(
+        "<h1>{name}</h1>\n<div class=\"job\" data-job=\"{id}\" data-finished=\"{finished}\" data-events=\"/jobs/{id}/events\">\n<table class=\"job-facts\"><tbody>\n<tr><th>job</th><td>{id}</td></tr>\n<tr><th>state</th><td class=\"job-state\">{state}</td></tr>\n<tr><th>progress</th><td class=\"job-progress\">{progress}</td></tr>\n<tr><th>submitted</th><td>{created}</td></tr>\n<tr><th>finished</th><td class=\"job-finished\">{finished_at}</td></tr>\n<tr><th>files</th><td><code>{location}</code></td></tr>\n<tr><th>replay seed</th><td>{seed} (<a href=\"?seed={next_seed}\">another sample</a>)</td></tr>\n",
+        name = escape(&job.name),
+        id = escape(&job.id),
+        finished = u8::from(job.finished),
+        state = escape(&job.state),
+        progress = progress_html(job),
+        created = time_or_dash(job.created_unix_ms),
+        finished_at = time_or_dash(job.finished_unix_ms),
+        location = escape(&job.location),
+        next_seed = seed.wrapping_add(1),
+    );
+    if let Some(error) = &job.error {
+        let _ = writeln!(
+            out,
+            "<tr><th>error</th><td class=\"error-message\">{}</td></tr>",
+            escape(error)
+        );
+    }
+    out.push_str("</tbody></table>\n");
+    if job.cancellable && !job.finished {
+        let _ = writeln!(
+            out,
+            "<form class=\"cancel\" method=\"post\" action=\"/jobs/{}/cancel\"><button type=\"submit\">Cancel job</button></form>",
+            escape(&job.id)
+        );
+    }
+    out.push_str("</div>\n");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::RunView;
+    use hevo_engine::rundir::FitnessRow;
+
+    fn overview() -> JobOverview {
+        JobOverview {
+            id: "job-1".into(),
+            name: "<small>".into(),
+            state: "running".into(),
+            finished: false,
+            generations_done: 3,
+            generations_total: Some(10),
+            created_unix_ms: Some(0),
+            finished_unix_ms: None,
+            error: None,
+            nodes: vec!["follow_wall".into()],
+            cancellable: true,
+            location: "/tmp/x".into(),
+        }
+    }
+
+    #[test]
+    fn the_job_list_links_each_job_and_escapes_names() {
+        let html = jobs_body("hevo master", &[overview()], None);
+        assert!(html.contains(r#"<a href="/jobs/job-1">job-1</a>"#));
+        assert!(html.contains("&lt;small&gt;"));
+        assert!(html.contains("3 of 10 generations"));
+    }
+
+    #[test]
+    fn a_running_job_can_be_cancelled_and_a_finished_one_not() {
+        let mut job = overview();
+        assert!(job_header(&job, 1).contains("Cancel job"));
+        job.finished = true;
+        assert!(!job_header(&job, 1).contains("Cancel job"));
+    }
+
+    #[test]
+    fn a_node_shows_its_runs_and_plot() {
+        let node = NodeView {
+            name: "follow_wall".into(),
+            runs: vec![RunView {
+                run: 0,
+                rows: vec![FitnessRow {
+                    generation: 0,
+                    best: 1.0,
+                    mean: 0.5,
+                    min: 0.0,
+                    max: 1.0,
+                    std: 0.1,
+                }],
+                summary: None,
+            }],
+            summary: None,
+            planned: Some((1, 5)),
+        };
+        let html = node_section("job-1", &node, None);
+        assert!(html.contains("run 0: 1 generation of 5, best 1.000, mean 0.500"));
+        assert!(html.contains("data-plot=\"/jobs/job-1/plot.svg?node=follow_wall\""));
+        assert!(html.contains("<svg"));
+        assert!(!html.contains("post-evaluation"));
+    }
+}

@@ -1,0 +1,164 @@
+//! The best controller's replays on a job page: one traced sample per variant (light
+//! configuration) of the node's task, drawn by hevo-viz's replay renderer, with the robot's
+//! pose at every cycle in picture coordinates so the page's script can move a marker along the
+//! path with a cycle slider and play it. Without the script the picture is the whole replay.
+
+use crate::BestController;
+use crate::html::escape;
+use hevo_sim_core::controller::Controller;
+use hevo_sim_core::{Evaluator, Sample};
+use hevo_viz::svg::num_with;
+
+/// One replay, ready for the page.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayFigure {
+    /// The variant replayed (`None` for tasks without light configurations).
+    pub variant: Option<u32>,
+    /// The picture (static: the script animates it).
+    pub svg: String,
+    /// The robot at each cycle and at the end: picture x, y and heading in degrees
+    /// (clockwise, as SVG rotates).
+    pub poses: Vec<[f64; 3]>,
+    /// The robot's radius in picture units.
+    pub radius: f64,
+    /// How the sample ended, in words.
+    pub ending: String,
+}
+
+/// The replays of `best` on sample `seed`, one per variant of its task.
+pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<ReplayFigure>, String> {
+    let evaluator = Evaluator::new(best.task.clone()).map_err(|e| e.to_string())?;
+    let n_variants = best.task.scenario.n_variants();
+    let variants: Vec<Option<u32>> = if n_variants > 1 {
+        (0..n_variants).map(Some).collect()
+    } else {
+        vec![None]
+    };
+    let mut figures = Vec::new();
+    for variant in variants {
+        let mut controller = Controller::new(&best.file, None).map_err(|e| e.to_string())?;
+        let trace = evaluator.evaluate_traced(&mut controller, Sample { seed, variant });
+        let radius_m = evaluator.task().robot.radius;
+        let title = match variant {
+            Some(k) => format!("{node}: light configuration {k}, seed {seed}"),
+            None => format!("{node}: seed {seed}"),
+        };
+        let options = hevo_viz::ReplayOptions {
+            node_names: (0..controller.n_nodes())
+                .map(|i| controller.node_path(i).unwrap_or("?").to_string())
+                .collect(),
+            rays_at_cycles: Vec::new(),
+            animate: false,
+            title: Some(title),
+            robot_radius: radius_m,
+        };
+        let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
+        let transform = hevo_viz::replay_scene_transform(&trace, radius_m);
+        let poses = trace
+            .cycles
+            .iter()
+            .map(|c| c.robot)
+            .chain(std::iter::once(trace.final_robot))
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.heading.is_finite())
+            .map(|p| {
+                let [x, y] = transform.apply([p.x, p.y]);
+                [x, y, -(p.heading as f64).to_degrees()]
+            })
+            .collect();
+        figures.push(ReplayFigure {
+            variant,
+            svg,
+            poses,
+            radius: transform.length(radius_m as f64),
+            ending: format!(
+                "{:?} after {} cycles, fitness {:.3}",
+                trace.outcome.ending, trace.outcome.cycles, trace.outcome.fitness
+            ),
+        });
+    }
+    Ok(figures)
+}
+
+/// The poses as the `data-poses` attribute's JSON: `[[x,y,deg],...]`, two decimals.
+fn poses_json(poses: &[[f64; 3]]) -> String {
+    let items: Vec<String> = poses
+        .iter()
+        .map(|[x, y, d]| {
+            format!(
+                "[{},{},{}]",
+                num_with(*x, 2),
+                num_with(*y, 2),
+                num_with(*d, 1)
+            )
+        })
+        .collect();
+    format!("[{}]", items.join(","))
+}
+
+/// A replay as a `<figure>`: the picture, and the slider and play button the script shows.
+pub fn figure_html(node: &str, figure: &ReplayFigure) -> String {
+    let last = figure.poses.len().saturating_sub(1);
+    let label = match figure.variant {
+        Some(k) => format!("light configuration {k}"),
+        None => "the sample".to_string(),
+    };
+    format!(
+        r#"<figure class="replay" data-node="{node}" data-variant="{variant}" data-radius="{radius}" data-poses="{poses}">
+{svg}
+<figcaption>{label}: {ending}</figcaption>
+<div class="replay-controls" hidden>
+<button type="button" class="play">Play</button>
+<label>cycle <input type="range" class="cycle-slider" min="0" max="{last}" value="{last}" step="1"></label>
+<output class="cycle-label">{last} of {last}</output>
+</div>
+</figure>"#,
+        node = escape(node),
+        variant = figure.variant.map_or("none".to_string(), |k| k.to_string()),
+        radius = num_with(figure.radius, 2),
+        poses = poses_json(&figure.poses),
+        svg = figure.svg,
+        label = escape(&label),
+        ending = escape(&figure.ending),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hevo_sim_core::TaskConfig;
+
+    #[test]
+    fn a_replay_has_a_pose_per_cycle_inside_its_picture() {
+        let file =
+            hevo_engine::bench::paper_controller(&TaskConfig::shipped("follow_wall").unwrap(), 1);
+        let best = BestController {
+            file,
+            task: TaskConfig::shipped("follow_wall").unwrap(),
+        };
+        let figures = replays("follow_wall", &best, 1).unwrap();
+        assert_eq!(figures.len(), 1);
+        let figure = &figures[0];
+        assert!(figure.poses.len() > 10);
+        assert!(figure.poses.iter().all(|p| (0.0..=800.0).contains(&p[0])));
+        let html = figure_html("follow_wall", figure);
+        assert!(html.contains(r#"class="cycle-slider""#));
+        assert!(html.contains("<svg"));
+    }
+
+    #[test]
+    fn maze_tasks_replay_every_light_configuration() {
+        let file =
+            hevo_engine::bench::paper_controller(&TaskConfig::shipped("solve_maze").unwrap(), 1);
+        let best = BestController {
+            file,
+            task: TaskConfig::shipped("solve_maze").unwrap(),
+        };
+        let figures = replays("solve_maze", &best, 1).unwrap();
+        let n = TaskConfig::shipped("solve_maze")
+            .unwrap()
+            .scenario
+            .n_variants() as usize;
+        assert_eq!(figures.len(), n);
+        assert!(figures.iter().all(|f| f.variant.is_some()));
+    }
+}

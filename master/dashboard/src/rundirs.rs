@@ -1,0 +1,359 @@
+//! Run directories as the dashboard reads them, through the engine's run-directory format:
+//! [`read_nodes`] (a node's runs, fitness logs and summaries, shared with the master's source,
+//! whose jobs write the same layout), [`read_best`], and [`RunDirSource`], the [`Source`] of
+//! `hevo dashboard RUNS_DIR...`: each directory is one job, named after it, and one task
+//! watches the directories' logs and summaries for changes while a local run writes them.
+
+use crate::{BestController, BoxFuture, JobOverview, NodeView, RunView, Source, SourceError};
+use hevo_engine::rundir::{self, NodeSummary, RunSummary};
+use hevo_engine::store::read_json;
+use hevo_sim_core::TaskConfig;
+use hevo_sim_core::controller::ControllerFile;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::watch;
+
+/// How often [`RunDirSource::watch_for_changes`] looks at the files.
+pub const WATCH_INTERVAL: Duration = Duration::from_millis(500);
+
+/// The nodes `names` of the run directory `out_dir`; a node without files yet has no runs.
+/// `planned` gives (runs, generations) per name, when known. A log that does not parse is left
+/// out (a run that is writing it renames a whole file, so this is damage, not a race).
+pub fn read_nodes(
+    out_dir: &Path,
+    names: &[String],
+    planned: &dyn Fn(&str) -> Option<(u32, u32)>,
+) -> Vec<NodeView> {
+    names
+        .iter()
+        .map(|name| {
+            let node_dir = rundir::node_dir(out_dir, name);
+            let runs = rundir::run_dirs(&node_dir)
+                .unwrap_or_default()
+                .into_iter()
+                .map(|(run, dir)| RunView {
+                    run,
+                    rows: std::fs::read_to_string(dir.join(rundir::FITNESS_CSV))
+                        .ok()
+                        .and_then(|text| rundir::parse_fitness_csv(&text).ok())
+                        .unwrap_or_default(),
+                    summary: read_json::<RunSummary>(&dir.join(rundir::SUMMARY))
+                        .ok()
+                        .flatten(),
+                })
+                .collect();
+            NodeView {
+                name: name.clone(),
+                runs,
+                summary: read_json::<NodeSummary>(&node_dir.join(rundir::SUMMARY))
+                    .ok()
+                    .flatten(),
+                planned: planned(name),
+            }
+        })
+        .collect()
+}
+
+/// The nodes found in a run directory: sub-directories holding a node summary or run
+/// directories, by name.
+pub fn node_names(out_dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(out_dir) else {
+        return Vec::new();
+    };
+    let mut names: Vec<String> = entries
+        .filter_map(Result::ok)
+        .filter(|entry| entry.path().is_dir())
+        .filter(|entry| {
+            let dir = entry.path();
+            dir.join(rundir::SUMMARY).is_file()
+                || rundir::run_dirs(&dir).is_ok_and(|runs| !runs.is_empty())
+        })
+        .filter_map(|entry| entry.file_name().to_str().map(str::to_string))
+        .collect();
+    names.sort();
+    names
+}
+
+/// A finished node's best controller, replayed on `task` (or, without one, on the paper's
+/// settings of the task its summary names). `None` while the node runs.
+pub fn read_best(
+    out_dir: &Path,
+    node: &str,
+    task: Option<TaskConfig>,
+) -> Result<Option<BestController>, SourceError> {
+    let node_dir = rundir::node_dir(out_dir, node);
+    let summary = match read_json::<NodeSummary>(&node_dir.join(rundir::SUMMARY)) {
+        Ok(Some(summary)) => summary,
+        Ok(None) => return Ok(None),
+        Err(error) => return Err(SourceError::Failed(error.to_string())),
+    };
+    let best_path = node_dir.join(rundir::BEST);
+    let text = std::fs::read_to_string(&best_path)
+        .map_err(|e| SourceError::Failed(format!("{}: {e}", best_path.display())))?;
+    let file = ControllerFile::from_json_str(&text)
+        .map_err(|e| SourceError::Failed(format!("{}: {e}", best_path.display())))?;
+    let task = match task {
+        Some(task) => task,
+        None => {
+            TaskConfig::shipped(&summary.task).ok_or_else(|| {
+                SourceError::Failed(format!(
+                    "node {node}: task {} is not a shipped scenario, and the run directory does not say its settings",
+                    summary.task
+                ))
+            })?
+        }
+    };
+    Ok(Some(BestController { file, task }))
+}
+
+/// A fingerprint of what the pages show of a run directory: the size and modification time of
+/// every log and summary.
+fn signature(out_dir: &Path) -> u64 {
+    let mut hash = hevo_sim_core::hash::Fnv1a::new();
+    for name in node_names(out_dir) {
+        let node_dir = rundir::node_dir(out_dir, &name);
+        let mut files = vec![node_dir.join(rundir::SUMMARY)];
+        for (_, run_dir) in rundir::run_dirs(&node_dir).unwrap_or_default() {
+            files.push(run_dir.join(rundir::FITNESS_CSV));
+            files.push(run_dir.join(rundir::SUMMARY));
+        }
+        for file in files {
+            hash.write_str(&file.to_string_lossy());
+            if let Ok(metadata) = std::fs::metadata(&file) {
+                hash.write_u64(metadata.len());
+                let modified = metadata
+                    .modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos() as u64);
+                hash.write_u64(modified);
+            }
+        }
+    }
+    hash.finish()
+}
+
+/// Local run directories as jobs.
+#[derive(Debug)]
+pub struct RunDirSource {
+    dirs: Vec<(String, PathBuf)>,
+    changes: watch::Sender<u64>,
+}
+
+impl RunDirSource {
+    /// The directories, each one job whose id is the directory's name (made unique with
+    /// `-2`, `-3`, ... when two share a name). A path that is no directory is an error naming
+    /// it.
+    pub fn new(dirs: &[PathBuf]) -> Result<RunDirSource, SourceError> {
+        let mut named: Vec<(String, PathBuf)> = Vec::new();
+        for dir in dirs {
+            if !dir.is_dir() {
+                return Err(SourceError::Invalid(format!(
+                    "{} is not a directory",
+                    dir.display()
+                )));
+            }
+            let canonical = dir.canonicalize().unwrap_or_else(|_| dir.clone());
+            let base: String = canonical
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "runs".to_string())
+                .chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect();
+            let mut id = base.clone();
+            let mut k = 2;
+            while named.iter().any(|(other, _)| *other == id) {
+                id = format!("{base}-{k}");
+                k += 1;
+            }
+            named.push((id, dir.clone()));
+        }
+        Ok(RunDirSource {
+            dirs: named,
+            changes: watch::channel(0).0,
+        })
+    }
+
+    fn dir(&self, id: &str) -> Result<&Path, SourceError> {
+        self.dirs
+            .iter()
+            .find(|(name, _)| name == id)
+            .map(|(_, dir)| dir.as_path())
+            .ok_or_else(|| SourceError::NotFound(id.to_string()))
+    }
+
+    fn overview(&self, id: &str, dir: &Path) -> JobOverview {
+        let names = node_names(dir);
+        let nodes = read_nodes(dir, &names, &|_| None);
+        let finished = !nodes.is_empty() && nodes.iter().all(NodeView::finished);
+        JobOverview {
+            id: id.to_string(),
+            name: id.to_string(),
+            state: if finished { "finished" } else { "in progress" }.to_string(),
+            finished,
+            generations_done: nodes.iter().map(|n| n.generations_done() as u64).sum(),
+            generations_total: None,
+            created_unix_ms: None,
+            finished_unix_ms: None,
+            error: None,
+            nodes: names,
+            cancellable: false,
+            location: dir.display().to_string(),
+        }
+    }
+
+    /// Looks at the directories every [`WATCH_INTERVAL`] and moves [`Source::changes`] when a
+    /// log or summary changed. Must run inside a tokio runtime; ends with the source.
+    pub fn watch_for_changes(self: &Arc<Self>) {
+        let weak = Arc::downgrade(self);
+        tokio::spawn(async move {
+            let mut last = Vec::new();
+            loop {
+                let Some(source) = weak.upgrade() else { return };
+                let dirs: Vec<PathBuf> = source.dirs.iter().map(|(_, d)| d.clone()).collect();
+                drop(source);
+                let now = tokio::task::spawn_blocking(move || {
+                    dirs.iter().map(|d| signature(d)).collect::<Vec<u64>>()
+                })
+                .await
+                .unwrap_or_default();
+                if now != last {
+                    last = now;
+                    let Some(source) = weak.upgrade() else { return };
+                    source.changes.send_modify(|n| *n += 1);
+                }
+                tokio::time::sleep(WATCH_INTERVAL).await;
+            }
+        });
+    }
+}
+
+impl Source for RunDirSource {
+    fn title(&self) -> String {
+        "run directories".to_string()
+    }
+
+    fn jobs(&self) -> Vec<JobOverview> {
+        self.dirs
+            .iter()
+            .map(|(id, dir)| self.overview(id, dir))
+            .collect()
+    }
+
+    fn job(&self, id: &str) -> Result<JobOverview, SourceError> {
+        Ok(self.overview(id, self.dir(id)?))
+    }
+
+    fn nodes(&self, id: &str) -> Result<Vec<NodeView>, SourceError> {
+        let dir = self.dir(id)?;
+        Ok(read_nodes(dir, &node_names(dir), &|_| None))
+    }
+
+    fn best_controller(&self, id: &str, node: &str) -> Result<Option<BestController>, SourceError> {
+        read_best(self.dir(id)?, node, None)
+    }
+
+    fn cancel<'a>(&'a self, id: &'a str) -> BoxFuture<'a, Result<(), SourceError>> {
+        Box::pin(async move {
+            self.dir(id)?;
+            Err(SourceError::Unsupported(format!(
+                "{id} is a local run directory: stop its `hevo run` where it runs (Ctrl-C); it resumes from its checkpoints"
+            )))
+        })
+    }
+
+    fn changes(&self) -> watch::Receiver<u64> {
+        self.changes.subscribe()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hevo_engine::rundir::{FitnessRow, fitness_csv};
+
+    fn write_log(out: &Path, node: &str, run: u32, generations: u32) {
+        let dir = rundir::run_dir(&rundir::node_dir(out, node), run);
+        std::fs::create_dir_all(&dir).unwrap();
+        let rows: Vec<FitnessRow> = (0..generations)
+            .map(|generation| FitnessRow {
+                generation,
+                best: 0.5,
+                mean: 0.25,
+                min: 0.0,
+                max: 0.5,
+                std: 0.1,
+            })
+            .collect();
+        std::fs::write(dir.join(rundir::FITNESS_CSV), fitness_csv(&rows)).unwrap();
+    }
+
+    #[test]
+    fn a_run_directory_in_progress_shows_its_logs() {
+        let out = tempfile::tempdir().unwrap();
+        write_log(out.path(), "follow_wall", 0, 3);
+        write_log(out.path(), "follow_wall", 1, 2);
+        std::fs::create_dir_all(out.path().join("not-a-node")).unwrap();
+        let source = RunDirSource::new(&[out.path().to_path_buf()]).unwrap();
+        let jobs = source.jobs();
+        assert_eq!(jobs.len(), 1);
+        assert_eq!(jobs[0].nodes, ["follow_wall"]);
+        assert_eq!(jobs[0].generations_done, 5);
+        assert!(!jobs[0].finished);
+        let nodes = source.nodes(&jobs[0].id).unwrap();
+        assert_eq!(nodes[0].runs.len(), 2);
+        assert!(!nodes[0].finished());
+        assert!(
+            source
+                .best_controller(&jobs[0].id, "follow_wall")
+                .unwrap()
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn unknown_ids_and_missing_directories_are_named() {
+        let out = tempfile::tempdir().unwrap();
+        let source = RunDirSource::new(&[out.path().to_path_buf()]).unwrap();
+        assert_eq!(
+            source.job("nope").unwrap_err(),
+            SourceError::NotFound("nope".into())
+        );
+        let missing = out.path().join("missing");
+        let error = RunDirSource::new(std::slice::from_ref(&missing)).unwrap_err();
+        assert!(error.to_string().contains(&missing.display().to_string()));
+    }
+
+    #[test]
+    fn two_directories_of_one_name_get_two_ids() {
+        let a = tempfile::tempdir().unwrap();
+        let b = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(a.path().join("runs")).unwrap();
+        std::fs::create_dir_all(b.path().join("runs")).unwrap();
+        let source = RunDirSource::new(&[a.path().join("runs"), b.path().join("runs")]).unwrap();
+        let ids: Vec<String> = source.jobs().into_iter().map(|j| j.id).collect();
+        assert_eq!(ids, ["runs", "runs-2"]);
+    }
+
+    #[test]
+    fn the_checked_in_runs_have_best_controllers() {
+        let runs =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/runs-wide-turn-starts");
+        let source = RunDirSource::new(&[runs]).unwrap();
+        let job = &source.jobs()[0];
+        assert!(job.finished, "{job:?}");
+        let best = source
+            .best_controller(&job.id, "turn_left")
+            .unwrap()
+            .unwrap();
+        assert_eq!(best.task.name(), "turn_left");
+    }
+}
