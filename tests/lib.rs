@@ -333,11 +333,24 @@ pub fn start_master_listening(listen: &str, args: &[&str], log: &Path) -> Master
 /// Starts a `hevo-worker` on `url` with one thread and the given extra arguments; its logs go
 /// to `log`.
 pub fn start_worker(url: &str, token: &str, name: &str, extra: &[&str], log: &Path) -> Proc {
+    start_worker_with_threads(url, token, name, 1, extra, log)
+}
+
+/// Starts a `hevo-worker` on `url` with `threads` evaluation threads.
+pub fn start_worker_with_threads(
+    url: &str,
+    token: &str,
+    name: &str,
+    threads: usize,
+    extra: &[&str],
+    log: &Path,
+) -> Proc {
     let stderr = std::fs::File::create(log).expect("cannot create a worker's log");
+    let threads = threads.to_string();
     Proc::spawn(
         name,
         Command::new(&binaries().worker)
-            .args(["--master", url, "--threads", "1", "--name", name])
+            .args(["--master", url, "--threads", &threads, "--name", name])
             .args(extra)
             .env("HEVO_TOKEN", token)
             .env_remove("HEVO_MASTER")
