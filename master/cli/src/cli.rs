@@ -730,6 +730,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
         animate: args.animate,
         title: None,
         robot_radius: evaluator.task().robot.radius,
+        caption: None,
     };
     let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
     hevo_engine::store::write_atomic(&args.out, svg.as_bytes())

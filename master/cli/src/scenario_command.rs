@@ -186,9 +186,23 @@ fn draw(args: &DrawArgs) -> Result<()> {
             variant: args.variant,
         },
     )?;
+    let variant = trace.outcome.variant;
+    let variant_name = task
+        .scenario
+        .variant_label(variant)
+        .map_or(String::new(), |name| {
+            format!(" · variant {variant}, {name}")
+        });
     let options = hevo_viz::ReplayOptions {
         title: Some(format!("Scenario: {} · seed {}", task.name(), args.seed)),
         robot_radius: task.robot.radius,
+        caption: Some([
+            format!("{} · seed {}{variant_name}", task.name(), args.seed),
+            format!(
+                "the world as a sample starts, before any controller drives · {} cycles at most",
+                task.max_cycles()
+            ),
+        ]),
         ..hevo_viz::ReplayOptions::default()
     };
     let svg = hevo_viz::replay_svg(&trace, &options, &|_| Vec::new());

@@ -51,6 +51,7 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
             animate: false,
             title: Some(title),
             robot_radius: radius_m,
+            caption: None,
         };
         let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
         let transform = hevo_viz::replay_scene_transform(&trace, radius_m);

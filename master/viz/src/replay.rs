@@ -31,6 +31,9 @@ pub struct ReplayOptions {
     pub title: Option<String>,
     /// Robot body radius, metres.
     pub robot_radius: f32,
+    /// The two caption lines below the picture, instead of the default (what was run, and
+    /// how it ended): a picture of a world before any controller drove in it says so.
+    pub caption: Option<[String; 2]>,
 }
 
 impl Default for ReplayOptions {
@@ -41,6 +44,7 @@ impl Default for ReplayOptions {
             animate: false,
             title: None,
             robot_radius: 0.0375,
+            caption: None,
         }
     }
 }
@@ -561,7 +565,10 @@ pub fn replay_svg(
     doc.close();
 
     // Caption, legend and key.
-    let [first_line, second_line] = caption_lines(trace);
+    let [first_line, second_line] = options
+        .caption
+        .clone()
+        .unwrap_or_else(|| caption_lines(trace));
     for (i, line) in [first_line, second_line].iter().enumerate() {
         doc.text(
             Tag::new("text")
@@ -1470,6 +1477,7 @@ mod tests {
             animate: false,
             title: None,
             robot_radius: 0.0375,
+            caption: None,
         }
     }
 
@@ -1763,6 +1771,7 @@ mod tests {
             animate: true,
             title: Some("<odd> & \"title\"".to_string()),
             robot_radius: f32::NAN,
+            caption: Some(["<a> & b".to_string(), String::new()]),
         };
         let (svg, elements) = render(&trace, &evaluator, &options);
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
