@@ -571,6 +571,17 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     if file.name.trim().is_empty() || file.name.len() > 64 {
         return Err(error("name", "must be 1 to 64 characters".into()));
     }
+    // Captions and reports speak of the paper's tasks by these names, so a file of one's own
+    // (a modified copy of a shipped one, say) takes a name of its own.
+    if file.legacy.is_none() && Scenario::shipped_names().contains(&file.name.as_str()) {
+        return Err(error(
+            "name",
+            format!(
+                "'{}' is the name of a scenario shipped with hevo; give yours a name of its own",
+                file.name
+            ),
+        ));
+    }
     if file.max_cycles == 0 || file.max_cycles > 1_000_000 {
         return Err(error("max_cycles", "must be between 1 and 1000000".into()));
     }
