@@ -7,6 +7,21 @@ use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
+const EXAMPLES: [(&str, &str); 4] = [
+    ("t_maze", T_MAZE),
+    (
+        "triple_t_maze",
+        include_str!("../../scenarios/examples/triple_t_maze.toml"),
+    ),
+    (
+        "cross_yard",
+        include_str!("../../scenarios/examples/cross_yard.toml"),
+    ),
+    (
+        "room_to_yard",
+        include_str!("../../scenarios/examples/room_to_yard.toml"),
+    ),
+];
 
 fn t_maze() -> TaskConfig {
     TaskConfig::from_scenario(Arc::new(
@@ -66,6 +81,50 @@ fn driving_straight_into_the_junction_wall_is_a_collision_in_both_variants() {
             "variant {variant}: {}",
             outcome.fitness
         );
+    }
+}
+
+#[test]
+fn every_example_compiles_with_one_goal_per_variant() {
+    for (name, text) in EXAMPLES {
+        let scenario = Scenario::parse(text, &format!("{name}.toml"))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(scenario.name(), name);
+        assert_eq!(scenario.legacy(), None, "{name}");
+        let goals: std::collections::BTreeSet<_> =
+            scenario.variants.iter().map(|v| v.goal.clone()).collect();
+        assert_eq!(
+            goals.len(),
+            scenario.variants.len(),
+            "{name}: goals {goals:?}"
+        );
+        let task = TaskConfig::from_scenario(Arc::new(scenario));
+        assert_eq!(task.validate(), Ok(()), "{name}");
+    }
+}
+
+#[test]
+fn the_triple_t_maze_has_eight_variants_and_its_stem_ends_in_a_wall() {
+    let (_, text) = EXAMPLES[1];
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(text, "t.toml").unwrap()));
+    assert_eq!(task.scenario.n_variants(), 8);
+    assert_eq!(task.max_cycles(), 1500);
+    // Three lights flash in every variant, one of each row.
+    for variant in &task.scenario.variants {
+        assert_eq!(variant.flashes.iter().filter(|&&on| on).count(), 3);
+    }
+    // A robot that never turns drives up the stem into the bar's far wall, in every variant.
+    let evaluator = Evaluator::new(task).unwrap();
+    for variant in 0..8 {
+        let outcome = evaluator.evaluate(
+            &mut StraightOn,
+            Sample {
+                seed: 1,
+                variant: Some(variant),
+            },
+        );
+        assert_eq!(outcome.ending, Ending::Collision, "variant {variant}");
+        assert!(outcome.fitness > 0.0 && outcome.fitness < 1.0 / 3.0);
     }
 }
 
@@ -135,6 +194,24 @@ fn only_the_shipped_files_may_claim_a_paper_task() {
     assert_eq!(
         Scenario::parse(rescue, "rescue.toml").unwrap().legacy(),
         Some("rescue")
+    );
+    // A copy without the claim still may not take the paper task's name (pictures and
+    // reports speak of the paper's tasks by name), nor an alias.
+    let copy = edited.replace("legacy = \"rescue\"\n", "");
+    let error = refusal(&copy);
+    assert!(error.contains("at `name`"), "{error}");
+    assert!(
+        error.contains("'rescue' is the name of a scenario shipped"),
+        "{error}"
+    );
+    let error = refusal(&copy.replace("name = \"rescue\"", "name = \"maze_single\""));
+    assert!(error.contains("'maze_single'"), "{error}");
+    assert!(
+        Scenario::parse(
+            &copy.replace("name = \"rescue\"", "name = \"my_rescue\""),
+            "x"
+        )
+        .is_ok()
     );
 }
 
