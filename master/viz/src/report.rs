@@ -432,20 +432,7 @@ pub fn write_report(
             );
             continue;
         };
-        let (ours, samples, generations) = if let Some((avg, best)) = node.avg_and_best() {
-            let generations: Vec<String> = {
-                let mut g: Vec<u32> = node.runs.iter().map(|r| r.generations).collect();
-                g.dedup();
-                g.iter().map(u32::to_string).collect()
-            };
-            (
-                format!("{} / {}", percent(avg), percent(best)),
-                node.runs[0].post_evaluation.samples.to_string(),
-                generations.join(", "),
-            )
-        } else {
-            ("-".to_string(), "-".to_string(), "-".to_string())
-        };
+        let (ours, samples, generations) = hevo_columns(node);
         let status = status(node);
         let _ = writeln!(
             md,
@@ -482,6 +469,8 @@ pub fn write_report(
             "\nThe ablation section(s) below repeat this comparison under other training setups."
         );
     }
+
+    let _ = write!(md, "{}", other_tasks_section(&nodes));
 
     let node_use = node_use_table(&nodes);
     if !node_use.is_empty() {
@@ -552,6 +541,100 @@ fn fitness_picture(
 /// Each finished run's solve rate per variant (light configuration, or start branch), for the
 /// nodes whose task has variants: a memory-less or half-remembering maze controller shows as
 /// configurations it never solves. Empty when no such run has finished.
+/// A node's "hevo avg / best", post-evaluation samples and generations columns.
+fn hevo_columns(node: &NodeResult) -> (String, String, String) {
+    let Some((avg, best)) = node.avg_and_best() else {
+        return ("-".to_string(), "-".to_string(), "-".to_string());
+    };
+    let mut generations: Vec<u32> = node.runs.iter().map(|r| r.generations).collect();
+    generations.dedup();
+    let generations: Vec<String> = generations.iter().map(u32::to_string).collect();
+    (
+        format!("{} / {}", percent(avg), percent(best)),
+        node.runs[0].post_evaluation.samples.to_string(),
+        generations.join(", "),
+    )
+}
+
+/// The nodes that are not the paper's (tasks from scenario files of one's own): their solve
+/// rates, and per run the rate in each variant under the scenario's names for them. Empty
+/// when every node is the paper's.
+fn other_tasks_section(nodes: &[NodeResult]) -> String {
+    let others: Vec<&NodeResult> = nodes
+        .iter()
+        .filter(|node| !node.runs.is_empty())
+        .filter(|node| !PAPER.iter().any(|paper| paper.controller == node.name))
+        .collect();
+    if others.is_empty() {
+        return String::new();
+    }
+    let mut md = String::from(
+        "\n## Tasks not in the paper\n\nNodes evolved on scenario files of tasks the paper does not \
+         have: hevo's own figures, to compare with each other.\n\n\
+         | controller | task | hevo avg / best | runs | generations | post-eval samples | status | source |\n\
+         |---|---|---|---|---|---|---|---|\n",
+    );
+    for node in &others {
+        let (ours, samples, generations) = hevo_columns(node);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {ours} | {} | {generations} | {samples} | {} | `{}` |",
+            node.name,
+            node.runs[0].post_evaluation.task,
+            node.runs.len(),
+            status(node),
+            node.dir.parent().unwrap_or(&node.dir).display()
+        );
+    }
+    let mut tasks: Vec<&str> = others
+        .iter()
+        .map(|node| node.runs[0].post_evaluation.task.as_str())
+        .collect();
+    tasks.sort_unstable();
+    tasks.dedup();
+    for task in tasks {
+        let rows: Vec<(&NodeResult, &RunSummary)> = others
+            .iter()
+            .flat_map(|node| node.runs.iter().map(move |run| (*node, run)))
+            .filter(|(_, run)| {
+                run.post_evaluation.task == task && run.post_evaluation.per_variant.len() > 1
+            })
+            .collect();
+        let Some((_, first)) = rows.first() else {
+            continue;
+        };
+        let names: Vec<String> = first
+            .post_evaluation
+            .per_variant
+            .iter()
+            .map(|v| v.name.clone().unwrap_or_else(|| v.variant.to_string()))
+            .collect();
+        let _ = writeln!(
+            md,
+            "\nIn `{task}`, per run, the solve rate in each variant:\n\n| controller | run | solved | {} |\n|---|---|---|{}",
+            names.join(" | "),
+            "---|".repeat(names.len())
+        );
+        for (node, run) in rows {
+            let mut cells = vec!["-".to_string(); names.len()];
+            for variant in &run.post_evaluation.per_variant {
+                if let Some(cell) = cells.get_mut(variant.variant as usize) {
+                    *cell = percent(variant.solve_rate);
+                }
+            }
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} |",
+                node.name,
+                run.run,
+                percent(run.post_evaluation.solve_rate),
+                cells.join(" | ")
+            );
+        }
+    }
+    md
+}
+
 fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String {
     let rows: Vec<(&NodeResult, &RunSummary)> = nodes
         .into_iter()
@@ -868,6 +951,47 @@ mod tests {
             dir: Path::new(source).join(name),
             fingerprints: vec![format!("{source}-fingerprint")],
         }
+    }
+
+    #[test]
+    fn tasks_not_in_the_paper_get_their_own_table_with_variant_names() {
+        use hevo_engine::post_evaluation::VariantReport;
+        let variant = |idx: u32, name: &str, rate: f64| VariantReport {
+            variant: idx,
+            name: Some(name.to_string()),
+            samples: 50,
+            solve_rate: rate,
+        };
+        let mut maze = node("my_maze", "mine", 2);
+        for (run_idx, run) in maze.runs.iter_mut().enumerate() {
+            run.run = run_idx as u32;
+            run.post_evaluation.task = "my_maze".into();
+            run.post_evaluation.solve_rate = 0.5 + run_idx as f64 / 4.0;
+            run.post_evaluation.per_variant = vec![
+                variant(0, "left", 1.0),
+                variant(1, "right", run_idx as f64 / 2.0),
+            ];
+        }
+        let nodes = [node("follow_wall", "runs", 1), maze];
+        let section = other_tasks_section(&nodes);
+        assert!(section.contains("## Tasks not in the paper"), "{section}");
+        assert!(
+            section.contains("| my_maze | my_maze | 62.5% / 75.0% | 2 | 10 | 10 | "),
+            "{section}"
+        );
+        assert!(
+            !section.contains("| follow_wall |"),
+            "the paper's nodes stay in their table"
+        );
+        assert!(
+            section.contains("| controller | run | solved | left | right |"),
+            "{section}"
+        );
+        assert!(
+            section.contains("| my_maze | 1 | 75.0% | 100.0% | 50.0% |"),
+            "{section}"
+        );
+        assert_eq!(other_tasks_section(&nodes[..1]), "");
     }
 
     #[test]
