@@ -7,7 +7,7 @@
 #
 #   deploy/slurm/local-cluster.sh up DIR [--cpus N]   # start; prints the SLURM_CONF to export
 #   export SLURM_CONF=DIR/slurm.conf
-#   sbatch --nodes=1 --ntasks=2 --cpus-per-task=1 deploy/slurm/hevo.sbatch deploy/local/tiny.toml
+#   sbatch --nodes=1 --ntasks-per-node=2 --cpus-per-task=1 deploy/slurm/hevo.sbatch deploy/local/tiny.toml
 #   deploy/slurm/local-cluster.sh down DIR            # stop every daemon it started
 #
 # The daemons talk over ports the script picks free on 127.0.0.1. Process tracking is SLURM's

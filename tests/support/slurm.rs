@@ -111,20 +111,31 @@ impl Cluster {
     /// The job's fields as `scontrol show job --oneliner` gives them (`JobState`, `ExitCode`,
     /// ...); finished jobs stay there for five minutes (MinJobAge).
     pub fn job_field(&self, job: &str, field: &str) -> Option<String> {
-        let out = self.run("scontrol", &["show", "job", "--oneliner", job]);
+        let out = self.run("scontrol", &["--oneliner", "show", "job", job]);
         out.split_whitespace()
             .find_map(|pair| pair.strip_prefix(&format!("{field}=")))
             .map(str::to_string)
     }
 
-    /// Whether `squeue` still lists the job (pending, running, completing).
+    /// Whether `squeue` lists the job in a state before its end (pending, running,
+    /// completing, ...).
     pub fn in_queue(&self, job: &str) -> bool {
+        const ACTIVE: [&str; 6] = [
+            "PENDING",
+            "CONFIGURING",
+            "RUNNING",
+            "COMPLETING",
+            "SUSPENDED",
+            "REQUEUED",
+        ];
         let out = self.run(
             "squeue",
             &["--noheader", "--jobs", job, "--format", "%i %T"],
         );
-        out.lines()
-            .any(|l| l.split_whitespace().next() == Some(job))
+        out.lines().any(|l| {
+            let mut fields = l.split_whitespace();
+            fields.next() == Some(job) && fields.next().is_some_and(|s| ACTIVE.contains(&s))
+        })
     }
 
     /// Waits (up to `timeout`) until the job has left the queue, and returns its final state
@@ -205,10 +216,11 @@ fn text(output: &Output) -> String {
 }
 
 /// The sbatch options that fit the script's job into the one-node cluster: one node, two
-/// single-core tasks (two workers) and a time limit that ends a hung test.
+/// single-core tasks (two workers; the script asks for one task per node, which these
+/// override) and a time limit that ends a hung test.
 pub const ONE_NODE: [&str; 4] = [
     "--nodes=1",
-    "--ntasks=2",
+    "--ntasks-per-node=2",
     "--cpus-per-task=1",
     "--time=00:15:00",
 ];

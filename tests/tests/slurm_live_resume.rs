@@ -18,10 +18,11 @@ use std::time::{Duration, Instant};
 
 const TEST: &str = "slurm_live_resume";
 
-/// The tiny experiment's generations, raised so that the job is still running when the first
-/// checkpoints are written: 2 runs x GENERATIONS x 10 genomes x 3 samples, plus each run's 10
-/// post-evaluation samples.
-const GENERATIONS: u64 = 8;
+/// The tiny experiment's generations, raised from 3 so that the job runs for long enough (tens
+/// of seconds; a generation takes some 50 ms) to be cancelled in the middle, after its first
+/// checkpoints. The evaluations: 2 runs x GENERATIONS x 10 genomes x 3 samples, plus each
+/// run's 10 post-evaluation samples.
+const GENERATIONS: u64 = 300;
 const EVALUATIONS: u64 = 2 * GENERATIONS * 10 * 3 + 2 * 10;
 
 /// Every checkpoint.json below `dir`.
@@ -129,7 +130,7 @@ fn a_cancelled_job_resubmitted_resumes_to_the_local_results() {
             std::fs::read_to_string(work.join(format!("hevo-{first}.out"))).unwrap_or_default()
         );
         assert!(Instant::now() < deadline, "no checkpoint within 300 s");
-        std::thread::sleep(Duration::from_millis(200));
+        std::thread::sleep(Duration::from_millis(50));
     }
     cluster.run("scancel", &[&first]);
     let (status, _) = cluster.wait_until_done(&first, Duration::from_secs(120));
