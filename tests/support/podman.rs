@@ -62,7 +62,9 @@ impl Podman {
         if !Path::new(DNSNAME).is_file() {
             return tools::unavailable(
                 test,
-                &format!("no CNI dnsname plugin ({DNSNAME}): containers cannot find the master by name"),
+                &format!(
+                    "no CNI dnsname plugin ({DNSNAME}): containers cannot find the master by name"
+                ),
                 "Install golang-github-containernetworking-plugin-dnsname (`bash scripts/install-test-tools.sh containers`)",
             );
         }

@@ -14,7 +14,14 @@ use std::time::{Duration, Instant};
 
 /// The daemons and commands the cluster and the tests run.
 const PROGRAMS: [&str; 8] = [
-    "munged", "slurmctld", "slurmd", "sbatch", "squeue", "scontrol", "scancel", "sinfo",
+    "munged",
+    "slurmctld",
+    "slurmd",
+    "sbatch",
+    "squeue",
+    "scontrol",
+    "scancel",
+    "sinfo",
 ];
 
 /// Whether this process runs as root: the owner of `/proc/self` is the process's user.
@@ -196,7 +203,7 @@ impl Drop for Cluster {
             .args(["down", self.dir.to_str().expect("a UTF-8 path")])
             .stdin(Stdio::null())
             .status();
-        if !status.is_ok_and(|s| s.success()) && !std::thread::panicking() {
+        if !status.as_ref().is_ok_and(|s| s.success()) && !std::thread::panicking() {
             panic!("local-cluster.sh down failed ({status:?})");
         }
     }

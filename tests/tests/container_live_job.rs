@@ -1,7 +1,7 @@
 //! The image of deploy/Dockerfile, run for real with podman as compose.yaml runs it: a master
 //! container with its state on a named volume and two worker containers that find it by its
 //! name on a container network, each with the command and token variables of its compose
-//! service. The tiny experiment submitted through the master's published port finishes with
+//! service; podman runs the compose healthcheck in the master's container. The tiny experiment submitted through the master's published port finishes with
 //! results byte for byte those of a local `hevo run`; every container's process runs as the
 //! image's non-root user; and SIGTERM (`podman stop`) ends each container with exit status 0.
 //!
@@ -229,7 +229,12 @@ fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
 
     // SIGTERM: the workers hand back their batches and exit 0, then the master.
     let codes = podman.stop(&["worker-1", "worker-2"], Duration::from_secs(90));
-    assert_eq!(codes, [0, 0], "the workers' exit codes:\n{}", container_logs());
+    assert_eq!(
+        codes,
+        [0, 0],
+        "the workers' exit codes:\n{}",
+        container_logs()
+    );
     // Both worker containers took part, and between them did each evaluation once.
     let mut total = 0;
     for name in workers {
@@ -240,7 +245,12 @@ fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
         assert!(batches > 0, "{name} did no work:\n{log}");
         total += evaluations;
     }
-    assert_eq!(total, TINY_EVALUATIONS, "the workers' evaluations:\n{}", container_logs());
+    assert_eq!(
+        total,
+        TINY_EVALUATIONS,
+        "the workers' evaluations:\n{}",
+        container_logs()
+    );
     let codes = podman.stop(&["master"], Duration::from_secs(60));
     assert_eq!(codes, [0], "the master's exit code:\n{}", container_logs());
 }

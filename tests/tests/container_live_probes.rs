@@ -67,8 +67,7 @@ fn the_master_container_as_kubernetes_runs_it_answers_its_probes() {
     ] {
         std::fs::write(secret.join(key), token).unwrap();
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(secret.join(key), std::fs::Permissions::from_mode(0o444))
-            .unwrap();
+        std::fs::set_permissions(secret.join(key), std::fs::Permissions::from_mode(0o444)).unwrap();
     }
     let secret_mount = format!("{}:/etc/hevo/token:ro", secret.display());
     let mut run = vec![
@@ -139,5 +138,10 @@ fn the_master_container_as_kubernetes_runs_it_answers_its_probes() {
         "the master runs with uids {uids:?}, not the image's 10001"
     );
     let codes = podman.stop(&["master"], Duration::from_secs(60));
-    assert_eq!(codes, [0], "the master's exit code:\n{}", podman.logs("master"));
+    assert_eq!(
+        codes,
+        [0],
+        "the master's exit code:\n{}",
+        podman.logs("master")
+    );
 }

@@ -8,8 +8,7 @@
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
 
 use hevo_tests::{
-    Proc, Scratch, binaries, kill_processes_mentioning, processes_mentioning,
-    repo_root, work_done,
+    Proc, Scratch, binaries, kill_processes_mentioning, processes_mentioning, repo_root, work_done,
 };
 use std::io::{BufRead, BufReader};
 use std::path::Path;

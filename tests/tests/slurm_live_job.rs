@@ -9,8 +9,8 @@
 
 use hevo_tests::slurm::{Cluster, ONE_NODE};
 use hevo_tests::{
-    Scratch, assert_same_results, binaries, hevo, kill_processes_mentioning,
-    processes_mentioning, repo_root, work_done,
+    Scratch, assert_same_results, binaries, hevo, kill_processes_mentioning, processes_mentioning,
+    repo_root, work_done,
 };
 use std::time::Duration;
 
