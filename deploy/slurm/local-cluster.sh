@@ -35,11 +35,12 @@ log() {
     echo "local-cluster.sh: $*" >&2
 }
 
-# A TCP port on 127.0.0.1 that nothing answers on (checked, not reserved).
+# A TCP port on 127.0.0.1 that nothing answers on (checked, not reserved), below Linux's
+# range of ephemeral ports (32768 and up), where the kernel would not hand it to a client.
 free_port() {
     local port
     for _ in $(seq 1 200); do
-        port=$((20000 + RANDOM % 40000))
+        port=$((20000 + RANDOM % 12000))
         if ! (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then
             echo "$port"
             return 0

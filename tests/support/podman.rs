@@ -10,7 +10,8 @@
 //!
 //! Podman runs as root (rootful) with runc: crun refuses the hybrid cgroup layout of some
 //! machines, and the default limits of rootful podman (1048576 files and processes) need
-//! CAP_SYS_RESOURCE, which sandboxes drop, so the containers get this process's own limits.
+//! CAP_SYS_RESOURCE, which sandboxes drop, so the containers get this process's own limit of
+//! open files and 4096 processes (podman's conmon itself runs with at most 32768).
 //! Without root, podman, runc or the CNI dnsname plugin (`scripts/install-test-tools.sh
 //! containers`), [`Podman::start`] fails the test under CI and skips it loudly elsewhere.
 
