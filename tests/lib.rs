@@ -21,6 +21,12 @@ pub mod browser;
 #[path = "support/dashboard.rs"]
 pub mod dashboard;
 
+#[path = "support/slurm.rs"]
+pub mod slurm;
+
+#[path = "support/podman.rs"]
+pub mod podman;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
@@ -471,5 +477,58 @@ pub fn assert_same_results(expected: &Path, found: &Path, nodes: Option<&[&str]>
             expected.display(),
             found.display()
         );
+    }
+}
+
+/// What a worker's log says it did: the `worker stopped` line it writes when it stops cleanly,
+/// as (batches, evaluations) accepted by the master.
+pub fn work_done(log: &str) -> Option<(u64, u64)> {
+    let line = log.lines().rev().find(|l| l.contains("worker stopped"))?;
+    let field = |name: &str| -> Option<u64> {
+        let start = line.find(&format!("{name}="))? + name.len() + 1;
+        let digits: String = line[start..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        digits.parse().ok()
+    };
+    Some((field("batches")?, field("evaluations")?))
+}
+
+/// Processes whose command line mentions `needle` (the scratch directory of one test), as
+/// `PID: COMMAND LINE`.
+pub fn processes_mentioning(needle: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return found;
+    };
+    for entry in entries.flatten() {
+        if !entry
+            .file_name()
+            .to_string_lossy()
+            .chars()
+            .all(|c| c.is_ascii_digit())
+        {
+            continue;
+        }
+        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        let cmdline = String::from_utf8_lossy(&cmdline).replace('\0', " ");
+        if cmdline.contains(needle) {
+            found.push(format!(
+                "{}: {cmdline}",
+                entry.file_name().to_string_lossy()
+            ));
+        }
+    }
+    found
+}
+
+/// SIGKILL to every process [`processes_mentioning`] `needle` finds (what a failed test left).
+pub fn kill_processes_mentioning(needle: &str) {
+    for line in processes_mentioning(needle) {
+        let pid = line.split(':').next().unwrap_or_default();
+        let _ = Command::new("kill").args(["-KILL", pid]).status();
     }
 }

@@ -49,20 +49,31 @@ pub fn require(name: &str, test: &str) -> Option<PathBuf> {
         return Some(path);
     }
     let place = tools_dir().join("bin");
+    unavailable(
+        test,
+        &format!(
+            "`{name}` is not installed (not in {} nor on PATH)",
+            place.display()
+        ),
+        &format!("Install the test tools with `{INSTALL_COMMAND}`"),
+    )
+}
+
+/// Reports that `test` cannot run because of `what` (`fix` says what to do about it): under CI
+/// a failure (a panic), elsewhere a loud message on stderr and `None`, for the test to return
+/// early, counted as skipped. For what [`require`] cannot find: root, a daemon's package.
+pub fn unavailable<T>(test: &str, what: &str, fix: &str) -> Option<T> {
     if in_ci() {
         panic!(
-            "{test}: `{name}` is not installed (not in {} nor on PATH), and CI is set: CI must \
-             run `{INSTALL_COMMAND}` before the tests",
-            place.display()
+            "{test}: {what}, and CI is set: CI must be able to run it ({fix}; CI runs \
+             `{INSTALL_COMMAND}` before the tests)"
         );
     }
     // Straight to the process's stderr: libtest captures `eprintln!` of a passing test, and a
     // skipped test passes (libtest has no way to mark it skipped at run time).
     let bar = "!".repeat(100);
     let message = format!(
-        "\n{bar}\n!!! SKIPPED {test}: `{name}` is not installed (not in {} nor on PATH).\n!!! \
-         Install the test tools with `{INSTALL_COMMAND}`. With CI set, this is a failure.\n{bar}\n",
-        place.display()
+        "\n{bar}\n!!! SKIPPED {test}: {what}.\n!!! {fix}. With CI set, this is a failure.\n{bar}\n"
     );
     let _ = std::io::stderr().lock().write_all(message.as_bytes());
     None

@@ -75,7 +75,7 @@ fn a_wrong_flag_is_reported() {
                 path: "deploy/Dockerfile",
                 from: "CMD [\"hevo\", \"--help\"]",
                 to: "CMD [\"hevo\", \"--helpp\"]",
-                expected: "deploy/Dockerfile:43: CMD: `hevo` has no option `--helpp`",
+                expected: "deploy/Dockerfile:53: CMD: `hevo` has no option `--helpp`",
             },
             Drift {
                 path: "deploy/local/one-box.sh",
@@ -99,7 +99,7 @@ fn a_wrong_flag_is_reported() {
                 path: "deploy/slurm/hevo.sbatch",
                 from: "\"$hevo_worker\" --token-file \"$worker_token_file\" --threads \"$cpus\"",
                 to: "\"$hevo_worker\" --token-file \"$worker_token_file\" --threads",
-                expected: "deploy/slurm/hevo.sbatch:186: `hevo-worker --threads` needs a value",
+                expected: "deploy/slurm/hevo.sbatch:193: `hevo-worker --threads` needs a value",
             },
             Drift {
                 path: "deploy/slurm/hevo.sbatch",
@@ -111,19 +111,19 @@ fn a_wrong_flag_is_reported() {
                 path: "deploy/README.md",
                 from: "hevo fetch --master http://127.0.0.1:50051 \"$job\" --out results/",
                 to: "hevo fetch --master http://127.0.0.1:50051 \"$job\" --output results/",
-                expected: "deploy/README.md:95: `hevo fetch` has no option `--output`",
+                expected: "deploy/README.md:97: `hevo fetch` has no option `--output`",
             },
             Drift {
                 path: "deploy/README.md",
                 from: "--workers 3 deploy/local/tiny.toml",
                 to: "--worker 3 deploy/local/tiny.toml",
-                expected: "deploy/README.md:53: `one-box.sh` has no option `--worker`",
+                expected: "deploy/README.md:55: `one-box.sh` has no option `--worker`",
             },
             Drift {
                 path: "deploy/README.md",
                 from: "--wrap 'srun hevo-worker --master",
                 to: "--wrap 'srun hevo-worker --masters",
-                expected: "deploy/README.md:221: `hevo-worker` has no option `--masters`",
+                expected: "deploy/README.md:271: `hevo-worker` has no option `--masters`",
             },
         ],
     );

@@ -56,7 +56,7 @@ fn script_drift_is_reported() {
                 path: "deploy/slurm/hevo.sbatch",
                 from: "--worker-token-file \"$worker_token_file\"",
                 to: "--worker-token-file \"$client_token_file\"",
-                expected: "deploy/slurm/hevo.sbatch:160: `hevo serve` gets one token, $client_token_file, for both roles",
+                expected: "deploy/slurm/hevo.sbatch:167: `hevo serve` gets one token, $client_token_file, for both roles",
             },
             Drift {
                 path: "deploy/slurm/hevo.sbatch",

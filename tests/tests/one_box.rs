@@ -7,7 +7,9 @@
 //! The binaries come from `cargo build -p hevo-cli -p hevo-worker` in the tests' profile
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
 
-use hevo_tests::{Proc, Scratch, binaries, repo_root};
+use hevo_tests::{
+    Proc, Scratch, binaries, kill_processes_mentioning, processes_mentioning, repo_root, work_done,
+};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, ExitStatus, Stdio};
@@ -24,21 +26,6 @@ fn exclusive() -> MutexGuard<'static, ()> {
 /// Evaluations deploy/local/tiny.toml needs: 2 runs x 3 generations x 10 genomes x 3 samples,
 /// and each run's post-evaluation of 10 samples (follow_wall has one configuration).
 const TINY_EVALUATIONS: u64 = 2 * 3 * 10 * 3 + 2 * 10;
-
-/// What a worker's log says it did: the `worker stopped` line it writes when it stops cleanly,
-/// as (batches, evaluations) accepted by the master.
-fn work_done(log: &str) -> Option<(u64, u64)> {
-    let line = log.lines().rev().find(|l| l.contains("worker stopped"))?;
-    let field = |name: &str| -> Option<u64> {
-        let start = line.find(&format!("{name}="))? + name.len() + 1;
-        let digits: String = line[start..]
-            .chars()
-            .take_while(char::is_ascii_digit)
-            .collect();
-        digits.parse().ok()
-    };
-    Some((field("batches")?, field("evaluations")?))
-}
 
 /// Every worker log stopped cleanly, and together they account for every evaluation the tiny
 /// job needed, each once.
@@ -172,7 +159,7 @@ impl Script {
             .args(["-KILL", &format!("-{}", self.proc.id())])
             .status();
         self.proc.kill();
-        kill_leftovers(&self.work);
+        kill_processes_mentioning(&self.work);
     }
 }
 
@@ -181,39 +168,6 @@ impl Drop for Script {
         if self.proc.child().try_wait().ok().flatten().is_none() {
             self.kill();
         }
-    }
-}
-
-/// Processes whose command line mentions `needle` (the scratch directory of one test).
-fn processes_mentioning(needle: &str) -> Vec<String> {
-    let mut found = Vec::new();
-    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
-        if !entry
-            .file_name()
-            .to_string_lossy()
-            .chars()
-            .all(|c| c.is_ascii_digit())
-        {
-            continue;
-        }
-        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else {
-            continue;
-        };
-        let cmdline = String::from_utf8_lossy(&cmdline).replace('\0', " ");
-        if cmdline.contains(needle) {
-            found.push(format!(
-                "{}: {cmdline}",
-                entry.file_name().to_string_lossy()
-            ));
-        }
-    }
-    found
-}
-
-fn kill_leftovers(needle: &str) {
-    for line in processes_mentioning(needle) {
-        let pid = line.split(':').next().unwrap();
-        let _ = Command::new("kill").args(["-KILL", pid]).status();
     }
 }
 
@@ -237,7 +191,7 @@ fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
     );
     let status = script.wait(Duration::from_secs(180));
     let leftovers = processes_mentioning(work.to_str().unwrap());
-    kill_leftovers(work.to_str().unwrap());
+    kill_processes_mentioning(work.to_str().unwrap());
     assert!(
         status.success(),
         "one-box.sh failed with {status}:\n{}",
@@ -316,7 +270,7 @@ fn one_box_stops_every_process_on_sigterm() {
     let status = script.wait(Duration::from_secs(120));
     let stopping = signalled.elapsed();
     let leftovers = processes_mentioning(work.to_str().unwrap());
-    kill_leftovers(work.to_str().unwrap());
+    kill_processes_mentioning(work.to_str().unwrap());
     assert!(
         leftovers.is_empty(),
         "processes outlived one-box.sh:\n{}",
@@ -412,11 +366,11 @@ fn slurm_script_runs_a_job_with_a_stand_in_srun() {
     );
     let Some(status) = sbatch.wait_timeout(Duration::from_secs(180)) else {
         sbatch.kill();
-        kill_leftovers(dir.path().to_str().unwrap());
+        kill_processes_mentioning(dir.path().to_str().unwrap());
         panic!("hevo.sbatch did not finish within 180 s");
     };
     let leftovers = processes_mentioning(dir.path().to_str().unwrap());
-    kill_leftovers(dir.path().to_str().unwrap());
+    kill_processes_mentioning(dir.path().to_str().unwrap());
     let logs: String = ["master.log", "worker-0.log", "worker-1.log"]
         .iter()
         .map(|f| {
