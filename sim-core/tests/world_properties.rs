@@ -7,6 +7,9 @@
 //! The IR sensors must read an empty cone as 0 and never read a nearer wall as farther, with
 //! every measured curve (SPEC section 2: "1 at contact, 0 at 12 cm or beyond"). The counts of
 //! how long and how often each controller node drove match a known switching schedule.
+//! The same holds in worlds of one's own: random maps (a random walk opens the cells; a map
+//! compiles exactly when its goal can be reached from its entrance, by a search done here) and
+//! the paper's room over random generator ranges.
 //! Case counts keep the file well under half a minute in release.
 
 use hevo_scripted::{
@@ -15,7 +18,7 @@ use hevo_scripted::{
 use hevo_sim_core::frame::{N_IR, SensorFrame};
 use hevo_sim_core::rng::{Stream, stream_rng};
 use hevo_sim_core::robot::Pose;
-use hevo_sim_core::scenario::SHIPPED_NAMES;
+use hevo_sim_core::scenario::{SHIPPED_NAMES, Scenario};
 use hevo_sim_core::scene::Rect;
 use hevo_sim_core::sensors::IrMapping;
 use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
@@ -457,4 +460,233 @@ proptest! {
         prop_assert_eq!(outcome.node_use.active_cycles, expected_cycles);
         prop_assert_eq!(outcome.node_use.activations, expected_activations);
     }
+}
+
+/// A map of one's own, drawn at random: a `width` x `height` grid in which a random walk from
+/// the entrance (the bottom row's middle cell) opens cells, plus the goal at `goal` (a cell
+/// the walk may or may not have reached). Returns the scenario's text, and whether the goal is
+/// connected to the entrance through open cells (worked out here, independently of hevo).
+fn random_map_scenario(
+    width: usize,
+    height: usize,
+    walk: &[u8],
+    goal: (usize, usize),
+) -> Option<(String, bool)> {
+    let entrance = (width / 2, height - 1);
+    let mut open = vec![vec![false; width]; height];
+    let (mut x, mut y) = entrance;
+    open[y][x] = true;
+    for step in walk {
+        let (dx, dy): (isize, isize) = [(0, -1), (1, 0), (0, 1), (-1, 0)][usize::from(*step % 4)];
+        let (nx, ny) = (x as isize + dx, y as isize + dy);
+        // The walk stays off the entrance's row, so the entrance is the only way in from below.
+        if nx < 0 || ny < 0 || nx >= width as isize || ny >= height as isize - 1 {
+            continue;
+        }
+        (x, y) = (nx as usize, ny as usize);
+        open[y][x] = true;
+    }
+    if goal == entrance {
+        return None;
+    }
+    open[goal.1][goal.0] = true;
+    // Breadth-first from the entrance over open cells.
+    let mut reached = vec![vec![false; width]; height];
+    let mut queue = std::collections::VecDeque::from([entrance]);
+    reached[entrance.1][entrance.0] = true;
+    while let Some((cx, cy)) = queue.pop_front() {
+        for (dx, dy) in [(0isize, -1isize), (1, 0), (0, 1), (-1, 0)] {
+            let (nx, ny) = (cx as isize + dx, cy as isize + dy);
+            if nx < 0 || ny < 0 || nx >= width as isize || ny >= height as isize {
+                continue;
+            }
+            let (nx, ny) = (nx as usize, ny as usize);
+            if open[ny][nx] && !reached[ny][nx] {
+                reached[ny][nx] = true;
+                queue.push_back((nx, ny));
+            }
+        }
+    }
+    let grid: String = (0..height)
+        .map(|row| {
+            (0..width)
+                .map(|col| match (col, row) {
+                    cell if cell == entrance => 'S',
+                    cell if cell == goal => 'G',
+                    (col, row) if open[row][col] => '.',
+                    _ => '#',
+                })
+                .collect::<String>()
+                + "\n"
+        })
+        .collect();
+    let text = format!(
+        r##"schema = "hevo.scenario/1"
+name = "random_map"
+max_cycles = 300
+
+[world]
+map = {{ cell_size = 0.30, wall_thickness = 0.10, origin = [0, 0], grid = """
+{grid}""", legend = {{ "." = "open", "#" = "solid", S = "entrance", G = "goal" }} }}
+
+[[variant]]
+name = "only"
+goal = "goal"
+
+[place]
+at = "entrance"
+facing = "path"
+
+[end]
+solved = "in goal"
+
+[fitness]
+solved = "1 + time_bonus"
+otherwise = "progress"
+"##
+    );
+    Some((text, reached[goal.1][goal.0]))
+}
+
+fn random_map() -> impl Strategy<Value = (usize, usize, Vec<u8>, (usize, usize))> {
+    (3usize..=9, 3usize..=8).prop_flat_map(|(width, height)| {
+        (
+            Just(width),
+            Just(height),
+            prop::collection::vec(0u8..4, 0..40),
+            (0..width, 0..height),
+        )
+    })
+}
+
+/// The paper's generated room over random generator ranges, as a scenario file.
+fn random_room_scenario(side: (f32, f32), obstacle_side: (f32, f32)) -> String {
+    format!(
+        r#"schema = "hevo.scenario/1"
+name = "random_room"
+max_cycles = 300
+
+[world]
+room = "standalone"
+
+[room]
+min_side = {:.3}
+max_side = {:.3}
+obstacle_min_side = {:.3}
+obstacle_max_side = {:.3}
+
+[place]
+at = "room.start"
+
+[end]
+solved = "beyond room.exit"
+
+[fitness]
+solved = "1 + time_bonus"
+otherwise = "approach room.exit"
+"#,
+        side.0, side.1, obstacle_side.0, obstacle_side.1
+    )
+}
+
+fn wandering_evaluator(scenario: Scenario) -> Evaluator {
+    let task = TaskConfig {
+        end_on_collision: false,
+        ..TaskConfig::from_scenario(std::sync::Arc::new(scenario))
+    };
+    Evaluator::new(task).expect("a compiled scenario makes a valid task")
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    #[test]
+    fn a_random_map_compiles_exactly_when_its_goal_is_reachable(
+        (width, height, walk, goal) in random_map()
+    ) {
+        let Some((text, reachable)) = random_map_scenario(width, height, &walk, goal) else {
+            return Ok(());
+        };
+        match Scenario::parse(&text, "random_map.toml") {
+            Ok(_) => prop_assert!(reachable, "an unreachable goal was accepted:\n{text}"),
+            Err(error) => {
+                prop_assert!(!reachable, "a reachable goal was refused: {error}\n{text}");
+                prop_assert!(error.to_string().contains("no start can reach the goal 'goal'"), "{error}");
+            }
+        }
+    }
+
+    #[test]
+    fn robots_never_enter_the_walls_of_a_random_map(
+        (width, height, walk, goal) in random_map(),
+        seed in any::<u64>(),
+        segments in segments(),
+    ) {
+        let Some((text, true)) = random_map_scenario(width, height, &walk, goal) else {
+            return Ok(());
+        };
+        let evaluator = wandering_evaluator(Scenario::parse(&text, "random_map.toml").unwrap());
+        let sample = Sample::seeded(seed);
+        let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
+        assert_never_inside(&trace, evaluator.task().robot.radius);
+        let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
+        prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
+    }
+
+    #[test]
+    fn robots_never_enter_the_walls_or_obstacles_of_a_random_room(
+        low in 0.8f32..1.3,
+        extra in 0.0f32..0.3,
+        smallest_obstacle in 0.02f32..0.2,
+        obstacle_extra in 0.0f32..0.15,
+        seed in any::<u64>(),
+        segments in segments(),
+    ) {
+        let text = random_room_scenario(
+            (low, low + extra),
+            (smallest_obstacle, smallest_obstacle + obstacle_extra),
+        );
+        let scenario = match Scenario::parse(&text, "random_room.toml") {
+            Ok(scenario) => scenario,
+            // A range the room generator cannot meet is refused by name, never drawn.
+            Err(error) => {
+                prop_assert!(error.to_string().contains("room"), "{error}");
+                return Ok(());
+            }
+        };
+        let evaluator = wandering_evaluator(scenario);
+        let sample = Sample::seeded(seed);
+        let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
+        assert_never_inside(&trace, evaluator.task().robot.radius);
+        let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
+        prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
+    }
+}
+
+#[test]
+fn the_random_maps_and_rooms_are_mostly_real_worlds() {
+    // The properties above skip what they cannot use; this keeps them from skipping most.
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let (mut reachable, mut unreachable) = (0, 0);
+    for _ in 0..200 {
+        let (width, height, walk, goal) = random_map().new_tree(&mut runner).unwrap().current();
+        match random_map_scenario(width, height, &walk, goal) {
+            Some((_, true)) => reachable += 1,
+            Some((_, false)) => unreachable += 1,
+            None => {}
+        }
+    }
+    assert!(
+        reachable >= 40 && unreachable >= 40,
+        "{reachable} reachable, {unreachable} not"
+    );
+    let mut rooms = 0;
+    for index in 0..20 {
+        let side = 0.8 + index as f32 * 0.025;
+        let text = random_room_scenario((side, side + 0.1), (0.05, 0.2));
+        rooms += usize::from(Scenario::parse(&text, "room.toml").is_ok());
+    }
+    assert!(rooms >= 15, "only {rooms} of 20 rooms compiled");
 }
