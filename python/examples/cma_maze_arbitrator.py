@@ -93,7 +93,8 @@ def run_cma(template: hevo.Controller, task: hevo.Task, args):
     strategy = cma.CMAEvolutionStrategy(
         np.zeros(template.n_genes),
         1.0,
-        {"popsize": popsize, "seed": args.seed + 1, "verbose": -9},
+        # A gene of a stored genome lies in [-10, 10].
+        {"popsize": popsize, "seed": args.seed + 1, "verbose": -9, "bounds": [-10, 10]},
     )
     curve = []
     spent = 0
@@ -148,8 +149,9 @@ def main():
         threads=args.threads,
     )
     labels = ["hevo EA", "CMA-ES"]
+    files = ["ea_best.json", "cma_best.json"]
     for name, genes, row in zip(labels, (ea_genes, cma_genes), range(2)):
-        template.with_genome(genes).save(args.out / f"{name.split()[-1].lower()}_best.json")
+        template.with_genome(genes).save(args.out / files[row])
         print(
             f"{name:8} {ea_curve[-1][0] if row == 0 else cma_curve[-1][0]:>8} evaluations: "
             f"post-evaluation solve rate {100 * finals.solve_rate[row]:5.1f}%, "

@@ -71,7 +71,7 @@ class Controller:
 class Task:
     """A task: a scenario and every number of the model in force."""
 
-    def __init__(self, name: str, **overrides: Any) -> None:
+    def __init__(self, name: Union[str, os.PathLike], **overrides: Any) -> None:
         """A shipped scenario (`shipped_tasks()`) or a scenario file (a path ending in .toml),
         with settings overridden like an experiment node's `task_config` table:
         `Task("follow_wall", max_cycles=500, robot={"v_max": 0.08})`."""

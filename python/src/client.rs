@@ -119,11 +119,7 @@ impl Client {
         let token = token.or_else(|| std::env::var("HEVO_TOKEN").ok());
         let token = hevo_proto::auth::resolve_token(token.as_deref(), token_file.as_deref())
             .map_err(|error| ConfigError::new_err(crate::message(&error)))?;
-        let options = ClientOptions {
-            url,
-            token,
-            tls_ca,
-        };
+        let options = ClientOptions { url, token, tls_ca };
         // Checks the URL and TLS settings now rather than at the first call.
         options
             .endpoint()
@@ -163,7 +159,12 @@ impl Client {
 
     /// Writes a job's result files under `out` (the layout `hevo run --out` writes); returns
     /// the job's status dict with `files`, the number of files written.
-    fn fetch<'py>(&self, py: Python<'py>, job: String, out: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    fn fetch<'py>(
+        &self,
+        py: Python<'py>,
+        job: String,
+        out: PathBuf,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let (info, files) = call(py, calls::fetch(&self.options, &job, &out))?;
         let mut value = job_info(&info);
         value["files"] = json!(files);

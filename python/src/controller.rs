@@ -118,7 +118,11 @@ impl Controller {
     /// hidden neurons, topology (`inputs-hidden-outputs`), genome length, whether it has its
     /// genome, and children.
     fn tree<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        fn describe<'py>(py: Python<'py>, node: &NodeSpec, path: &str) -> PyResult<Bound<'py, PyDict>> {
+        fn describe<'py>(
+            py: Python<'py>,
+            node: &NodeSpec,
+            path: &str,
+        ) -> PyResult<Bound<'py, PyDict>> {
             let dict = PyDict::new(py);
             let topology = node.topology();
             dict.set_item("name", &node.name)?;

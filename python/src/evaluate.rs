@@ -122,7 +122,11 @@ fn stages_of(report: &EvalReport) -> (Vec<String>, Vec<f64>) {
 fn phases_of(report: &EvalReport) -> (Vec<String>, Vec<f64>) {
     match report.stages.as_ref().and_then(|s| s.right_choice.as_ref()) {
         Some(choice) => (
-            vec!["exit_room".into(), "solve_maze".into(), "return_room".into()],
+            vec![
+                "exit_room".into(),
+                "solve_maze".into(),
+                "return_room".into(),
+            ],
             choice
                 .shares()
                 .iter()
@@ -168,8 +172,12 @@ impl Columns {
     }
 }
 
-fn matrix<'py>(py: Python<'py>, rows: usize, values: Vec<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let columns = if rows == 0 { 0 } else { values.len() / rows };
+fn matrix<'py>(
+    py: Python<'py>,
+    rows: usize,
+    values: Vec<f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let columns = values.len().checked_div(rows).unwrap_or(0);
     let array = Array2::from_shape_vec((rows, columns), values)
         .map_err(|error| RunError::new_err(format!("internal: result shape: {error}")))?;
     Ok(PyArray2::from_owned_array(py, array))
@@ -246,12 +254,13 @@ pub fn evaluate(
             hevo_engine::local::run_local(dispatcher, threads, async |dispatcher| {
                 let mut columns = Columns::with_capacity(n);
                 let mut in_flight = VecDeque::new();
-                let reduce = |columns: &mut Columns,
-                              results: Vec<Vec<hevo_sim_core::batch::SampleSummary>>| {
-                    for summaries in results {
-                        columns.push(&post_evaluation::report(&task, &summaries, &node_paths));
-                    }
-                };
+                let reduce =
+                    |columns: &mut Columns,
+                     results: Vec<Vec<hevo_sim_core::batch::SampleSummary>>| {
+                        for summaries in results {
+                            columns.push(&post_evaluation::report(&task, &summaries, &node_paths));
+                        }
+                    };
                 for chunk in rows.chunks(CHUNK_GENOMES) {
                     let request = EvaluationRequest {
                         job: "python".into(),

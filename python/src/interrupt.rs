@@ -79,8 +79,7 @@ where
         let mailbox = &mailbox;
         scope.spawn(move || {
             // A panic is a bug, but it must not leave this thread waiting for ever.
-            let result =
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(mailbox)));
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(mailbox)));
             mailbox.finish(result);
         });
         let mut failure: Option<PyErr> = None;

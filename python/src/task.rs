@@ -25,7 +25,10 @@ impl Task {
     /// `robot={"v_max": 0.08}`. Raises ConfigError naming the key and what was expected.
     #[new]
     #[pyo3(signature = (name, **overrides))]
-    fn new(name: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+    fn new(name: std::path::PathBuf, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        // A str or a path object (a scenario file); the engine tells names and files apart.
+        let name = name.to_string_lossy();
+        let name = name.as_ref();
         let task = hevo_engine::inputs::task_by_name(name)
             .map_err(|error| ConfigError::new_err(crate::message(&error)))?;
         let config = match overrides {

@@ -241,9 +241,8 @@ impl Trace {
             title: None,
             robot_radius: self.evaluator.task().robot.radius,
         };
-        let svg = hevo_viz::replay_svg(&self.trace, &options, &|pose| {
-            self.evaluator.ir_cones(pose)
-        });
+        let svg =
+            hevo_viz::replay_svg(&self.trace, &options, &|pose| self.evaluator.ir_cones(pose));
         if let Some(path) = path {
             write(&path, &svg)?;
         }
@@ -290,7 +289,10 @@ impl Trace {
 
 impl Trace {
     fn has_teammate(&self) -> bool {
-        self.trace.cycles.iter().any(|cycle| cycle.teammate.is_some())
+        self.trace
+            .cycles
+            .iter()
+            .any(|cycle| cycle.teammate.is_some())
     }
 }
 

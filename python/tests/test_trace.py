@@ -76,4 +76,4 @@ def test_errors(repo):
     with pytest.raises(hevo.ControllerError, match="has no genome"):
         hevo.trace(complete.without_genome(), hevo.Task("follow_wall"))
     with pytest.raises(hevo.ConfigError, match="out of range"):
-        hevo.trace(complete, hevo.Task("solve_maze"), variant=3)
+        hevo.trace(complete, hevo.Task("solve_maze"), variant=4)

@@ -988,15 +988,16 @@ fn task_config(scenario: Arc<Scenario>, node: &NodeDecl) -> Result<TaskConfig, (
             .map_err(|e| ("task_config".to_string(), e.to_string()))?,
         None => serde_json::Value::Object(Default::default()),
     };
-    let mut task = with_task_overrides(TaskConfig::from_scenario(scenario), overrides)
-        .map_err(|(key, message)| {
+    let mut task = with_task_overrides(TaskConfig::from_scenario(scenario), overrides).map_err(
+        |(key, message)| {
             let path = if key.is_empty() {
                 "task_config".to_string()
             } else {
                 format!("task_config.{key}")
             };
             (path, message)
-        })?;
+        },
+    )?;
     if let Some(cycles) = node.cycles {
         task.max_cycles = Some(cycles);
         task.validate()
@@ -1015,11 +1016,13 @@ pub fn with_task_overrides(
     task: TaskConfig,
     overrides: serde_json::Value,
 ) -> Result<TaskConfig, (String, String)> {
-    let mut value =
-        serde_json::to_value(&task).map_err(|e| ("task".to_string(), e.to_string()))?;
+    let mut value = serde_json::to_value(&task).map_err(|e| ("task".to_string(), e.to_string()))?;
     for key in ["kind", "scenario"] {
         if overrides.get(key).is_some() {
-            return Err((key.to_string(), "set the task with the node's `task` key".into()));
+            return Err((
+                key.to_string(),
+                "set the task with the node's `task` key".into(),
+            ));
         }
     }
     merge(&mut value, overrides);

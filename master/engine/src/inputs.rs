@@ -191,7 +191,10 @@ mod tests {
         let missing = read_controller(&dir.path().join("none.json"))
             .unwrap_err()
             .to_string();
-        assert!(missing.starts_with("cannot read controller file"), "{missing}");
+        assert!(
+            missing.starts_with("cannot read controller file"),
+            "{missing}"
+        );
         let broken = dir.path().join("broken.json");
         std::fs::write(&broken, "{").unwrap();
         let invalid = read_controller(&broken).unwrap_err().to_string();
@@ -205,6 +208,9 @@ mod tests {
         std::fs::write(&free, template.to_json_pretty().unwrap()).unwrap();
         assert!(read_controller(&free).is_ok());
         let incomplete = read_complete_controller(&free).unwrap_err().to_string();
-        assert!(incomplete.contains("node 'p' has no genome"), "{incomplete}");
+        assert!(
+            incomplete.contains("node 'p' has no genome"),
+            "{incomplete}"
+        );
     }
 }
