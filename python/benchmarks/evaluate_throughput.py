@@ -52,7 +52,8 @@ def python_cycles_per_second(task_name: str, threads: int, seconds: float) -> fl
     started = time.perf_counter()
     while time.perf_counter() - started < seconds:
         rng = np.random.default_rng(generation)
-        genomes = (genes[None, :] + rng.uniform(-0.5, 0.5, (100, len(genes)))).astype(np.float32)
+        moved = genes[None, :] + rng.uniform(-0.5, 0.5, (100, len(genes)))
+        genomes = np.clip(moved, -10, 10).astype(np.float32)
         result = hevo.evaluate(template, genomes, task, samples=50, seed=generation, threads=threads)
         cycles += float(np.sum(result.mean_cycles)) * result.samples
         generation += 1
@@ -67,6 +68,7 @@ complete = hevo.Controller.load(sys.argv[2])
 template = complete.without_genome()
 genomes = np.tile(complete.genome(), (n, 1)).astype(np.float32)
 genomes += np.random.default_rng(0).uniform(-0.5, 0.5, genomes.shape).astype(np.float32)
+genomes = np.clip(genomes, -10, 10)
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 result = hevo.evaluate(template, genomes, task, samples=10, seed=0)
 after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
