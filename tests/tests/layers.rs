@@ -18,6 +18,11 @@ const NETWORK_AND_COMMAND_LINE: [&str; 6] = ["tonic", "prost", "clap", "indicati
 
 const RULES: &[Rule] = &[
     Rule {
+        package: "hevo-cli",
+        forbidden: &["pyo3", "numpy", "hevo-python"],
+        why: "the Python module is built on the command line's client calls, not the other way round",
+    },
+    Rule {
         package: "hevo-sim-core",
         forbidden: &[
             "tokio",
@@ -34,6 +39,8 @@ const RULES: &[Rule] = &[
             "hevo-viz",
             "hevo-cli",
             "hevo-worker",
+            "pyo3",
+            "hevo-python",
         ],
         why: "sim-core is the pure simulator: no async runtime, network, command line or other hevo crate",
     },
@@ -66,6 +73,8 @@ const RULES: &[Rule] = &[
             "hevo-viz",
             "hevo-cli",
             "hevo-worker",
+            "pyo3",
+            "hevo-python",
         ],
         why: "the engine has no network, command line, progress bars, store or pictures",
     },
@@ -82,6 +91,8 @@ const RULES: &[Rule] = &[
             "hevo-service",
             "hevo-cli",
             "hevo-worker",
+            "pyo3",
+            "hevo-python",
         ],
         why: "pictures and reports read run directories through the engine only",
     },
@@ -95,6 +106,8 @@ const RULES: &[Rule] = &[
             "hevo-viz",
             "hevo-cli",
             "hevo-worker",
+            "pyo3",
+            "hevo-python",
         ],
         why: "the wire format depends on sim-core alone; its flags are behind the `cli` feature",
     },
@@ -110,19 +123,36 @@ const RULES: &[Rule] = &[
             "hevo-service",
             "hevo-cli",
             "hevo-worker",
+            "pyo3",
+            "hevo-python",
         ],
         why: "the dashboard reads a Source (run directories here, the master's jobs in the service); it knows no gRPC, store or command line",
     },
     Rule {
         package: "hevo-service",
         // (hevo-viz comes in through hevo-dashboard only: the service draws nothing itself.)
-        forbidden: &["clap", "indicatif", "hevo-cli", "hevo-worker"],
+        forbidden: &[
+            "clap",
+            "indicatif",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
         why: "the service is a library over the engine; the command line is above it",
     },
     Rule {
         package: "hevo-worker",
         // (tonic's server half pulls in axum, so axum is no sign of the master here.)
-        forbidden: &["redb", "indicatif", "hevo-service", "hevo-viz", "hevo-cli"],
+        forbidden: &[
+            "redb",
+            "indicatif",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-cli",
+            "pyo3",
+            "hevo-python",
+        ],
         why: "a worker is the remote loop over the engine's executor, nothing of the master",
     },
 ];

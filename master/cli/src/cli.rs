@@ -4,9 +4,8 @@
 
 use crate::service_commands as service;
 use hevo_engine::bench;
-use hevo_engine::dispatch::{DispatchConfig, Dispatcher};
+use hevo_engine::dispatch::Dispatcher;
 use hevo_engine::experiment::Experiment;
-use hevo_engine::local::LocalPool;
 use hevo_engine::post_evaluation;
 use hevo_engine::rundir;
 use hevo_engine::runner::{self, Overrides, RunSettings};
@@ -17,7 +16,6 @@ use hevo_sim_core::controller::{Controller, ControllerFile};
 use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// Evolve robot controllers by structured composition: each sub-task's controller evolved on its
 /// own, then composed bottom-up under evolved arbitrators. Run experiments locally or on a
@@ -273,8 +271,12 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub light_config: Option<u32>,
     /// Where to write the SVG (a `.svg` file).
-    #[arg(long, value_parser = svg_path)]
-    pub out: PathBuf,
+    #[arg(long, value_parser = svg_path, required_unless_present = "trace_out")]
+    pub out: Option<PathBuf>,
+    /// Also (or instead) write the trace as a table, one row per cycle: poses, sensor inputs,
+    /// wheel outputs, the active node (a `.csv` or `.json` file).
+    #[arg(long, value_parser = trace_path, value_name = "FILE")]
+    pub trace_out: Option<PathBuf>,
     /// Draw the IR cones at these cycles (comma-separated).
     #[arg(long, value_delimiter = ',')]
     pub rays: Vec<u32>,
@@ -307,6 +309,31 @@ fn svg_path(value: &str) -> Result<PathBuf, String> {
         Ok(path)
     } else {
         Err("hevo draws SVG only: name the file *.svg (any SVG viewer or converter turns it into PNG)".into())
+    }
+}
+
+/// A trace table is CSV or JSON, told apart by the file's extension.
+fn trace_path(value: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(value);
+    match trace_format(&path) {
+        Some(_) => Ok(path),
+        None => Err("name the trace file *.csv or *.json".into()),
+    }
+}
+
+/// The format of a trace table file: CSV or JSON.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TraceFormat {
+    Csv,
+    Json,
+}
+
+fn trace_format(path: &Path) -> Option<TraceFormat> {
+    let extension = path.extension()?.to_str()?.to_ascii_lowercase();
+    match extension.as_str() {
+        "csv" => Some(TraceFormat::Csv),
+        "json" => Some(TraceFormat::Json),
+        _ => None,
     }
 }
 
@@ -345,9 +372,6 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
         .context("cannot start the async runtime")
 }
 
-/// How long an in-process worker may hold a batch: in effect for ever.
-const LOCAL_LEASE: std::time::Duration = std::time::Duration::from_secs(7 * 24 * 3600);
-
 /// Runs `work` on a new runtime against a dispatcher served by `threads` in-process workers
 /// (local mode), and stops the workers once it is done.
 fn with_local_workers<T, E>(
@@ -357,20 +381,9 @@ fn with_local_workers<T, E>(
 where
     E: std::error::Error + Send + Sync + 'static,
 {
-    Ok(runtime()?.block_on(async {
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig {
-            expected_workers: threads,
-            // In-process workers cannot vanish while the process lives, and they do not
-            // heartbeat: a lease that expired because the process was starved of CPU (a
-            // suspended job, a compile at higher priority) would only make the batch run twice.
-            lease_timeout: LOCAL_LEASE,
-            ..DispatchConfig::default()
-        }));
-        let pool = LocalPool::start(dispatcher.clone(), threads);
-        let result = work(&dispatcher).await;
-        pool.stop().await;
-        result
-    })?)
+    let dispatcher = hevo_engine::local::local_dispatcher(threads);
+    Ok(hevo_engine::local::run_local(dispatcher, threads, work)
+        .context("cannot start the async runtime")??)
 }
 
 /// Threads to use: the flag, else every core.
@@ -425,35 +438,11 @@ fn other_task_warning(
 
 /// A task by `--task`'s value: a shipped scenario's name, or a scenario file.
 fn parse_task(name: &str) -> Result<TaskConfig> {
-    if name.ends_with(".toml") {
-        let text = std::fs::read_to_string(name)
-            .with_context(|| format!("cannot read scenario file {name}"))?;
-        let scenario = Scenario::parse(&text, name)?;
-        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
-        task.validate()
-            .with_context(|| format!("{name}: invalid settings"))?;
-        return Ok(task);
-    }
-    TaskConfig::shipped(name).with_context(|| {
-        format!(
-            "unknown task '{name}'; expected a scenario file (a path ending in .toml) or one of {}",
-            Scenario::shipped_names().join(", ")
-        )
-    })
+    Ok(hevo_engine::inputs::task_by_name(name)?)
 }
 
 fn load_controller(path: &Path) -> Result<ControllerFile> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read controller file {}", path.display()))?;
-    let file = ControllerFile::from_json_str(&text)
-        .with_context(|| format!("{}: invalid controller file", path.display()))?;
-    if let Some((node, _)) = file.free_node_topology() {
-        bail!(
-            "{}: node '{node}' has no genome; a controller to evaluate must be complete",
-            path.display()
-        );
-    }
-    Ok(file)
+    Ok(hevo_engine::inputs::read_complete_controller(path)?)
 }
 
 /// The paper's rescue experiment, built in so `hevo run` works without any file.
@@ -722,26 +711,41 @@ fn replay(args: ReplayArgs) -> Result<()> {
             variant: args.light_config,
         },
     );
-    let options = hevo_viz::ReplayOptions {
-        node_names: (0..controller.n_nodes())
-            .map(|i| controller.node_path(i).unwrap_or("?").to_string())
-            .collect(),
-        rays_at_cycles: args.rays.clone(),
-        animate: args.animate,
-        title: None,
-        robot_radius: evaluator.task().robot.radius,
-        caption: None,
-    };
-    let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
-    hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    let node_names: Vec<String> = (0..controller.n_nodes())
+        .map(|i| controller.node_path(i).unwrap_or("?").to_string())
+        .collect();
+    let mut written = Vec::new();
+    if let Some(out) = &args.out {
+        let options = hevo_viz::ReplayOptions {
+            node_names: node_names.clone(),
+            rays_at_cycles: args.rays.clone(),
+            animate: args.animate,
+            title: None,
+            robot_radius: evaluator.task().robot.radius,
+            caption: None,
+        };
+        let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
+        hevo_engine::store::write_atomic(out, svg.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+        written.push(out.display().to_string());
+    }
+    if let Some(trace_out) = &args.trace_out {
+        let text = match trace_format(trace_out) {
+            Some(TraceFormat::Json) => hevo_viz::trace_table::trace_json(&trace, &node_names)?,
+            // The flag's parser admits only .csv and .json.
+            _ => hevo_viz::trace_table::trace_csv(&trace, &node_names),
+        };
+        hevo_engine::store::write_atomic(trace_out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", trace_out.display()))?;
+        written.push(trace_out.display().to_string());
+    }
     crate::outln!(
         "{}: {:?} after {} cycles, fitness {:.3} -> {}",
         task_name,
         trace.outcome.ending,
         trace.outcome.cycles,
         trace.outcome.fitness,
-        args.out.display()
+        written.join(", ")
     );
     Ok(())
 }

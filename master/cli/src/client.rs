@@ -93,9 +93,33 @@ pub fn state_name(state: i32) -> &'static str {
 /// Shows a job's progress until it ends: a bar on a terminal, one line per event otherwise.
 /// Returns the final status.
 pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
+    let view = std::sync::Mutex::new(View::new(job));
+    let view_of = || view.lock().unwrap_or_else(|p| p.into_inner());
+    let result = follow_job(
+        options,
+        job,
+        |event| {
+            view_of().show(event);
+        },
+        |note| view_of().note(note),
+    )
+    .await;
+    view_of().finish();
+    result
+}
+
+/// Follows a job's events until it reaches a final state, calling `on_event` for each, and
+/// returns that final status. When the stream breaks (the master restarts) it reconnects with
+/// backoff, telling `on_note` why, and carries on; a refusal (unknown job, bad token) is an
+/// error. `hevo watch` and the Python module's `Client.watch` both follow jobs through it.
+pub async fn follow_job(
+    options: &ClientOptions,
+    job: &str,
+    mut on_event: impl FnMut(&v1::JobEvent),
+    mut on_note: impl FnMut(&str),
+) -> Result<v1::JobInfo> {
     let channel = options.lazy_channel()?;
     let mut client = job_client(channel);
-    let mut view = View::new(job);
     let mut delay = Duration::from_millis(200);
     loop {
         let outcome = async {
@@ -106,20 +130,20 @@ pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
                 .await?
                 .into_inner();
             while let Some(event) = stream.message().await? {
-                if let Some(info) = view.show(&event) {
-                    return Ok(Some(info));
+                on_event(&event);
+                if let Some(Event::Status(info)) = &event.event
+                    && is_final(info.state)
+                {
+                    return Ok(Some(info.as_ref().clone()));
                 }
             }
             Ok::<_, tonic::Status>(None)
         }
         .await;
         match outcome {
-            Ok(Some(info)) => {
-                view.finish();
-                return Ok(info);
-            }
+            Ok(Some(info)) => return Ok(info),
             // The stream ended without a final state: the master is restarting.
-            Ok(None) => view.note("the master closed the stream; reconnecting"),
+            Ok(None) => on_note("the master closed the stream; reconnecting"),
             Err(status)
                 if matches!(
                     status.code(),
@@ -129,15 +153,12 @@ pub async fn watch(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
                         | tonic::Code::Internal
                 ) =>
             {
-                view.note(&format!(
+                on_note(&format!(
                     "lost the master ({}); reconnecting",
                     describe_status(&status)
                 ));
             }
-            Err(status) => {
-                view.finish();
-                return Err(refused(status));
-            }
+            Err(status) => return Err(refused(status)),
         }
         tokio::time::sleep(delay).await;
         delay = (delay * 2).min(Duration::from_secs(5));
@@ -259,15 +280,20 @@ impl View {
     }
 }
 
-/// The jobs as a table.
-pub async fn jobs(options: &ClientOptions) -> Result<String> {
+/// The master's jobs.
+pub async fn list_jobs(options: &ClientOptions) -> Result<Vec<v1::JobInfo>> {
     let mut client = job_client(options.connect().await?);
-    let jobs = client
+    Ok(client
         .list_jobs(v1::ListJobsRequest {})
         .await
         .map_err(refused)?
         .into_inner()
-        .jobs;
+        .jobs)
+}
+
+/// The jobs as a table.
+pub async fn jobs(options: &ClientOptions) -> Result<String> {
+    let jobs = list_jobs(options).await?;
     let mut text = format!(
         "{:<12} {:<10} {:>15}  {:<20} {:<20} {}\n",
         "JOB", "STATE", "GENERATIONS", "EXPERIMENT", "SUBMITTED (UTC)", "FILE"

@@ -983,32 +983,57 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
 /// The node's task configuration: the paper's defaults, the node's `task_config` overrides
 /// (checked key by key against sim-core's schema), then `cycles`.
 fn task_config(scenario: Arc<Scenario>, node: &NodeDecl) -> Result<TaskConfig, (String, String)> {
-    let mut value = serde_json::to_value(TaskConfig::from_scenario(scenario))
-        .map_err(|e| ("task".to_string(), e.to_string()))?;
-    if let Some(overrides) = &node.task_config {
-        let overrides = serde_json::to_value(overrides)
-            .map_err(|e| ("task_config".to_string(), e.to_string()))?;
-        for key in ["kind", "scenario"] {
-            if overrides.get(key).is_some() {
-                return Err((
-                    format!("task_config.{key}"),
-                    "set the task with the node's `task` key".into(),
-                ));
-            }
-        }
-        merge(&mut value, overrides);
-    }
-    let mut task: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
-        (
-            format!("task_config.{}", e.path()),
-            one_line(&e.inner().to_string()),
-        )
-    })?;
+    let overrides = match &node.task_config {
+        Some(overrides) => serde_json::to_value(overrides)
+            .map_err(|e| ("task_config".to_string(), e.to_string()))?,
+        None => serde_json::Value::Object(Default::default()),
+    };
+    let mut task = with_task_overrides(TaskConfig::from_scenario(scenario), overrides).map_err(
+        |(key, message)| {
+            let path = if key.is_empty() {
+                "task_config".to_string()
+            } else {
+                format!("task_config.{key}")
+            };
+            (path, message)
+        },
+    )?;
     if let Some(cycles) = node.cycles {
         task.max_cycles = Some(cycles);
+        task.validate()
+            .map_err(|error| (format!("task_config.{}", error.key), error.message))?;
     }
+    Ok(task)
+}
+
+/// `task` with some of its numbers replaced: `overrides` is an object shaped like a node's
+/// `task_config` table (`{"robot": {"v_max": 0.1}, "max_cycles": 500}`), merged key by key
+/// into the task and checked against sim-core's schema, then validated. The error is (key
+/// path, what is wrong), the key path relative to the task (`robot.v_max`). Experiment files
+/// and the Python module's `Task` take overrides through it, so both refuse the same values
+/// with the same words.
+pub fn with_task_overrides(
+    task: TaskConfig,
+    overrides: serde_json::Value,
+) -> Result<TaskConfig, (String, String)> {
+    let mut value = serde_json::to_value(&task).map_err(|e| ("task".to_string(), e.to_string()))?;
+    for key in ["kind", "scenario"] {
+        if overrides.get(key).is_some() {
+            return Err((
+                key.to_string(),
+                "set the task with the node's `task` key".into(),
+            ));
+        }
+    }
+    merge(&mut value, overrides);
+    let task: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = e.path().to_string();
+        // serde_path_to_error names the root `.`; the caller prefixes its own key.
+        let path = if path == "." { String::new() } else { path };
+        (path, one_line(&e.inner().to_string()))
+    })?;
     task.validate()
-        .map_err(|error| (format!("task_config.{}", error.key), error.message))?;
+        .map_err(|error| (error.key.clone(), error.message))?;
     Ok(task)
 }
 

@@ -4,7 +4,8 @@
 //! checkpoints ([`runner`]), hands batches of genome evaluations to workers through the
 //! [`dispatch`]er, evaluates them on the [`executor`] (in-process workers: [`local`]; remote
 //! workers run the same executor), post-evaluates the results ([`post_evaluation`]), and owns
-//! the format of run directories ([`rundir`]), written atomically ([`store`]).
+//! the format of run directories ([`rundir`]), written atomically ([`store`]). [`inputs`] reads
+//! the task and controller of a one-off evaluation.
 //!
 //! The service, the worker, the pictures and the `hevo` command are built on it; it depends on
 //! none of them.
@@ -14,6 +15,7 @@ pub mod dispatch;
 pub mod ea;
 pub mod executor;
 pub mod experiment;
+pub mod inputs;
 pub mod local;
 pub mod post_evaluation;
 pub mod rundir;

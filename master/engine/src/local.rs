@@ -4,8 +4,12 @@
 //! busy. The evaluation itself is the [`crate::executor`], the same code remote workers run, with
 //! evaluators cached by (template hash, task hash): building one validates the tree and
 //! prepares the task's shared geometry, which a generation's batches all reuse.
+//!
+//! [`local_dispatcher`] and [`run_local`] are local mode as a whole, shared by `hevo run`,
+//! `hevo eval` and the Python module: a dispatcher, a runtime and a pool, for the time one piece
+//! of work takes.
 
-use crate::dispatch::{Batch, Dispatcher};
+use crate::dispatch::{Batch, DispatchConfig, Dispatcher};
 use crate::executor::{EvaluatorCache, ExecError, evaluate_genomes};
 use hevo_sim_core::batch::{BatchEvaluator, SampleSummary};
 use std::sync::Arc;
@@ -107,4 +111,39 @@ impl LocalPool {
             let _ = handle.await;
         }
     }
+}
+
+/// How long an in-process worker may hold a batch: in effect for ever. In-process workers
+/// cannot vanish while the process lives, and they do not heartbeat: a lease that expired
+/// because the process was starved of CPU (a suspended job, a compile at higher priority) would
+/// only make the batch run twice.
+pub const LOCAL_LEASE: Duration = Duration::from_secs(7 * 24 * 3600);
+
+/// A dispatcher for `threads` in-process workers. Kept by the caller, so that another thread
+/// can [`Dispatcher::shut_down`] it to stop the work early (Python's Ctrl-C).
+pub fn local_dispatcher(threads: usize) -> Arc<Dispatcher> {
+    Arc::new(Dispatcher::new(DispatchConfig {
+        expected_workers: threads.max(1),
+        lease_timeout: LOCAL_LEASE,
+        ..DispatchConfig::default()
+    }))
+}
+
+/// Runs `work` on a new multi-threaded runtime against `dispatcher`, served by `threads`
+/// in-process workers, and stops the workers once it is done. The error is the runtime's, which
+/// could not start.
+pub fn run_local<T>(
+    dispatcher: Arc<Dispatcher>,
+    threads: usize,
+    work: impl AsyncFnOnce(&Dispatcher) -> T,
+) -> std::io::Result<T> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    Ok(runtime.block_on(async {
+        let pool = LocalPool::start(dispatcher.clone(), threads);
+        let result = work(&dispatcher).await;
+        pool.stop().await;
+        result
+    }))
 }

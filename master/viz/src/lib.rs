@@ -3,13 +3,15 @@
 //! world, coloured by the controller that drove it), fitness plots of evolutionary runs, and
 //! REPRODUCTION.md ([`report`]), the paper's figures beside hevo's, with what chance does to
 //! a solve rate measured on finite samples ([`sampling`]). The pictures share one small SVG
-//! writer, so escaping, number formatting, palette and fonts are decided in one place.
+//! writer, so escaping, number formatting, palette and fonts are decided in one place. A traced
+//! sample can also be written as a table ([`trace_table`], CSV or JSON).
 
 pub mod plot;
 pub mod replay;
 pub mod report;
 pub mod sampling;
 pub mod svg;
+pub mod trace_table;
 
 pub use plot::{RunLog, fitness_plot_svg, read_run_logs};
 pub use replay::{IrCone, ReplayOptions, replay_scene_transform, replay_svg};

@@ -1,0 +1,192 @@
+//! A traced sample as a table, one row per control cycle, for readers outside hevo
+//! (`hevo replay --trace-out FILE.csv` or `FILE.json`): the robot's pose (and the teammate's),
+//! the sensor inputs the controller read, its wheel outputs, the node that drove and what
+//! happened. The Python module's `hevo.trace` gives the same values as numpy arrays.
+
+use hevo_sim_core::Trace;
+use hevo_sim_core::evaluate::TraceCycle;
+use std::fmt::Write as _;
+
+/// The columns of a row, in order. The teammate's pose columns are empty where the task has
+/// no teammate.
+pub const TRACE_COLUMNS: [&str; 21] = [
+    "cycle",
+    "robot_x",
+    "robot_y",
+    "robot_heading",
+    "teammate_x",
+    "teammate_y",
+    "teammate_heading",
+    "ir_front_left",
+    "ir_left",
+    "ir_right",
+    "ir_front_right",
+    "light_left",
+    "light_right",
+    "near_robot",
+    "wheel_left",
+    "wheel_right",
+    "active_node",
+    "active_depth",
+    "collided",
+    "lit_lights",
+    "sub_task",
+];
+
+/// One cell.
+enum Cell {
+    Number(f32),
+    Integer(u64),
+    Text(String),
+    Empty,
+}
+
+/// The cells of one cycle, in [`TRACE_COLUMNS`] order; `node_paths` names the controller's
+/// nodes by index (the active node is the last of the cycle's active path).
+fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
+    let number = Cell::Number;
+    let teammate = |pick: fn(&hevo_sim_core::robot::Pose) -> f32| {
+        cycle
+            .teammate
+            .as_ref()
+            .map_or(Cell::Empty, |pose| number(pick(pose)))
+    };
+    let active = cycle
+        .active_path
+        .last()
+        .map(|&node| {
+            node_paths
+                .get(usize::from(node))
+                .cloned()
+                .unwrap_or_else(|| format!("node {node}"))
+        })
+        .unwrap_or_default();
+    vec![
+        Cell::Integer(index as u64),
+        number(cycle.robot.x),
+        number(cycle.robot.y),
+        number(cycle.robot.heading),
+        teammate(|pose| pose.x),
+        teammate(|pose| pose.y),
+        teammate(|pose| pose.heading),
+        number(cycle.frame.ir[0]),
+        number(cycle.frame.ir[1]),
+        number(cycle.frame.ir[2]),
+        number(cycle.frame.ir[3]),
+        number(cycle.frame.light[0]),
+        number(cycle.frame.light[1]),
+        number(cycle.frame.near_robot),
+        number(cycle.wheels[0]),
+        number(cycle.wheels[1]),
+        Cell::Text(active),
+        Cell::Integer(cycle.active_path.len() as u64),
+        Cell::Integer(u64::from(cycle.collided)),
+        Cell::Integer(u64::from(cycle.lit_lights)),
+        Cell::Integer(u64::from(cycle.sub_task)),
+    ]
+}
+
+/// CSV text: a header line, then one line per cycle. Numbers are the shortest decimals that
+/// read back to the same `f32`.
+pub fn trace_csv(trace: &Trace, node_paths: &[String]) -> String {
+    let mut text = TRACE_COLUMNS.join(",");
+    text.push('\n');
+    for (index, cycle) in trace.cycles.iter().enumerate() {
+        let row: Vec<String> = cells(index, cycle, node_paths)
+            .into_iter()
+            .map(|cell| match cell {
+                Cell::Number(value) => format!("{value}"),
+                Cell::Integer(value) => value.to_string(),
+                // Node paths are names checked to be plain identifiers and slashes, so they
+                // need no quoting; quote anyway should a comma or quote ever appear.
+                Cell::Text(text) if text.contains([',', '"', '\n']) => {
+                    format!("\"{}\"", text.replace('"', "\"\""))
+                }
+                Cell::Text(text) => text,
+                Cell::Empty => String::new(),
+            })
+            .collect();
+        let _ = writeln!(text, "{}", row.join(","));
+    }
+    text
+}
+
+/// JSON text: the sample and its outcome, the node paths, and `cycles`, one object per cycle
+/// with the [`TRACE_COLUMNS`] as keys (the teammate's keys only where there is one).
+pub fn trace_json(trace: &Trace, node_paths: &[String]) -> Result<String, serde_json::Error> {
+    let cycles: Vec<serde_json::Value> = trace
+        .cycles
+        .iter()
+        .enumerate()
+        .map(|(index, cycle)| {
+            let mut object = serde_json::Map::new();
+            for (column, cell) in TRACE_COLUMNS.iter().zip(cells(index, cycle, node_paths)) {
+                let value = match cell {
+                    Cell::Number(value) => serde_json::json!(value),
+                    Cell::Integer(value) => serde_json::json!(value),
+                    Cell::Text(text) => serde_json::json!(text),
+                    Cell::Empty => continue,
+                };
+                object.insert((*column).to_string(), value);
+            }
+            serde_json::Value::Object(object)
+        })
+        .collect();
+    let document = serde_json::json!({
+        "scenario": trace.scenario,
+        "seed": trace.sample.seed,
+        "variant": trace.outcome.variant,
+        "outcome": trace.outcome,
+        "node_paths": node_paths,
+        "cycles": cycles,
+    });
+    serde_json::to_string(&document)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hevo_sim_core::controller::Controller;
+    use hevo_sim_core::{Evaluator, Sample, TaskConfig};
+
+    #[test]
+    fn one_row_per_cycle_in_both_forms() {
+        let mut task = TaskConfig::shipped("rescue").unwrap();
+        task.max_cycles = Some(40);
+        let file = hevo_engine::bench::paper_controller(&task, 3);
+        let node_paths = file.node_paths();
+        let mut controller = Controller::new(&file, None).unwrap();
+        let evaluator = Evaluator::new(task).unwrap();
+        let trace = evaluator.evaluate_traced(&mut controller, Sample::seeded(5));
+        let n = trace.cycles.len();
+        assert!(n > 0);
+
+        let csv = trace_csv(&trace, &node_paths);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines.len(), n + 1);
+        assert_eq!(lines[0], TRACE_COLUMNS.join(","));
+        let first: Vec<&str> = lines[1].split(',').collect();
+        assert_eq!(first.len(), TRACE_COLUMNS.len());
+        assert_eq!(first[0], "0");
+        // The values read back to the trace's own f32s.
+        assert_eq!(first[1].parse::<f32>().unwrap(), trace.cycles[0].robot.x);
+        assert_eq!(first[14].parse::<f32>().unwrap(), trace.cycles[0].wheels[0]);
+        let leaf = *trace.cycles[0].active_path.last().unwrap();
+        assert_eq!(first[16], node_paths[usize::from(leaf)]);
+        // The rescue has a teammate.
+        assert!(!first[4].is_empty());
+
+        let json: serde_json::Value =
+            serde_json::from_str(&trace_json(&trace, &node_paths).unwrap()).unwrap();
+        let cycles = json["cycles"].as_array().unwrap();
+        assert_eq!(cycles.len(), n);
+        assert_eq!(cycles[n - 1]["cycle"], serde_json::json!(n - 1));
+        assert_eq!(json["seed"], serde_json::json!(5));
+        assert_eq!(
+            cycles[0]["robot_y"].as_f64().unwrap() as f32,
+            trace.cycles[0].robot.y
+        );
+        // Shortest round-trip decimals, not an f32 widened to f64's digits.
+        assert_eq!(first[1], trace.cycles[0].robot.x.to_string());
+    }
+}

@@ -1,0 +1,55 @@
+"""hevo: hierarchical evolution of robot controllers, from Python.
+
+The same engine the ``hevo`` command runs, bound with PyO3:
+
+- ``Controller``: controller files, their trees and genomes as numpy arrays;
+- ``Task``: a shipped scenario by name, or a scenario file, with settings overridden;
+- ``evaluate``: many genomes on the same samples, all cores, the GIL released; the numbers
+  ``hevo eval --json`` prints, bit for bit;
+- ``trace``: one sample cycle by cycle as numpy arrays, and the replay picture;
+- ``run``: an experiment evolved by the resumable runner of ``hevo run``;
+- ``Client``: a master's job service (submit, watch, jobs, fetch, cancel).
+
+Errors are ``HevoError`` subclasses carrying the messages the command line prints:
+``ConfigError``, ``ControllerError``, ``RunError``, ``ClientError``.
+"""
+
+from ._hevo import (
+    Client,
+    ClientError,
+    ConfigError,
+    Controller,
+    ControllerError,
+    Evaluation,
+    HevoError,
+    JobWatch,
+    RunError,
+    Task,
+    Trace,
+    __version__,
+    bench_controller,
+    evaluate,
+    run,
+    shipped_tasks,
+    trace,
+)
+
+__all__ = [
+    "Client",
+    "ClientError",
+    "ConfigError",
+    "Controller",
+    "ControllerError",
+    "Evaluation",
+    "HevoError",
+    "JobWatch",
+    "RunError",
+    "Task",
+    "Trace",
+    "__version__",
+    "bench_controller",
+    "evaluate",
+    "run",
+    "shipped_tasks",
+    "trace",
+]

@@ -1,0 +1,130 @@
+"""hevo.evaluate: the numbers `hevo eval --json` prints, bit for bit, for every genome; the
+same on any number of threads; the errors; and 10,000 genomes at once."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import hevo
+
+
+def perturbed(genes, n, seed):
+    """`n` copies of `genes`, each gene moved by up to 0.5 and kept in a gene's range [-10, 10]."""
+    rng = np.random.default_rng(seed)
+    moved = genes[None, :] + rng.uniform(-0.5, 0.5, size=(n, len(genes)))
+    return np.clip(moved, -10, 10).astype(np.float32)
+
+
+def cli_report(hevo_cli, tmp_path, controller, task_flag, samples, seed):
+    path = tmp_path / f"{controller.content_hash}.json"
+    controller.save(path)
+    out = hevo_cli(
+        "eval", path, "--task", task_flag, "--samples", samples, "--seed", seed, "--json"
+    )
+    return json.loads(out.stdout)
+
+
+def same(a, b):
+    """Equal as floats, bit for bit (NaN for a phase no sample reached is `null` in JSON)."""
+    if b is None:
+        return math.isnan(a)
+    return float(a) == float(b)
+
+
+def check_against_cli(hevo_cli, tmp_path, template, genomes, task, task_flag, samples, seed):
+    result = hevo.evaluate(template, genomes, task, samples=samples, seed=seed)
+    assert len(result) == len(genomes)
+    for i, genes in enumerate(genomes):
+        report = cli_report(hevo_cli, tmp_path, template.with_genome(genes), task_flag, samples, seed)
+        assert result.samples == report["samples"]
+        assert same(result.fitness[i], report["mean_fitness"])
+        assert same(result.solve_rate[i], report["solve_rate"])
+        assert same(result.collision_rate[i], report["collision_rate"])
+        assert same(result.mean_cycles[i], report["mean_cycles"])
+        variants = report.get("per_variant", [])
+        assert result.per_variant.shape == (len(genomes), len(variants))
+        for v, variant in enumerate(variants):
+            assert same(result.per_variant[i, v], variant["solve_rate"])
+        if "stages" in report:
+            stages = report["stages"]
+            expected = [stages["exited_room"], stages["reached_teammate"], stages["returned"]]
+        else:
+            expected = [stage["share"] for stage in report.get("per_stage", [])]
+            assert result.stage_names == [stage["stage"] for stage in report.get("per_stage", [])]
+        assert [float(x) for x in result.per_stage[i]] == expected
+        phases = [phase["right_choice"] for phase in report.get("per_phase", [])]
+        assert len(result.per_phase[i]) >= len(phases)
+        for p, share in enumerate(phases):
+            assert same(result.per_phase[i, p], share)
+    return result
+
+
+def test_equal_to_the_cli_on_the_maze_arbitrator(repo, tmp_path, hevo_cli):
+    complete = hevo.Controller.load(repo / "controllers" / "solve_maze.json")
+    template = complete.without_genome("solve_maze")
+    genomes = perturbed(complete.genome("solve_maze"), 3, seed=1)
+    genomes[0] = complete.genome("solve_maze")
+    result = check_against_cli(
+        hevo_cli, tmp_path, template, genomes, hevo.Task("solve_maze"), "solve_maze", 2, 7
+    )
+    assert len(result.variant_names) == 4 and result.per_variant.shape == (3, 4)
+    # The shipped controller solves the maze.
+    assert result.solve_rate[0] > 0.5
+
+
+def test_equal_to_the_cli_on_a_scenario_file(repo, tmp_path, hevo_cli):
+    path = str(repo / "scenarios" / "examples" / "t_maze.toml")
+    task = hevo.Task(path)
+    complete = hevo.bench_controller(task, seed=4)
+    template = complete.without_genome()
+    genomes = perturbed(complete.genome(), 2, seed=2)
+    check_against_cli(hevo_cli, tmp_path, template, genomes, task, path, 3, 11)
+
+
+def test_threads_do_not_change_results(repo):
+    complete = hevo.Controller.load(repo / "controllers" / "follow_wall.json")
+    template = complete.without_genome()
+    genomes = perturbed(complete.genome(), 5, seed=3)
+    task = hevo.Task("follow_wall", max_cycles=120)
+    one = hevo.evaluate(template, genomes, task, samples=3, seed=5, threads=1)
+    three = hevo.evaluate(template, genomes, task, samples=3, seed=5, threads=3)
+    for name in ("fitness", "solve_rate", "collision_rate", "mean_cycles"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(three, name))
+    other_seed = hevo.evaluate(template, genomes, task, samples=3, seed=6, threads=1)
+    assert not np.array_equal(one.mean_cycles, other_seed.mean_cycles) or not np.array_equal(
+        one.fitness, other_seed.fitness
+    )
+
+
+def test_bad_inputs(repo):
+    complete = hevo.Controller.load(repo / "controllers" / "follow_wall.json")
+    template = complete.without_genome()
+    task = hevo.Task("follow_wall", max_cycles=20)
+    with pytest.raises(hevo.ControllerError, match="no free node"):
+        hevo.evaluate(complete, np.zeros((1, 3), dtype=np.float32), task)
+    with pytest.raises(ValueError, match="takes"):
+        hevo.evaluate(template, np.zeros((2, template.n_genes + 1), dtype=np.float32), task)
+    with pytest.raises(ValueError, match="samples"):
+        hevo.evaluate(template, np.zeros((1, template.n_genes), dtype=np.float32), task, samples=0)
+    with pytest.raises(TypeError):
+        hevo.evaluate(template, np.zeros((1, template.n_genes), dtype=np.float64), task)
+    nan = np.full((1, template.n_genes), np.nan, dtype=np.float32)
+    with pytest.raises(hevo.ControllerError):
+        hevo.evaluate(template, nan, task)
+    empty = hevo.evaluate(template, np.zeros((0, template.n_genes), dtype=np.float32), task)
+    assert len(empty) == 0
+
+
+def test_ten_thousand_genomes_keep_only_their_result_arrays(repo):
+    complete = hevo.Controller.load(repo / "controllers" / "follow_wall.json")
+    template = complete.without_genome()
+    genomes = perturbed(complete.genome(), 10_000, seed=4)
+    task = hevo.Task("follow_wall", max_cycles=3)
+    result = hevo.evaluate(template, genomes, task, samples=1, seed=1)
+    assert result.fitness.shape == (10_000,)
+    assert result.samples == 1
+    # Chunks of genomes are reduced in order: the last chunk's rows are the last genomes'.
+    tail = hevo.evaluate(template, genomes[-3:], task, samples=1, seed=1)
+    np.testing.assert_array_equal(result.fitness[-3:], tail.fitness)

@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Builds the hevo Python module and runs its tests (python/tests/, pytest), in a virtual
+# environment under .tools/ whose packages come from PyPI at pinned versions. `.ci/run` calls
+# it after `cargo test`; run it by hand the same way:
+#
+#   bash scripts/python-tests.sh              # every test
+#   bash scripts/python-tests.sh -k evaluate  # arguments go to pytest
+#
+# The module is built in the dev profile (`pip install ./python` builds release; the tests
+# need no optimised engine beyond what the dev profile already optimises), into the workspace's
+# target directory, so it reuses what `cargo test` compiled. The `hevo` and `hevo-worker`
+# binaries the tests compare with are the dev-profile ones.
+#
+# HEVO_TEST_TOOLS_DIR overrides .tools/, as for scripts/install-test-tools.sh.
+set -euo pipefail
+
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+tools=${HEVO_TEST_TOOLS_DIR:-$repo/.tools}
+venv=$tools/python-venv
+
+# Pinned, so that every machine tests with the same packages.
+packages=(
+    maturin==1.16.0
+    numpy==2.4.6
+    pytest==9.2.0
+    cma==4.5.0
+    matplotlib==3.11.2
+)
+
+log() {
+    echo "python-tests: $*" >&2
+}
+
+command -v python3 >/dev/null || {
+    log "needs python3 (with its venv module; on Debian: apt-get install python3-venv)"
+    exit 1
+}
+if ! "$venv/bin/python" -c 'import pip' >/dev/null 2>&1; then
+    rm -rf "$venv"
+    python3 -m venv "$venv" || {
+        log "python3 -m venv failed (on Debian: apt-get install python3-venv)"
+        exit 1
+    }
+fi
+pip() {
+    PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_INPUT=1 "$venv/bin/python" -m pip "$@"
+}
+stamp=$venv/hevo-python-tests.txt
+wanted=$(printf '%s\n' "${packages[@]}")
+if [[ ! -f $stamp || $(<"$stamp") != "$wanted" ]]; then
+    log "pip install ${packages[*]}"
+    pip install --quiet "${packages[@]}"
+    echo "$wanted" >"$stamp"
+fi
+
+cd "$repo"
+log "cargo build -p hevo-cli -p hevo-worker"
+cargo build --locked -p hevo-cli -p hevo-worker
+target=${CARGO_TARGET_DIR:-$repo/target}
+
+log "pip install ./python (dev profile)"
+# maturin, the build backend, runs the venv's `maturin` from PATH and reads extra
+# `maturin build` flags from MATURIN_PEP517_ARGS.
+PATH=$venv/bin:$PATH MATURIN_PEP517_ARGS="--profile dev --locked" \
+    pip install --quiet --no-build-isolation ./python
+
+log "pytest python/tests"
+HEVO_TEST_BIN_DIR=$target/debug "$venv/bin/python" -m pytest python/tests "$@"
