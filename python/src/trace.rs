@@ -240,6 +240,7 @@ impl Trace {
             animate,
             title: None,
             robot_radius: self.evaluator.task().robot.radius,
+            caption: None,
         };
         let svg =
             hevo_viz::replay_svg(&self.trace, &options, &|pose| self.evaluator.ir_cones(pose));

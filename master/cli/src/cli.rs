@@ -16,6 +16,7 @@ use hevo_sim_core::controller::{Controller, ControllerFile};
 use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Evolve robot controllers by structured composition: each sub-task's controller evolved on its
 /// own, then composed bottom-up under evolved arbitrators. Run experiments locally or on a
