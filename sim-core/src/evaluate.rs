@@ -455,15 +455,15 @@ impl<'e> SampleRun<'e> {
         let robot = self.robot;
         self.cycles_run += 1;
         let (sin_h, cos_h) = robot.heading.sin_cos();
-        let mut ir_distances = [None; N_IR];
-        for (sensor, distance) in ir_distances.iter_mut().enumerate() {
-            let cone = evaluator.cones[sensor].rotated(sin_h, cos_h);
-            let origin = evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
-            *distance =
-                self.env
-                    .scene
-                    .cone_distance(robot.position(), origin, &cone, task.ir.range_m);
-        }
+        let cones: [Cone; N_IR] =
+            std::array::from_fn(|sensor| evaluator.cones[sensor].rotated(sin_h, cos_h));
+        let origins: [[f32; 2]; N_IR] = std::array::from_fn(|sensor| {
+            evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor)
+        });
+        let ir_distances =
+            self.env
+                .scene
+                .cone_distances(robot.position(), &origins, &cones, task.ir.range_m);
         let ir = IrModel::builtin().read_all(&self.ir_setup, &ir_distances, &mut self.noise);
         let mut lit_mask = 0u32;
         let light = if self.lights.is_empty() {

@@ -163,8 +163,8 @@ mod tests {
         });
         let take = [true, false, true, false, true, false, true, false];
         let picked = a.select(&take, b);
-        for lane in 0..LANES {
-            let expected = if take[lane] { b.0[lane] } else { a.0[lane] };
+        for (lane, &taken) in take.iter().enumerate() {
+            let expected = if taken { b.0[lane] } else { a.0[lane] };
             assert_eq!(picked.0[lane].to_bits(), expected.to_bits(), "lane {lane}");
         }
     }

@@ -66,6 +66,8 @@ pub struct LaneController {
     inputs: Vec<Lanes>,
     /// Scratch: one lane's outputs of the current arbitrator.
     lane_outputs: Vec<f32>,
+    /// Scratch: sub-trees (node range and lane) the current arbitrator switched away from.
+    pending_resets: Vec<(usize, usize, usize)>,
 }
 
 impl LaneController {
@@ -112,6 +114,7 @@ impl LaneController {
             node_lanes: vec![[false; LANES]; n_nodes],
             inputs: vec![Lanes::ZERO; max_inputs],
             lane_outputs: vec![0.0; max_outputs],
+            pending_resets: Vec::with_capacity(LANES),
             controller,
         }
     }
@@ -130,10 +133,18 @@ impl LaneController {
     /// Resets nodes `start..end` (a sub-tree) in lane `lane`.
     fn reset_lane_range(&mut self, start: usize, end: usize, lane: usize) {
         let nodes = self.controller.nodes();
-        for node_idx in start..end.min(nodes.len()) {
-            self.networks[node_idx].reset_lane(nodes[node_idx].net.rest_firing(), lane);
-            self.active_child[node_idx][lane] = None;
-            self.active_for[node_idx][lane] = 0;
+        let range = start.min(nodes.len())..end.min(nodes.len());
+        let memories = self.active_child[range.clone()]
+            .iter_mut()
+            .zip(&mut self.active_for[range.clone()]);
+        for ((network, node), (active_child, active_for)) in self.networks[range.clone()]
+            .iter_mut()
+            .zip(&nodes[range])
+            .zip(memories)
+        {
+            network.reset_lane(node.net.rest_firing(), lane);
+            active_child[lane] = None;
+            active_for[lane] = 0;
         }
     }
 
@@ -170,9 +181,7 @@ impl LaneController {
                 }
                 n_filled += group.width();
             }
-            // The nodes below this one in pre-order hold its sub-trees, which a switch resets.
-            let (up_to_here, below) = self.networks.split_at_mut(node_idx + 1);
-            let network = &mut up_to_here[node_idx];
+            let network = &mut self.networks[node_idx];
             let weights = node.net.step_weights(&network.dt_over_taus);
             let inputs = &self.inputs[..n_filled.min(self.inputs.len())];
             // Lanes without a sample may step freely; a lane with one steps only where the node
@@ -234,20 +243,17 @@ impl LaneController {
                         if let Some(previous) = left
                             && let Some(&left_node) = node.children.get(previous)
                         {
-                            // `reset_lane_range` for the sub-tree left, which lies below this
-                            // node in pre-order.
-                            let nodes = self.controller.nodes();
-                            let end = nodes[left_node].subtree_end.min(nodes.len());
-                            for reset_idx in left_node.max(node_idx + 1)..end {
-                                below[reset_idx - node_idx - 1]
-                                    .reset_lane(nodes[reset_idx].net.rest_firing(), lane);
-                                self.active_child[reset_idx][lane] = None;
-                                self.active_for[reset_idx][lane] = 0;
-                            }
+                            let end = self.controller.nodes()[left_node].subtree_end;
+                            self.pending_resets.push((left_node, end, lane));
                         }
                         self.node_lanes[chosen_node][lane] = true;
                     }
                 }
+            }
+            // The sub-trees left lie below this node in pre-order, so they are reset before
+            // any of them steps, as in the scalar controller.
+            while let Some((start, end, lane)) = self.pending_resets.pop() {
+                self.reset_lane_range(start, end, lane);
             }
         }
         wheels
