@@ -5,12 +5,14 @@
 #
 #   scripts/performance-table.sh [ROUNDS] [SECONDS]
 #
+# HEVO=path/to/hevo picks another binary (a CARGO_TARGET_DIR elsewhere).
+#
 # The README links to the file it writes; nothing in the docs copies its figures by hand.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rounds=${1:-3}
 seconds=${2:-5}
-hevo=target/release/hevo
+hevo=${HEVO:-target/release/hevo}
 [[ -x $hevo ]] || { echo "build first: cargo build --release" >&2; exit 1; }
 threads=$(nproc)
 out=docs/performance.md
