@@ -3,7 +3,7 @@
 //! share their weights and differ only in their state; that state is laid out one [`Lanes`]
 //! per neuron, and each network steps once per cycle for all the lanes in which it is active,
 //! with the compiler's vector instructions ([`crate::lanes`]). The world of each lane (sensing,
-//! moving, judging) runs the scalar evaluator's own per-sample code ([`SampleRun`]), so an
+//! moving, judging) runs the scalar evaluator's own per-sample code (`evaluate::SampleRun`), so an
 //! outcome here is bit-identical to [`Evaluator::evaluate`]'s for the same controller and
 //! sample; the property tests in `tests/lockstep.rs` hold the two to that. A lane whose sample
 //! ends takes the next sample at once, so samples that end early leave no lane idle.
