@@ -2,9 +2,11 @@
 //! 6-10-3 arbitrator over three 4-3-2 primitives and the full sensor model (28 IR rays, light
 //! flashes, wheel noise). Collisions do not end the sample here, so every sample runs its full
 //! 1000 cycles and the figure measures the simulator, not how soon a random genome crashes.
+//! The scalar reference and the lockstep evaluator run the same 16 samples, one after the other
+//! within one run, so their ratio is a paired comparison.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use hevo_sim_core::batch::BatchEvaluator;
+use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::rng::SimRng;
@@ -40,28 +42,35 @@ fn bench_cycles(c: &mut Criterion) {
     let (file, genes) = maze_arbitrator();
     let mut task = TaskConfig::shipped("solve_maze").unwrap();
     task.end_on_collision = false;
-    let batch = BatchEvaluator::new(file, task).expect("valid benchmark setup");
-    let samples: Vec<Sample> = (0..4)
+    let samples: Vec<Sample> = (0..16)
         .map(|k| Sample {
             seed: 100 + k,
-            variant: Some(k as u32),
+            variant: Some(k as u32 % 4),
         })
         .collect();
-    let cycles: u64 = batch
-        .evaluate_genome(Some(&genes), &samples)
-        .expect("genome fits")
-        .iter()
-        .map(|o| u64::from(o.cycles))
-        .sum();
     let mut group = c.benchmark_group("simulator");
-    group.throughput(Throughput::Elements(cycles));
-    group.bench_function("solve_maze_6-10-3_over_3x4-3-2", |b| {
-        b.iter(|| {
-            batch
-                .evaluate_genome(Some(&genes), &samples)
-                .expect("genome fits")
-        })
-    });
+    for (label, kind) in [
+        ("scalar", EvaluatorKind::Scalar),
+        ("lockstep", EvaluatorKind::Lockstep),
+    ] {
+        let batch = BatchEvaluator::new(file.clone(), task.clone())
+            .expect("valid benchmark setup")
+            .with_kind(kind);
+        let cycles: u64 = batch
+            .evaluate_genome(Some(&genes), &samples)
+            .expect("genome fits")
+            .iter()
+            .map(|o| u64::from(o.cycles))
+            .sum();
+        group.throughput(Throughput::Elements(cycles));
+        group.bench_function(format!("solve_maze_6-10-3_over_3x4-3-2/{label}"), |b| {
+            b.iter(|| {
+                batch
+                    .evaluate_genome(Some(&genes), &samples)
+                    .expect("genome fits")
+            })
+        });
+    }
     group.finish();
 }
 

@@ -6,6 +6,7 @@
 use crate::controller::{Controller, ControllerError, ControllerFile};
 use crate::evaluate::{Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, TaskError};
 use crate::frame::SensorFrame;
+use crate::lockstep::LaneController;
 use crate::task::TaskConfig;
 
 impl Policy for Controller {
@@ -47,6 +48,19 @@ pub enum BatchError {
     Controller(#[from] ControllerError),
 }
 
+/// Which evaluator runs a batch's samples. Both give bit-identical outcomes (a property test
+/// holds them to it); the scalar one is the reference, one sample after another, and the
+/// lockstep one ([`crate::lockstep`]) advances several samples of a genome together.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EvaluatorKind {
+    /// One sample at a time: [`Evaluator::evaluate`].
+    Scalar,
+    /// [`crate::lanes::LANES`] samples in lockstep: [`Evaluator::evaluate_lockstep`].
+    #[default]
+    Lockstep,
+}
+
 /// A validated (controller template, task) pair ready to evaluate genomes.
 #[derive(Debug)]
 pub struct BatchEvaluator {
@@ -54,6 +68,7 @@ pub struct BatchEvaluator {
     evaluator: Evaluator,
     /// Number of genes the free node takes (0 when the template has no free node).
     n_free_genes: usize,
+    kind: EvaluatorKind,
 }
 
 impl BatchEvaluator {
@@ -67,7 +82,19 @@ impl BatchEvaluator {
             template,
             evaluator: Evaluator::new(task)?,
             n_free_genes,
+            kind: EvaluatorKind::default(),
         })
+    }
+
+    /// The same batch evaluated by `kind`.
+    pub fn with_kind(mut self, kind: EvaluatorKind) -> BatchEvaluator {
+        self.kind = kind;
+        self
+    }
+
+    /// Which evaluator runs the samples.
+    pub fn kind(&self) -> EvaluatorKind {
+        self.kind
     }
 
     /// The evaluator (task and shared geometry).
@@ -85,17 +112,24 @@ impl BatchEvaluator {
         Controller::new(&self.template, genes)
     }
 
-    /// Evaluates one genome on every sample, in order.
+    /// Evaluates one genome on every sample, in order, with this batch's evaluator.
     pub fn evaluate_genome(
         &self,
         genes: Option<&[f32]>,
         samples: &[Sample],
     ) -> Result<Vec<Outcome>, ControllerError> {
         let mut controller = self.controller(genes)?;
-        Ok(samples
-            .iter()
-            .map(|&sample| self.evaluator.evaluate(&mut controller, sample))
-            .collect())
+        Ok(match self.kind {
+            EvaluatorKind::Scalar => samples
+                .iter()
+                .map(|&sample| self.evaluator.evaluate(&mut controller, sample))
+                .collect(),
+            EvaluatorKind::Lockstep => {
+                let dt = self.evaluator.task().robot.cycle_seconds;
+                let mut lanes = LaneController::new(controller, dt);
+                self.evaluator.evaluate_lockstep(&mut lanes, samples)
+            }
+        })
     }
 }
 
@@ -230,10 +264,10 @@ impl BatchEvaluator {
         genes: Option<&[f32]>,
         samples: &[Sample],
     ) -> Result<Vec<SampleSummary>, ControllerError> {
-        let mut controller = self.controller(genes)?;
-        Ok(samples
+        Ok(self
+            .evaluate_genome(genes, samples)?
             .iter()
-            .map(|&sample| SampleSummary::from(&self.evaluator.evaluate(&mut controller, sample)))
+            .map(SampleSummary::from)
             .collect())
     }
 }

@@ -535,24 +535,24 @@ pub struct WheelOutputs {
 
 /// One node of the flattened tree.
 #[derive(Debug, Clone)]
-struct RuntimeNode {
+pub(crate) struct RuntimeNode {
     name: String,
     path: String,
-    kind: NodeKind,
-    inputs: Vec<InputGroup>,
-    net: Ctrnn,
+    pub(crate) kind: NodeKind,
+    pub(crate) inputs: Vec<InputGroup>,
+    pub(crate) net: Ctrnn,
     /// Node indices of the children, in output order.
-    children: Vec<usize>,
+    pub(crate) children: Vec<usize>,
     /// One past the last node index of this node's sub-tree: in pre-order a sub-tree is the
     /// contiguous index range `own index .. subtree_end`.
-    subtree_end: usize,
+    pub(crate) subtree_end: usize,
     /// Where this node's outputs start in `Controller::outputs`.
     output_offset: usize,
     /// Position (0-based, among this node's children) of the child activated in this node's
     /// last step since its last reset.
     active_child: Option<usize>,
     /// Arbitrators: the fewest cycles a child stays on once switched on (0: no minimum).
-    min_active_cycles: u32,
+    pub(crate) min_active_cycles: u32,
     /// Arbitrators: consecutive steps the active child has been on, counting the last one.
     active_for: u32,
 }
@@ -725,23 +725,16 @@ impl Controller {
                     };
                 }
                 NodeKind::Arbitrator => {
-                    let mut chosen = argmax(outputs);
-                    // A child switched on fewer than `min_active_cycles` steps ago stays on.
-                    if let Some(active) = node.active_child
-                        && node.active_for < node.min_active_cycles
-                    {
-                        chosen = active;
-                    }
-                    let previous = node.active_child.replace(chosen);
-                    node.active_for = if previous == Some(chosen) {
-                        node.active_for.saturating_add(1)
-                    } else {
-                        1
-                    };
+                    let (chosen, left) = arbitrate(
+                        outputs,
+                        &mut node.active_child,
+                        &mut node.active_for,
+                        node.min_active_cycles,
+                    );
                     let Some(&chosen_node) = node.children.get(chosen) else {
                         break;
                     };
-                    if let Some(previous) = previous.filter(|&previous| previous != chosen)
+                    if let Some(previous) = left
                         && let Some(&left_node) = node.children.get(previous)
                     {
                         let end = self
@@ -781,6 +774,11 @@ impl Controller {
     /// The child position node `node_idx` activated in its last step since its last reset.
     pub fn active_child(&self, node_idx: usize) -> Option<usize> {
         self.nodes.get(node_idx).and_then(|node| node.active_child)
+    }
+
+    /// The nodes in pre-order, for the lockstep controller built from this one.
+    pub(crate) fn nodes(&self) -> &[RuntimeNode] {
+        &self.nodes
     }
 
     /// Number of nodes in the tree.
@@ -838,6 +836,34 @@ impl Controller {
         self.outputs
             .get(node.output_offset..node.output_offset + n_outputs)
     }
+}
+
+/// An arbitrator's choice in one step, from its outputs and its memory of the child it chose
+/// last (`active_child`, on for `active_for` steps): the argmax, unless the active child has
+/// been on for fewer than `min_active_cycles` steps. Updates the memory and returns the chosen
+/// child's position and, when it switched, the position of the child it left (whose sub-tree
+/// the caller resets). The scalar controller and the lockstep one both decide here.
+#[inline]
+pub(crate) fn arbitrate(
+    outputs: &[f32],
+    active_child: &mut Option<usize>,
+    active_for: &mut u32,
+    min_active_cycles: u32,
+) -> (usize, Option<usize>) {
+    let mut chosen = argmax(outputs);
+    // A child switched on fewer than `min_active_cycles` steps ago stays on.
+    if let Some(active) = *active_child
+        && *active_for < min_active_cycles
+    {
+        chosen = active;
+    }
+    let previous = active_child.replace(chosen);
+    *active_for = if previous == Some(chosen) {
+        active_for.saturating_add(1)
+    } else {
+        1
+    };
+    (chosen, previous.filter(|&previous| previous != chosen))
 }
 
 /// Index of the largest value, the lowest index on ties. NaN never wins a comparison, so NaN

@@ -43,6 +43,8 @@ use std::ops::Range;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::lanes::Real;
+
 /// Smallest value a gene takes in evolution and in a valid controller file.
 pub const GENE_MIN: f32 = -10.0;
 /// Largest value a gene takes in evolution and in a valid controller file.
@@ -181,39 +183,46 @@ pub fn tau_from_gene(gene: f32) -> f32 {
 /// power-of-two scaling in the normal range. NaN propagates; nothing panics.
 #[inline]
 pub fn logistic(x: f32) -> f32 {
-    1.0 / (1.0 + portable_exp(-x))
+    logistic_of(x)
+}
+
+/// [`logistic`] on any [`Real`]: the one definition, which the lockstep evaluator runs on many
+/// samples at once with the same operations in every lane.
+#[inline(always)]
+pub(crate) fn logistic_of<T: Real>(x: T) -> T {
+    (T::splat(1.0) + portable_exp(-x)).recip()
 }
 
 /// e^t for t in [-20, 88] (clamped outside), relative error about 2e-7; see [`logistic`].
-#[inline]
-fn portable_exp(t: f32) -> f32 {
+#[inline(always)]
+fn portable_exp<T: Real>(t: T) -> T {
     const LOG2_E: f32 = std::f32::consts::LOG2_E;
     // ln 2 split in a high part with few mantissa bits (so n * LN2_HIGH is exact) and the rest.
     const LN2_HIGH: f32 = 0.693_359_4;
     const LN2_LOW: f32 = -2.121_944_4e-4;
     // Adding and subtracting 1.5 * 2^23 rounds to the nearest integer with one IEEE add each.
     const ROUNDER: f32 = 12_582_912.0;
-    let t = t.clamp(-20.0, 88.0);
-    let shifted = t * LOG2_E + ROUNDER;
-    let n = shifted - ROUNDER;
-    let r = (t - n * LN2_HIGH) - n * LN2_LOW;
+    let c = T::splat;
+    let t = t.clamp_to(-20.0, 88.0);
+    let shifted = t * c(LOG2_E) + c(ROUNDER);
+    let n = shifted - c(ROUNDER);
+    let r = (t - n * c(LN2_HIGH)) - n * c(LN2_LOW);
     // exp(r) = 1 + r + r^2 (c0 + c1 r + .. + c5 r^5), the polynomial evaluated in Estrin's
     // scheme (pairs first, then powers of r^2) rather than Horner's: the same accuracy with a
     // shorter chain of dependent operations, which matters because every network layer waits
     // for its logistics.
     let r2 = r * r;
     let r4 = r2 * r2;
-    let pair01 = 0.5 + 1.666_666_5e-1 * r;
-    let pair23 = 4.166_579_6e-2 + 8.333_452e-3 * r;
-    let pair45 = 1.398_199_9e-3 + 1.987_569_1e-4 * r;
+    let pair01 = c(0.5) + c(1.666_666_5e-1) * r;
+    let pair23 = c(4.166_579_6e-2) + c(8.333_452e-3) * r;
+    let pair45 = c(1.398_199_9e-3) + c(1.987_569_1e-4) * r;
     let poly = (pair01 + r2 * pair23) + r4 * pair45;
-    let exp_r = (1.0 + r) + r2 * poly;
+    let exp_r = (c(1.0) + r) + r2 * poly;
     // `shifted` is 1.5 * 2^23 + n, so its low mantissa bits hold n in two's complement; adding
     // the exponent bias and shifting gives the bits of 2^n without a float-to-int conversion,
     // which keeps the function branch-free and vectorisable. n lies in [-29, 127], so 2^n is a
     // normal number. A NaN t gives a NaN r and so a NaN result, whatever the scale bits are.
-    let n_bits = shifted.to_bits().wrapping_sub(ROUNDER.to_bits());
-    let scale = f32::from_bits(n_bits.wrapping_add(127) << 23);
+    let scale = shifted.bits_to_scale(ROUNDER.to_bits(), 127, 23);
     exp_r * scale
 }
 
@@ -374,31 +383,101 @@ impl Ctrnn {
             self.cached_dt = dt;
         }
 
-        let n_inputs = self.topology.n_inputs;
-        let row_len = n_inputs + self.topology.n_hidden;
-        for (slot, &input) in self.presynaptic.iter_mut().zip(inputs) {
-            *slot = input;
-        }
+        let weights = StepWeights {
+            n_inputs: self.topology.n_inputs,
+            n_hidden: self.topology.n_hidden,
+            hidden_weights: &self.hidden_weights,
+            hidden_biases: &self.hidden_biases,
+            dt_over_taus: &self.dt_over_taus,
+            output_weights: &self.output_weights,
+            output_biases: &self.output_biases,
+        };
+        euler_step(
+            &weights,
+            inputs,
+            &mut self.presynaptic,
+            &mut self.state,
+            outputs,
+        );
+    }
 
-        // Euler update of every hidden neuron. `presynaptic` still holds the firing rates of the
-        // old state while this loop runs, so the order of neurons does not matter.
-        let rows = self.hidden_weights.chunks_exact(row_len);
-        for ((y, row), &dt_over_tau) in self.state.iter_mut().zip(rows).zip(&self.dt_over_taus) {
-            let net_input = dot(row, &self.presynaptic);
-            *y += dt_over_tau * (net_input - *y);
+    /// The parameters one step reads, with the step factors `dt_over_taus` (from
+    /// [`Ctrnn::dt_over_taus`]), for a caller that keeps the state itself.
+    pub(crate) fn step_weights<'a>(&'a self, dt_over_taus: &'a [f32]) -> StepWeights<'a> {
+        StepWeights {
+            n_inputs: self.topology.n_inputs,
+            n_hidden: self.topology.n_hidden,
+            hidden_weights: &self.hidden_weights,
+            hidden_biases: &self.hidden_biases,
+            dt_over_taus,
+            output_weights: &self.output_weights,
+            output_biases: &self.output_biases,
         }
+    }
 
-        // Firing rates of the new state, each computed once.
-        let firing = &mut self.presynaptic[n_inputs.min(row_len)..];
-        for ((rate, &y), &theta) in firing.iter_mut().zip(&self.state).zip(&self.hidden_biases) {
-            *rate = logistic(y + theta);
-        }
+    /// dt / tau per hidden neuron, computed as [`Ctrnn::step`] computes it.
+    pub(crate) fn dt_over_taus(&self, dt: f32) -> Vec<f32> {
+        self.inv_taus.iter().map(|&inv_tau| dt * inv_tau).collect()
+    }
 
-        let firing = &self.presynaptic[n_inputs.min(row_len)..];
-        let rows = self.output_weights.chunks_exact(self.topology.n_hidden);
-        for ((output, row), &bias) in outputs.iter_mut().zip(rows).zip(&self.output_biases) {
-            *output = logistic(dot(row, firing) + bias);
-        }
+    /// The firing rates of the zero state, sigma(theta), per hidden neuron.
+    pub(crate) fn rest_firing(&self) -> &[f32] {
+        &self.rest_firing
+    }
+}
+
+/// What one network step reads: the weights, biases and step factors, borrowed from a
+/// [`Ctrnn`], so the same step runs on the network's own state or on a lockstep state.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepWeights<'a> {
+    n_inputs: usize,
+    n_hidden: usize,
+    hidden_weights: &'a [f32],
+    hidden_biases: &'a [f32],
+    dt_over_taus: &'a [f32],
+    output_weights: &'a [f32],
+    output_biases: &'a [f32],
+}
+
+/// One forward-Euler step (see the module docs) on a state of any [`Real`]: `presynaptic` is
+/// `[inputs | firing rates]` and `state` the hidden state, both updated; `outputs` written.
+/// On `f32` this is the reference network; on lanes every lane performs the same operations.
+#[inline(always)]
+pub(crate) fn euler_step<T: Real>(
+    weights: &StepWeights<'_>,
+    inputs: &[T],
+    presynaptic: &mut [T],
+    state: &mut [T],
+    outputs: &mut [T],
+) {
+    let n_inputs = weights.n_inputs;
+    let row_len = n_inputs + weights.n_hidden;
+    for (slot, &input) in presynaptic.iter_mut().zip(inputs) {
+        *slot = input;
+    }
+
+    // Euler update of every hidden neuron. `presynaptic` still holds the firing rates of the
+    // old state while this loop runs, so the order of neurons does not matter.
+    let rows = weights.hidden_weights.chunks_exact(row_len);
+    for ((y, row), &dt_over_tau) in state.iter_mut().zip(rows).zip(weights.dt_over_taus) {
+        let net_input = dot(row, presynaptic);
+        *y = *y + T::splat(dt_over_tau) * (net_input - *y);
+    }
+
+    // Firing rates of the new state, each computed once.
+    let firing = &mut presynaptic[n_inputs.min(row_len)..];
+    for ((rate, &y), &theta) in firing
+        .iter_mut()
+        .zip(state.iter())
+        .zip(weights.hidden_biases)
+    {
+        *rate = logistic_of(y + T::splat(theta));
+    }
+
+    let firing = &presynaptic[n_inputs.min(row_len)..];
+    let rows = weights.output_weights.chunks_exact(weights.n_hidden);
+    for ((output, row), &bias) in outputs.iter_mut().zip(rows).zip(weights.output_biases) {
+        *output = logistic_of(dot(row, firing) + T::splat(bias));
     }
 }
 
@@ -408,20 +487,21 @@ impl Ctrnn {
 /// and so on, the leftover tail separately) break the chain of dependent additions that makes a
 /// plain left-to-right sum slow, and let the compiler use SIMD. The order of additions is fixed
 /// by the code, so the result is still bit-reproducible.
-#[inline]
-fn dot(weights: &[f32], values: &[f32]) -> f32 {
+#[inline(always)]
+fn dot<T: Real>(weights: &[f32], values: &[T]) -> T {
     const LANES: usize = 4;
     let weight_chunks = weights.chunks_exact(LANES);
     let value_chunks = values.chunks_exact(LANES);
-    let tail: f32 = weight_chunks
+    let tail: T = weight_chunks
         .remainder()
         .iter()
         .zip(value_chunks.remainder())
-        .fold(0.0, |acc, (&w, &v)| acc + w * v);
-    let mut partial_sums = [0.0f32; LANES];
+        .fold(T::splat(0.0), |acc, (&w, &v)| acc + T::splat(w) * v);
+    let mut partial_sums = [T::splat(0.0); LANES];
     for (weight_chunk, value_chunk) in weight_chunks.zip(value_chunks) {
         for lane in 0..LANES {
-            partial_sums[lane] += weight_chunk[lane] * value_chunk[lane];
+            partial_sums[lane] =
+                partial_sums[lane] + T::splat(weight_chunk[lane]) * value_chunk[lane];
         }
     }
     ((partial_sums[0] + partial_sums[1]) + (partial_sums[2] + partial_sums[3])) + tail

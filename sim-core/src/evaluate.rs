@@ -328,26 +328,90 @@ impl Evaluator {
         sample: Sample,
         recorder: &mut R,
     ) -> (Outcome, Environment, Pose) {
-        let task = &self.task;
-        let robot_config = &task.robot;
-        let dt = robot_config.cycle_seconds;
-        let max_cycles = task.max_cycles();
+        let dt = self.task.robot.cycle_seconds;
+        policy.reset();
+        let mut run = SampleRun::new(
+            self,
+            sample,
+            policy.n_nodes(),
+            phase_children(&self.task.scenario, policy),
+        );
+        let ending = loop {
+            let frame = run.sense();
+            let wheels = policy.step(&frame, dt);
+            run.count_decision(policy.active_path(), policy.root_choice());
+            let (before, collided) = run.move_robot(wheels);
+            recorder.record(|| TraceCycle {
+                robot: before,
+                teammate: run.teammate.as_ref().map(|m| m.pose),
+                frame,
+                wheels,
+                active_path: policy.active_path().iter().map(|&n| n as u16).collect(),
+                collided,
+                lit_lights: run.lit_mask,
+                sub_task: run.sub_task.unwrap_or(0),
+            });
+            if let Some(ending) = run.finish_cycle(&before, collided) {
+                break ending;
+            }
+        };
+        run.finish(ending)
+    }
+}
+
+/// One sample in progress: its world, random streams, robot, teammate, lights and judge, and
+/// the counts its outcome reports. The control loop is split into the steps around the
+/// controller (sense, count the decision, move, the rest of the cycle) so that the scalar loop
+/// above and the lockstep evaluator, which steps the controllers of many samples together, run
+/// the very same per-sample code.
+#[derive(Debug)]
+pub(crate) struct SampleRun<'e> {
+    evaluator: &'e Evaluator,
+    env: Environment,
+    ir_setup: IrSensorSetup,
+    noise: SimRng,
+    flash: FlashDetector,
+    robot: Pose,
+    teammate: Option<Teammate>,
+    lights: Vec<LiveLight>,
+    judge: Judge<'e>,
+    active_cycles: Vec<u32>,
+    activations: Vec<u32>,
+    /// Which nodes were active in the previous cycle, to count activations.
+    was_active: Vec<bool>,
+    is_active: Vec<bool>,
+    collided_ever: bool,
+    /// Cycles begun, the current one included.
+    cycles_run: u32,
+    sub_task_choices: SubTaskChoices,
+    /// The current cycle's rescue sub-task, from `sense`.
+    sub_task: Option<u8>,
+    /// The lights lit in the current cycle, from `sense`.
+    lit_mask: u32,
+}
+
+impl<'e> SampleRun<'e> {
+    /// Builds the sample's world and streams, for a policy of `n_nodes` nodes whose root's
+    /// phase children are `phase_child`. The policy itself must be reset by the caller.
+    pub(crate) fn new(
+        evaluator: &'e Evaluator,
+        sample: Sample,
+        n_nodes: usize,
+        phase_child: [usize; N_SUB_TASKS],
+    ) -> SampleRun<'e> {
+        let task = &evaluator.task;
         let mut env_rng = stream_rng(sample.seed, Stream::Environment);
-        let env = env::build(task, &self.statics, sample.variant, &mut env_rng);
+        let mut env = env::build(task, &evaluator.statics, sample.variant, &mut env_rng);
         let ir_setup: IrSensorSetup = task
             .ir
             .draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
-        let mut noise: SimRng = stream_rng(sample.seed, Stream::Noise);
-        let ir_model = IrModel::builtin();
-        let light_model = LightModel::builtin();
-        let mut flash = FlashDetector::from_config(&task.light);
-        policy.reset();
-
-        let mut robot = env.start;
-        let mut teammate = env
+        let noise: SimRng = stream_rng(sample.seed, Stream::Noise);
+        let flash = FlashDetector::from_config(&task.light);
+        let robot = env.start;
+        let teammate = env
             .teammate
-            .map(|(pose, following)| Teammate::new(pose, following, max_cycles));
-        let mut lights: Vec<LiveLight> = env
+            .map(|(pose, following)| Teammate::new(pose, following, task.max_cycles()));
+        let lights: Vec<LiveLight> = env
             .lights
             .iter()
             .map(|spec| LiveLight {
@@ -358,158 +422,204 @@ impl Evaluator {
                 lit_cycles_left: 0,
             })
             .collect();
-        let mut judge = Judge::new(
-            &task.scenario,
-            &env.ground,
-            &env.lights,
+        // The judge keeps the ground truth for the sample's length; `finish` hands it back.
+        let ground = std::mem::take(&mut env.ground);
+        let judge = Judge::new(&task.scenario, ground, &env.lights, robot, phase_child);
+        SampleRun {
+            evaluator,
+            env,
+            ir_setup,
+            noise,
+            flash,
             robot,
-            phase_children(&task.scenario, policy),
-        );
-        let mut active_cycles = vec![0u32; policy.n_nodes()];
-        let mut activations = vec![0u32; policy.n_nodes()];
-        // Which nodes were active in the previous cycle, to count activations.
-        let mut was_active = vec![false; policy.n_nodes()];
-        let mut is_active = vec![false; policy.n_nodes()];
-        let mut collided_ever = false;
-        let mut ending = Ending::Timeout;
-        let mut cycles_run = 0;
-        let mut sub_task_choices = SubTaskChoices::default();
+            teammate,
+            lights,
+            judge,
+            active_cycles: vec![0; n_nodes],
+            activations: vec![0; n_nodes],
+            was_active: vec![false; n_nodes],
+            is_active: vec![false; n_nodes],
+            collided_ever: false,
+            cycles_run: 0,
+            sub_task_choices: SubTaskChoices::default(),
+            sub_task: None,
+            lit_mask: 0,
+        }
+    }
 
-        for cycle in 0..max_cycles {
-            cycles_run = cycle + 1;
-            // Sense.
-            let (sin_h, cos_h) = robot.heading.sin_cos();
-            let mut ir_distances = [None; N_IR];
-            for (sensor, distance) in ir_distances.iter_mut().enumerate() {
-                let cone = self.cones[sensor].rotated(sin_h, cos_h);
-                let origin = self.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
-                *distance =
-                    env.scene
-                        .cone_distance(robot.position(), origin, &cone, task.ir.range_m);
-            }
-            let ir = ir_model.read_all(&ir_setup, &ir_distances, &mut noise);
-            let mut lit_mask = 0u32;
-            let light = if lights.is_empty() {
-                [0.0; N_LIGHT]
-            } else {
-                // The lateral sensors (IR inputs 1 and 2) see a lit light on their own side only:
-                // the body hides a light behind the sensor.
-                let mut nearest = [None::<f32>; N_LIGHT];
-                for (light_idx, light) in lights.iter().enumerate() {
-                    if !light.lit() {
-                        continue;
+    /// Begins a cycle: reads every sensor at the robot's pose and notes the sub-task in force.
+    #[inline]
+    pub(crate) fn sense(&mut self) -> SensorFrame {
+        let evaluator = self.evaluator;
+        let task = &evaluator.task;
+        let robot = self.robot;
+        self.cycles_run += 1;
+        let (sin_h, cos_h) = robot.heading.sin_cos();
+        let cones: [Cone; N_IR] =
+            std::array::from_fn(|sensor| evaluator.cones[sensor].rotated(sin_h, cos_h));
+        let origins: [[f32; 2]; N_IR] = std::array::from_fn(|sensor| {
+            evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor)
+        });
+        let ir_distances =
+            self.env
+                .scene
+                .cone_distances(robot.position(), &origins, &cones, task.ir.range_m);
+        let ir = IrModel::builtin().read_all(&self.ir_setup, &ir_distances, &mut self.noise);
+        let mut lit_mask = 0u32;
+        let light = if self.lights.is_empty() {
+            [0.0; N_LIGHT]
+        } else {
+            // The lateral sensors (IR inputs 1 and 2) see a lit light on their own side only:
+            // the body hides a light behind the sensor.
+            let mut nearest = [None::<f32>; N_LIGHT];
+            for (light_idx, light) in self.lights.iter().enumerate() {
+                if !light.lit() {
+                    continue;
+                }
+                lit_mask |= 1 << light_idx;
+                for (side, sensor) in [1usize, 2].into_iter().enumerate() {
+                    let p = evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
+                    let facing = [p[0] - robot.x, p[1] - robot.y];
+                    let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
+                    if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
+                        let d = to_light[0].hypot(to_light[1]);
+                        nearest[side] = Some(nearest[side].map_or(d, |n: f32| n.min(d)));
                     }
-                    lit_mask |= 1 << light_idx;
-                    for (side, sensor) in [1usize, 2].into_iter().enumerate() {
-                        let p = self.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
-                        let facing = [p[0] - robot.x, p[1] - robot.y];
-                        let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
-                        if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
-                            let d = to_light[0].hypot(to_light[1]);
-                            nearest[side] = Some(nearest[side].map_or(d, |n: f32| n.min(d)));
-                        }
-                    }
                 }
-                for light in &mut lights {
-                    light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
-                }
-                flash.update(light_model.read_raw_both(nearest, &mut noise))
-            };
-            let near_robot = teammate.as_ref().is_some_and(|mate| {
-                mate.pose.distance_to(robot.position()) < robot_config.near_robot_range
-            });
-            let frame = SensorFrame {
-                ir,
-                light,
-                near_robot: if near_robot { 1.0 } else { 0.0 },
-            };
+            }
+            for light in &mut self.lights {
+                light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
+            }
+            self.flash
+                .update(LightModel::builtin().read_raw_both(nearest, &mut self.noise))
+        };
+        let near_robot = self.teammate.as_ref().is_some_and(|mate| {
+            mate.pose.distance_to(robot.position()) < task.robot.near_robot_range
+        });
+        self.lit_mask = lit_mask;
+        self.sub_task = self.judge.phase(&robot, self.teammate.as_ref());
+        SensorFrame {
+            ir,
+            light,
+            near_robot: if near_robot { 1.0 } else { 0.0 },
+        }
+    }
 
-            // Decide.
-            let sub_task = judge.phase(&robot, teammate.as_ref());
-            let wheels = policy.step(&frame, dt);
-            is_active.fill(false);
-            for &node in policy.active_path() {
-                if let (Some(count), Some(active)) =
-                    (active_cycles.get_mut(node), is_active.get_mut(node))
-                {
-                    *count += 1;
-                    *active = true;
-                }
-            }
-            for ((count, &now), &before) in activations.iter_mut().zip(&is_active).zip(&was_active)
-            {
-                *count += u32::from(now && !before);
-            }
-            std::mem::swap(&mut was_active, &mut is_active);
-            if let Some(sub_task) = sub_task {
-                sub_task_choices.cycles[sub_task as usize] += 1;
-                if policy.root_choice() == Some(judge.phase_child[sub_task as usize]) {
-                    sub_task_choices.correct[sub_task as usize] += 1;
-                }
-            }
-
-            // Move.
-            let left = noisy_speed(
-                wheel_speed(wheels[0], robot_config.v_max),
-                robot_config,
-                &mut noise,
-            );
-            let right = noisy_speed(
-                wheel_speed(wheels[1], robot_config.v_max),
-                robot_config,
-                &mut noise,
-            );
-            let before = robot;
-            let next = kinematic_step(robot, left, right, robot_config);
-            let collided = move_or_collide(&mut robot, next, robot_config.radius, &env.scene);
-            collided_ever |= collided;
-            recorder.record(|| TraceCycle {
-                robot: before,
-                teammate: teammate.as_ref().map(|m| m.pose),
-                frame,
-                wheels,
-                active_path: policy.active_path().iter().map(|&n| n as u16).collect(),
-                collided,
-                lit_lights: lit_mask,
-                sub_task: sub_task.unwrap_or(0),
-            });
-            trigger_lights(&mut lights, &before, &robot, cycle, task.light.flash_cycles);
-            if let Some(mate) = teammate.as_mut() {
-                mate.update(
-                    &robot,
-                    robot_config.v_max * dt,
-                    robot_config.near_robot_range,
-                );
-            }
-
-            // Judge.
-            if collided && task.end_on_collision {
-                ending = Ending::Collision;
-                break;
-            }
-            if let Some(end) = judge.check(&robot, teammate.as_ref(), task, &lights) {
-                ending = end;
-                break;
+    /// Counts the controller's decision of this cycle: which nodes drove, and whether the root
+    /// chose the child the sub-task in force asks for.
+    #[inline]
+    pub(crate) fn count_decision(&mut self, active_path: &[usize], root_choice: Option<usize>) {
+        self.is_active.fill(false);
+        for &node in active_path {
+            if let (Some(count), Some(active)) = (
+                self.active_cycles.get_mut(node),
+                self.is_active.get_mut(node),
+            ) {
+                *count += 1;
+                *active = true;
             }
         }
+        for ((count, &now), &before) in self
+            .activations
+            .iter_mut()
+            .zip(&self.is_active)
+            .zip(&self.was_active)
+        {
+            *count += u32::from(now && !before);
+        }
+        std::mem::swap(&mut self.was_active, &mut self.is_active);
+        if let Some(sub_task) = self.sub_task {
+            self.sub_task_choices.cycles[sub_task as usize] += 1;
+            if root_choice == Some(self.judge.phase_child[sub_task as usize]) {
+                self.sub_task_choices.correct[sub_task as usize] += 1;
+            }
+        }
+    }
 
-        let fitness = judge.fitness(task, ending, cycles_run, &robot, &sub_task_choices);
+    /// Moves the robot by the wheel outputs, with noise, unless the move would touch a solid.
+    /// Returns the pose before the move and whether it was undone.
+    #[inline]
+    pub(crate) fn move_robot(&mut self, wheels: [f32; 2]) -> (Pose, bool) {
+        let robot_config = &self.evaluator.task.robot;
+        let left = noisy_speed(
+            wheel_speed(wheels[0], robot_config.v_max),
+            robot_config,
+            &mut self.noise,
+        );
+        let right = noisy_speed(
+            wheel_speed(wheels[1], robot_config.v_max),
+            robot_config,
+            &mut self.noise,
+        );
+        let before = self.robot;
+        let next = kinematic_step(self.robot, left, right, robot_config);
+        let collided = move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene);
+        self.collided_ever |= collided;
+        (before, collided)
+    }
+
+    /// Ends the cycle after the move: lights fire, the teammate moves, and the judge rules.
+    /// Returns the sample's ending if it ended in this cycle (its cycle limit included).
+    #[inline]
+    pub(crate) fn finish_cycle(&mut self, before: &Pose, collided: bool) -> Option<Ending> {
+        let task = &self.evaluator.task;
+        let robot_config = &task.robot;
+        let cycle = self.cycles_run - 1;
+        trigger_lights(
+            &mut self.lights,
+            before,
+            &self.robot,
+            cycle,
+            task.light.flash_cycles,
+        );
+        if let Some(mate) = self.teammate.as_mut() {
+            mate.update(
+                &self.robot,
+                robot_config.v_max * robot_config.cycle_seconds,
+                robot_config.near_robot_range,
+            );
+        }
+        if collided && task.end_on_collision {
+            return Some(Ending::Collision);
+        }
+        if let Some(end) = self
+            .judge
+            .check(&self.robot, self.teammate.as_ref(), task, &self.lights)
+        {
+            return Some(end);
+        }
+        (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)
+    }
+
+    /// The sample's outcome, its world (for a trace) and the robot's final pose.
+    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
+        let task = &self.evaluator.task;
+        let judge = self.judge;
+        let fitness = judge.fitness(
+            task,
+            ending,
+            self.cycles_run,
+            &self.robot,
+            &self.sub_task_choices,
+        );
         let stage = judge.stage(ending);
+        let mut env = self.env;
         let outcome = Outcome {
             fitness,
             solved: ending == Ending::Solved,
-            collided: collided_ever,
+            collided: self.collided_ever,
             ending,
-            cycles: cycles_run,
+            cycles: self.cycles_run,
             stage,
             variant: env.variant,
             node_use: NodeUse {
-                active_cycles,
-                activations,
+                active_cycles: self.active_cycles,
+                activations: self.activations,
             },
-            sub_task_choices,
+            sub_task_choices: self.sub_task_choices,
         };
-        (outcome, env, robot)
+        env.ground = judge.ground;
+        (outcome, env, self.robot)
     }
 }
 
@@ -615,7 +725,8 @@ impl Teammate {
 #[derive(Debug)]
 struct Judge<'a> {
     scenario: &'a Scenario,
-    ground: &'a Ground,
+    /// The sample's ground truth, owned for the sample's length.
+    ground: Ground,
     /// Closest approach to the room's exit so far.
     closest_exit: f32,
     /// Per light: the distance at the start, and the closest approach so far.
@@ -631,7 +742,7 @@ struct Judge<'a> {
 /// The child each phase of `scenario` asks for, as an output index of the policy's root: a
 /// child named in the scenario is looked up among the root's children, and a name the policy
 /// does not know (a scripted policy) asks for the child at the phase's own position.
-fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usize; N_SUB_TASKS] {
+pub(crate) fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usize; N_SUB_TASKS] {
     let mut phase_child = [usize::MAX; N_SUB_TASKS];
     for (idx, phase) in scenario.phases.iter().enumerate() {
         phase_child[idx] = match &phase.child {
@@ -647,18 +758,18 @@ fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usize; N_SUB_TA
 impl<'a> Judge<'a> {
     fn new(
         scenario: &'a Scenario,
-        ground: &'a Ground,
+        ground: Ground,
         lights: &[LightSpec],
         start: Pose,
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         Judge {
             scenario,
-            ground,
             closest_exit: ground
                 .room
                 .as_ref()
                 .map_or(f32::INFINITY, |room| start.distance_to(room.exit_center)),
+            ground,
             light_approach: lights
                 .iter()
                 .map(|light| {
@@ -926,7 +1037,7 @@ mod tests {
     fn judge<'a>(task: &'a TaskConfig, ground: &'a Ground, start: Pose) -> Judge<'a> {
         Judge::new(
             &task.scenario,
-            ground,
+            ground.clone(),
             &[],
             start,
             std::array::from_fn(|idx| idx),

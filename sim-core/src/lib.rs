@@ -8,6 +8,8 @@ pub mod controller;
 pub mod ctrnn;
 pub mod frame;
 pub mod hash;
+pub mod lanes;
+pub mod lockstep;
 pub mod rng;
 pub mod sensors;
 

@@ -355,42 +355,78 @@ impl Scene {
         cone: &Cone,
         max_distance: f32,
     ) -> Option<f32> {
-        let mut best = max_distance;
-        let mut hit = false;
+        let [distance] =
+            self.cone_distances(near, &[origin], std::slice::from_ref(cone), max_distance);
+        distance
+    }
+
+    /// [`Scene::cone_distance`] for several cones whose origins share the grid cell of `near`
+    /// (a robot's sensors): one pass over the cell's candidates serves every cone. Each cone
+    /// meets the candidates in the same order as on its own, so its distance is bit for bit the
+    /// one [`Scene::cone_distance`] gives.
+    pub fn cone_distances<const N: usize>(
+        &self,
+        near: [f32; 2],
+        origins: &[[f32; 2]; N],
+        cones: &[Cone],
+        max_distance: f32,
+    ) -> [Option<f32>; N] {
+        let mut best = [max_distance; N];
+        let mut hit = [false; N];
         for &solid_idx in self.near(near) {
             let solid = &self.solids[solid_idx as usize];
-            // Box reject: the cone lies within max_distance of its origin.
-            if solid.aabb.maxs.x < origin[0] - best
-                || solid.aabb.mins.x > origin[0] + best
-                || solid.aabb.maxs.y < origin[1] - best
-                || solid.aabb.mins.y > origin[1] + best
+            for ((origin, cone), (best, hit)) in origins
+                .iter()
+                .zip(cones)
+                .zip(best.iter_mut().zip(hit.iter_mut()))
             {
-                continue;
-            }
-            // Walls are axis-aligned: their frame is the world's shifted, so the helpers skip
-            // the rotation and the boundary rays' inverse directions are the cone's own.
-            let local_origin = solid.to_local(origin);
-            let (offset, distance) = solid.nearest_offset(local_origin);
-            if distance >= best {
-                continue;
-            }
-            let axis = solid.dir_to_local(cone.axis);
-            if offset[0] * axis[0] + offset[1] * axis[1] >= distance * cone.cos_half_angle {
-                best = distance;
-                hit = true;
-                continue;
-            }
-            for (boundary, inverse) in cone.boundaries.iter().zip(&cone.inverse_boundaries) {
-                let inverse = if solid.axis_aligned {
-                    *inverse
-                } else {
-                    let d = solid.dir_to_local(*boundary);
-                    [1.0 / d[0], 1.0 / d[1]]
-                };
-                if let Some(toi) = solid.slab(local_origin, inverse, best) {
-                    best = toi;
-                    hit = true;
+                if let Some(distance) = solid.cone_distance(*origin, cone, *best) {
+                    *best = distance;
+                    *hit = true;
                 }
+            }
+        }
+        std::array::from_fn(|idx| hit[idx].then_some(best[idx]))
+    }
+}
+
+impl Solid {
+    /// The distance from `origin` to the solid's nearest point inside `cone`, if it is below
+    /// `best`, the nearest found so far (see [`Scene::cone_distance`]).
+    #[inline(always)]
+    fn cone_distance(&self, origin: [f32; 2], cone: &Cone, best: f32) -> Option<f32> {
+        let solid = self;
+        let mut best = best;
+        let mut hit = false;
+        // Box reject: the cone lies within max_distance of its origin.
+        if solid.aabb.maxs.x < origin[0] - best
+            || solid.aabb.mins.x > origin[0] + best
+            || solid.aabb.maxs.y < origin[1] - best
+            || solid.aabb.mins.y > origin[1] + best
+        {
+            return None;
+        }
+        // Walls are axis-aligned: their frame is the world's shifted, so the helpers skip
+        // the rotation and the boundary rays' inverse directions are the cone's own.
+        let local_origin = solid.to_local(origin);
+        let (offset, distance) = solid.nearest_offset(local_origin);
+        if distance >= best {
+            return None;
+        }
+        let axis = solid.dir_to_local(cone.axis);
+        if offset[0] * axis[0] + offset[1] * axis[1] >= distance * cone.cos_half_angle {
+            return Some(distance);
+        }
+        for (boundary, inverse) in cone.boundaries.iter().zip(&cone.inverse_boundaries) {
+            let inverse = if solid.axis_aligned {
+                *inverse
+            } else {
+                let d = solid.dir_to_local(*boundary);
+                [1.0 / d[0], 1.0 / d[1]]
+            };
+            if let Some(toi) = solid.slab(local_origin, inverse, best) {
+                best = toi;
+                hit = true;
             }
         }
         hit.then_some(best)

@@ -12,6 +12,7 @@ use hevo_engine::runner::{self, Overrides, RunSettings};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
+use hevo_sim_core::batch::EvaluatorKind;
 use hevo_sim_core::controller::{Controller, ControllerFile};
 use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
@@ -197,7 +198,12 @@ pub struct BenchArgs {
     /// instead of the raw simulator.
     #[arg(long)]
     pub pipeline: bool,
-    /// Print one JSON object.
+    /// The simulator's evaluator: scalar (the reference, one sample at a time), lockstep
+    /// (several samples together, what `hevo run` and the workers use), or both, one after the
+    /// other, with the ratio.
+    #[arg(long, value_enum, default_value_t = BenchEvaluator::Both)]
+    pub evaluator: BenchEvaluator,
+    /// Print one JSON object per measurement.
     #[arg(long)]
     pub json: bool,
     /// Measure the master's dispatch capacity instead: this many fake workers (fixed-cost
@@ -207,6 +213,17 @@ pub struct BenchArgs {
     /// With --dispatch-load: what one batch costs a fake worker, milliseconds.
     #[arg(long, default_value_t = 20.0)]
     pub batch_cost_ms: f64,
+}
+
+/// Which evaluators `hevo bench` measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchEvaluator {
+    /// The scalar reference.
+    Scalar,
+    /// The lockstep evaluator.
+    Lockstep,
+    /// Scalar, then lockstep, and their ratio.
+    Both,
 }
 
 /// The task `hevo eval` and `hevo replay` run a controller on: a task at the paper's settings,
@@ -537,7 +554,12 @@ fn describe_plan(
             let speed = match speeds.get(&status.task) {
                 Some(&speed) => speed,
                 None => {
-                    let report = bench::simulator(task, threads, PLAN_BENCH_SECONDS)?;
+                    let report = bench::simulator(
+                        task,
+                        threads,
+                        PLAN_BENCH_SECONDS,
+                        EvaluatorKind::default(),
+                    )?;
                     speeds.insert(status.task.clone(), report.cycles_per_second);
                     report.cycles_per_second
                 }
@@ -663,24 +685,46 @@ fn bench_command(args: BenchArgs) -> Result<()> {
     if let Some(workers) = args.dispatch_load {
         return service::dispatch_load(workers, args.seconds, args.batch_cost_ms, args.json);
     }
-    let report = if args.pipeline {
-        runtime()?
-            .block_on(bench::pipeline(task, threads, args.seconds, 10))
+    let reports = if args.pipeline {
+        vec![
+            runtime()?
+                .block_on(bench::pipeline(task, threads, args.seconds, 10))
+                .map_err(anyhow::Error::msg)?,
+        ]
+    } else {
+        let kinds: &[EvaluatorKind] = match args.evaluator {
+            BenchEvaluator::Scalar => &[EvaluatorKind::Scalar],
+            BenchEvaluator::Lockstep => &[EvaluatorKind::Lockstep],
+            BenchEvaluator::Both => &[EvaluatorKind::Scalar, EvaluatorKind::Lockstep],
+        };
+        kinds
+            .iter()
+            .map(|&kind| bench::simulator(task.clone(), threads, args.seconds, kind))
+            .collect::<Result<Vec<_>, _>>()
             .map_err(anyhow::Error::msg)?
-    } else {
-        bench::simulator(task, threads, args.seconds).map_err(anyhow::Error::msg)?
     };
-    if args.json {
-        crate::outln!("{}", serde_json::to_string(&report)?);
-    } else {
+    for report in &reports {
+        if args.json {
+            crate::outln!("{}", serde_json::to_string(report)?);
+        } else {
+            crate::outln!(
+                "{} ({}, {:?}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
+                report.task,
+                report.mode,
+                report.evaluator,
+                report.threads,
+                report.cycles_per_second,
+                report.cycles_per_second_per_thread,
+                report.evaluations_per_second
+            );
+        }
+    }
+    if let [scalar, lockstep] = &reports[..]
+        && !args.json
+    {
         crate::outln!(
-            "{} ({}), {} thread(s): {:.0} cycles/s ({:.0} per thread), {:.1} evaluations/s",
-            report.task,
-            report.mode,
-            report.threads,
-            report.cycles_per_second,
-            report.cycles_per_second_per_thread,
-            report.evaluations_per_second
+            "lockstep / scalar: {:.2}x",
+            lockstep.cycles_per_second / scalar.cycles_per_second.max(1.0)
         );
     }
     Ok(())

@@ -5,7 +5,7 @@
 
 use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
 use crate::local::LocalPool;
-use hevo_sim_core::batch::BatchEvaluator;
+use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
 use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::rng::SimRng;
@@ -173,6 +173,8 @@ pub struct BenchReport {
     pub threads: usize,
     /// `simulator` or `pipeline`.
     pub mode: String,
+    /// The evaluator measured (the pipeline runs the default one).
+    pub evaluator: EvaluatorKind,
     /// Control cycles simulated per second (all threads).
     pub cycles_per_second: f64,
     /// Per thread.
@@ -198,17 +200,24 @@ pub enum BenchError {
     Dispatch(#[from] crate::dispatch::DispatchError),
 }
 
-/// Raw simulator throughput: `threads` threads run samples for `seconds`.
+/// Samples one simulator call evaluates: a generation evaluates each genome on tens of samples,
+/// and the lockstep evaluator needs several at once to fill its lanes. The scalar evaluator runs
+/// the same calls, so both measure the same work.
+pub const SIMULATOR_BATCH: usize = 16;
+
+/// Raw simulator throughput: `threads` threads evaluate batches of [`SIMULATOR_BATCH`] samples
+/// with the paper's controller for `seconds`, with the evaluator `kind`.
 pub fn simulator(
     mut task: TaskConfig,
     threads: usize,
     seconds: f64,
+    kind: EvaluatorKind,
 ) -> Result<BenchReport, BenchError> {
     // Collisions do not end samples, so every sample runs to its limit and the figure measures
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
     let name = task.name().to_string();
-    let evaluator = BatchEvaluator::new(paper_controller(&task, 1), task)?;
+    let evaluator = BatchEvaluator::new(paper_controller(&task, 1), task)?.with_kind(kind);
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
     let samples = AtomicU64::new(0);
@@ -219,15 +228,16 @@ pub fn simulator(
             scope.spawn(move || {
                 let mut seed = thread_idx as u64 * 1_000_000;
                 while !stop.load(Ordering::Relaxed) {
-                    seed += 1;
-                    if let Ok(outcomes) =
-                        evaluator.evaluate_summaries(None, &[Sample::seeded(seed)])
-                    {
+                    let batch: Vec<Sample> = (0..SIMULATOR_BATCH as u64)
+                        .map(|k| Sample::seeded(seed + k))
+                        .collect();
+                    seed += SIMULATOR_BATCH as u64;
+                    if let Ok(outcomes) = evaluator.evaluate_summaries(None, &batch) {
                         cycles.fetch_add(
                             outcomes.iter().map(|o| u64::from(o.cycles)).sum(),
                             Ordering::Relaxed,
                         );
-                        samples.fetch_add(1, Ordering::Relaxed);
+                        samples.fetch_add(outcomes.len() as u64, Ordering::Relaxed);
                     }
                 }
             });
@@ -244,6 +254,7 @@ pub fn simulator(
         task: name,
         threads: threads.max(1),
         mode: "simulator".into(),
+        evaluator: kind,
         cycles_per_second: cycles as f64 / elapsed,
         cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
         evaluations_per_second: samples as f64 / elapsed,
@@ -312,6 +323,7 @@ pub async fn pipeline(
         task: name,
         threads: threads.max(1),
         mode: "pipeline".into(),
+        evaluator: EvaluatorKind::default(),
         cycles_per_second: cycles as f64 / elapsed,
         cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
         evaluations_per_second: evaluations as f64 / elapsed,
@@ -324,6 +336,30 @@ pub async fn pipeline(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The benchmark's own controllers, at the paper's topologies, on every shipped task at
+    /// full length: the lockstep evaluator gives the scalar one's outcomes.
+    #[test]
+    fn both_evaluators_agree_on_the_benchmarked_controllers() {
+        for name in hevo_sim_core::Scenario::shipped_names() {
+            let mut task = TaskConfig::shipped(name).unwrap();
+            task.end_on_collision = false;
+            let template = paper_controller(&task, 3);
+            let samples: Vec<Sample> = (0..10).map(Sample::seeded).collect();
+            let run = |kind| {
+                BatchEvaluator::new(template.clone(), task.clone())
+                    .unwrap()
+                    .with_kind(kind)
+                    .evaluate_genome(None, &samples)
+                    .unwrap()
+            };
+            assert_eq!(
+                run(EvaluatorKind::Scalar),
+                run(EvaluatorKind::Lockstep),
+                "{name}"
+            );
+        }
+    }
 
     #[test]
     fn paper_controllers_have_the_papers_topologies() {

@@ -1,0 +1,323 @@
+//! The lockstep evaluator: [`LANES`] samples of one controller advance together, cycle by
+//! cycle. Every genome of a generation runs the same samples, so the networks of all lanes
+//! share their weights and differ only in their state; that state is laid out one [`Lanes`]
+//! per neuron, and each network steps once per cycle for all the lanes in which it is active,
+//! with the compiler's vector instructions ([`crate::lanes`]). The world of each lane (sensing,
+//! moving, judging) runs the scalar evaluator's own per-sample code (`evaluate::SampleRun`), so an
+//! outcome here is bit-identical to [`Evaluator::evaluate`]'s for the same controller and
+//! sample; the property tests in `tests/lockstep.rs` hold the two to that. A lane whose sample
+//! ends takes the next sample at once, so samples that end early leave no lane idle.
+
+use crate::controller::{Controller, NodeKind, arbitrate};
+use crate::ctrnn::euler_step;
+use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
+use crate::frame::SensorFrame;
+use crate::lanes::{LANES, Lanes};
+
+/// One network's state in every lane, and the scratch a partial step needs.
+#[derive(Debug, Clone)]
+struct LaneNetwork {
+    /// dt / tau per hidden neuron, as the scalar network computes them.
+    dt_over_taus: Vec<f32>,
+    n_inputs: usize,
+    /// `[inputs | firing rates]`, as the scalar network's `presynaptic`.
+    presynaptic: Vec<Lanes>,
+    state: Vec<Lanes>,
+    outputs: Vec<Lanes>,
+    /// Copies for a step that only some lanes take.
+    scratch_presynaptic: Vec<Lanes>,
+    scratch_state: Vec<Lanes>,
+    scratch_outputs: Vec<Lanes>,
+}
+
+impl LaneNetwork {
+    fn reset_lane(&mut self, rest_firing: &[f32], lane: usize) {
+        for y in &mut self.state {
+            y.0[lane] = 0.0;
+        }
+        let (inputs, firing) = self.presynaptic.split_at_mut(self.n_inputs);
+        for input in inputs {
+            input.0[lane] = 0.0;
+        }
+        for (rate, &rest) in firing.iter_mut().zip(rest_firing) {
+            rate.0[lane] = rest;
+        }
+        for output in &mut self.outputs {
+            output.0[lane] = 0.0;
+        }
+    }
+}
+
+/// A controller tree run for [`LANES`] samples at once: the scalar [`Controller`]'s networks
+/// and rules, with each node's network state and activator memory kept per lane.
+#[derive(Debug, Clone)]
+pub struct LaneController {
+    controller: Controller,
+    networks: Vec<LaneNetwork>,
+    /// Per node and lane: the child position chosen last since the last reset.
+    active_child: Vec<[Option<usize>; LANES]>,
+    /// Per node and lane: steps the active child has been on.
+    active_for: Vec<[u32; LANES]>,
+    /// Per lane, the node indices from the root to the primitive of the last step.
+    paths: [Vec<usize>; LANES],
+    /// Scratch: per node, the lanes in which it is active this step.
+    node_lanes: Vec<[bool; LANES]>,
+    /// Scratch: the current node's inputs.
+    inputs: Vec<Lanes>,
+    /// Scratch: one lane's outputs of the current arbitrator.
+    lane_outputs: Vec<f32>,
+    /// Scratch: sub-trees (node range and lane) the current arbitrator switched away from.
+    pending_resets: Vec<(usize, usize, usize)>,
+}
+
+impl LaneController {
+    /// The lockstep form of `controller`, every lane reset, for steps of `dt` seconds.
+    pub fn new(controller: Controller, dt: f32) -> LaneController {
+        let nodes = controller.nodes();
+        let networks = nodes
+            .iter()
+            .map(|node| {
+                let topology = node.net.topology();
+                let width = topology.n_inputs + topology.n_hidden;
+                let mut network = LaneNetwork {
+                    dt_over_taus: node.net.dt_over_taus(dt),
+                    n_inputs: topology.n_inputs,
+                    presynaptic: vec![Lanes::ZERO; width],
+                    state: vec![Lanes::ZERO; topology.n_hidden],
+                    outputs: vec![Lanes::ZERO; topology.n_outputs],
+                    scratch_presynaptic: vec![Lanes::ZERO; width],
+                    scratch_state: vec![Lanes::ZERO; topology.n_hidden],
+                    scratch_outputs: vec![Lanes::ZERO; topology.n_outputs],
+                };
+                for lane in 0..LANES {
+                    network.reset_lane(node.net.rest_firing(), lane);
+                }
+                network
+            })
+            .collect();
+        let max_inputs = nodes
+            .iter()
+            .map(|node| node.net.topology().n_inputs)
+            .max()
+            .unwrap_or(0);
+        let max_outputs = nodes
+            .iter()
+            .map(|node| node.net.topology().n_outputs)
+            .max()
+            .unwrap_or(0);
+        let n_nodes = nodes.len();
+        LaneController {
+            networks,
+            active_child: vec![[None; LANES]; n_nodes],
+            active_for: vec![[0; LANES]; n_nodes],
+            paths: std::array::from_fn(|_| Vec::with_capacity(n_nodes)),
+            node_lanes: vec![[false; LANES]; n_nodes],
+            inputs: vec![Lanes::ZERO; max_inputs],
+            lane_outputs: vec![0.0; max_outputs],
+            pending_resets: Vec::with_capacity(LANES),
+            controller,
+        }
+    }
+
+    /// The scalar controller whose networks this runs.
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// Resets lane `lane`, as [`Controller::reset`] resets the scalar controller.
+    pub fn reset_lane(&mut self, lane: usize) {
+        self.reset_lane_range(0, self.networks.len(), lane);
+        self.paths[lane].clear();
+    }
+
+    /// Resets nodes `start..end` (a sub-tree) in lane `lane`.
+    fn reset_lane_range(&mut self, start: usize, end: usize, lane: usize) {
+        let nodes = self.controller.nodes();
+        let range = start.min(nodes.len())..end.min(nodes.len());
+        let memories = self.active_child[range.clone()]
+            .iter_mut()
+            .zip(&mut self.active_for[range.clone()]);
+        for ((network, node), (active_child, active_for)) in self.networks[range.clone()]
+            .iter_mut()
+            .zip(&nodes[range])
+            .zip(memories)
+        {
+            network.reset_lane(node.net.rest_firing(), lane);
+            active_child[lane] = None;
+            active_for[lane] = 0;
+        }
+    }
+
+    /// One control cycle in every lane of `live`, each on its own frame: the wheel outputs per
+    /// lane, as [`Controller::step`] gives them (lanes not live get zeros).
+    pub fn step(
+        &mut self,
+        frames: &[SensorFrame; LANES],
+        live: &[bool; LANES],
+    ) -> [[f32; 2]; LANES] {
+        let mut wheels = [[0.0f32; 2]; LANES];
+        for path in &mut self.paths {
+            path.clear();
+        }
+        self.node_lanes.fill([false; LANES]);
+        if let Some(root) = self.node_lanes.first_mut() {
+            *root = *live;
+        }
+        // Pre-order: every node comes after its parent, which has chosen its lanes by then.
+        for node_idx in 0..self.networks.len() {
+            let lanes = self.node_lanes[node_idx];
+            if !lanes.contains(&true) {
+                continue;
+            }
+            let node = &self.controller.nodes()[node_idx];
+            let mut n_filled = 0;
+            for group in &node.inputs {
+                for (lane, frame) in frames.iter().enumerate() {
+                    for (slot, &value) in
+                        self.inputs[n_filled..].iter_mut().zip(group.values(frame))
+                    {
+                        slot.0[lane] = value;
+                    }
+                }
+                n_filled += group.width();
+            }
+            let network = &mut self.networks[node_idx];
+            let weights = node.net.step_weights(&network.dt_over_taus);
+            let inputs = &self.inputs[..n_filled.min(self.inputs.len())];
+            // Lanes without a sample may step freely; a lane with one steps only where the node
+            // is active, as the scalar controller steps only the active path.
+            let every_live_lane = (0..LANES).all(|lane| lanes[lane] || !live[lane]);
+            if every_live_lane {
+                euler_step(
+                    &weights,
+                    inputs,
+                    &mut network.presynaptic,
+                    &mut network.state,
+                    &mut network.outputs,
+                );
+            } else {
+                network
+                    .scratch_presynaptic
+                    .copy_from_slice(&network.presynaptic);
+                network.scratch_state.copy_from_slice(&network.state);
+                network.scratch_outputs.copy_from_slice(&network.outputs);
+                euler_step(
+                    &weights,
+                    inputs,
+                    &mut network.scratch_presynaptic,
+                    &mut network.scratch_state,
+                    &mut network.scratch_outputs,
+                );
+                let blend = |kept: &mut [Lanes], stepped: &[Lanes]| {
+                    for (kept, &stepped) in kept.iter_mut().zip(stepped) {
+                        *kept = kept.select(&lanes, stepped);
+                    }
+                };
+                blend(&mut network.presynaptic, &network.scratch_presynaptic);
+                blend(&mut network.state, &network.scratch_state);
+                blend(&mut network.outputs, &network.scratch_outputs);
+            }
+
+            for lane in (0..LANES).filter(|&lane| lanes[lane]) {
+                self.paths[lane].push(node_idx);
+                match node.kind {
+                    NodeKind::Primitive => {
+                        if let [left, right] = network.outputs[..] {
+                            wheels[lane] = [left.0[lane], right.0[lane]];
+                        }
+                    }
+                    NodeKind::Arbitrator => {
+                        let outputs = &mut self.lane_outputs[..network.outputs.len()];
+                        for (value, output) in outputs.iter_mut().zip(&network.outputs) {
+                            *value = output.0[lane];
+                        }
+                        let (chosen, left) = arbitrate(
+                            outputs,
+                            &mut self.active_child[node_idx][lane],
+                            &mut self.active_for[node_idx][lane],
+                            node.min_active_cycles,
+                        );
+                        let Some(&chosen_node) = node.children.get(chosen) else {
+                            continue;
+                        };
+                        if let Some(previous) = left
+                            && let Some(&left_node) = node.children.get(previous)
+                        {
+                            let end = self.controller.nodes()[left_node].subtree_end;
+                            self.pending_resets.push((left_node, end, lane));
+                        }
+                        self.node_lanes[chosen_node][lane] = true;
+                    }
+                }
+            }
+            // The sub-trees left lie below this node in pre-order, so they are reset before
+            // any of them steps, as in the scalar controller.
+            while let Some((start, end, lane)) = self.pending_resets.pop() {
+                self.reset_lane_range(start, end, lane);
+            }
+        }
+        wheels
+    }
+
+    /// Node indices from the root to the primitive that drove lane `lane`'s wheels last.
+    pub fn active_path(&self, lane: usize) -> &[usize] {
+        &self.paths[lane]
+    }
+
+    /// The child position the root chose in lane `lane`'s last step (`None` for a primitive
+    /// root, or before the first step).
+    pub fn root_choice(&self, lane: usize) -> Option<usize> {
+        self.active_child.first().and_then(|root| root[lane])
+    }
+}
+
+impl Evaluator {
+    /// Runs every sample with `controller`, [`LANES`] at a time in lockstep, and returns the
+    /// outcomes in sample order: the same, bit for bit, as [`Evaluator::evaluate`] gives for
+    /// the controller it was built from.
+    pub fn evaluate_lockstep(
+        &self,
+        controller: &mut LaneController,
+        samples: &[Sample],
+    ) -> Vec<Outcome> {
+        let n_nodes = controller.controller().n_nodes();
+        let phase_child = phase_children(&self.task().scenario, controller.controller());
+        let mut outcomes: Vec<Option<Outcome>> = vec![None; samples.len()];
+        let mut runs: [Option<(usize, SampleRun<'_>)>; LANES] = std::array::from_fn(|_| None);
+        let mut pending = samples.iter().copied().enumerate();
+        let mut frames = [SensorFrame::default(); LANES];
+        loop {
+            for (lane, slot) in runs.iter_mut().enumerate() {
+                if slot.is_none()
+                    && let Some((idx, sample)) = pending.next()
+                {
+                    controller.reset_lane(lane);
+                    *slot = Some((idx, SampleRun::new(self, sample, n_nodes, phase_child)));
+                }
+            }
+            let live: [bool; LANES] = std::array::from_fn(|lane| runs[lane].is_some());
+            if !live.contains(&true) {
+                break;
+            }
+            for (frame, slot) in frames.iter_mut().zip(&mut runs) {
+                if let Some((_, run)) = slot {
+                    *frame = run.sense();
+                }
+            }
+            let wheels = controller.step(&frames, &live);
+            for (lane, slot) in runs.iter_mut().enumerate() {
+                let Some((_, run)) = slot else {
+                    continue;
+                };
+                run.count_decision(controller.active_path(lane), controller.root_choice(lane));
+                let (before, collided) = run.move_robot(wheels[lane]);
+                if let Some(ending) = run.finish_cycle(&before, collided)
+                    && let Some((idx, run)) = slot.take()
+                {
+                    outcomes[idx] = Some(run.finish(ending).0);
+                }
+            }
+        }
+        outcomes.into_iter().flatten().collect()
+    }
+}
