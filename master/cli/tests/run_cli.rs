@@ -569,7 +569,24 @@ fn eval_and_bench_report_what_they_measured() {
         "1",
         "--json",
     ]);
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // One JSON object per line, one per evaluator: the scalar reference, then lockstep.
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let reports: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|line| serde_json::from_str(line).unwrap())
+        .collect();
+    let evaluators: Vec<&str> = reports
+        .iter()
+        .map(|report| report["evaluator"].as_str().unwrap_or_default())
+        .collect();
+    assert_eq!(evaluators, ["scalar", "lockstep"], "{stdout}");
+    for report in &reports {
+        check_bench_report(report);
+    }
+}
+
+/// One evaluator's `hevo bench --json` figures agree with each other.
+fn check_bench_report(report: &serde_json::Value) {
     assert_eq!(report["task"], "follow_wall");
     assert_eq!(report["threads"], 1);
     assert_eq!(report["mode"], "simulator");
