@@ -616,23 +616,28 @@ fn other_tasks_section(nodes: &[NodeResult]) -> String {
             "---|".repeat(names.len())
         );
         for (node, run) in rows {
-            let mut cells = vec!["-".to_string(); names.len()];
-            for variant in &run.post_evaluation.per_variant {
-                if let Some(cell) = cells.get_mut(variant.variant as usize) {
-                    *cell = percent(variant.solve_rate);
-                }
-            }
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {} |",
-                node.name,
-                run.run,
-                percent(run.post_evaluation.solve_rate),
-                cells.join(" | ")
-            );
+            md.push_str(&variant_row(node, run, names.len()));
         }
     }
     md
+}
+
+/// One run's row of a per-variant table with `n_variants` columns: controller, run, solve
+/// rate, then each variant's rate (`-` where the run has none).
+fn variant_row(node: &NodeResult, run: &RunSummary, n_variants: usize) -> String {
+    let mut cells = vec!["-".to_string(); n_variants];
+    for variant in &run.post_evaluation.per_variant {
+        if let Some(cell) = cells.get_mut(variant.variant as usize) {
+            *cell = percent(variant.solve_rate);
+        }
+    }
+    format!(
+        "| {} | {} | {} | {} |\n",
+        node.name,
+        run.run,
+        percent(run.post_evaluation.solve_rate),
+        cells.join(" | ")
+    )
 }
 
 fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String {
@@ -657,20 +662,7 @@ fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String 
     let _ = writeln!(md, "| controller | run | solved |{headers}");
     let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(n_variants));
     for (node, run) in rows {
-        let mut cells: Vec<String> = vec!["-".to_string(); n_variants];
-        for variant in &run.post_evaluation.per_variant {
-            if let Some(cell) = cells.get_mut(variant.variant as usize) {
-                *cell = percent(variant.solve_rate);
-            }
-        }
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} |",
-            node.name,
-            run.run,
-            percent(run.post_evaluation.solve_rate),
-            cells.join(" | ")
-        );
+        md.push_str(&variant_row(node, run, n_variants));
     }
     md
 }
