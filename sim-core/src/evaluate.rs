@@ -4,12 +4,13 @@
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
 use crate::env::{self, Environment, Ground, LightSpec, Statics};
+use crate::float::hypot;
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scenario::formula::{Atom, Condition, Quantity};
 use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
-use crate::scene::{Cone, Rect};
+use crate::scene::{Cone, ConeLanes, Rect};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
 use crate::task::{ConfigError, TaskConfig};
 use serde::{Deserialize, Serialize};
@@ -224,6 +225,8 @@ pub struct Evaluator {
     statics: Statics,
     /// Each IR sensor's cone in the robot frame.
     cones: [Cone; N_IR],
+    /// The same cones lane by lane, for the control loop.
+    cone_lanes: ConeLanes<N_IR>,
     /// Each IR sensor's position on the body, in the robot frame.
     sensor_offsets: [[f32; 2]; N_IR],
 }
@@ -242,6 +245,7 @@ impl Evaluator {
         Ok(Evaluator {
             statics: Statics::new(&task),
             task,
+            cone_lanes: ConeLanes::new(&cones),
             cones,
             sensor_offsets,
         })
@@ -304,6 +308,17 @@ impl Evaluator {
     fn sensor_position(&self, pose: &Pose, sensor: usize) -> [f32; 2] {
         let (sin_h, cos_h) = pose.heading.sin_cos();
         self.sensor_position_rotated(pose, sin_h, cos_h, sensor)
+    }
+
+    /// Every IR sensor's position given the heading's sine and cosine, lane by lane
+    /// (`[axis][sensor]`): what [`Evaluator::sensor_position_rotated`] gives, bit for bit.
+    #[inline(always)]
+    fn sensor_lanes(&self, pose: &Pose, sin_h: f32, cos_h: f32) -> [[f32; N_IR]; 2] {
+        let offsets = &self.sensor_offsets;
+        [
+            std::array::from_fn(|s| pose.x + cos_h * offsets[s][0] - sin_h * offsets[s][1]),
+            std::array::from_fn(|s| pose.y + sin_h * offsets[s][0] + cos_h * offsets[s][1]),
+        ]
     }
 
     /// The sensor's position given the heading's sine and cosine, computed once per cycle.
@@ -455,15 +470,12 @@ impl<'e> SampleRun<'e> {
         let robot = self.robot;
         self.cycles_run += 1;
         let (sin_h, cos_h) = robot.heading.sin_cos();
-        let cones: [Cone; N_IR] =
-            std::array::from_fn(|sensor| evaluator.cones[sensor].rotated(sin_h, cos_h));
-        let origins: [[f32; 2]; N_IR] = std::array::from_fn(|sensor| {
-            evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor)
-        });
+        let cones = evaluator.cone_lanes.rotated(sin_h, cos_h);
+        let origins = evaluator.sensor_lanes(&robot, sin_h, cos_h);
         let ir_distances =
             self.env
                 .scene
-                .cone_distances(robot.position(), &origins, &cones, task.ir.range_m);
+                .cone_lane_distances(robot.position(), &origins, &cones, task.ir.range_m);
         let ir = IrModel::builtin().read_all(&self.ir_setup, &ir_distances, &mut self.noise);
         let mut lit_mask = 0u32;
         let light = if self.lights.is_empty() {
@@ -478,11 +490,11 @@ impl<'e> SampleRun<'e> {
                 }
                 lit_mask |= 1 << light_idx;
                 for (side, sensor) in [1usize, 2].into_iter().enumerate() {
-                    let p = evaluator.sensor_position_rotated(&robot, sin_h, cos_h, sensor);
+                    let p = [origins[0][sensor], origins[1][sensor]];
                     let facing = [p[0] - robot.x, p[1] - robot.y];
                     let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
                     if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
-                        let d = to_light[0].hypot(to_light[1]);
+                        let d = hypot(to_light[0], to_light[1]);
                         nearest[side] = Some(nearest[side].map_or(d, |n: f32| n.min(d)));
                     }
                 }
@@ -702,7 +714,7 @@ impl Teammate {
                 break;
             };
             let (dx, dy) = (target[0] - self.pose.x, target[1] - self.pose.y);
-            let d = dx.hypot(dy);
+            let d = hypot(dx, dy);
             if d <= budget {
                 self.pose.x = target[0];
                 self.pose.y = target[1];
@@ -914,8 +926,10 @@ impl<'a> Judge<'a> {
                 ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0)
             }),
             Quantity::ApproachExit => self.ground.room.as_ref().map_or(0.0, |room| {
-                let to_exit = (room.center[0] - room.exit_center[0])
-                    .hypot(room.center[1] - room.exit_center[1]);
+                let to_exit = hypot(
+                    room.center[0] - room.exit_center[0],
+                    room.center[1] - room.exit_center[1],
+                );
                 ((to_exit - self.closest_exit) / to_exit).clamp(0.0, 1.0)
             }),
             Quantity::ApproachLight(light) => {

@@ -6,6 +6,7 @@
 pub mod batch;
 pub mod controller;
 pub mod ctrnn;
+mod float;
 pub mod frame;
 pub mod hash;
 pub mod lanes;

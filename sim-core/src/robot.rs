@@ -1,6 +1,7 @@
 //! The e-puck body: its configuration, pose and differential-drive kinematics with wheel noise,
 //! and the move-or-undo rule that keeps a robot out of walls.
 
+use crate::float::hypot;
 use crate::rng::{SimRng, standard_normal};
 use crate::scene::Scene;
 use crate::task::{ConfigError, invalid};
@@ -95,7 +96,7 @@ impl Pose {
 
     /// Euclidean distance between two poses' positions.
     pub fn distance_to(&self, other: [f32; 2]) -> f32 {
-        (self.x - other[0]).hypot(self.y - other[1])
+        hypot(self.x - other[0], self.y - other[1])
     }
 }
 

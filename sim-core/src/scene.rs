@@ -4,10 +4,11 @@
 //! Why the table: one rapier `QueryPipeline::cast_ray` costs about 113 ns here, and a control
 //! cycle casts 28 IR rays, which would cap the simulator near 300 thousand cycles per second.
 //! So rapier is the scene store and answers the broad query once per grid cell at load
-//! (`intersect_aabb_conservative`); the hot path then looks up the robot's cell, keeps the
-//! rectangles whose box meets a sensor cone's box, and runs concrete parry `Cuboid` ray casts and
-//! point-distance tests against just those.
+//! (`intersect_aabb_conservative`); the hot path then looks up the robot's cell and tests its
+//! rectangles against every sensor cone at once, one cone per vector lane, with exact
+//! point-distance and slab tests written against a flat layout of each rectangle.
 
+use crate::float::hypot;
 use rapier2d::math::{Pose, Vector};
 use rapier2d::parry::bounding_volume::{Aabb, BoundingVolume};
 use rapier2d::parry::query::DefaultQueryDispatcher;
@@ -66,7 +67,7 @@ impl Rect {
 
     /// Radius of the circle around the centre that contains the rectangle.
     pub fn circumradius(&self) -> f32 {
-        self.half_extents[0].hypot(self.half_extents[1])
+        hypot(self.half_extents[0], self.half_extents[1])
     }
 
     fn pose(&self) -> Pose {
@@ -103,34 +104,6 @@ impl Solid {
             self.axis[0] * dx + self.axis[1] * dy,
             -self.axis[1] * dx + self.axis[0] * dy,
         ]
-    }
-
-    /// A direction in the rectangle's frame.
-    #[inline(always)]
-    fn dir_to_local(&self, d: [f32; 2]) -> [f32; 2] {
-        if self.axis_aligned {
-            return d;
-        }
-        [
-            self.axis[0] * d[0] + self.axis[1] * d[1],
-            -self.axis[1] * d[0] + self.axis[0] * d[1],
-        ]
-    }
-
-    /// Slab test of a ray against the rectangle, in its frame: the ray's local origin and the
-    /// component-wise inverse of its local direction. Returns the entry distance (0 when the
-    /// origin is inside) if the ray meets the rectangle before `max`.
-    #[inline(always)]
-    fn slab(&self, o: [f32; 2], inverse: [f32; 2], max: f32) -> Option<f32> {
-        let tx1 = (-self.half[0] - o[0]) * inverse[0];
-        let tx2 = (self.half[0] - o[0]) * inverse[0];
-        let ty1 = (-self.half[1] - o[1]) * inverse[1];
-        let ty2 = (self.half[1] - o[1]) * inverse[1];
-        // f32 min/max drop a NaN operand (0 * inf for a ray along a face), which is what a
-        // slab test wants.
-        let enter = tx1.min(tx2).max(ty1.min(ty2)).max(0.0);
-        let exit = tx1.max(tx2).min(ty1.max(ty2));
-        (exit >= enter && enter < max).then_some(enter)
     }
 
     /// The offset from a local point to the rectangle's nearest point, and its length.
@@ -356,7 +329,7 @@ impl Scene {
         max_distance: f32,
     ) -> Option<f32> {
         let [distance] =
-            self.cone_distances(near, &[origin], std::slice::from_ref(cone), max_distance);
+            self.cone_distances(near, &[origin], std::array::from_ref(cone), max_distance);
         distance
     }
 
@@ -368,68 +341,231 @@ impl Scene {
         &self,
         near: [f32; 2],
         origins: &[[f32; 2]; N],
-        cones: &[Cone],
+        cones: &[Cone; N],
+        max_distance: f32,
+    ) -> [Option<f32>; N] {
+        let origin_lanes = [
+            std::array::from_fn(|l| origins[l][0]),
+            std::array::from_fn(|l| origins[l][1]),
+        ];
+        self.cone_lane_distances(near, &origin_lanes, &ConeLanes::new(cones), max_distance)
+    }
+
+    /// [`Scene::cone_distances`] with the cones and their origins (`origins[axis][lane]`)
+    /// already laid out lane by lane, as the control loop keeps them.
+    ///
+    /// The cones are tested side by side: every step is the same operation in every lane,
+    /// without branches, so the compiler turns the lane loops into vector instructions. Each
+    /// lane makes exactly the decisions of the one-cone test (`reference` in the tests below
+    /// keeps it): reject by box, reject by the solid's nearest distance, take that distance
+    /// when it lies inside the cone, else cast the two boundary rays, the second against the
+    /// first's result.
+    #[inline]
+    pub fn cone_lane_distances<const N: usize>(
+        &self,
+        near: [f32; 2],
+        origins: &[[f32; N]; 2],
+        cones: &ConeLanes<N>,
         max_distance: f32,
     ) -> [Option<f32>; N] {
         let mut best = [max_distance; N];
-        let mut hit = [false; N];
+        let mut hit = [0u32; N];
         for &solid_idx in self.near(near) {
-            let solid = &self.solids[solid_idx as usize];
-            for ((origin, cone), (best, hit)) in origins
-                .iter()
-                .zip(cones)
-                .zip(best.iter_mut().zip(hit.iter_mut()))
-            {
-                if let Some(distance) = solid.cone_distance(*origin, cone, *best) {
-                    *best = distance;
-                    *hit = true;
-                }
-            }
+            self.solids[solid_idx as usize].cone_lanes(origins, cones, &mut best, &mut hit);
         }
-        std::array::from_fn(|idx| hit[idx].then_some(best[idx]))
+        std::array::from_fn(|lane| (hit[lane] != 0).then_some(best[lane]))
     }
 }
 
-impl Solid {
-    /// The distance from `origin` to the solid's nearest point inside `cone`, if it is below
-    /// `best`, the nearest found so far (see [`Scene::cone_distance`]).
+/// Several cones laid out lane by lane (structure of arrays): cone `lane`'s numbers at index
+/// `lane` of each array. [`Cone`]'s fields, transposed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConeLanes<const N: usize> {
+    /// `axis[component][lane]`.
+    axis: [[f32; N]; 2],
+    cos_half_angle: [f32; N],
+    /// `boundaries[ray][component][lane]`.
+    boundaries: [[[f32; N]; 2]; 2],
+    inverse_boundaries: [[[f32; N]; 2]; 2],
+}
+
+impl<const N: usize> ConeLanes<N> {
+    /// The cones, lane by lane.
+    pub fn new(cones: &[Cone; N]) -> ConeLanes<N> {
+        let vector = |of: [[f32; 2]; N]| -> [[f32; N]; 2] {
+            [
+                std::array::from_fn(|l| of[l][0]),
+                std::array::from_fn(|l| of[l][1]),
+            ]
+        };
+        ConeLanes {
+            axis: vector(cones.map(|cone| cone.axis)),
+            cos_half_angle: cones.map(|cone| cone.cos_half_angle),
+            boundaries: [
+                vector(cones.map(|cone| cone.boundaries[0])),
+                vector(cones.map(|cone| cone.boundaries[1])),
+            ],
+            inverse_boundaries: [
+                vector(cones.map(|cone| cone.inverse_boundaries[0])),
+                vector(cones.map(|cone| cone.inverse_boundaries[1])),
+            ],
+        }
+    }
+
+    /// Every cone turned by an angle given by its sine and cosine: lane by lane what
+    /// [`Cone::rotated`] computes, bit for bit.
     #[inline(always)]
-    fn cone_distance(&self, origin: [f32; 2], cone: &Cone, best: f32) -> Option<f32> {
-        let solid = self;
-        let mut best = best;
-        let mut hit = false;
-        // Box reject: the cone lies within max_distance of its origin.
-        if solid.aabb.maxs.x < origin[0] - best
-            || solid.aabb.mins.x > origin[0] + best
-            || solid.aabb.maxs.y < origin[1] - best
-            || solid.aabb.mins.y > origin[1] + best
-        {
-            return None;
+    pub fn rotated(&self, sin: f32, cos: f32) -> ConeLanes<N> {
+        let turn = |[x, y]: &[[f32; N]; 2]| -> [[f32; N]; 2] {
+            [
+                std::array::from_fn(|l| cos * x[l] - sin * y[l]),
+                std::array::from_fn(|l| sin * x[l] + cos * y[l]),
+            ]
+        };
+        let boundaries = [turn(&self.boundaries[0]), turn(&self.boundaries[1])];
+        ConeLanes {
+            axis: turn(&self.axis),
+            cos_half_angle: self.cos_half_angle,
+            boundaries,
+            inverse_boundaries: boundaries.map(|ray| ray.map(|c| c.map(|v| 1.0 / v))),
         }
-        // Walls are axis-aligned: their frame is the world's shifted, so the helpers skip
-        // the rotation and the boundary rays' inverse directions are the cone's own.
-        let local_origin = solid.to_local(origin);
-        let (offset, distance) = solid.nearest_offset(local_origin);
-        if distance >= best {
-            return None;
+    }
+}
+
+/// A lane's yes or no as all ones or all zeros: masks of this form, unlike `bool`s, stay in
+/// vector registers, and selecting with them is two bitwise operations.
+#[inline(always)]
+fn mask(yes: bool) -> u32 {
+    0u32.wrapping_sub(u32::from(yes))
+}
+
+/// `yes` where `mask` is set, else `no`.
+#[inline(always)]
+fn pick(mask: u32, yes: f32, no: f32) -> f32 {
+    f32::from_bits((yes.to_bits() & mask) | (no.to_bits() & !mask))
+}
+
+/// Whether any lane's mask is set.
+#[inline(always)]
+fn any<const N: usize>(masks: &[u32; N]) -> bool {
+    masks.iter().fold(0, |all, &m| all | m) != 0
+}
+
+/// `f32::min` as x86-64 computes it (`minss` with a NaN first operand dropped), written out
+/// so that a lane loop vectorises to the same values; a NaN appears when a ray runs along a
+/// face (0 * inf), and the slab test wants it dropped.
+#[inline(always)]
+fn min_num(a: f32, b: f32) -> f32 {
+    pick(mask(a.is_nan() | (b < a)), b, a)
+}
+
+/// `f32::max` likewise.
+#[inline(always)]
+fn max_num(a: f32, b: f32) -> f32 {
+    pick(mask(a.is_nan() | (b > a)), b, a)
+}
+
+/// `f32::clamp` for `low <= high`, written out for lane loops.
+#[inline(always)]
+fn clamp_num(x: f32, low: f32, high: f32) -> f32 {
+    let x = pick(mask(x < low), low, x);
+    pick(mask(x > high), high, x)
+}
+
+impl Solid {
+    /// Tests the solid against every cone of `lanes`: where it holds a point inside a cone
+    /// nearer than that cone's `best`, lowers `best` to it and sets `hit`.
+    #[inline(always)]
+    fn cone_lanes<const N: usize>(
+        &self,
+        origins: &[[f32; N]; 2],
+        lanes: &ConeLanes<N>,
+        best: &mut [f32; N],
+        hit: &mut [u32; N],
+    ) {
+        let [ox, oy] = origins;
+        let (mins, maxs) = (self.aabb.mins, self.aabb.maxs);
+        // Box reject: a cone lies within its `best` of its origin.
+        let in_box: [u32; N] = std::array::from_fn(|l| {
+            !mask(
+                (maxs.x < ox[l] - best[l])
+                    | (mins.x > ox[l] + best[l])
+                    | (maxs.y < oy[l] - best[l])
+                    | (mins.y > oy[l] + best[l]),
+            )
+        });
+        if !any(&in_box) {
+            return;
         }
-        let axis = solid.dir_to_local(cone.axis);
-        if offset[0] * axis[0] + offset[1] * axis[1] >= distance * cone.cos_half_angle {
-            return Some(distance);
+        // Walls are axis-aligned: their frame is the world's shifted, so the rotation is
+        // skipped and the boundary rays' inverse directions are the cone's own.
+        let [qx, qy] = self.lanes_to_local(ox, oy);
+        let offset_x: [f32; N] =
+            std::array::from_fn(|l| clamp_num(qx[l], -self.half[0], self.half[0]) - qx[l]);
+        let offset_y: [f32; N] =
+            std::array::from_fn(|l| clamp_num(qy[l], -self.half[1], self.half[1]) - qy[l]);
+        let distance: [f32; N] =
+            std::array::from_fn(|l| (offset_x[l] * offset_x[l] + offset_y[l] * offset_y[l]).sqrt());
+        // Not `distance < best`: a NaN distance goes on, as in the one-cone test.
+        let live: [u32; N] = std::array::from_fn(|l| in_box[l] & !mask(distance[l] >= best[l]));
+        if !any(&live) {
+            return;
         }
-        for (boundary, inverse) in cone.boundaries.iter().zip(&cone.inverse_boundaries) {
-            let inverse = if solid.axis_aligned {
-                *inverse
+        let [axis_x, axis_y] = self.lanes_dir_to_local(&lanes.axis[0], &lanes.axis[1]);
+        let within: [u32; N] = std::array::from_fn(|l| {
+            live[l]
+                & mask(
+                    offset_x[l] * axis_x[l] + offset_y[l] * axis_y[l]
+                        >= distance[l] * lanes.cos_half_angle[l],
+                )
+        });
+        let mut ray_best = *best;
+        let mut ray_hit = [0u32; N];
+        for ray in 0..2 {
+            let [inverse_x, inverse_y] = if self.axis_aligned {
+                lanes.inverse_boundaries[ray]
             } else {
-                let d = solid.dir_to_local(*boundary);
-                [1.0 / d[0], 1.0 / d[1]]
+                let [dx, dy] = &lanes.boundaries[ray];
+                let [lx, ly] = self.lanes_dir_to_local(dx, dy);
+                [lx.map(|v| 1.0 / v), ly.map(|v| 1.0 / v)]
             };
-            if let Some(toi) = solid.slab(local_origin, inverse, best) {
-                best = toi;
-                hit = true;
+            for l in 0..N {
+                let tx1 = (-self.half[0] - qx[l]) * inverse_x[l];
+                let tx2 = (self.half[0] - qx[l]) * inverse_x[l];
+                let ty1 = (-self.half[1] - qy[l]) * inverse_y[l];
+                let ty2 = (self.half[1] - qy[l]) * inverse_y[l];
+                let enter = max_num(max_num(min_num(tx1, tx2), min_num(ty1, ty2)), 0.0);
+                let exit = min_num(max_num(tx1, tx2), max_num(ty1, ty2));
+                let meets = live[l] & !within[l] & mask((exit >= enter) & (enter < ray_best[l]));
+                ray_best[l] = pick(meets, enter, ray_best[l]);
+                ray_hit[l] |= meets;
             }
         }
-        hit.then_some(best)
+        for l in 0..N {
+            best[l] = pick(within[l], distance[l], ray_best[l]);
+            hit[l] |= within[l] | ray_hit[l];
+        }
+    }
+
+    /// Points given lane by lane, in the rectangle's frame.
+    #[inline(always)]
+    fn lanes_to_local<const N: usize>(&self, x: &[f32; N], y: &[f32; N]) -> [[f32; N]; 2] {
+        let dx: [f32; N] = std::array::from_fn(|l| x[l] - self.center[0]);
+        let dy: [f32; N] = std::array::from_fn(|l| y[l] - self.center[1]);
+        self.lanes_dir_to_local(&dx, &dy)
+    }
+
+    /// Directions given lane by lane, in the rectangle's frame.
+    #[inline(always)]
+    fn lanes_dir_to_local<const N: usize>(&self, x: &[f32; N], y: &[f32; N]) -> [[f32; N]; 2] {
+        if self.axis_aligned {
+            return [*x, *y];
+        }
+        let [c, s] = self.axis;
+        [
+            std::array::from_fn(|l| c * x[l] + s * y[l]),
+            std::array::from_fn(|l| -s * x[l] + c * y[l]),
+        ]
     }
 }
 
@@ -437,6 +573,71 @@ impl Solid {
 mod tests {
     use super::*;
     use rapier2d::parry::query::{PointQuery, Ray, RayCast};
+
+    /// The one-cone test as first written, branch by branch: the lane code must make the same
+    /// decisions, so its distances are this one's bit for bit.
+    fn reference(
+        scene: &Scene,
+        near: [f32; 2],
+        origin: [f32; 2],
+        cone: &Cone,
+        max_distance: f32,
+    ) -> Option<f32> {
+        let dir_to_local = |solid: &Solid, d: [f32; 2]| {
+            if solid.axis_aligned {
+                return d;
+            }
+            [
+                solid.axis[0] * d[0] + solid.axis[1] * d[1],
+                -solid.axis[1] * d[0] + solid.axis[0] * d[1],
+            ]
+        };
+        let slab = |solid: &Solid, o: [f32; 2], inverse: [f32; 2], max: f32| {
+            let tx1 = (-solid.half[0] - o[0]) * inverse[0];
+            let tx2 = (solid.half[0] - o[0]) * inverse[0];
+            let ty1 = (-solid.half[1] - o[1]) * inverse[1];
+            let ty2 = (solid.half[1] - o[1]) * inverse[1];
+            let enter = tx1.min(tx2).max(ty1.min(ty2)).max(0.0);
+            let exit = tx1.max(tx2).min(ty1.max(ty2));
+            (exit >= enter && enter < max).then_some(enter)
+        };
+        let mut best = max_distance;
+        let mut hit = false;
+        for &solid_idx in scene.near(near) {
+            let solid = &scene.solids[solid_idx as usize];
+            if solid.aabb.maxs.x < origin[0] - best
+                || solid.aabb.mins.x > origin[0] + best
+                || solid.aabb.maxs.y < origin[1] - best
+                || solid.aabb.mins.y > origin[1] + best
+            {
+                continue;
+            }
+            let local_origin = solid.to_local(origin);
+            let (offset, distance) = solid.nearest_offset(local_origin);
+            if distance >= best {
+                continue;
+            }
+            let axis = dir_to_local(solid, cone.axis);
+            if offset[0] * axis[0] + offset[1] * axis[1] >= distance * cone.cos_half_angle {
+                best = distance;
+                hit = true;
+                continue;
+            }
+            for (boundary, inverse) in cone.boundaries.iter().zip(&cone.inverse_boundaries) {
+                let inverse = if solid.axis_aligned {
+                    *inverse
+                } else {
+                    let d = dir_to_local(solid, *boundary);
+                    [1.0 / d[0], 1.0 / d[1]]
+                };
+                if let Some(toi) = slab(solid, local_origin, inverse, best) {
+                    best = toi;
+                    hit = true;
+                }
+            }
+        }
+        hit.then_some(best)
+    }
 
     #[test]
     fn disc_test_agrees_with_parry_on_rotated_rectangles() {
@@ -551,5 +752,75 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The lane code against the one-cone reference, bit for bit, on random scenes of
+    /// axis-aligned walls and rotated obstacles, from random robot poses with the e-puck's
+    /// four sensor cones (and cones along the axes, whose inverse directions are infinite).
+    #[test]
+    fn lanes_give_the_reference_distances_bit_for_bit() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(29);
+        let mut compared = 0usize;
+        let mut seen = 0usize;
+        for _ in 0..200 {
+            let mut rects = Vec::new();
+            for _ in 0..rng.random_range(1..12) {
+                let (x, y) = (rng.random_range(-0.6..0.6), rng.random_range(-0.6..0.6));
+                let (w, h) = (rng.random_range(0.005..0.4), rng.random_range(0.005..0.4));
+                let rect = if rng.random_bool(0.7) {
+                    Rect::from_corners(RectKind::Wall, x, y, x + w, y + h)
+                } else {
+                    Rect {
+                        center: [x, y],
+                        half_extents: [w * 0.5, h * 0.5],
+                        angle: rng.random_range(-3.2..3.2),
+                        kind: RectKind::Obstacle,
+                    }
+                };
+                rects.push(rect);
+            }
+            let scene = Scene::new(rects, DEFAULT_QUERY_MARGIN);
+            for _ in 0..200 {
+                let centre = [rng.random_range(-0.7..0.7), rng.random_range(-0.7..0.7)];
+                let heading: f32 = if rng.random_bool(0.1) {
+                    std::f32::consts::FRAC_PI_2 * rng.random_range(0..4) as f32
+                } else {
+                    rng.random_range(-3.2..3.2)
+                };
+                let opening = if rng.random_bool(0.2) {
+                    0.0
+                } else {
+                    70f32.to_radians()
+                };
+                let angles = [0.3f32, 0.8, -0.8, -0.3];
+                let cones =
+                    angles.map(|a| Cone::new(a, opening).rotated(heading.sin(), heading.cos()));
+                let origins = angles.map(|a| {
+                    let r = if rng.random_bool(0.1) { 0.0 } else { 0.0375 };
+                    [
+                        centre[0] + r * (heading + a).cos(),
+                        centre[1] + r * (heading + a).sin(),
+                    ]
+                });
+                let lanes = scene.cone_distances(centre, &origins, &cones, 0.14);
+                for sensor in 0..4 {
+                    let one = reference(&scene, centre, origins[sensor], &cones[sensor], 0.14);
+                    assert_eq!(
+                        lanes[sensor].map(f32::to_bits),
+                        one.map(f32::to_bits),
+                        "scene {:?}, centre {centre:?}, heading {heading}, sensor {sensor}",
+                        scene.rects()
+                    );
+                    compared += 1;
+                    seen += usize::from(one.is_some());
+                }
+            }
+        }
+        // The comparison means something only if many cones see a solid.
+        assert!(
+            seen * 5 > compared,
+            "{seen} of {compared} cones saw a solid"
+        );
     }
 }

@@ -3,6 +3,7 @@
 //! 0.30 m cell leaves a 0.20 m corridor), tells which cell a point is in, and measures the
 //! distance along the corridors to a goal cell, which f2 and the corridor fitness need.
 
+use crate::float::hypot;
 use crate::scene::{Rect, RectKind};
 use std::collections::VecDeque;
 
@@ -201,7 +202,7 @@ impl CellMap {
         let cell_idx = self.cell_at(point)?;
         let via = |idx: usize| {
             let c = self.center(idx);
-            (point[0] - c[0]).hypot(point[1] - c[1]) + table[idx]
+            hypot(point[0] - c[0], point[1] - c[1]) + table[idx]
         };
         Some(
             self.neighbours(cell_idx)

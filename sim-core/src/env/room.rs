@@ -4,6 +4,7 @@
 //! out with its exit in the top wall and then placed by a rigid transform, so the stand-alone
 //! room (exit in any wall) and the rescue room (exit under the maze's stem) share one generator.
 
+use crate::float::hypot;
 use crate::rng::SimRng;
 use crate::robot::Pose;
 use crate::scene::{Rect, RectKind};
@@ -219,7 +220,7 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
                 rng.random_range(reach..width - reach),
                 rng.random_range(reach..depth - reach),
             ];
-            let dist = |p: [f32; 2]| (c[0] - p[0]).hypot(c[1] - p[1]);
+            let dist = |p: [f32; 2]| hypot(c[0] - p[0], c[1] - p[1]);
             let clear_of_start = dist(center) > config.start_clearance + candidate.circumradius();
             let clear_of_exit =
                 dist(exit_center) > config.exit_clearance + candidate.circumradius();

@@ -237,6 +237,59 @@ pub struct IrModel {
     /// measured tail is not monotonic), for turning a raw reading back into a distance.
     inverse_means: Vec<f32>,
     inverse_step: f32,
+    /// Where to start looking in `inverse_means` for a raw reading, by the reading's leading
+    /// bits (see [`InverseStarts`]).
+    inverse_starts: InverseStarts,
+}
+
+/// A guess of the grid point at which the means fall to a raw reading, indexed by the reading's
+/// exponent and leading seven mantissa bits: positive floats order like their bits, and that
+/// index splits every octave into 128 buckets, as fine where the curve is steep (near, large
+/// readings) as where it is flat (far). A guess of the same bucket's lowest reading is at most
+/// a grid point or two off, and [`IrModel::raw_to_distance`] walks from it to the exact answer,
+/// so the answer is the binary search's whatever the guess. Empty when the means are not
+/// positive, which leaves the binary search.
+#[derive(Debug, Clone, PartialEq)]
+struct InverseStarts {
+    first_bucket: u32,
+    starts: Vec<u16>,
+}
+
+impl InverseStarts {
+    const SHIFT: u32 = 16;
+
+    fn new(means: &[f32]) -> InverseStarts {
+        let (low, high) = (means[means.len() - 1], means[0]);
+        if !(low > 0.0 && high.is_finite()) || means.len() > usize::from(u16::MAX) {
+            return InverseStarts {
+                first_bucket: 0,
+                starts: Vec::new(),
+            };
+        }
+        let first_bucket = low.to_bits() >> Self::SHIFT;
+        let last_bucket = high.to_bits() >> Self::SHIFT;
+        let starts = (first_bucket..=last_bucket)
+            .map(|bucket| {
+                let lowest = f32::from_bits(bucket << Self::SHIFT);
+                means
+                    .partition_point(|&m| m > lowest)
+                    .clamp(1, means.len() - 1) as u16
+            })
+            .collect();
+        InverseStarts {
+            first_bucket,
+            starts,
+        }
+    }
+
+    /// The guess for `raw`, a reading strictly between the last and the first mean.
+    #[inline(always)]
+    fn start(&self, raw: f32) -> Option<usize> {
+        let bucket = (raw.to_bits() >> Self::SHIFT).wrapping_sub(self.first_bucket);
+        self.starts
+            .get(bucket as usize)
+            .map(|&start| usize::from(start))
+    }
 }
 
 impl IrModel {
@@ -275,6 +328,7 @@ impl IrModel {
         }
         Ok(IrModel {
             curves,
+            inverse_starts: InverseStarts::new(&inverse_means),
             inverse_means,
             inverse_step,
         })
@@ -293,7 +347,19 @@ impl IrModel {
             return last as f32 * self.inverse_step;
         }
         // First grid point whose mean is at or below `raw`: the means are non-increasing.
-        let above = means.partition_point(|&m| m > raw);
+        let above = match self.inverse_starts.start(raw) {
+            Some(mut above) => {
+                // `means[0] > raw > means[last]` keeps the walk inside 1..=last.
+                while means[above - 1] <= raw {
+                    above -= 1;
+                }
+                while means[above] > raw {
+                    above += 1;
+                }
+                above
+            }
+            None => means.partition_point(|&m| m > raw),
+        };
         let (near, far) = (means[above - 1], means[above]);
         let fraction = if near > far {
             (near - raw) / (near - far)
@@ -737,5 +803,50 @@ mod tests {
         let margin = model.noise_free_input(MEAN_IR_CURVE, 0.09, IrMapping::LinearDistance);
         let table = model.noise_free_input(MEAN_IR_CURVE, 0.09, IrMapping::AverageTable);
         assert!(margin < 0.05 && table > 0.2, "{margin} vs {table}");
+    }
+
+    /// The bucketed walk finds exactly the grid point the binary search finds: at every mean,
+    /// its float neighbours, and a dense sweep across the whole range of readings.
+    #[test]
+    fn raw_to_distance_walk_agrees_with_the_binary_search() {
+        let model = IrModel::builtin();
+        assert!(
+            !model.inverse_starts.starts.is_empty(),
+            "the buckets are in use"
+        );
+        let means = &model.inverse_means;
+        let binary = |raw: f32| -> f32 {
+            let last = means.len() - 1;
+            if raw.is_nan() || raw >= means[0] {
+                return 0.0;
+            }
+            if raw <= means[last] {
+                return last as f32 * model.inverse_step;
+            }
+            let above = means.partition_point(|&m| m > raw);
+            let (near, far) = (means[above - 1], means[above]);
+            let fraction = if near > far {
+                (near - raw) / (near - far)
+            } else {
+                0.0
+            };
+            ((above - 1) as f32 + fraction) * model.inverse_step
+        };
+        let mut raws: Vec<f32> = Vec::new();
+        for &m in means.iter() {
+            raws.extend([m, m.next_down(), m.next_up()]);
+        }
+        let (low, high) = (means[means.len() - 1], means[0]);
+        for k in 0..=200_000 {
+            raws.push(low - 10.0 + (high - low + 20.0) * k as f32 / 200_000.0);
+        }
+        raws.extend([f32::NAN, -1.0, 0.0, f32::INFINITY, f32::NEG_INFINITY]);
+        for raw in raws {
+            assert_eq!(
+                model.raw_to_distance(raw).to_bits(),
+                binary(raw).to_bits(),
+                "raw {raw}"
+            );
+        }
     }
 }
