@@ -465,11 +465,34 @@ fn max_num(a: f32, b: f32) -> f32 {
     pick(mask(a.is_nan() | (b > a)), b, a)
 }
 
-/// `f32::clamp` for `low <= high`, written out for lane loops.
+/// `f32::clamp` for `low <= high`, written out for lane loops (`maxps`, `minps`).
 #[inline(always)]
 fn clamp_num(x: f32, low: f32, high: f32) -> f32 {
-    let x = pick(mask(x < low), low, x);
-    pick(mask(x > high), high, x)
+    let x = if x < low { low } else { x };
+    if x > high { high } else { x }
+}
+
+/// The slab test of one ray per lane against a rectangle of half extents `half`, in its
+/// frame: the ray's local origin and the component-wise inverse of its local direction. Gives
+/// the entry distance (0 when the origin is inside) and the exit distance; the ray meets the
+/// rectangle where `exit >= entry`.
+#[inline(always)]
+fn slab_lanes<const N: usize>(
+    half: [f32; 2],
+    [qx, qy]: [&[f32; N]; 2],
+    [inverse_x, inverse_y]: [&[f32; N]; 2],
+) -> ([f32; N], [f32; N]) {
+    let mut enter = [0.0; N];
+    let mut exit = [0.0; N];
+    for l in 0..N {
+        let tx1 = (-half[0] - qx[l]) * inverse_x[l];
+        let tx2 = (half[0] - qx[l]) * inverse_x[l];
+        let ty1 = (-half[1] - qy[l]) * inverse_y[l];
+        let ty2 = (half[1] - qy[l]) * inverse_y[l];
+        enter[l] = max_num(max_num(min_num(tx1, tx2), min_num(ty1, ty2)), 0.0);
+        exit[l] = min_num(max_num(tx1, tx2), max_num(ty1, ty2));
+    }
+    (enter, exit)
 }
 
 impl Solid {
@@ -529,15 +552,11 @@ impl Solid {
                 let [lx, ly] = self.lanes_dir_to_local(dx, dy);
                 [lx.map(|v| 1.0 / v), ly.map(|v| 1.0 / v)]
             };
+            let (enter, exit) = slab_lanes(self.half, [&qx, &qy], [&inverse_x, &inverse_y]);
             for l in 0..N {
-                let tx1 = (-self.half[0] - qx[l]) * inverse_x[l];
-                let tx2 = (self.half[0] - qx[l]) * inverse_x[l];
-                let ty1 = (-self.half[1] - qy[l]) * inverse_y[l];
-                let ty2 = (self.half[1] - qy[l]) * inverse_y[l];
-                let enter = max_num(max_num(min_num(tx1, tx2), min_num(ty1, ty2)), 0.0);
-                let exit = min_num(max_num(tx1, tx2), max_num(ty1, ty2));
-                let meets = live[l] & !within[l] & mask((exit >= enter) & (enter < ray_best[l]));
-                ray_best[l] = pick(meets, enter, ray_best[l]);
+                let meets =
+                    live[l] & !within[l] & mask((exit[l] >= enter[l]) & (enter[l] < ray_best[l]));
+                ray_best[l] = pick(meets, enter[l], ray_best[l]);
                 ray_hit[l] |= meets;
             }
         }
@@ -822,5 +841,52 @@ mod tests {
             seen * 5 > compared,
             "{seen} of {compared} cones saw a solid"
         );
+    }
+
+    /// Rays along a face: cones pointing exactly along +x (inverse direction infinite in y)
+    /// from origins exactly on the faces' lines of dyadic walls, where a slab bound is
+    /// 0 * inf = NaN and must be dropped as `f32::min` drops it.
+    #[test]
+    fn lanes_drop_nan_slab_bounds_as_the_reference_does() {
+        let eighth = |k: i32| k as f32 * 0.125;
+        let rects = vec![
+            Rect::from_corners(RectKind::Wall, eighth(1), eighth(-1), eighth(2), eighth(1)),
+            Rect::from_corners(RectKind::Wall, eighth(-2), eighth(1), eighth(2), eighth(2)),
+            Rect::from_corners(
+                RectKind::Wall,
+                eighth(-1),
+                eighth(-3),
+                eighth(3),
+                eighth(-2),
+            ),
+        ];
+        let scene = Scene::new(rects, DEFAULT_QUERY_MARGIN);
+        let along_x = Cone::new(0.0, 0.0);
+        assert_eq!(along_x.boundaries[0], [1.0, 0.0]);
+        let mut seen = 0;
+        for ix in -16..16 {
+            for iy in -24..24 {
+                let origin = [ix as f32 / 64.0, iy as f32 / 64.0];
+                let cones = [along_x, Cone::new(0.0, 0.4), along_x, along_x];
+                let origins = [
+                    origin,
+                    origin,
+                    [origin[0], eighth(1)],
+                    [origin[0], eighth(-1)],
+                ];
+                let lanes = scene.cone_distances(origin, &origins, &cones, 0.14);
+                for sensor in 0..4 {
+                    let one = reference(&scene, origin, origins[sensor], &cones[sensor], 0.14);
+                    assert_eq!(
+                        lanes[sensor].map(f32::to_bits),
+                        one.map(f32::to_bits),
+                        "origin {:?}, sensor {sensor}",
+                        origins[sensor]
+                    );
+                    seen += usize::from(one.is_some());
+                }
+            }
+        }
+        assert!(seen > 100, "{seen}");
     }
 }
