@@ -227,6 +227,8 @@ pub struct Evaluator {
     cones: [Cone; N_IR],
     /// The same cones lane by lane, for the control loop.
     cone_lanes: ConeLanes<N_IR>,
+    /// The IR model, looked up once rather than every cycle.
+    ir_model: &'static IrModel,
     /// Each IR sensor's position on the body, in the robot frame.
     sensor_offsets: [[f32; 2]; N_IR],
 }
@@ -246,6 +248,7 @@ impl Evaluator {
             statics: Statics::new(&task),
             task,
             cone_lanes: ConeLanes::new(&cones),
+            ir_model: IrModel::builtin(),
             cones,
             sensor_offsets,
         })
@@ -476,7 +479,9 @@ impl<'e> SampleRun<'e> {
             self.env
                 .scene
                 .cone_lane_distances(robot.position(), &origins, &cones, task.ir.range_m);
-        let ir = IrModel::builtin().read_all(&self.ir_setup, &ir_distances, &mut self.noise);
+        let ir = evaluator
+            .ir_model
+            .read_all(&self.ir_setup, &ir_distances, &mut self.noise);
         let mut lit_mask = 0u32;
         let light = if self.lights.is_empty() {
             [0.0; N_LIGHT]

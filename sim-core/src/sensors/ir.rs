@@ -208,6 +208,9 @@ struct IrCurve {
     floor_raw: f32,
     /// 1 / (mean at contact - floor_raw): maps contact to input 1.
     inv_span: f32,
+    /// The sensor's own empty reading for [`IrMapping::LinearDistance`]: its mean at 12 cm
+    /// plus four standard deviations (see [`IrModel::map_raw`]).
+    baseline: f32,
 }
 
 impl IrCurve {
@@ -222,6 +225,7 @@ impl IrCurve {
             });
         }
         Ok(IrCurve {
+            baseline: far_mean + 4.0 * table.farthest().std,
             table,
             floor_raw: far_mean,
             inv_span: 1.0 / (contact_mean - far_mean),
@@ -237,6 +241,8 @@ pub struct IrModel {
     /// measured tail is not monotonic), for turning a raw reading back into a distance.
     inverse_means: Vec<f32>,
     inverse_step: f32,
+    /// The grid's farthest distance, `inverse_step` times the last index, metres.
+    max_distance: f32,
     /// Where to start looking in `inverse_means` for a raw reading, by the reading's leading
     /// bits (see [`InverseStarts`]).
     inverse_starts: InverseStarts,
@@ -328,6 +334,7 @@ impl IrModel {
         }
         Ok(IrModel {
             curves,
+            max_distance: inverse_step * (inverse_means.len() - 1) as f32,
             inverse_starts: InverseStarts::new(&inverse_means),
             inverse_means,
             inverse_step,
@@ -414,7 +421,7 @@ impl IrModel {
         };
         // The table's last row is 12 cm; a micrometre's slack keeps 12 cm itself out of
         // range despite the f32 rounding of the grid step.
-        let out_of_range = self.inverse_step * (self.inverse_means.len() - 1) as f32 - 1e-6;
+        let out_of_range = self.max_distance - 1e-6;
         if setup.mapping == IrMapping::AverageTable && distance_m.is_none_or(|d| d >= out_of_range)
         {
             return 0.0;
@@ -449,18 +456,12 @@ impl IrModel {
                 // is moved onto the average curve's, so every sensor reads 0 with nothing in
                 // range while keeping its own gain, and so its own error, nearer in. The margin
                 // costs a bias far out, where the curve is flat: 8 cm reads like about 9.5 cm.
-                let own = self.curve(curve);
                 let average_floor = self.inverse_means[self.inverse_means.len() - 1];
-                let baseline = own.floor_raw + 4.0 * own.table.farthest().std;
-                let corrected = raw - baseline + average_floor;
-                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
-                1.0 - self.raw_to_distance(corrected) / max_distance
+                let corrected = raw - self.curve(curve).baseline + average_floor;
+                1.0 - self.raw_to_distance(corrected) / self.max_distance
             }
             IrMapping::LinearRaw => self.raw_to_input(curve, raw),
-            IrMapping::AverageTable => {
-                let max_distance = self.inverse_step * (self.inverse_means.len() - 1) as f32;
-                1.0 - self.raw_to_distance(raw) / max_distance
-            }
+            IrMapping::AverageTable => 1.0 - self.raw_to_distance(raw) / self.max_distance,
         }
     }
 
