@@ -7,7 +7,7 @@ use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
-const EXAMPLES: [(&str, &str); 4] = [
+const EXAMPLES: [(&str, &str); 5] = [
     ("t_maze", T_MAZE),
     (
         "triple_t_maze",
@@ -20,6 +20,10 @@ const EXAMPLES: [(&str, &str); 4] = [
     (
         "room_to_yard",
         include_str!("../../scenarios/examples/room_to_yard.toml"),
+    ),
+    (
+        "find_wanderer",
+        include_str!("../../scenarios/examples/find_wanderer.toml"),
     ),
 ];
 
@@ -272,4 +276,58 @@ mod formulas {
             prop_assert!(value >= low - slack && value <= high + slack, "{text}: {value} outside [{low}, {high}]");
         }
     }
+}
+
+#[test]
+fn bad_teammates_are_refused_naming_the_key() {
+    const WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
+    for (from, to, key, expected) in [
+        (
+            "behaviour = \"wander\"",
+            "behaviour = \"dance\"",
+            "teammate.behaviour",
+            "'dance' is not follow, fixed or wander",
+        ),
+        (
+            "behaviour = \"wander\"",
+            "behaviour = \"wander\"\nfollowing = true",
+            "teammate.following",
+            "would never wander",
+        ),
+        (
+            "placement = \"centre\"\n",
+            "",
+            "teammate.placement",
+            "placement = \"centre\"",
+        ),
+        (
+            "at = \"den\"",
+            "at = \"lair\"",
+            "teammate.at",
+            "'lair' is not goal, start or a region of the map",
+        ),
+        (
+            "otherwise = \"approach teammate / 2\"",
+            "otherwise = \"approach teammate / 2\"\n[teammate]\nat = \"den\"",
+            "",
+            "duplicate key",
+        ),
+    ] {
+        assert!(WANDERER.contains(from), "{from}");
+        let error = refusal(&WANDERER.replace(from, to));
+        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+        assert!(error.contains(key), "{to}: {error}");
+        assert!(error.contains(expected), "{to}: {error}");
+    }
+    // Without a teammate, neither its ending nor its approach means anything.
+    let alone: String = WANDERER.split("[teammate]").next().unwrap().to_string()
+        + &WANDERER[WANDERER.find("[end]").unwrap()..];
+    let error = refusal(&alone);
+    assert!(error.contains("end.solved"), "{error}");
+    let error = refusal(&T_MAZE.replace("timeout = \"0\"", "timeout = \"approach teammate\""));
+    assert!(error.contains("fitness.timeout"), "{error}");
+    assert!(
+        error.contains("approach teammate needs a [teammate]"),
+        "{error}"
+    );
 }

@@ -289,6 +289,23 @@ pub fn build(
     let teammate = scenario.teammate.as_ref().map(|mate| {
         let pose = if mate.branch_end {
             teammate_at_branch_end(goal.as_ref().expect("checked when compiled"), task)
+        } else if mate.centre {
+            // The region's first cell, facing as the robot does (a wanderer draws its own).
+            let region = match (&mate.region, mate.at_goal) {
+                (Some(region), _) => Some(region),
+                (None, true) => plan.goal.as_ref(),
+                (None, false) => plan.start.as_ref(),
+            };
+            let cells = cells.as_ref().expect("cell worlds");
+            let at = cells.center(region_cell(
+                scenario,
+                region.expect("checked when compiled"),
+            ));
+            Pose {
+                x: at[0],
+                y: at[1],
+                heading: facing.0,
+            }
         } else {
             let cells = cells.as_ref().expect("cell worlds");
             let end = match &path {

@@ -201,12 +201,31 @@ pub struct TeammatePlan {
     pub at_goal: bool,
     /// In the goal cell towards its dead end (true), or behind the start by `behind_m`.
     pub branch_end: bool,
+    /// At the centre of the first cell of the region `at_goal` or `region` names (`placement =
+    /// "centre"`).
+    pub centre: bool,
+    /// A region of the map named by `teammate.at` instead of the variant's goal or start.
+    pub region: Option<String>,
     /// Behind the robot's start, metres.
     pub behind_m: f32,
     /// Whether it follows from the start.
     pub following: bool,
-    /// Whether it follows at all (else it stays put).
-    pub follows: bool,
+    /// How it moves.
+    pub behaviour: TeammateBehaviour,
+}
+
+/// How the teammate moves (`teammate.behaviour`). Every behaviour is *met* when the robot comes
+/// within `robot.near_robot_range` of it (`teammate following` holds from then on); they differ
+/// in what it does before and after.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TeammateBehaviour {
+    /// Waits where it is; once met, follows the robot's trail, keeping a gap.
+    Follow,
+    /// Never moves, met or not.
+    Fixed,
+    /// Walks at random on its own (its own stream, never into a solid) until met, then follows
+    /// as `Follow` does.
+    Wander,
 }
 
 /// When a sample is solved.
@@ -220,6 +239,8 @@ pub enum Solved {
     TeammateInRoom,
     /// Within `near_m` of a light.
     Near(usize),
+    /// The teammate met: the robot came within `robot.near_robot_range` of it.
+    TeammateMet,
 }
 
 /// One phase of the derived fitness.
@@ -843,43 +864,71 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let teammate = match &file.teammate {
         None => None,
         Some(t) => {
-            let at_goal = match t.at.as_str() {
-                "goal" => true,
-                "start" => false,
+            let (at_goal, region) = match t.at.as_str() {
+                "goal" => (true, None),
+                "start" => (false, None),
+                region if cell_region(region) => (false, Some(region.to_string())),
                 other => {
                     return Err(error(
                         "teammate.at",
-                        format!("'{other}' is not goal or start"),
+                        format!("'{other}' is not goal, start or a region of the map"),
                     ));
                 }
             };
-            let branch_end = match t.placement.as_deref() {
-                None => false,
-                Some("branch_end") => true,
+            let (branch_end, centre) = match t.placement.as_deref() {
+                None => (false, false),
+                Some("branch_end") => (true, false),
+                Some("centre") => (false, true),
                 Some(other) => {
                     return Err(error(
                         "teammate.placement",
-                        format!("'{other}' is not branch_end"),
+                        format!("'{other}' is not branch_end or centre"),
                     ));
                 }
             };
-            let follows = match t.behaviour.as_deref() {
-                None | Some("follow") => true,
-                Some("fixed") => false,
+            if region.is_some() && !centre {
+                return Err(error(
+                    "teammate.placement",
+                    format!(
+                        "a teammate at the region '{}' stands at its centre: say \
+                         `placement = \"centre\"`",
+                        t.at
+                    ),
+                ));
+            }
+            if branch_end && !at_goal {
+                return Err(error(
+                    "teammate.placement",
+                    "'branch_end' is the goal's dead end: it needs `at = \"goal\"`".into(),
+                ));
+            }
+            let behaviour = match t.behaviour.as_deref() {
+                None | Some("follow") => TeammateBehaviour::Follow,
+                Some("fixed") => TeammateBehaviour::Fixed,
+                Some("wander") => TeammateBehaviour::Wander,
                 Some(other) => {
                     return Err(error(
                         "teammate.behaviour",
-                        format!("'{other}' is not follow or fixed"),
+                        format!("'{other}' is not follow, fixed or wander"),
                     ));
                 }
             };
-            let regions_named = variants.iter().all(|v| {
-                if at_goal {
-                    v.goal.is_some()
-                } else {
-                    v.start.is_some()
-                }
-            });
+            if behaviour == TeammateBehaviour::Wander && t.following {
+                return Err(error(
+                    "teammate.following",
+                    "a wandering teammate that follows from the start would never wander: \
+                     leave `following` out"
+                        .into(),
+                ));
+            }
+            let regions_named = region.is_some()
+                || variants.iter().all(|v| {
+                    if at_goal {
+                        v.goal.is_some()
+                    } else {
+                        v.start.is_some()
+                    }
+                });
             if !regions_named {
                 return Err(error(
                     "teammate.at",
@@ -889,9 +938,11 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             Some(TeammatePlan {
                 at_goal,
                 branch_end,
+                centre,
+                region,
                 behind_m: t.behind_m,
                 following: t.following,
-                follows,
+                behaviour,
             })
         }
     };
@@ -914,6 +965,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         "teammate in room" if world == WorldKind::RoomBelowMap && teammate.is_some() => {
             Solved::TeammateInRoom
         }
+        "teammate met" if teammate.is_some() => Solved::TeammateMet,
         other => {
             if let Some(name) = other.strip_prefix("near ") {
                 let light = light_index(name.trim()).ok_or_else(|| {
@@ -929,8 +981,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                     "end.solved",
                     format!(
                         "'{other}' does not fit this world: use 'in goal', 'beyond room.exit' \
-                         (a room), 'teammate in room' (a room below a map, with a teammate) or \
-                         'near LIGHT'"
+                         (a room), 'teammate in room' (a room below a map, with a teammate), \
+                         'teammate met' (with a teammate) or 'near LIGHT'"
                     ),
                 ));
             }
@@ -995,6 +1047,12 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             return Err(error(
                 &format!("fitness.{key}"),
                 "approach room.exit needs a room".into(),
+            ));
+        }
+        if formula.uses(&|q| *q == Quantity::ApproachTeammate) && teammate.is_none() {
+            return Err(error(
+                &format!("fitness.{key}"),
+                "approach teammate needs a [teammate]".into(),
             ));
         }
         if formula.uses(&|q| *q == Quantity::Derived) && file.phases.is_empty() {
