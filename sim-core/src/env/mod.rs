@@ -10,6 +10,7 @@ pub mod cells;
 pub mod corridor;
 #[cfg(test)]
 pub mod maze;
+pub mod regions;
 pub mod room;
 
 use crate::rng::SimRng;
