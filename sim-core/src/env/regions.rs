@@ -5,7 +5,6 @@
 //! which cell the robot's centre is in), `room` the room's interior.
 
 use super::Environment;
-use crate::scenario::WorldKind;
 use crate::task::TaskConfig;
 
 /// A named region: its name, as conditions spell it, and the rectangles `[x0, y0, x1, y1]` it
@@ -74,7 +73,7 @@ pub fn named_regions(task: &TaskConfig, env: &Environment) -> Vec<NamedRegion> {
             ]],
         });
     }
-    if matches!(scenario.world, WorldKind::Corridor(_))
+    if scenario.world.corridor().is_some()
         && let Some(goal) = &env.ground.goal
     {
         // A generated corridor's path is its cells from 0: the first is its start.

@@ -112,6 +112,26 @@ pub enum WorldKind {
     Map,
     /// A generated room under the map, its exit the map's entrance.
     RoomBelowMap,
+    /// A generated room under a generated corridor, its exit the corridor's first cell.
+    RoomBelowCorridor(crate::env::corridor::Turn),
+}
+
+impl WorldKind {
+    /// Whether the world holds a generated room.
+    pub fn has_room(&self) -> bool {
+        matches!(
+            self,
+            WorldKind::Room | WorldKind::RoomBelowMap | WorldKind::RoomBelowCorridor(_)
+        )
+    }
+
+    /// The generated corridor's turn, if the world holds one.
+    pub fn corridor(&self) -> Option<crate::env::corridor::Turn> {
+        match self {
+            WorldKind::Corridor(turn) | WorldKind::RoomBelowCorridor(turn) => Some(*turn),
+            _ => None,
+        }
+    }
 }
 
 /// A map, compiled: its cells and the regions its legend names.
@@ -383,16 +403,16 @@ impl Scenario {
     /// How many values a sample's reported variant can take: the variants, or for a turning
     /// corridor its shape (bend, T end, side junction), which is drawn, never asked for.
     pub fn reported_variants(&self) -> u32 {
-        match self.world {
-            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => 3,
+        match self.world.corridor() {
+            Some(turn) if turn != crate::env::corridor::Turn::Straight => 3,
             _ => self.n_variants(),
         }
     }
 
     /// The name of variant `idx` as reports show it.
     pub fn variant_label(&self, idx: u32) -> Option<String> {
-        match self.world {
-            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => Some(
+        match self.world.corridor() {
+            Some(turn) if turn != crate::env::corridor::Turn::Straight => Some(
                 ["L-bend", "T-junction", "side junction"]
                     .get(idx as usize)
                     .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
@@ -609,25 +629,40 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // The world.
     let w = &file.world;
+    let turn = |turn: &str| match turn {
+        "straight" => Ok(crate::env::corridor::Turn::Straight),
+        "left" => Ok(crate::env::corridor::Turn::Left),
+        "right" => Ok(crate::env::corridor::Turn::Right),
+        other => Err(error(
+            "world.corridor",
+            format!("'{other}' is not straight, left or right"),
+        )),
+    };
     let world = match (&w.map, w.room.as_deref(), w.corridor.as_deref()) {
         (None, Some("standalone"), None) => WorldKind::Room,
         (Some(_), Some("below entrance"), None) => WorldKind::RoomBelowMap,
         (Some(_), None, None) => WorldKind::Map,
-        (None, None, Some(turn)) => WorldKind::Corridor(match turn {
-            "straight" => crate::env::corridor::Turn::Straight,
-            "left" => crate::env::corridor::Turn::Left,
-            "right" => crate::env::corridor::Turn::Right,
-            other => {
-                return Err(error(
-                    "world.corridor",
-                    format!("'{other}' is not straight, left or right"),
-                ));
-            }
-        }),
+        (None, None, Some(t)) => WorldKind::Corridor(turn(t)?),
+        (None, Some("below corridor"), Some(t)) => WorldKind::RoomBelowCorridor(turn(t)?),
+        (None, Some(room), Some(_)) => {
+            return Err(error(
+                "world.room",
+                format!("'{room}': a room with a corridor is \"below corridor\""),
+            ));
+        }
+        (Some(_), _, Some(_)) => {
+            return Err(error(
+                "world.corridor",
+                "a map and a generated corridor do not join: give one of them".into(),
+            ));
+        }
         (None, Some(room), None) => {
             return Err(error(
                 "world.room",
-                format!("'{room}': a room alone is \"standalone\""),
+                format!(
+                    "'{room}': a room alone is \"standalone\" (\"below corridor\" needs a \
+                     corridor)"
+                ),
             ));
         }
         (Some(_), Some(room), None) => {
@@ -639,8 +674,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         _ => {
             return Err(error(
                 "world",
-                "give a map, a room (\"standalone\"), a corridor, or a map and a room \
-                 (\"below entrance\")"
+                "give a map, a room (\"standalone\"), a corridor, a map and a room \
+                 (\"below entrance\"), or a corridor and a room (\"below corridor\")"
                     .into(),
             ));
         }
@@ -686,10 +721,10 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         .as_ref()
         .map(|m| m.regions.keys().cloned().collect())
         .unwrap_or_default();
-    if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) {
+    if world.has_room() {
         region_names.extend(["room".to_string(), "room.exit".to_string()]);
     }
-    if matches!(world, WorldKind::Corridor(_)) {
+    if world.corridor().is_some() {
         region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
     }
     let mut rect_regions = BTreeMap::new();
@@ -799,10 +834,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     // Start.
     let place_decl = &file.place;
     let at = match place_decl.at.as_str() {
-        "room.start" if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) => {
-            PlaceAt::RoomStart
-        }
-        "corridor.start" if matches!(world, WorldKind::Corridor(_)) => PlaceAt::CorridorStart,
+        "room.start" if world.has_room() => PlaceAt::RoomStart,
+        "corridor.start" if world.corridor().is_some() => PlaceAt::CorridorStart,
         "start" => {
             if variants.iter().any(|v| v.start.is_none()) {
                 return Err(error(
@@ -951,7 +984,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let end = &file.end;
     let solved = match end.solved.as_str() {
         "in goal" => {
-            let goals = matches!(world, WorldKind::Corridor(_))
+            let goals = world.corridor().is_some()
                 || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
             if !goals {
                 return Err(error(
@@ -991,7 +1024,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let wrong_branch = match end.wrong_branch.as_deref() {
         None => false,
         Some("off path") => {
-            let paths = matches!(world, WorldKind::Corridor(_))
+            let paths = world.corridor().is_some()
                 || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
             if !paths {
                 return Err(error(
@@ -1041,9 +1074,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 "progress needs a goal in cells ('in goal')".into(),
             ));
         }
-        if formula.uses(&|q| *q == Quantity::ApproachExit)
-            && !matches!(world, WorldKind::Room | WorldKind::RoomBelowMap)
-        {
+        if formula.uses(&|q| *q == Quantity::ApproachExit) && !world.has_room() {
             return Err(error(
                 &format!("fitness.{key}"),
                 "approach room.exit needs a room".into(),
