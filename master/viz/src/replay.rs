@@ -586,7 +586,12 @@ fn render(
         draw_animation(&mut doc, trace, &transform, radius_px);
     }
     // Region names go over everything in the scene, so no wall or robot hides one.
-    draw_region_labels(&mut doc, regions, &transform);
+    draw_region_labels(
+        &mut doc,
+        regions,
+        &transform,
+        marks_to_avoid(trace, &transform, radius_px),
+    );
     doc.close();
 
     // Caption, legend and key.
@@ -728,20 +733,7 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 ])
                 .attr("fill", "#009E73"),
         );
-        // The label sits beside the arrow, on the side away from the robot's start, where
-        // there is usually open floor or empty page.
-        let side = [-uy, ux];
-        let label_at = [
-            to[0] + side[0] * 14.0 - ux * 6.0,
-            to[1] + side[1] * 14.0 - uy * 6.0 + 4.0,
-        ];
-        let anchor = if side[0] < -0.3 {
-            "end"
-        } else if side[0] > 0.3 {
-            "start"
-        } else {
-            "middle"
-        };
+        let (label_at, anchor) = exit_label_place(to, [ux, uy]);
         doc.text(
             halo_label("exit-label", label_at[0], label_at[1], anchor),
             "exit",
@@ -831,6 +823,57 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
     doc.close();
 }
 
+/// Where the exit arrow's label goes, given the arrow's tip (pixels) and its unit direction
+/// on the page: beside the arrow, on the side away from the robot's start, where there is
+/// usually open floor or empty page. Returns the text position and anchor.
+fn exit_label_place(to: [f64; 2], [ux, uy]: [f64; 2]) -> ([f64; 2], &'static str) {
+    let side = [-uy, ux];
+    let label_at = [
+        to[0] + side[0] * 14.0 - ux * 6.0,
+        to[1] + side[1] * 14.0 - uy * 6.0 + 4.0,
+    ];
+    let anchor = if side[0] < -0.3 {
+        "end"
+    } else if side[0] > 0.3 {
+        "start"
+    } else {
+        "middle"
+    };
+    (label_at, anchor)
+}
+
+/// The page boxes `[x0, y0, x1, y1]` of the other labels and marks region names should keep
+/// clear of: the start's disc and its label, and the exit arrow's label.
+fn marks_to_avoid(trace: &Trace, transform: &SceneTransform, radius_px: f64) -> Vec<[f64; 4]> {
+    let mut boxes = Vec::new();
+    let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
+    if finite(start.position()) {
+        let at = transform.apply(start.position());
+        let half = radius_px.max(0.5 * text_width("start", LABEL_FONT) + 2.0);
+        boxes.push([
+            at[0] - half,
+            at[1] - radius_px,
+            at[0] + half,
+            at[1] + radius_px + 18.0,
+        ]);
+    }
+    if let Some((centre, outward)) = trace.exit.filter(|(c, o)| finite(*c) && finite(*o)) {
+        let from = transform.apply([centre[0] - 0.05 * outward[0], centre[1] - 0.05 * outward[1]]);
+        let to = transform.apply([centre[0] + 0.14 * outward[0], centre[1] + 0.14 * outward[1]]);
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        let length = dx.hypot(dy).max(1e-6);
+        let (at, anchor) = exit_label_place(to, [dx / length, dy / length]);
+        let width = text_width("exit", LABEL_FONT) + 4.0;
+        let x0 = match anchor {
+            "end" => at[0] - width,
+            "start" => at[0],
+            _ => at[0] - 0.5 * width,
+        };
+        boxes.push([x0, at[1] - LABEL_FONT, x0 + width, at[1] + 3.0]);
+    }
+    boxes
+}
+
 /// Light fill, one palette colour per region, of every rectangle of every named region: under
 /// the walls, so a region's cells read as tinted floor.
 fn draw_region_shades(doc: &mut SvgDocument, regions: &[NamedRegion], transform: &SceneTransform) {
@@ -872,16 +915,23 @@ fn draw_region_shades(doc: &mut SvgDocument, regions: &[NamedRegion], transform:
     doc.close();
 }
 
-/// Each region's name, at the middle of its rectangle nearest the centre of all its
-/// rectangles (a region of scattered cells is named on one of them, not between them). A
-/// label that would overlap one already placed moves up or down by a line at a time, up to
-/// three lines, and otherwise stays where it first went.
-fn draw_region_labels(doc: &mut SvgDocument, regions: &[NamedRegion], transform: &SceneTransform) {
+/// Each region's name, on its rectangle nearest the centre of all its rectangles (a region of
+/// scattered cells is named on one of them, not between them): in the middle of a small one,
+/// in the top-left corner of one large enough to hold a few lines (a room, whose middle is
+/// where the robot starts). A label that would overlap another label or a mark in `avoid`
+/// moves down or up by a line at a time, up to three lines, and otherwise stays where it first
+/// went.
+fn draw_region_labels(
+    doc: &mut SvgDocument,
+    regions: &[NamedRegion],
+    transform: &SceneTransform,
+    avoid: Vec<[f64; 4]>,
+) {
     if regions.is_empty() {
         return;
     }
     let line = LABEL_FONT + 3.0;
-    let mut placed: Vec<[f64; 4]> = Vec::new();
+    let mut placed: Vec<[f64; 4]> = avoid;
     doc.open(Tag::new("g").class("region-labels"));
     for region in regions {
         let rects: Vec<&[f32; 4]> = region
@@ -900,15 +950,23 @@ fn draw_region_labels(doc: &mut SvgDocument, regions: &[NamedRegion], transform:
         });
         let nearest = rects
             .iter()
-            .map(|r| mid(r))
             .min_by(|a, b| {
-                let da = (a[0] - centre[0]).hypot(a[1] - centre[1]);
-                let db = (b[0] - centre[0]).hypot(b[1] - centre[1]);
+                let (ma, mb) = (mid(a), mid(b));
+                let da = (ma[0] - centre[0]).hypot(ma[1] - centre[1]);
+                let db = (mb[0] - centre[0]).hypot(mb[1] - centre[1]);
                 da.total_cmp(&db)
             })
             .expect("at least one rectangle");
-        let at = transform.apply(nearest);
         let half_width = 0.5 * text_width(&region.name, LABEL_FONT) + 2.0;
+        let top_left = transform.apply([nearest[0], nearest[3]]);
+        let bottom_right = transform.apply([nearest[2], nearest[1]]);
+        let large = bottom_right[0] - top_left[0] > 2.0 * half_width + 16.0
+            && bottom_right[1] - top_left[1] > 5.0 * line;
+        let at = if large {
+            [top_left[0] + 8.0 + half_width, top_left[1] + 4.0 + line]
+        } else {
+            transform.apply(mid(nearest))
+        };
         let box_at = |dy: f64| {
             [
                 at[0] - half_width,
@@ -922,11 +980,13 @@ fn draw_region_labels(doc: &mut SvgDocument, regions: &[NamedRegion], transform:
                 .iter()
                 .any(|p| b[0] < p[2] && p[0] < b[2] && b[1] < p[3] && p[1] < b[3])
         };
-        let dy = [0.0, -1.0, 1.0, -2.0, 2.0, -3.0, 3.0]
+        // A corner label is already on its line; a middle one is centred on the rectangle.
+        let base = if large { 0.0 } else { 0.5 * LABEL_FONT - 2.0 };
+        let dy = [0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0]
             .iter()
-            .map(|k| 0.5 * LABEL_FONT - 2.0 + k * line)
+            .map(|k| base + k * line)
             .find(|&dy| !overlaps(&box_at(dy)))
-            .unwrap_or(0.5 * LABEL_FONT - 2.0);
+            .unwrap_or(base);
         placed.push(box_at(dy));
         doc.text(
             halo_label("region-label", at[0], at[1] + dy, "middle").attr("data-name", &region.name),
@@ -1645,10 +1705,24 @@ mod tests {
                     [x - half, y - LABEL_FONT + 2.0, x + half, y]
                 })
                 .collect();
+            let overlap = |a: &[f64; 4], b: &[f64; 4]| {
+                a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+            };
             for (i, a) in boxes.iter().enumerate() {
                 for b in &boxes[i + 1..] {
-                    let overlap = a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
-                    assert!(!overlap, "{name}: labels overlap: {a:?} {b:?}");
+                    assert!(!overlap(a, b), "{name}: labels overlap: {a:?} {b:?}");
+                }
+            }
+            // Nor do they cover the start's label.
+            for start in with_class(&elements, "start-label") {
+                let half = 0.5 * text_width(&start.text, LABEL_FONT);
+                let (x, y) = (start.number("x"), start.number("y"));
+                let start_box = [x - half, y - LABEL_FONT + 2.0, x + half, y];
+                for b in &boxes {
+                    assert!(
+                        !overlap(&start_box, b),
+                        "{name}: {b:?} covers the start label"
+                    );
                 }
             }
         }
