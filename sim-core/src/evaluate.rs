@@ -9,8 +9,8 @@ use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scenario::formula::{Atom, Condition, Quantity};
-use crate::scenario::{Scenario, Solved, Trigger, ending_slot};
-use crate::scene::{Cone, ConeLanes, Rect};
+use crate::scenario::{Scenario, Solved, TeammateBehaviour, Trigger, ending_slot};
+use crate::scene::{Cone, ConeLanes, Rect, Scene};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
 use crate::task::{ConfigError, TaskConfig};
 use serde::{Deserialize, Serialize};
@@ -290,6 +290,13 @@ impl Evaluator {
         }
     }
 
+    /// The world a sample starts in, built from its environment stream as its evaluation
+    /// builds it: for pictures of a scenario (its named regions, `env::regions`).
+    pub fn environment(&self, sample: Sample) -> Environment {
+        let mut env_rng = stream_rng(sample.seed, Stream::Environment);
+        env::build(&self.task, &self.statics, sample.variant, &mut env_rng)
+    }
+
     /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
     /// boundary rays, and the range; for drawing.
     pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
@@ -418,17 +425,30 @@ impl<'e> SampleRun<'e> {
         phase_child: [usize; N_SUB_TASKS],
     ) -> SampleRun<'e> {
         let task = &evaluator.task;
-        let mut env_rng = stream_rng(sample.seed, Stream::Environment);
-        let mut env = env::build(task, &evaluator.statics, sample.variant, &mut env_rng);
+        let mut env = evaluator.environment(sample);
         let ir_setup: IrSensorSetup = task
             .ir
             .draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
         let noise: SimRng = stream_rng(sample.seed, Stream::Noise);
         let flash = FlashDetector::from_config(&task.light);
         let robot = env.start;
-        let teammate = env
+        let behaviour = task
+            .scenario
             .teammate
-            .map(|(pose, following)| Teammate::new(pose, following, task.max_cycles()));
+            .as_ref()
+            .map_or(TeammateBehaviour::Follow, |plan| plan.behaviour);
+        let teammate = env.teammate.map(|(pose, following)| {
+            let mut mate = Teammate::new(pose, following, task.max_cycles());
+            mate.behaviour = behaviour;
+            if behaviour == TeammateBehaviour::Wander {
+                // Only a wanderer draws from this stream, so no other sample's draws move.
+                mate.walk = Some(Walk::new(
+                    &mut mate.pose,
+                    stream_rng(sample.seed, Stream::Teammate),
+                ));
+            }
+            mate
+        });
         let lights: Vec<LiveLight> = env
             .lights
             .iter()
@@ -442,7 +462,11 @@ impl<'e> SampleRun<'e> {
             .collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
         let ground = std::mem::take(&mut env.ground);
-        let judge = Judge::new(&task.scenario, ground, &env.lights, robot, phase_child);
+        let mut judge = Judge::new(&task.scenario, ground, &env.lights, robot, phase_child);
+        if let Some(mate) = &teammate {
+            let d = robot.distance_to(mate.pose.position());
+            judge.teammate_approach = (d, d);
+        }
         SampleRun {
             evaluator,
             env,
@@ -594,6 +618,8 @@ impl<'e> SampleRun<'e> {
                 &self.robot,
                 robot_config.v_max * robot_config.cycle_seconds,
                 robot_config.near_robot_range,
+                &self.env.scene,
+                robot_config.radius,
             );
         }
         if collided && task.end_on_collision {
@@ -686,13 +712,18 @@ fn trigger_lights(
     }
 }
 
-/// The preprogrammed teammate: waits until the robot comes within the near-robot range, then
-/// follows the robot's own trail (so it never cuts a corner into a wall), keeping a gap.
+/// The preprogrammed teammate: waits (or, wandering, walks at random) until the robot comes
+/// within the near-robot range, then follows the robot's own trail (so it never cuts a corner
+/// into a wall), keeping a gap. A fixed teammate is met the same way but never moves.
 #[derive(Debug)]
 struct Teammate {
     pose: Pose,
+    /// Whether it has been met (and so, unless fixed, follows).
     following: bool,
     trail: VecDeque<[f32; 2]>,
+    behaviour: TeammateBehaviour,
+    /// A wanderer's walk, until it is met.
+    walk: Option<Walk>,
 }
 
 impl Teammate {
@@ -701,16 +732,24 @@ impl Teammate {
             pose,
             following,
             trail: VecDeque::with_capacity(max_cycles as usize + 1),
+            behaviour: TeammateBehaviour::Follow,
+            walk: None,
         }
     }
 
-    fn update(&mut self, robot: &Pose, step: f32, near_range: f32) {
+    fn update(&mut self, robot: &Pose, step: f32, near_range: f32, scene: &Scene, radius: f32) {
         if !self.following {
             if self.pose.distance_to(robot.position()) < near_range {
                 self.following = true;
             } else {
+                if let Some(walk) = self.walk.as_mut() {
+                    walk.step(&mut self.pose, WANDER_SPEED_SHARE * step, scene, radius);
+                }
                 return;
             }
+        }
+        if self.behaviour == TeammateBehaviour::Fixed {
+            return;
         }
         self.trail.push_back(robot.position());
         let mut budget = step;
@@ -737,6 +776,58 @@ impl Teammate {
     }
 }
 
+/// A wanderer moves at this share of the robot's top speed: slow enough for a robot to catch.
+const WANDER_SPEED_SHARE: f32 = 0.5;
+/// A wanderer keeps a heading for a whole number of cycles drawn uniformly from this range...
+const WANDER_LEG_CYCLES: std::ops::RangeInclusive<u32> = 10..=40;
+/// ...then turns by an angle drawn uniformly from plus or minus this, radians (90 degrees).
+const WANDER_TURN: f32 = std::f32::consts::FRAC_PI_2;
+
+/// A wandering teammate's random walk, drawn from its own stream: straight legs of random
+/// length, a random turn between legs, and when the next step would touch a solid (the robot's
+/// own disc test) no move but a turn away, by 90 to 270 degrees.
+#[derive(Debug)]
+struct Walk {
+    rng: SimRng,
+    /// Cycles left on the current leg.
+    leg_left: u32,
+}
+
+impl Walk {
+    /// Starts a walk: the first heading and the first leg's length are its first draws.
+    fn new(pose: &mut Pose, mut rng: SimRng) -> Walk {
+        use rand::RngExt;
+        pose.heading = rng.random_range(-std::f32::consts::PI..std::f32::consts::PI);
+        let leg_left = rng.random_range(WANDER_LEG_CYCLES);
+        Walk { rng, leg_left }
+    }
+
+    fn step(&mut self, pose: &mut Pose, step: f32, scene: &Scene, radius: f32) {
+        use rand::RngExt;
+        use std::f32::consts::PI;
+        if self.leg_left == 0 {
+            pose.heading =
+                wrap_angle(pose.heading + self.rng.random_range(-WANDER_TURN..=WANDER_TURN));
+            self.leg_left = self.rng.random_range(WANDER_LEG_CYCLES);
+        }
+        self.leg_left -= 1;
+        let (sin_h, cos_h) = pose.heading.sin_cos();
+        let next = [pose.x + step * cos_h, pose.y + step * sin_h];
+        if scene.disc_hits(next, radius) {
+            pose.heading = wrap_angle(pose.heading + self.rng.random_range(0.5 * PI..=1.5 * PI));
+        } else {
+            pose.x = next[0];
+            pose.y = next[1];
+        }
+    }
+}
+
+/// An angle in [-pi, pi).
+fn wrap_angle(angle: f32) -> f32 {
+    use std::f32::consts::PI;
+    (angle + PI).rem_euclid(2.0 * PI) - PI
+}
+
 /// The scenario's bookkeeping of a sample: what it has reached, how close it came, which
 /// child each phase asks for.
 #[derive(Debug)]
@@ -752,6 +843,8 @@ struct Judge<'a> {
     reached: [bool; 8],
     /// Whether the teammate has followed at some cycle.
     found: bool,
+    /// The robot's distance to the teammate at the start, and the closest approach so far.
+    teammate_approach: (f32, f32),
     /// The child each phase asks for, as an output index of the root.
     phase_child: [usize; N_SUB_TASKS],
 }
@@ -796,6 +889,7 @@ impl<'a> Judge<'a> {
                 .collect(),
             reached: [false; 8],
             found: false,
+            teammate_approach: (f32::INFINITY, f32::INFINITY),
             phase_child,
         }
     }
@@ -882,6 +976,10 @@ impl<'a> Judge<'a> {
             }
         }
         self.found |= teammate.is_some_and(|mate| mate.following);
+        if let Some(mate) = teammate {
+            let closest = &mut self.teammate_approach.1;
+            *closest = closest.min(robot.distance_to(mate.pose.position()));
+        }
         if scenario.wrong_branch
             && (scenario.wrong_branch_ends || task.end_on_wrong_branch)
             && let Some(goal) = &self.ground.goal
@@ -907,6 +1005,7 @@ impl<'a> Judge<'a> {
                     })
             }
             Solved::Near(light) => self.truth(&Atom::Near(*light), robot, teammate),
+            Solved::TeammateMet => self.found,
         };
         solved.then_some(Ending::Solved)
     }
@@ -947,6 +1046,16 @@ impl<'a> Judge<'a> {
                             1.0
                         }
                     })
+            }
+            Quantity::ApproachTeammate => {
+                let (start, closest) = self.teammate_approach;
+                if !start.is_finite() {
+                    0.0
+                } else if start > 0.0 {
+                    ((start - closest) / start).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
             }
             Quantity::Derived => sub_task_choices.derived_fitness(),
         };

@@ -37,6 +37,9 @@ pub enum Stream {
     SensorSetup = 2,
     /// Per-cycle sensor and wheel noise.
     Noise = 3,
+    /// A wandering teammate's own walk (its first heading, how long it keeps each heading,
+    /// its turns). Its own stream, so that adding the walk left every other draw as it was.
+    Teammate = 4,
 }
 
 /// Creates the generator for one stream of the sample with seed `sample_seed`.
@@ -93,7 +96,8 @@ mod tests {
     }
 
     /// A sample's stream k is the generator seeded with `derive_seed(sample seed, [k])`, k = 1
-    /// environment, 2 sensor setup, 3 noise: the numbering is part of every trajectory.
+    /// environment, 2 sensor setup, 3 noise, 4 teammate: the numbering is part of every
+    /// trajectory.
     #[test]
     fn streams_are_numbered_and_independent() {
         use rand::RngExt;
@@ -101,6 +105,7 @@ mod tests {
             (Stream::Environment, 1),
             (Stream::SensorSetup, 2),
             (Stream::Noise, 3),
+            (Stream::Teammate, 4),
         ] {
             let mut got = stream_rng(42, stream);
             let mut expected = SimRng::seed_from_u64(derive_seed(42, &[k]));
@@ -116,6 +121,7 @@ mod tests {
             first(42, Stream::Environment),
             first(43, Stream::Environment)
         );
+        assert_ne!(first(42, Stream::Teammate), first(42, Stream::Noise));
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! The lockstep evaluator against the scalar reference: on random controller trees (depth up to
 //! three, any input groups and sizes, with and without a minimum time on, with and without a
-//! free node), every shipped scenario and the example T-maze, random seeds and variants, cycle
-//! limits and collision rules, both must give the same outcome for every sample, fitness to the
-//! bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
+//! free node), every shipped scenario, the example T-maze and the wandering teammate's example,
+//! random seeds and variants, cycle limits and collision rules, both must give the same outcome
+//! for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
 //! lanes left empty.
 
 use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
@@ -15,8 +15,10 @@ use rand::{RngExt, SeedableRng};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
+/// A wandering teammate: its walk lives in the per-sample state both evaluators share.
+const FIND_WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
 
-/// Every task the property draws from: the shipped scenarios and the example.
+/// Every task the property draws from: the shipped scenarios and the examples.
 fn tasks() -> Vec<TaskConfig> {
     let mut tasks: Vec<TaskConfig> = Scenario::shipped_names()
         .into_iter()
@@ -24,6 +26,9 @@ fn tasks() -> Vec<TaskConfig> {
         .collect();
     tasks.push(TaskConfig::from_scenario(Arc::new(
         Scenario::parse(T_MAZE, "t_maze.toml").expect("the example compiles"),
+    )));
+    tasks.push(TaskConfig::from_scenario(Arc::new(
+        Scenario::parse(FIND_WANDERER, "find_wanderer.toml").expect("the example compiles"),
     )));
     tasks
 }

@@ -7,7 +7,7 @@ use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
-const EXAMPLES: [(&str, &str); 4] = [
+const EXAMPLES: [(&str, &str); 6] = [
     ("t_maze", T_MAZE),
     (
         "triple_t_maze",
@@ -20,6 +20,14 @@ const EXAMPLES: [(&str, &str); 4] = [
     (
         "room_to_yard",
         include_str!("../../scenarios/examples/room_to_yard.toml"),
+    ),
+    (
+        "find_wanderer",
+        include_str!("../../scenarios/examples/find_wanderer.toml"),
+    ),
+    (
+        "room_to_corridor",
+        include_str!("../../scenarios/examples/room_to_corridor.toml"),
     ),
 ];
 
@@ -271,5 +279,149 @@ mod formulas {
             let slack = 1e-4 * (1.0 + high.abs());
             prop_assert!(value >= low - slack && value <= high + slack, "{text}: {value} outside [{low}, {high}]");
         }
+    }
+}
+
+#[test]
+fn bad_teammates_are_refused_naming_the_key() {
+    const WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
+    for (from, to, key, expected) in [
+        (
+            "behaviour = \"wander\"",
+            "behaviour = \"dance\"",
+            "teammate.behaviour",
+            "'dance' is not follow, fixed or wander",
+        ),
+        (
+            "behaviour = \"wander\"",
+            "behaviour = \"wander\"\nfollowing = true",
+            "teammate.following",
+            "would never wander",
+        ),
+        (
+            "placement = \"centre\"\n",
+            "",
+            "teammate.placement",
+            "placement = \"centre\"",
+        ),
+        (
+            "at = \"den\"",
+            "at = \"lair\"",
+            "teammate.at",
+            "'lair' is not goal, start or a region of the map",
+        ),
+        (
+            "otherwise = \"approach teammate / 2\"",
+            "otherwise = \"approach teammate / 2\"\n[teammate]\nat = \"den\"",
+            "",
+            "duplicate key",
+        ),
+    ] {
+        assert!(WANDERER.contains(from), "{from}");
+        let error = refusal(&WANDERER.replace(from, to));
+        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+        assert!(error.contains(key), "{to}: {error}");
+        assert!(error.contains(expected), "{to}: {error}");
+    }
+    // Without a teammate, neither its ending nor its approach means anything.
+    let alone: String = WANDERER.split("[teammate]").next().unwrap().to_string()
+        + &WANDERER[WANDERER.find("[end]").unwrap()..];
+    let error = refusal(&alone);
+    assert!(error.contains("end.solved"), "{error}");
+    let error = refusal(&T_MAZE.replace("timeout = \"0\"", "timeout = \"approach teammate\""));
+    assert!(error.contains("fitness.timeout"), "{error}");
+    assert!(
+        error.contains("approach teammate needs a [teammate]"),
+        "{error}"
+    );
+}
+
+const ROOM_TO_CORRIDOR: &str = include_str!("../../scenarios/examples/room_to_corridor.toml");
+
+/// The room under a corridor: every sample's room has its exit centred under the corridor's
+/// first cell, on the corridor's lower border, the robot starts in the room clear of every
+/// solid, and the goal is the corridor's end, reached through the exit.
+#[test]
+fn a_room_joins_a_corridor_below_its_first_cell() {
+    let scenario = Scenario::parse(ROOM_TO_CORRIDOR, "room_to_corridor.toml").unwrap();
+    let task = TaskConfig::from_scenario(Arc::new(scenario));
+    assert_eq!(task.validate(), Ok(()));
+    // The corridor's shape is what a sample reports, as for turn_left.
+    assert_eq!(task.scenario.reported_variants(), 3);
+    let evaluator = Evaluator::new(task.clone()).unwrap();
+    let mut shapes = std::collections::BTreeSet::new();
+    for seed in 0..40 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let room = env.ground.room.as_ref().expect("a room");
+        let goal = env.ground.goal.as_ref().expect("a corridor goal");
+        let first = goal.map.center(0);
+        // The first cell's lower border is half a 0.30 m cell below its centre; the room's
+        // exit is on the inner face of a 0.10 m wall centred on it.
+        let exit_y = first[1] - 0.15 - 0.05;
+        assert!((room.exit_center[0] - first[0]).abs() < 1e-5, "seed {seed}");
+        assert!((room.exit_center[1] - exit_y).abs() < 1e-5, "seed {seed}");
+        assert_eq!(room.exit_outward, [0.0, 1.0]);
+        assert!(
+            !env.scene.disc_hits(env.start.position(), task.robot.radius),
+            "seed {seed}: the start touches a solid"
+        );
+        assert!(
+            env.start.y < exit_y,
+            "seed {seed}: the start is in the room"
+        );
+        // The corridor's first cell opens downwards into the room: a point in the gap is free.
+        assert!(
+            !env.scene.disc_hits([first[0], exit_y], 0.05),
+            "seed {seed}"
+        );
+        assert!(goal.map.cell_at(env.start.position()).is_none());
+        shapes.insert(env.variant);
+    }
+    assert_eq!(shapes.len(), 3, "every shape comes up: {shapes:?}");
+    // A robot driving straight from the room's start ends in a collision or a timeout, never
+    // solved: the turn is needed.
+    let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(3));
+    assert_ne!(outcome.ending, Ending::Solved);
+}
+
+#[test]
+fn corridors_join_only_below_a_room() {
+    for (from, to, key, expected) in [
+        (
+            "room = \"below corridor\"",
+            "room = \"standalone\"",
+            "world.room",
+            "\"below corridor\"",
+        ),
+        (
+            "room = \"below corridor\"",
+            "room = \"below entrance\"",
+            "world.room",
+            "a room with a corridor is \"below corridor\"",
+        ),
+        (
+            "room = \"below corridor\"",
+            "room = \"below corridor\"\nmap = \"double_t_maze\"",
+            "world.corridor",
+            "do not join",
+        ),
+        (
+            "room = \"below corridor\"\ncorridor = \"left\"",
+            "room = \"below corridor\"",
+            "world.room",
+            "needs a corridor",
+        ),
+        (
+            "corridor = \"left\"",
+            "corridor = \"up\"",
+            "world.corridor",
+            "'up' is not straight, left or right",
+        ),
+    ] {
+        assert!(ROOM_TO_CORRIDOR.contains(from), "{from}");
+        let error = refusal(&ROOM_TO_CORRIDOR.replace(from, to));
+        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+        assert!(error.contains(key), "{to}: {error}");
+        assert!(error.contains(expected), "{to}: {error}");
     }
 }

@@ -179,13 +179,11 @@ fn draw(args: &DrawArgs) -> Result<()> {
             task.name()
         );
     }
-    let trace = first_cycle(
-        &task,
-        Sample {
-            seed: args.seed,
-            variant: args.variant,
-        },
-    )?;
+    let sample = Sample {
+        seed: args.seed,
+        variant: args.variant,
+    };
+    let trace = first_cycle(&task, sample)?;
     let variant = trace.outcome.variant;
     let variant_name = task
         .scenario
@@ -205,7 +203,10 @@ fn draw(args: &DrawArgs) -> Result<()> {
         ]),
         ..hevo_viz::ReplayOptions::default()
     };
-    let svg = hevo_viz::replay_svg(&trace, &options, &|_| Vec::new());
+    // The regions of the very world the trace ran in: the same sample, so the same draws.
+    let env = Evaluator::new(task.clone())?.environment(sample);
+    let regions = hevo_sim_core::env::regions::named_regions(&task, &env);
+    let svg = hevo_viz::scenario_svg(&trace, &options, &regions);
     hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     crate::outln!("{} -> {}", task.name(), args.out.display());

@@ -14,4 +14,4 @@ pub mod svg;
 pub mod trace_table;
 
 pub use plot::{RunLog, fitness_plot_svg, read_run_logs};
-pub use replay::{IrCone, ReplayOptions, replay_scene_transform, replay_svg};
+pub use replay::{IrCone, ReplayOptions, replay_scene_transform, replay_svg, scenario_svg};

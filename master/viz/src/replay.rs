@@ -7,6 +7,7 @@
 //! simulator.
 
 use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour, text_width};
+use hevo_sim_core::env::regions::NamedRegion;
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scene::RectKind;
 use hevo_sim_core::{Ending, Trace};
@@ -109,7 +110,7 @@ impl SceneTransform {
 }
 
 /// The world rectangle that holds everything the picture draws: `[min_x, min_y, max_x, max_y]`.
-fn world_bounds(trace: &Trace, robot_radius: f64) -> [f64; 4] {
+fn world_bounds(trace: &Trace, regions: &[NamedRegion], robot_radius: f64) -> [f64; 4] {
     let mut bounds = [
         f64::INFINITY,
         f64::INFINITY,
@@ -129,6 +130,10 @@ fn world_bounds(trace: &Trace, robot_radius: f64) -> [f64; 4] {
         for corner in rect.corners() {
             include(corner, 0.0);
         }
+    }
+    for [x0, y0, x1, y1] in regions.iter().flat_map(|r| r.rects.iter().copied()) {
+        include([x0, y0], 0.0);
+        include([x1, y1], 0.0);
     }
     for (position, _) in &trace.lights {
         include(*position, 0.03);
@@ -407,7 +412,7 @@ pub fn replay_scene_transform(trace: &Trace, robot_radius: f32) -> SceneTransfor
     } else {
         0.0375
     };
-    fit(world_bounds(trace, robot_radius)).0
+    fit(world_bounds(trace, &[], robot_radius)).0
 }
 
 /// Draws a replay of one traced sample. `cones` gives the IR cones at a pose (for example
@@ -420,12 +425,29 @@ pub fn replay_svg(
     options: &ReplayOptions,
     cones: &dyn Fn(&Pose) -> Vec<IrCone>,
 ) -> String {
+    render(trace, options, &[], cones)
+}
+
+/// Draws a scenario's world as one traced sample starts in it (`hevo scenario draw`): the
+/// replay's picture with every named region shaded under the walls and labelled by name,
+/// to scale (`regions` from `hevo_sim_core::env::regions::named_regions` for the same sample).
+/// The world is fitted to hold the regions too, so a rectangle outside the walls is seen.
+pub fn scenario_svg(trace: &Trace, options: &ReplayOptions, regions: &[NamedRegion]) -> String {
+    render(trace, options, regions, &|_| Vec::new())
+}
+
+fn render(
+    trace: &Trace,
+    options: &ReplayOptions,
+    regions: &[NamedRegion],
+    cones: &dyn Fn(&Pose) -> Vec<IrCone>,
+) -> String {
     let robot_radius = if options.robot_radius.is_finite() && options.robot_radius > 0.0 {
         options.robot_radius as f64
     } else {
         0.0375
     };
-    let (transform, scene_bottom) = fit(world_bounds(trace, robot_radius));
+    let (transform, scene_bottom) = fit(world_bounds(trace, regions, robot_radius));
     let radius_px = transform.length(robot_radius);
 
     // Consecutive cycles driven by the same leaf form one run, drawn as one polyline.
@@ -509,6 +531,7 @@ pub fn replay_svg(
             .attr("data-origin-x", num_with(transform.origin[0], 4))
             .attr("data-origin-y", num_with(transform.origin[1], 4)),
     );
+    draw_region_shades(&mut doc, regions, &transform);
     draw_world(&mut doc, trace, &transform);
     draw_teammate(&mut doc, trace, &transform, radius_px);
     let faint = options.animate;
@@ -562,6 +585,13 @@ pub fn replay_svg(
     if options.animate {
         draw_animation(&mut doc, trace, &transform, radius_px);
     }
+    // Region names go over everything in the scene, so no wall or robot hides one.
+    draw_region_labels(
+        &mut doc,
+        regions,
+        &transform,
+        marks_to_avoid(trace, &transform, radius_px),
+    );
     doc.close();
 
     // Caption, legend and key.
@@ -703,20 +733,7 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 ])
                 .attr("fill", "#009E73"),
         );
-        // The label sits beside the arrow, on the side away from the robot's start, where
-        // there is usually open floor or empty page.
-        let side = [-uy, ux];
-        let label_at = [
-            to[0] + side[0] * 14.0 - ux * 6.0,
-            to[1] + side[1] * 14.0 - uy * 6.0 + 4.0,
-        ];
-        let anchor = if side[0] < -0.3 {
-            "end"
-        } else if side[0] > 0.3 {
-            "start"
-        } else {
-            "middle"
-        };
+        let (label_at, anchor) = exit_label_place(to, [ux, uy]);
         doc.text(
             halo_label("exit-label", label_at[0], label_at[1], anchor),
             "exit",
@@ -802,6 +819,179 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
             );
         }
         doc.close();
+    }
+    doc.close();
+}
+
+/// Where the exit arrow's label goes, given the arrow's tip (pixels) and its unit direction
+/// on the page: beside the arrow, on the side away from the robot's start, where there is
+/// usually open floor or empty page. Returns the text position and anchor.
+fn exit_label_place(to: [f64; 2], [ux, uy]: [f64; 2]) -> ([f64; 2], &'static str) {
+    let side = [-uy, ux];
+    let label_at = [
+        to[0] + side[0] * 14.0 - ux * 6.0,
+        to[1] + side[1] * 14.0 - uy * 6.0 + 4.0,
+    ];
+    let anchor = if side[0] < -0.3 {
+        "end"
+    } else if side[0] > 0.3 {
+        "start"
+    } else {
+        "middle"
+    };
+    (label_at, anchor)
+}
+
+/// The page boxes `[x0, y0, x1, y1]` of the other labels and marks region names should keep
+/// clear of: the start's disc and its label, and the exit arrow's label.
+fn marks_to_avoid(trace: &Trace, transform: &SceneTransform, radius_px: f64) -> Vec<[f64; 4]> {
+    let mut boxes = Vec::new();
+    let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
+    if finite(start.position()) {
+        let at = transform.apply(start.position());
+        let half = radius_px.max(0.5 * text_width("start", LABEL_FONT) + 2.0);
+        boxes.push([
+            at[0] - half,
+            at[1] - radius_px,
+            at[0] + half,
+            at[1] + radius_px + 18.0,
+        ]);
+    }
+    if let Some((centre, outward)) = trace.exit.filter(|(c, o)| finite(*c) && finite(*o)) {
+        let from = transform.apply([centre[0] - 0.05 * outward[0], centre[1] - 0.05 * outward[1]]);
+        let to = transform.apply([centre[0] + 0.14 * outward[0], centre[1] + 0.14 * outward[1]]);
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        let length = dx.hypot(dy).max(1e-6);
+        let (at, anchor) = exit_label_place(to, [dx / length, dy / length]);
+        let width = text_width("exit", LABEL_FONT) + 4.0;
+        let x0 = match anchor {
+            "end" => at[0] - width,
+            "start" => at[0],
+            _ => at[0] - 0.5 * width,
+        };
+        boxes.push([x0, at[1] - LABEL_FONT, x0 + width, at[1] + 3.0]);
+    }
+    boxes
+}
+
+/// Light fill, one palette colour per region, of every rectangle of every named region: under
+/// the walls, so a region's cells read as tinted floor.
+fn draw_region_shades(doc: &mut SvgDocument, regions: &[NamedRegion], transform: &SceneTransform) {
+    if regions.is_empty() {
+        return;
+    }
+    doc.open(Tag::new("g").class("regions"));
+    for (index, region) in regions.iter().enumerate() {
+        let colour = palette_colour(index);
+        doc.open(
+            Tag::new("g")
+                .class("region")
+                .attr("data-name", &region.name)
+                .attr("fill", colour)
+                .attr("fill-opacity", "0.22")
+                .attr("stroke", colour)
+                .attr("stroke-opacity", "0.6")
+                .attr("stroke-width", "1"),
+        );
+        for rect in region
+            .rects
+            .iter()
+            .filter(|r| r.iter().all(|v| v.is_finite()))
+        {
+            let [x0, y0] = transform.apply([rect[0], rect[3]]);
+            let [x1, y1] = transform.apply([rect[2], rect[1]]);
+            doc.leaf(
+                Tag::new("rect")
+                    .class("region-rect")
+                    .attr("data-name", &region.name)
+                    .num("x", x0.min(x1))
+                    .num("y", y0.min(y1))
+                    .num("width", (x1 - x0).abs())
+                    .num("height", (y1 - y0).abs()),
+            );
+        }
+        doc.close();
+    }
+    doc.close();
+}
+
+/// Each region's name, on its rectangle nearest the centre of all its rectangles (a region of
+/// scattered cells is named on one of them, not between them): in the middle of a small one,
+/// in the top-left corner of one large enough to hold a few lines (a room, whose middle is
+/// where the robot starts). A label that would overlap another label or a mark in `avoid`
+/// moves down or up by a line at a time, up to three lines, and otherwise stays where it first
+/// went.
+fn draw_region_labels(
+    doc: &mut SvgDocument,
+    regions: &[NamedRegion],
+    transform: &SceneTransform,
+    avoid: Vec<[f64; 4]>,
+) {
+    if regions.is_empty() {
+        return;
+    }
+    let line = LABEL_FONT + 3.0;
+    let mut placed: Vec<[f64; 4]> = avoid;
+    doc.open(Tag::new("g").class("region-labels"));
+    for region in regions {
+        let rects: Vec<&[f32; 4]> = region
+            .rects
+            .iter()
+            .filter(|r| r.iter().all(|v| v.is_finite()))
+            .collect();
+        if rects.is_empty() {
+            continue;
+        }
+        let mid = |r: &[f32; 4]| [0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3])];
+        let n = rects.len() as f32;
+        let centre = rects.iter().fold([0.0f32; 2], |acc, r| {
+            let m = mid(r);
+            [acc[0] + m[0] / n, acc[1] + m[1] / n]
+        });
+        let nearest = rects
+            .iter()
+            .min_by(|a, b| {
+                let (ma, mb) = (mid(a), mid(b));
+                let da = (ma[0] - centre[0]).hypot(ma[1] - centre[1]);
+                let db = (mb[0] - centre[0]).hypot(mb[1] - centre[1]);
+                da.total_cmp(&db)
+            })
+            .expect("at least one rectangle");
+        let half_width = 0.5 * text_width(&region.name, LABEL_FONT) + 2.0;
+        let top_left = transform.apply([nearest[0], nearest[3]]);
+        let bottom_right = transform.apply([nearest[2], nearest[1]]);
+        let large = bottom_right[0] - top_left[0] > 2.0 * half_width + 16.0
+            && bottom_right[1] - top_left[1] > 5.0 * line;
+        let at = if large {
+            [top_left[0] + 8.0 + half_width, top_left[1] + 4.0 + line]
+        } else {
+            transform.apply(mid(nearest))
+        };
+        let box_at = |dy: f64| {
+            [
+                at[0] - half_width,
+                at[1] + dy - LABEL_FONT,
+                at[0] + half_width,
+                at[1] + dy + 3.0,
+            ]
+        };
+        let overlaps = |b: &[f64; 4]| {
+            placed
+                .iter()
+                .any(|p| b[0] < p[2] && p[0] < b[2] && b[1] < p[3] && p[1] < b[3])
+        };
+        // A corner label is already on its line; a middle one is centred on the rectangle.
+        let base = if large { 0.0 } else { 0.5 * LABEL_FONT - 2.0 };
+        let dy = [0.0, 1.0, -1.0, 2.0, -2.0, 3.0, -3.0]
+            .iter()
+            .map(|k| base + k * line)
+            .find(|&dy| !overlaps(&box_at(dy)))
+            .unwrap_or(base);
+        placed.push(box_at(dy));
+        doc.text(
+            halo_label("region-label", at[0], at[1] + dy, "middle").attr("data-name", &region.name),
+            &region.name,
+        );
     }
     doc.close();
 }
@@ -1458,6 +1648,92 @@ mod tests {
         fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
             [1.0, 0.8]
         }
+    }
+
+    /// Every named region of a shipped scenario's sample is shaded (one group per region, a
+    /// rectangle per cell, to scale) and labelled once with its name, and no two labels'
+    /// boxes overlap.
+    #[test]
+    fn a_scenario_picture_shades_and_names_every_region() {
+        for (name, seed) in [
+            ("rescue", 4),
+            ("solve_maze", 0),
+            ("turn_right", 2),
+            ("exit_room", 1),
+        ] {
+            let task = TaskConfig::shipped(name).unwrap();
+            let evaluator = Evaluator::new(task.clone()).unwrap();
+            let sample = Sample::seeded(seed);
+            let trace = evaluator.evaluate_traced(&mut Circler, sample);
+            let regions =
+                hevo_sim_core::env::regions::named_regions(&task, &evaluator.environment(sample));
+            assert!(regions.len() >= 2, "{name}: {regions:?}");
+            let svg = scenario_svg(&trace, &ReplayOptions::default(), &regions);
+            let elements = parse(&svg).unwrap();
+            let (scale, origin_x, origin_y) = scene_attributes(&elements);
+            let labels: Vec<&Element> = with_class(&elements, "region-label");
+            let label_names: BTreeSet<&str> = labels.iter().map(|l| l.text.as_str()).collect();
+            let region_names: BTreeSet<&str> = regions.iter().map(|r| r.name.as_str()).collect();
+            assert_eq!(label_names, region_names, "{name}");
+            assert_eq!(labels.len(), regions.len(), "{name}: one label per region");
+            for region in &regions {
+                let shaded: Vec<&Element> = with_class(&elements, "region-rect")
+                    .into_iter()
+                    .filter(|e| e.get("data-name") == region.name)
+                    .collect();
+                assert_eq!(shaded.len(), region.rects.len(), "{name}: {}", region.name);
+                // Each of the region's rectangles is drawn where the transform puts it.
+                for r in &region.rects {
+                    let x = origin_x + scale * r[0] as f64;
+                    let y = origin_y - scale * r[3] as f64;
+                    let w = scale * (r[2] - r[0]) as f64;
+                    assert!(
+                        shaded.iter().any(|e| (e.number("x") - x).abs() < 0.01
+                            && (e.number("y") - y).abs() < 0.01
+                            && (e.number("width") - w).abs() < 0.01),
+                        "{name}: {} at {r:?} not drawn to scale",
+                        region.name
+                    );
+                }
+            }
+            // Labels keep clear of each other.
+            let boxes: Vec<[f64; 4]> = labels
+                .iter()
+                .map(|l| {
+                    let half = 0.5 * text_width(&l.text, LABEL_FONT);
+                    let (x, y) = (l.number("x"), l.number("y"));
+                    [x - half, y - LABEL_FONT + 2.0, x + half, y]
+                })
+                .collect();
+            let overlap = |a: &[f64; 4], b: &[f64; 4]| {
+                a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+            };
+            for (i, a) in boxes.iter().enumerate() {
+                for b in &boxes[i + 1..] {
+                    assert!(!overlap(a, b), "{name}: labels overlap: {a:?} {b:?}");
+                }
+            }
+            // Nor do they cover the start's label.
+            for start in with_class(&elements, "start-label") {
+                let half = 0.5 * text_width(&start.text, LABEL_FONT);
+                let (x, y) = (start.number("x"), start.number("y"));
+                let start_box = [x - half, y - LABEL_FONT + 2.0, x + half, y];
+                for b in &boxes {
+                    assert!(
+                        !overlap(&start_box, b),
+                        "{name}: {b:?} covers the start label"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A plain replay draws no regions.
+    #[test]
+    fn a_replay_has_no_region_layer() {
+        let (_, trace) = maze_trace(0);
+        let svg = replay_svg(&trace, &maze_options(), &|_| Vec::new());
+        assert!(!svg.contains("region"));
     }
 
     fn maze_trace(seed: u64) -> (Evaluator, Trace) {

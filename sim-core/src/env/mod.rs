@@ -10,6 +10,7 @@ pub mod cells;
 pub mod corridor;
 #[cfg(test)]
 pub mod maze;
+pub mod regions;
 pub mod room;
 
 use crate::rng::SimRng;
@@ -196,28 +197,18 @@ pub fn build(
         WorldKind::RoomBelowMap => {
             let map = &scenario.map.as_ref().expect("checked when compiled").map;
             let entrance = region_cell(scenario, "entrance");
-            let entrance_center = map.center(entrance);
-            let half = 0.5 * map.cell_size;
-            let room_exit = [
-                entrance_center[0],
-                entrance_center[1] - half - 0.5 * map.wall_thickness,
-            ];
-            let room = room::generate(
-                &task.room,
-                Placement::Below {
-                    exit_center: room_exit,
-                },
-                rng,
-            );
-            // The room's top wall is the map's lower border, so the map leaves its entrance
-            // border open and the room's exit gap is the way in.
-            let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
-            rects.extend(room.rects.iter().copied());
+            let (scene, room) = room_below(map, entrance, task, rng);
             room_made = Some(room);
-            (
-                Arc::new(Scene::new(rects, margin)),
-                Some(Arc::new(map.clone())),
-            )
+            (scene, Some(Arc::new(map.clone())))
+        }
+        WorldKind::RoomBelowCorridor(turn) => {
+            // The corridor is drawn first, then the room under its first cell.
+            let (map, path, junction) = generate_corridor(*turn, task, rng);
+            reported = junction.index();
+            let (scene, room) = room_below(&map, path[0], task, rng);
+            room_made = Some(room);
+            corridor_path = Some(path);
+            (scene, Some(Arc::new(map)))
         }
     };
 
@@ -289,6 +280,23 @@ pub fn build(
     let teammate = scenario.teammate.as_ref().map(|mate| {
         let pose = if mate.branch_end {
             teammate_at_branch_end(goal.as_ref().expect("checked when compiled"), task)
+        } else if mate.centre {
+            // The region's first cell, facing as the robot does (a wanderer draws its own).
+            let region = match (&mate.region, mate.at_goal) {
+                (Some(region), _) => Some(region),
+                (None, true) => plan.goal.as_ref(),
+                (None, false) => plan.start.as_ref(),
+            };
+            let cells = cells.as_ref().expect("cell worlds");
+            let at = cells.center(region_cell(
+                scenario,
+                region.expect("checked when compiled"),
+            ));
+            Pose {
+                x: at[0],
+                y: at[1],
+                heading: facing.0,
+            }
         } else {
             let cells = cells.as_ref().expect("cell worlds");
             let end = match &path {
@@ -328,6 +336,33 @@ pub fn build(
         },
         variant: reported,
     }
+}
+
+/// A room generated under the cell `entrance` of `map`, its exit centred under that cell: the
+/// room's top wall is the map's lower border there, so the map leaves that border open and
+/// the room's exit gap is the way in. The scene holds both.
+fn room_below(
+    map: &CellMap,
+    entrance: usize,
+    task: &TaskConfig,
+    rng: &mut SimRng,
+) -> (Arc<Scene>, Room) {
+    let entrance_center = map.center(entrance);
+    let half = 0.5 * map.cell_size;
+    let room_exit = [
+        entrance_center[0],
+        entrance_center[1] - half - 0.5 * map.wall_thickness,
+    ];
+    let room = room::generate(
+        &task.room,
+        Placement::Below {
+            exit_center: room_exit,
+        },
+        rng,
+    );
+    let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
+    rects.extend(room.rects.iter().copied());
+    (Arc::new(Scene::new(rects, task.query_margin())), room)
 }
 
 /// A corridor drawn from the stream as the turning and following primitives need it: its

@@ -214,10 +214,12 @@ fn is_zero(value: &f32) -> bool {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TeammateDecl {
-    /// `"goal"` (the variant's goal region) or `"start"` (the variant's start region).
+    /// `"goal"` (the variant's goal region), `"start"` (the variant's start region) or the
+    /// name of a region of the map.
     pub at: String,
     /// `"branch_end"`: in the goal cell, towards its dead end, clear of the end wall;
-    /// absent: behind the robot's start by `behind_m`.
+    /// `"centre"`: the centre of the region's first cell; absent: behind the robot's start by
+    /// `behind_m`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub placement: Option<String>,
     /// With no placement: this far behind the robot's start, metres.
@@ -226,8 +228,9 @@ pub struct TeammateDecl {
     /// Whether it follows from the start (else once the robot comes within range).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub following: bool,
-    /// `"follow"` (the default: follows the robot's trail, keeping a gap) or `"fixed"`
-    /// (stays where it is).
+    /// `"follow"` (the default: once met, follows the robot's trail, keeping a gap),
+    /// `"fixed"` (stays where it is) or `"wander"` (walks at random until met, then follows;
+    /// docs/scenario-file.md gives the walk).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub behaviour: Option<String>,
 }
@@ -238,8 +241,9 @@ pub struct TeammateDecl {
 pub struct EndDecl {
     /// When the sample is solved: `"in goal"` (the robot's centre in the goal region),
     /// `"beyond room.exit"` (a body radius beyond the exit wall's outer face), `"teammate in
-    /// room"` (the teammate back in the room, a body radius inside), or `"near NAME"` (within
-    /// `near_m` of a light).
+    /// room"` (the teammate back in the room, a body radius inside), `"near NAME"` (within
+    /// `near_m` of a light) or `"teammate met"` (the robot within `robot.near_robot_range` of
+    /// the teammate).
     pub solved: String,
     /// `"off path"`: entering a cell off the path to the goal is a wrong branch.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -6,7 +6,8 @@
 //! ((max_cycles - cycles) / max_cycles), `progress` (the share of the corridor distance to the
 //! goal covered, in [0, 1]), `approach room.exit` (the share of the way from the room's centre to
 //! its exit that the robot's closest approach covered, in [0, 1]), `approach NAME` (the same
-//! for a light, from the start), and `derived` (the derived fitness: the sum over the phases
+//! for a light, from the start), `approach teammate` (the same for the other robot, which may
+//! move), and `derived` (the derived fitness: the sum over the phases
 //! reached of the share of cycles the arbitrator chose the phase's child).
 //!
 //! A *condition* says when a phase is in force or a stage reached: atoms joined by `and`, each
@@ -26,6 +27,9 @@ pub enum Quantity {
     ApproachExit,
     /// Share of the way from the start to a light covered by the closest approach.
     ApproachLight(usize),
+    /// Share of the start's distance to the teammate covered by the closest approach (the
+    /// teammate may move: each cycle's distance counts).
+    ApproachTeammate,
     /// The derived fitness.
     Derived,
 }
@@ -74,6 +78,7 @@ impl Formula {
                 "progress" => Quantity::Progress,
                 "derived" => Quantity::Derived,
                 "approach room.exit" => Quantity::ApproachExit,
+                "approach teammate" => Quantity::ApproachTeammate,
                 other => {
                     if let Some(name) = other.strip_prefix("approach ") {
                         Quantity::ApproachLight(light(name.trim()).ok_or_else(|| {
@@ -84,7 +89,7 @@ impl Formula {
                     } else {
                         return Err(format!(
                             "'{raw}': expected a number, time_bonus, progress, derived, \
-                             approach room.exit or approach LIGHT"
+                             approach room.exit, approach teammate or approach LIGHT"
                         ));
                     }
                 }

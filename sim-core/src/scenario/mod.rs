@@ -112,6 +112,26 @@ pub enum WorldKind {
     Map,
     /// A generated room under the map, its exit the map's entrance.
     RoomBelowMap,
+    /// A generated room under a generated corridor, its exit the corridor's first cell.
+    RoomBelowCorridor(crate::env::corridor::Turn),
+}
+
+impl WorldKind {
+    /// Whether the world holds a generated room.
+    pub fn has_room(&self) -> bool {
+        matches!(
+            self,
+            WorldKind::Room | WorldKind::RoomBelowMap | WorldKind::RoomBelowCorridor(_)
+        )
+    }
+
+    /// The generated corridor's turn, if the world holds one.
+    pub fn corridor(&self) -> Option<crate::env::corridor::Turn> {
+        match self {
+            WorldKind::Corridor(turn) | WorldKind::RoomBelowCorridor(turn) => Some(*turn),
+            _ => None,
+        }
+    }
 }
 
 /// A map, compiled: its cells and the regions its legend names.
@@ -201,12 +221,31 @@ pub struct TeammatePlan {
     pub at_goal: bool,
     /// In the goal cell towards its dead end (true), or behind the start by `behind_m`.
     pub branch_end: bool,
+    /// At the centre of the first cell of the region `at_goal` or `region` names (`placement =
+    /// "centre"`).
+    pub centre: bool,
+    /// A region of the map named by `teammate.at` instead of the variant's goal or start.
+    pub region: Option<String>,
     /// Behind the robot's start, metres.
     pub behind_m: f32,
     /// Whether it follows from the start.
     pub following: bool,
-    /// Whether it follows at all (else it stays put).
-    pub follows: bool,
+    /// How it moves.
+    pub behaviour: TeammateBehaviour,
+}
+
+/// How the teammate moves (`teammate.behaviour`). Every behaviour is *met* when the robot comes
+/// within `robot.near_robot_range` of it (`teammate following` holds from then on); they differ
+/// in what it does before and after.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TeammateBehaviour {
+    /// Waits where it is; once met, follows the robot's trail, keeping a gap.
+    Follow,
+    /// Never moves, met or not.
+    Fixed,
+    /// Walks at random on its own (its own stream, never into a solid) until met, then follows
+    /// as `Follow` does.
+    Wander,
 }
 
 /// When a sample is solved.
@@ -220,6 +259,8 @@ pub enum Solved {
     TeammateInRoom,
     /// Within `near_m` of a light.
     Near(usize),
+    /// The teammate met: the robot came within `robot.near_robot_range` of it.
+    TeammateMet,
 }
 
 /// One phase of the derived fitness.
@@ -362,16 +403,16 @@ impl Scenario {
     /// How many values a sample's reported variant can take: the variants, or for a turning
     /// corridor its shape (bend, T end, side junction), which is drawn, never asked for.
     pub fn reported_variants(&self) -> u32 {
-        match self.world {
-            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => 3,
+        match self.world.corridor() {
+            Some(turn) if turn != crate::env::corridor::Turn::Straight => 3,
             _ => self.n_variants(),
         }
     }
 
     /// The name of variant `idx` as reports show it.
     pub fn variant_label(&self, idx: u32) -> Option<String> {
-        match self.world {
-            WorldKind::Corridor(turn) if turn != crate::env::corridor::Turn::Straight => Some(
+        match self.world.corridor() {
+            Some(turn) if turn != crate::env::corridor::Turn::Straight => Some(
                 ["L-bend", "T-junction", "side junction"]
                     .get(idx as usize)
                     .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
@@ -588,25 +629,40 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // The world.
     let w = &file.world;
+    let turn = |turn: &str| match turn {
+        "straight" => Ok(crate::env::corridor::Turn::Straight),
+        "left" => Ok(crate::env::corridor::Turn::Left),
+        "right" => Ok(crate::env::corridor::Turn::Right),
+        other => Err(error(
+            "world.corridor",
+            format!("'{other}' is not straight, left or right"),
+        )),
+    };
     let world = match (&w.map, w.room.as_deref(), w.corridor.as_deref()) {
         (None, Some("standalone"), None) => WorldKind::Room,
         (Some(_), Some("below entrance"), None) => WorldKind::RoomBelowMap,
         (Some(_), None, None) => WorldKind::Map,
-        (None, None, Some(turn)) => WorldKind::Corridor(match turn {
-            "straight" => crate::env::corridor::Turn::Straight,
-            "left" => crate::env::corridor::Turn::Left,
-            "right" => crate::env::corridor::Turn::Right,
-            other => {
-                return Err(error(
-                    "world.corridor",
-                    format!("'{other}' is not straight, left or right"),
-                ));
-            }
-        }),
+        (None, None, Some(t)) => WorldKind::Corridor(turn(t)?),
+        (None, Some("below corridor"), Some(t)) => WorldKind::RoomBelowCorridor(turn(t)?),
+        (None, Some(room), Some(_)) => {
+            return Err(error(
+                "world.room",
+                format!("'{room}': a room with a corridor is \"below corridor\""),
+            ));
+        }
+        (Some(_), _, Some(_)) => {
+            return Err(error(
+                "world.corridor",
+                "a map and a generated corridor do not join: give one of them".into(),
+            ));
+        }
         (None, Some(room), None) => {
             return Err(error(
                 "world.room",
-                format!("'{room}': a room alone is \"standalone\""),
+                format!(
+                    "'{room}': a room alone is \"standalone\" (\"below corridor\" needs a \
+                     corridor)"
+                ),
             ));
         }
         (Some(_), Some(room), None) => {
@@ -618,8 +674,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         _ => {
             return Err(error(
                 "world",
-                "give a map, a room (\"standalone\"), a corridor, or a map and a room \
-                 (\"below entrance\")"
+                "give a map, a room (\"standalone\"), a corridor, a map and a room \
+                 (\"below entrance\"), or a corridor and a room (\"below corridor\")"
                     .into(),
             ));
         }
@@ -665,10 +721,10 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         .as_ref()
         .map(|m| m.regions.keys().cloned().collect())
         .unwrap_or_default();
-    if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) {
+    if world.has_room() {
         region_names.extend(["room".to_string(), "room.exit".to_string()]);
     }
-    if matches!(world, WorldKind::Corridor(_)) {
+    if world.corridor().is_some() {
         region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
     }
     let mut rect_regions = BTreeMap::new();
@@ -778,10 +834,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     // Start.
     let place_decl = &file.place;
     let at = match place_decl.at.as_str() {
-        "room.start" if matches!(world, WorldKind::Room | WorldKind::RoomBelowMap) => {
-            PlaceAt::RoomStart
-        }
-        "corridor.start" if matches!(world, WorldKind::Corridor(_)) => PlaceAt::CorridorStart,
+        "room.start" if world.has_room() => PlaceAt::RoomStart,
+        "corridor.start" if world.corridor().is_some() => PlaceAt::CorridorStart,
         "start" => {
             if variants.iter().any(|v| v.start.is_none()) {
                 return Err(error(
@@ -843,43 +897,71 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let teammate = match &file.teammate {
         None => None,
         Some(t) => {
-            let at_goal = match t.at.as_str() {
-                "goal" => true,
-                "start" => false,
+            let (at_goal, region) = match t.at.as_str() {
+                "goal" => (true, None),
+                "start" => (false, None),
+                region if cell_region(region) => (false, Some(region.to_string())),
                 other => {
                     return Err(error(
                         "teammate.at",
-                        format!("'{other}' is not goal or start"),
+                        format!("'{other}' is not goal, start or a region of the map"),
                     ));
                 }
             };
-            let branch_end = match t.placement.as_deref() {
-                None => false,
-                Some("branch_end") => true,
+            let (branch_end, centre) = match t.placement.as_deref() {
+                None => (false, false),
+                Some("branch_end") => (true, false),
+                Some("centre") => (false, true),
                 Some(other) => {
                     return Err(error(
                         "teammate.placement",
-                        format!("'{other}' is not branch_end"),
+                        format!("'{other}' is not branch_end or centre"),
                     ));
                 }
             };
-            let follows = match t.behaviour.as_deref() {
-                None | Some("follow") => true,
-                Some("fixed") => false,
+            if region.is_some() && !centre {
+                return Err(error(
+                    "teammate.placement",
+                    format!(
+                        "a teammate at the region '{}' stands at its centre: say \
+                         `placement = \"centre\"`",
+                        t.at
+                    ),
+                ));
+            }
+            if branch_end && !at_goal {
+                return Err(error(
+                    "teammate.placement",
+                    "'branch_end' is the goal's dead end: it needs `at = \"goal\"`".into(),
+                ));
+            }
+            let behaviour = match t.behaviour.as_deref() {
+                None | Some("follow") => TeammateBehaviour::Follow,
+                Some("fixed") => TeammateBehaviour::Fixed,
+                Some("wander") => TeammateBehaviour::Wander,
                 Some(other) => {
                     return Err(error(
                         "teammate.behaviour",
-                        format!("'{other}' is not follow or fixed"),
+                        format!("'{other}' is not follow, fixed or wander"),
                     ));
                 }
             };
-            let regions_named = variants.iter().all(|v| {
-                if at_goal {
-                    v.goal.is_some()
-                } else {
-                    v.start.is_some()
-                }
-            });
+            if behaviour == TeammateBehaviour::Wander && t.following {
+                return Err(error(
+                    "teammate.following",
+                    "a wandering teammate that follows from the start would never wander: \
+                     leave `following` out"
+                        .into(),
+                ));
+            }
+            let regions_named = region.is_some()
+                || variants.iter().all(|v| {
+                    if at_goal {
+                        v.goal.is_some()
+                    } else {
+                        v.start.is_some()
+                    }
+                });
             if !regions_named {
                 return Err(error(
                     "teammate.at",
@@ -889,9 +971,11 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             Some(TeammatePlan {
                 at_goal,
                 branch_end,
+                centre,
+                region,
                 behind_m: t.behind_m,
                 following: t.following,
-                follows,
+                behaviour,
             })
         }
     };
@@ -900,7 +984,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let end = &file.end;
     let solved = match end.solved.as_str() {
         "in goal" => {
-            let goals = matches!(world, WorldKind::Corridor(_))
+            let goals = world.corridor().is_some()
                 || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
             if !goals {
                 return Err(error(
@@ -914,6 +998,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         "teammate in room" if world == WorldKind::RoomBelowMap && teammate.is_some() => {
             Solved::TeammateInRoom
         }
+        "teammate met" if teammate.is_some() => Solved::TeammateMet,
         other => {
             if let Some(name) = other.strip_prefix("near ") {
                 let light = light_index(name.trim()).ok_or_else(|| {
@@ -929,8 +1014,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                     "end.solved",
                     format!(
                         "'{other}' does not fit this world: use 'in goal', 'beyond room.exit' \
-                         (a room), 'teammate in room' (a room below a map, with a teammate) or \
-                         'near LIGHT'"
+                         (a room), 'teammate in room' (a room below a map, with a teammate), \
+                         'teammate met' (with a teammate) or 'near LIGHT'"
                     ),
                 ));
             }
@@ -939,7 +1024,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let wrong_branch = match end.wrong_branch.as_deref() {
         None => false,
         Some("off path") => {
-            let paths = matches!(world, WorldKind::Corridor(_))
+            let paths = world.corridor().is_some()
                 || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
             if !paths {
                 return Err(error(
@@ -989,12 +1074,16 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 "progress needs a goal in cells ('in goal')".into(),
             ));
         }
-        if formula.uses(&|q| *q == Quantity::ApproachExit)
-            && !matches!(world, WorldKind::Room | WorldKind::RoomBelowMap)
-        {
+        if formula.uses(&|q| *q == Quantity::ApproachExit) && !world.has_room() {
             return Err(error(
                 &format!("fitness.{key}"),
                 "approach room.exit needs a room".into(),
+            ));
+        }
+        if formula.uses(&|q| *q == Quantity::ApproachTeammate) && teammate.is_none() {
+            return Err(error(
+                &format!("fitness.{key}"),
+                "approach teammate needs a [teammate]".into(),
             ));
         }
         if formula.uses(&|q| *q == Quantity::Derived) && file.phases.is_empty() {

@@ -1,0 +1,98 @@
+//! `hevo scenario check` and `hevo scenario draw` as a user runs them, on the examples with a
+//! wandering teammate and with a room joined under a corridor, and on the rescue: check
+//! accepts them, and every region `draw` should name (the map's, the generators') is in the
+//! picture, shaded and labelled.
+
+use std::path::Path;
+use std::process::Command;
+
+const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
+
+fn hevo_ok(args: &[&str]) -> String {
+    let out = Command::new(HEVO)
+        .args(args)
+        .current_dir(repo_root())
+        .output()
+        .expect("hevo runs");
+    assert!(
+        out.status.success(),
+        "hevo {} failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn repo_root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+}
+
+/// The names the picture's region labels carry, in order.
+fn region_labels(svg: &str) -> Vec<String> {
+    svg.split("<text class=\"region-label\"")
+        .skip(1)
+        .map(|rest| {
+            let text = &rest[rest.find('>').unwrap() + 1..];
+            text[..text.find("</text>").unwrap()].to_string()
+        })
+        .collect()
+}
+
+#[test]
+fn check_accepts_and_draw_names_every_region() {
+    let dir = tempfile::tempdir().unwrap();
+    for (file, seed, expected) in [
+        (
+            "scenarios/examples/find_wanderer.toml",
+            "3",
+            &["den", "dock"][..],
+        ),
+        (
+            "scenarios/examples/room_to_corridor.toml",
+            "2",
+            &["room", "room.exit", "corridor.start", "corridor.end"][..],
+        ),
+        (
+            "rescue",
+            "0",
+            &[
+                "branch_a",
+                "branch_b",
+                "branch_c",
+                "branch_d",
+                "entrance",
+                "room",
+                "room.exit",
+            ][..],
+        ),
+    ] {
+        let checked = hevo_ok(&["scenario", "check", file]);
+        assert!(checked.contains(": ok ("), "{file}: {checked}");
+        let out = dir.path().join("world.svg");
+        hevo_ok(&[
+            "scenario",
+            "draw",
+            file,
+            "--seed",
+            seed,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let svg = std::fs::read_to_string(&out).unwrap();
+        let mut labels = region_labels(&svg);
+        labels.sort();
+        let mut expected: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
+        expected.sort();
+        assert_eq!(labels, expected, "{file}");
+        for name in &expected {
+            assert!(
+                svg.contains(&format!("class=\"region-rect\" data-name=\"{name}\"")),
+                "{file}: {name} is not shaded"
+            );
+        }
+    }
+}
