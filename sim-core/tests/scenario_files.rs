@@ -425,3 +425,27 @@ fn corridors_join_only_below_a_room() {
         assert!(error.contains(expected), "{to}: {error}");
     }
 }
+
+/// The generators' exit and corridor ends are drawn but not judged: a condition naming one is
+/// refused with the reason, not left to never hold.
+#[test]
+fn conditions_naming_undrawable_generator_regions_are_refused() {
+    for name in ["corridor.end", "corridor.start", "room.exit"] {
+        let text = format!(
+            "{ROOM_TO_CORRIDOR}\n[[stage]]\nname = \"up the corridor\"\nreached = \"in {name}\"\n"
+        );
+        let message = refusal(&text);
+        assert!(
+            message.contains("stage")
+                && message.contains(&format!("conditions cannot test '{name}'")),
+            "{message}"
+        );
+    }
+    let message = refusal(&format!(
+        "{ROOM_TO_CORRIDOR}\n[[stage]]\nname = \"kitchen\"\nreached = \"in kitchen\"\n"
+    ));
+    assert!(
+        message.contains("no region is named 'kitchen'"),
+        "{message}"
+    );
+}

@@ -164,10 +164,11 @@ pub struct Condition {
 }
 
 impl Condition {
-    /// Parses a condition; `region` says whether a region exists, `light` resolves a light.
+    /// Parses a condition; `region` says whether a condition may name a region (or why not),
+    /// `light` resolves a light.
     pub fn parse(
         text: &str,
-        region: &dyn Fn(&str) -> bool,
+        region: &dyn Fn(&str) -> Result<(), String>,
         light: &dyn Fn(&str) -> Option<usize>,
     ) -> Result<Condition, String> {
         let mut atoms = Vec::new();
@@ -185,9 +186,7 @@ impl Condition {
                 other => {
                     if let Some(name) = other.strip_prefix("in ") {
                         let name = name.trim();
-                        if !region(name) {
-                            return Err(format!("'{raw}': no region is named '{name}'"));
-                        }
+                        region(name).map_err(|why| format!("'{raw}': {why}"))?;
                         Atom::InRegion(name.to_string())
                     } else if let Some(name) = other.strip_prefix("near ") {
                         Atom::Near(light(name.trim()).ok_or_else(|| {
@@ -218,6 +217,10 @@ impl Condition {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn no_region(name: &str) -> Result<(), String> {
+        Err(format!("no region is named '{name}'"))
+    }
 
     fn no_light(_: &str) -> Option<usize> {
         None
@@ -264,7 +267,7 @@ mod tests {
     #[test]
     fn conditions_join_negated_atoms() {
         let c =
-            Condition::parse("in maze and not teammate following", &|_| false, &no_light).unwrap();
+            Condition::parse("in maze and not teammate following", &no_region, &no_light).unwrap();
         let truth = |maze: bool, following: bool| {
             move |atom: &Atom| match atom {
                 Atom::InMaze => maze,
@@ -275,9 +278,9 @@ mod tests {
         assert!(c.holds(&truth(true, false)));
         assert!(!c.holds(&truth(true, true)));
         assert!(!c.holds(&truth(false, false)));
-        let error = Condition::parse("in kitchen", &|_| false, &no_light).unwrap_err();
+        let error = Condition::parse("in kitchen", &no_region, &no_light).unwrap_err();
         assert!(error.contains("no region is named 'kitchen'"), "{error}");
-        let error = Condition::parse("flying", &|_| false, &no_light).unwrap_err();
+        let error = Condition::parse("flying", &no_region, &no_light).unwrap_err();
         assert!(error.contains("expected in maze"), "{error}");
     }
 }

@@ -740,6 +740,19 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         region_names.push(name.clone());
     }
     let has_region = |name: &str| region_names.iter().any(|r| r == name);
+    // The generators' exit and corridor ends are drawn, and places may name them, but the
+    // judge does not test a position against them: a condition naming one is refused rather
+    // than silently never holding.
+    let judged_region = |name: &str| -> Result<(), String> {
+        match name {
+            _ if !has_region(name) => Err(format!("no region is named '{name}'")),
+            "room.exit" | "corridor.start" | "corridor.end" => Err(format!(
+                "conditions cannot test '{name}' (only the map's regions, 'room' and [regions] \
+                 rectangles); draw the area as a [regions] rectangle"
+            )),
+            _ => Ok(()),
+        }
+    };
     let cell_region = |name: &str| map.as_ref().is_some_and(|m| m.regions.contains_key(name));
 
     // Lights.
@@ -1096,7 +1109,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // Phases and stages.
     let condition = |path: String, text: &str| {
-        Condition::parse(text, &has_region, &light_index).map_err(|message| error(&path, message))
+        Condition::parse(text, &judged_region, &light_index)
+            .map_err(|message| error(&path, message))
     };
     if file.phases.len() > MAX_PHASES {
         return Err(error(
