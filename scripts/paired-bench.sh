@@ -20,7 +20,8 @@ tmp=$(mktemp)
 trap 'rm -f "$tmp"' EXIT
 
 for ((round = 0; round < rounds; round++)); do
-    for task in solve_maze rescue exit_room follow_wall return_room scenarios/examples/t_maze.toml; do
+    for task in solve_maze rescue exit_room follow_wall return_room scenarios/examples/t_maze.toml \
+        scenarios/examples/triple_t_maze.toml scenarios/examples/room_to_yard.toml; do
         for n in 1 2; do
             order=(old new)
             ((round % 2 == 1)) && order=(new old)

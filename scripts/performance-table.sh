@@ -22,7 +22,8 @@ trap 'rm -f "$tmp"' EXIT
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 # Rounds alternate the evaluators and modes, so a load change on the machine hits each alike;
 # the simulator rounds measure the scalar reference and the lockstep evaluator back to back.
-for task in solve_maze rescue exit_room follow_wall scenarios/examples/t_maze.toml; do
+for task in solve_maze rescue exit_room follow_wall scenarios/examples/t_maze.toml \
+    scenarios/examples/triple_t_maze.toml scenarios/examples/room_to_yard.toml; do
     for n in 1 "$threads"; do
         for ((round = 0; round < rounds; round++)); do
             "$hevo" bench --task "$task" --threads "$n" --seconds "$seconds" --evaluator both --json >>"$tmp"
