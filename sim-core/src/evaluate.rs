@@ -301,12 +301,12 @@ impl Evaluator {
     /// boundary rays, and the range; for drawing.
     pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
         let (sin_h, cos_h) = pose.heading.sin_cos();
+        let origins = self.sensor_lanes(pose, sin_h, cos_h);
         (0..N_IR)
             .map(|sensor| {
-                let origin = self.sensor_position(pose, sensor);
                 let cone = self.cones[sensor].rotated(sin_h, cos_h);
                 (
-                    origin,
+                    [origins[0][sensor], origins[1][sensor]],
                     cone.boundaries[0],
                     cone.boundaries[1],
                     self.task.ir.range_m,
@@ -315,35 +315,14 @@ impl Evaluator {
             .collect()
     }
 
-    fn sensor_position(&self, pose: &Pose, sensor: usize) -> [f32; 2] {
-        let (sin_h, cos_h) = pose.heading.sin_cos();
-        self.sensor_position_rotated(pose, sin_h, cos_h, sensor)
-    }
-
-    /// Every IR sensor's position given the heading's sine and cosine, lane by lane
-    /// (`[axis][sensor]`): what [`Evaluator::sensor_position_rotated`] gives, bit for bit.
+    /// Every IR sensor's position given the heading's sine and cosine (computed once per
+    /// cycle), lane by lane: `[axis][sensor]`.
     #[inline(always)]
     fn sensor_lanes(&self, pose: &Pose, sin_h: f32, cos_h: f32) -> [[f32; N_IR]; 2] {
         let offsets = &self.sensor_offsets;
         [
             std::array::from_fn(|s| pose.x + cos_h * offsets[s][0] - sin_h * offsets[s][1]),
             std::array::from_fn(|s| pose.y + sin_h * offsets[s][0] + cos_h * offsets[s][1]),
-        ]
-    }
-
-    /// The sensor's position given the heading's sine and cosine, computed once per cycle.
-    #[inline(always)]
-    fn sensor_position_rotated(
-        &self,
-        pose: &Pose,
-        sin_h: f32,
-        cos_h: f32,
-        sensor: usize,
-    ) -> [f32; 2] {
-        let [ox, oy] = self.sensor_offsets[sensor];
-        [
-            pose.x + cos_h * ox - sin_h * oy,
-            pose.y + sin_h * ox + cos_h * oy,
         ]
     }
 
