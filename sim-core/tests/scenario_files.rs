@@ -44,6 +44,14 @@ fn refusal(text: &str) -> String {
         .to_string()
 }
 
+/// The error `base` gets with `from` replaced by `to`; the error names the file.
+fn edit_refusal(base: &str, from: &str, to: &str) -> String {
+    assert!(base.contains(from), "{from}");
+    let error = refusal(&base.replace(from, to));
+    assert!(error.starts_with("mine.toml"), "{to}: {error}");
+    error
+}
+
 #[test]
 fn the_example_t_maze_compiles_with_two_variants_and_the_f2_range() {
     let task = t_maze();
@@ -176,10 +184,8 @@ fn references_to_missing_things_are_named() {
         ),
         ("max_cycles = 500", "max_cycles = 0", "max_cycles"),
     ] {
-        assert!(T_MAZE.contains(from), "{from}");
-        let error = refusal(&T_MAZE.replace(from, to));
+        let error = edit_refusal(T_MAZE, from, to);
         assert!(error.contains(expected), "{to}: {error}");
-        assert!(error.starts_with("mine.toml"), "{to}: {error}");
     }
 }
 
@@ -317,9 +323,7 @@ fn bad_teammates_are_refused_naming_the_key() {
             "duplicate key",
         ),
     ] {
-        assert!(WANDERER.contains(from), "{from}");
-        let error = refusal(&WANDERER.replace(from, to));
-        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+        let error = edit_refusal(WANDERER, from, to);
         assert!(error.contains(key), "{to}: {error}");
         assert!(error.contains(expected), "{to}: {error}");
     }
@@ -418,9 +422,7 @@ fn corridors_join_only_below_a_room() {
             "'up' is not straight, left or right",
         ),
     ] {
-        assert!(ROOM_TO_CORRIDOR.contains(from), "{from}");
-        let error = refusal(&ROOM_TO_CORRIDOR.replace(from, to));
-        assert!(error.starts_with("mine.toml"), "{to}: {error}");
+        let error = edit_refusal(ROOM_TO_CORRIDOR, from, to);
         assert!(error.contains(key), "{to}: {error}");
         assert!(error.contains(expected), "{to}: {error}");
     }
