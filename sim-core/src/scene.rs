@@ -773,6 +773,30 @@ mod tests {
         }
     }
 
+    /// Asserts that the lane code gives every cone the reference's distance, bit for bit, and
+    /// returns how many cones saw a solid.
+    fn assert_lanes_match_reference(
+        scene: &Scene,
+        near: [f32; 2],
+        origins: &[[f32; 2]; 4],
+        cones: &[Cone; 4],
+    ) -> usize {
+        let lanes = scene.cone_distances(near, origins, cones, 0.14);
+        let mut seen = 0;
+        for sensor in 0..4 {
+            let one = reference(scene, near, origins[sensor], &cones[sensor], 0.14);
+            assert_eq!(
+                lanes[sensor].map(f32::to_bits),
+                one.map(f32::to_bits),
+                "scene {:?}, near {near:?}, origin {:?}, sensor {sensor}",
+                scene.rects(),
+                origins[sensor]
+            );
+            seen += usize::from(one.is_some());
+        }
+        seen
+    }
+
     /// The lane code against the one-cone reference, bit for bit, on random scenes of
     /// axis-aligned walls and rotated obstacles, from random robot poses with the e-puck's
     /// four sensor cones (and cones along the axes, whose inverse directions are infinite).
@@ -822,18 +846,8 @@ mod tests {
                         centre[1] + r * (heading + a).sin(),
                     ]
                 });
-                let lanes = scene.cone_distances(centre, &origins, &cones, 0.14);
-                for sensor in 0..4 {
-                    let one = reference(&scene, centre, origins[sensor], &cones[sensor], 0.14);
-                    assert_eq!(
-                        lanes[sensor].map(f32::to_bits),
-                        one.map(f32::to_bits),
-                        "scene {:?}, centre {centre:?}, heading {heading}, sensor {sensor}",
-                        scene.rects()
-                    );
-                    compared += 1;
-                    seen += usize::from(one.is_some());
-                }
+                seen += assert_lanes_match_reference(&scene, centre, &origins, &cones);
+                compared += 4;
             }
         }
         // The comparison means something only if many cones see a solid.
@@ -874,17 +888,7 @@ mod tests {
                     [origin[0], eighth(1)],
                     [origin[0], eighth(-1)],
                 ];
-                let lanes = scene.cone_distances(origin, &origins, &cones, 0.14);
-                for sensor in 0..4 {
-                    let one = reference(&scene, origin, origins[sensor], &cones[sensor], 0.14);
-                    assert_eq!(
-                        lanes[sensor].map(f32::to_bits),
-                        one.map(f32::to_bits),
-                        "origin {:?}, sensor {sensor}",
-                        origins[sensor]
-                    );
-                    seen += usize::from(one.is_some());
-                }
+                seen += assert_lanes_match_reference(&scene, origin, &origins, &cones);
             }
         }
         assert!(seen > 100, "{seen}");

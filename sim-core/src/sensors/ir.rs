@@ -353,8 +353,23 @@ impl IrModel {
         if raw <= means[last] {
             return last as f32 * self.inverse_step;
         }
-        // First grid point whose mean is at or below `raw`: the means are non-increasing.
-        let above = match self.inverse_starts.start(raw) {
+        let above = self.first_at_or_below(raw);
+        let (near, far) = (means[above - 1], means[above]);
+        let fraction = if near > far {
+            (near - raw) / (near - far)
+        } else {
+            0.0
+        };
+        ((above - 1) as f32 + fraction) * self.inverse_step
+    }
+
+    /// The first grid point whose mean is at or below `raw`, for a reading strictly between
+    /// the last and the first mean (the means are non-increasing): what
+    /// `inverse_means.partition_point(|&m| m > raw)` gives, found from the bucketed guess.
+    #[inline]
+    fn first_at_or_below(&self, raw: f32) -> usize {
+        let means = &self.inverse_means;
+        match self.inverse_starts.start(raw) {
             Some(mut above) => {
                 // `means[0] > raw > means[last]` keeps the walk inside 1..=last.
                 while means[above - 1] <= raw {
@@ -366,14 +381,7 @@ impl IrModel {
                 above
             }
             None => means.partition_point(|&m| m > raw),
-        };
-        let (near, far) = (means[above - 1], means[above]);
-        let fraction = if near > far {
-            (near - raw) / (near - far)
-        } else {
-            0.0
-        };
-        ((above - 1) as f32 + fraction) * self.inverse_step
+        }
     }
 
     /// The curve for index `curve`; indices past the measured ones select the average curve.
@@ -816,36 +824,39 @@ mod tests {
             "the buckets are in use"
         );
         let means = &model.inverse_means;
-        let binary = |raw: f32| -> f32 {
-            let last = means.len() - 1;
-            if raw.is_nan() || raw >= means[0] {
-                return 0.0;
-            }
-            if raw <= means[last] {
-                return last as f32 * model.inverse_step;
-            }
-            let above = means.partition_point(|&m| m > raw);
-            let (near, far) = (means[above - 1], means[above]);
-            let fraction = if near > far {
-                (near - raw) / (near - far)
-            } else {
-                0.0
-            };
-            ((above - 1) as f32 + fraction) * model.inverse_step
-        };
+        let (low, high) = (means[means.len() - 1], means[0]);
         let mut raws: Vec<f32> = Vec::new();
         for &m in means.iter() {
             raws.extend([m, m.next_down(), m.next_up()]);
         }
-        let (low, high) = (means[means.len() - 1], means[0]);
         for k in 0..=200_000 {
-            raws.push(low - 10.0 + (high - low + 20.0) * k as f32 / 200_000.0);
+            raws.push(low + (high - low) * k as f32 / 200_000.0);
         }
-        raws.extend([f32::NAN, -1.0, 0.0, f32::INFINITY, f32::NEG_INFINITY]);
-        for raw in raws {
+        let mut compared = 0;
+        for raw in raws.into_iter().filter(|&raw| low < raw && raw < high) {
+            assert_eq!(
+                model.first_at_or_below(raw),
+                means.partition_point(|&m| m > raw),
+                "raw {raw}"
+            );
+            compared += 1;
+        }
+        assert!(compared > 200_000, "{compared}");
+        // Outside the means the walk is never asked: the ends of the table answer.
+        let farthest = (means.len() - 1) as f32 * model.inverse_step;
+        for (raw, distance) in [
+            (f32::NAN, 0.0),
+            (high, 0.0),
+            (high + 10.0, 0.0),
+            (f32::INFINITY, 0.0),
+            (low, farthest),
+            (low - 10.0, farthest),
+            (-1.0, farthest),
+            (f32::NEG_INFINITY, farthest),
+        ] {
             assert_eq!(
                 model.raw_to_distance(raw).to_bits(),
-                binary(raw).to_bits(),
+                distance.to_bits(),
                 "raw {raw}"
             );
         }
