@@ -8,7 +8,7 @@ use crate::float::hypot;
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
-use crate::scenario::formula::{Atom, Condition, Quantity};
+use crate::scenario::formula::{Atom, Condition, Quantity, RegionTest};
 use crate::scenario::{Scenario, Solved, TeammateBehaviour, Trigger, ending_slot};
 use crate::scene::{Cone, ConeLanes, Rect, Scene};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
@@ -887,7 +887,7 @@ impl<'a> Judge<'a> {
                 .goal
                 .as_ref()
                 .is_some_and(|goal| goal.map.cell_at(robot.position()) == Some(goal.goal)),
-            Atom::InRegion(name) => self.in_region(name, robot),
+            Atom::InRegion(region) => self.in_region(region, robot),
             Atom::TeammateFollowing => teammate.is_some_and(|mate| mate.following),
             Atom::Near(light) => {
                 self.light_approach.get(*light).is_some() && {
@@ -898,27 +898,21 @@ impl<'a> Judge<'a> {
         }
     }
 
-    fn in_region(&self, name: &str, robot: &Pose) -> bool {
-        if let Some([x0, y0, x1, y1]) = self.scenario.rect_regions.get(name) {
-            return (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y);
-        }
-        match name {
-            "room" => self
+    fn in_region(&self, region: &RegionTest, robot: &Pose) -> bool {
+        match region {
+            RegionTest::Rect([x0, y0, x1, y1]) => {
+                (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y)
+            }
+            RegionTest::Room => self
                 .ground
                 .room
                 .as_ref()
                 .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
-            _ => {
-                let (Some(cells), Some(map)) = (&self.ground.cells, &self.scenario.map) else {
-                    return false;
-                };
-                let Some(cell) = cells.cell_at(robot.position()) else {
-                    return false;
-                };
-                map.regions
-                    .get(name)
-                    .is_some_and(|region| region.contains(&cell))
-            }
+            RegionTest::Cells(mask) => self.ground.cells.as_ref().is_some_and(|cells| {
+                cells
+                    .cell_at(robot.position())
+                    .is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
+            }),
         }
     }
 

@@ -148,12 +148,24 @@ pub enum Atom {
     InMaze,
     /// The robot's centre in the goal region.
     InGoal,
-    /// The robot's centre in a named region.
-    InRegion(String),
+    /// The robot's centre in a named region, resolved to its test when the scenario compiles
+    /// so that no name is looked up in the control loop.
+    InRegion(RegionTest),
     /// The teammate follows.
     TeammateFollowing,
     /// Within `near_m` of a light.
     Near(usize),
+}
+
+/// What `in REGION` tests.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RegionTest {
+    /// Inside a rectangle `[x0, y0, x1, y1]`, metres, edges included.
+    Rect([f32; 4]),
+    /// Inside the generated room, short of its exit.
+    Room,
+    /// In one of a map's cells: `true` at the cell indices of the region.
+    Cells(Vec<bool>),
 }
 
 /// A condition: every atom (or its negation) holds.
@@ -164,11 +176,11 @@ pub struct Condition {
 }
 
 impl Condition {
-    /// Parses a condition; `region` says whether a condition may name a region (or why not),
-    /// `light` resolves a light.
+    /// Parses a condition; `region` resolves a region's name to its test (or says why a
+    /// condition may not name it), `light` resolves a light.
     pub fn parse(
         text: &str,
-        region: &dyn Fn(&str) -> Result<(), String>,
+        region: &dyn Fn(&str) -> Result<RegionTest, String>,
         light: &dyn Fn(&str) -> Option<usize>,
     ) -> Result<Condition, String> {
         let mut atoms = Vec::new();
@@ -186,8 +198,7 @@ impl Condition {
                 other => {
                     if let Some(name) = other.strip_prefix("in ") {
                         let name = name.trim();
-                        region(name).map_err(|why| format!("'{raw}': {why}"))?;
-                        Atom::InRegion(name.to_string())
+                        Atom::InRegion(region(name).map_err(|why| format!("'{raw}': {why}"))?)
                     } else if let Some(name) = other.strip_prefix("near ") {
                         Atom::Near(light(name.trim()).ok_or_else(|| {
                             format!("'{raw}': no light is named '{}'", name.trim())
@@ -218,7 +229,7 @@ impl Condition {
 mod tests {
     use super::*;
 
-    fn no_region(name: &str) -> Result<(), String> {
+    fn no_region(name: &str) -> Result<RegionTest, String> {
         Err(format!("no region is named '{name}'"))
     }
 

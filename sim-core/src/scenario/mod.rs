@@ -21,7 +21,7 @@ pub mod formula;
 use crate::env::cells::{Cell, CellMap};
 use crate::hash::fnv1a_hex;
 use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
-use formula::{Condition, Formula, Quantity};
+use formula::{Condition, Formula, Quantity, RegionTest};
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 
@@ -743,14 +743,29 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     // The generators' exit and corridor ends are drawn, and places may name them, but the
     // judge does not test a position against them: a condition naming one is refused rather
     // than silently never holding.
-    let judged_region = |name: &str| -> Result<(), String> {
+    // The order of the tests is the judge's: a rectangle, then the room, then the map's cells.
+    let judged_region = |name: &str| -> Result<RegionTest, String> {
+        if let Some(rect) = rect_regions.get(name) {
+            return Ok(RegionTest::Rect(*rect));
+        }
         match name {
             _ if !has_region(name) => Err(format!("no region is named '{name}'")),
             "room.exit" | "corridor.start" | "corridor.end" => Err(format!(
                 "conditions cannot test '{name}' (only the map's regions, 'room' and [regions] \
                  rectangles); draw the area as a [regions] rectangle"
             )),
-            _ => Ok(()),
+            "room" => Ok(RegionTest::Room),
+            _ => {
+                let map = map
+                    .as_ref()
+                    .ok_or_else(|| format!("'{name}' is not a map region"))?;
+                let cells = &map.regions[name];
+                let mut mask = vec![false; map.map.cells.len()];
+                for &cell in cells {
+                    mask[cell] = true;
+                }
+                Ok(RegionTest::Cells(mask))
+            }
         }
     };
     let cell_region = |name: &str| map.as_ref().is_some_and(|m| m.regions.contains_key(name));
