@@ -159,6 +159,21 @@ fn an_unknown_key_names_the_key_path_and_the_line() {
 }
 
 #[test]
+fn a_refusal_after_parsing_names_the_line_too() {
+    let error = edit_refusal(T_MAZE, "solved = \"in goal\"", "solved = \"in kitchen\"");
+    let line = T_MAZE
+        .lines()
+        .position(|l| l == "solved = \"in goal\"")
+        .unwrap()
+        + 1;
+    assert!(
+        error.starts_with(&format!("mine.toml:{line}:")),
+        "line {line}: {error}"
+    );
+    assert!(error.contains("at `end.solved`"), "{error}");
+}
+
+#[test]
 fn references_to_missing_things_are_named() {
     for (from, to, expected) in [
         (

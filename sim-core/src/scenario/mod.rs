@@ -472,6 +472,47 @@ fn line_of(text: &str, at: usize) -> usize {
     text[..at.min(text.len())].matches('\n').count() + 1
 }
 
+/// The line a key path such as `phase[1].when` names in `text`: the key's own line, or, for a
+/// key the file leaves to its default, the line of the nearest written table or key above it.
+/// `None` when the text names nothing on the path (the path is then the whole file's).
+fn line_of_path(text: &str, path: &str) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let mut table = Some(root.get_ref());
+    let mut line = None;
+    for segment in path.split('.').filter(|segment| !segment.is_empty()) {
+        let mut parts = segment.split('[');
+        let key = parts.next().unwrap_or_default();
+        let Some((written_key, mut value)) =
+            table.and_then(|t| t.iter().find(|(k, _)| k.get_ref() == key))
+        else {
+            break;
+        };
+        line = Some(line_of(text, written_key.span().start));
+        table = None;
+        let mut complete = true;
+        for index in parts.map(|i| i.trim_end_matches(']')) {
+            let item = match (value.get_ref(), index.parse::<usize>()) {
+                (DeValue::Array(items), Ok(idx)) => items.get(idx),
+                _ => None,
+            };
+            let Some(item) = item else {
+                complete = false;
+                break;
+            };
+            value = item;
+            line = Some(line_of(text, item.span().start));
+        }
+        if !complete {
+            break;
+        }
+        if let DeValue::Table(inner) = value.get_ref() {
+            table = Some(inner);
+        }
+    }
+    line
+}
+
 /// A parser's message cut to a bounded length: an error must not quote a huge input back.
 pub fn bounded(message: &str) -> String {
     const MAX: usize = 400;
@@ -589,7 +630,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let error = |path: &str, message: String| ScenarioError {
         origin: origin.to_string(),
         path: path.to_string(),
-        line: None,
+        line: line_of_path(text, path),
         message,
     };
     if file.schema != SCHEMA {
@@ -1211,6 +1252,27 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_key_path_finds_its_line() {
+        let text = "name = \"x\"\n\n[end]\nsolved = \"in goal\"\n\n[[phase]]\nwhen = \"a\"\n\n\
+                    [[phase]]\nchild = 1\nwhen = \"b\"\n\n[regions]\nbay = { rect = [0, 0, 1, 1] }\n";
+        for (path, line) in [
+            ("name", Some(1)),
+            ("end.solved", Some(4)),
+            ("phase[0].when", Some(7)),
+            ("phase[1].when", Some(11)),
+            ("regions.bay.rect", Some(14)),
+            // A key left to its default: the nearest written place above it.
+            ("end.wrong_branch", Some(3)),
+            ("phase[1].name", Some(9)),
+            ("phase[7].when", Some(6)),
+            ("world.map", None),
+            ("", None),
+        ] {
+            assert_eq!(line_of_path(text, path), line, "{path}");
+        }
+    }
 
     #[test]
     fn every_shipped_scenario_compiles() {
