@@ -18,6 +18,9 @@ pub const IR_ANGLES: [f32; N_IR] = [
     -17.0 * std::f32::consts::PI / 180.0,
 ];
 
+/// Number of inputs in a frame laid out flat ([`SensorFrame::flat`]): IR, light, near-robot.
+pub const N_FLAT: usize = N_IR + N_LIGHT + 1;
+
 /// All inputs of one control cycle, each in [0, 1].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct SensorFrame {
@@ -27,6 +30,19 @@ pub struct SensorFrame {
     pub light: [f32; N_LIGHT],
     /// 1 when another robot is within the near-robot range.
     pub near_robot: f32,
+}
+
+impl SensorFrame {
+    /// Every input in one array: IR, then light, then near-robot ([`InputGroup::flat_range`]
+    /// says where a group sits).
+    #[inline]
+    pub fn flat(&self) -> [f32; N_FLAT] {
+        let mut flat = [0.0; N_FLAT];
+        flat[..N_IR].copy_from_slice(&self.ir);
+        flat[N_IR..N_IR + N_LIGHT].copy_from_slice(&self.light);
+        flat[N_IR + N_LIGHT] = self.near_robot;
+        flat
+    }
 }
 
 /// A named group of inputs a network can declare. A network's inputs are the concatenation of
@@ -52,12 +68,40 @@ impl InputGroup {
         }
     }
 
+    /// Where the group's values sit in [`SensorFrame::flat`].
+    pub fn flat_range(self) -> std::ops::Range<usize> {
+        match self {
+            InputGroup::Ir => 0..N_IR,
+            InputGroup::Light => N_IR..N_IR + N_LIGHT,
+            InputGroup::NearRobot => N_IR + N_LIGHT..N_FLAT,
+        }
+    }
+
     /// The group's current values in the frame.
     pub fn values(self, frame: &SensorFrame) -> &[f32] {
         match self {
             InputGroup::Ir => &frame.ir,
             InputGroup::Light => &frame.light,
             InputGroup::NearRobot => std::slice::from_ref(&frame.near_robot),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_flat_frame_holds_each_group_where_its_range_says() {
+        let frame = SensorFrame {
+            ir: [0.1, 0.2, 0.3, 0.4],
+            light: [0.5, 0.6],
+            near_robot: 1.0,
+        };
+        let flat = frame.flat();
+        for group in [InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot] {
+            assert_eq!(&flat[group.flat_range()], group.values(&frame), "{group:?}");
+            assert_eq!(group.flat_range().len(), group.width());
         }
     }
 }

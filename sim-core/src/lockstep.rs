@@ -11,7 +11,7 @@
 use crate::controller::{Controller, NodeKind, arbitrate};
 use crate::ctrnn::euler_step;
 use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
-use crate::frame::SensorFrame;
+use crate::frame::{N_FLAT, SensorFrame};
 use crate::lanes::{LANES, Lanes};
 
 /// One network's state in every lane, and the scratch a partial step needs.
@@ -156,6 +156,11 @@ impl LaneController {
         live: &[bool; LANES],
     ) -> [[f32; 2]; LANES] {
         let mut wheels = [[0.0f32; 2]; LANES];
+        // The frames lane by lane, once per step: every node then copies whole lanes.
+        let flat_frames = frames.map(|frame| frame.flat());
+        let frame_lanes: [Lanes; N_FLAT] = std::array::from_fn(|input| {
+            Lanes(std::array::from_fn(|lane| flat_frames[lane][input]))
+        });
         for path in &mut self.paths {
             path.clear();
         }
@@ -172,12 +177,11 @@ impl LaneController {
             let node = &self.controller.nodes()[node_idx];
             let mut n_filled = 0;
             for group in &node.inputs {
-                for (lane, frame) in frames.iter().enumerate() {
-                    for (slot, &value) in
-                        self.inputs[n_filled..].iter_mut().zip(group.values(frame))
-                    {
-                        slot.0[lane] = value;
-                    }
+                for (slot, value) in self.inputs[n_filled..]
+                    .iter_mut()
+                    .zip(&frame_lanes[group.flat_range()])
+                {
+                    *slot = *value;
                 }
                 n_filled += group.width();
             }
