@@ -123,11 +123,8 @@ impl Solid {
 pub struct Scene {
     rects: Vec<Rect>,
     solids: Vec<Solid>,
-    /// Lower-left corner of the grid, metres.
-    grid_origin: [f32; 2],
-    grid_cell: f32,
-    grid_nx: usize,
-    grid_ny: usize,
+    /// The grid the table is over.
+    grid: Grid,
     /// For each cell, the range of `candidates` that lists the solids near it.
     cell_ranges: Vec<(u32, u32)>,
     candidates: Vec<u16>,
@@ -189,7 +186,9 @@ impl Cone {
 }
 
 /// The table's grid: 0.1 m cells over the solids' boxes, and the margin each cell's list covers.
+#[derive(Debug)]
 struct Grid {
+    /// Lower-left corner, metres.
     origin: [f32; 2],
     nx: usize,
     ny: usize,
@@ -257,8 +256,7 @@ impl Scene {
     /// visited in order, so every list comes out sorted and no query depends on a tree's
     /// layout. It is the table a broad-phase query per cell gives (the test
     /// `binned_table_is_the_broad_phase_table` builds that one through rapier and compares),
-    /// at a small part of the cost: a sample's world is built in microseconds rather than in
-    /// a sizeable share of its control cycles.
+    /// at a small part of the cost (decision 0033).
     pub fn new(rects: Vec<Rect>, query_margin: f32) -> Scene {
         let solids: Vec<Solid> = rects
             .iter()
@@ -298,10 +296,7 @@ impl Scene {
             all_solids: (0..solids.len() as u16).collect(),
             rects,
             solids,
-            grid_origin: grid.origin,
-            grid_cell: GRID_CELL,
-            grid_nx: grid.nx,
-            grid_ny: grid.ny,
+            grid,
             cell_ranges,
             candidates,
         }
@@ -315,12 +310,13 @@ impl Scene {
     /// The solids that may lie within the query margin of `point`.
     #[inline]
     fn near(&self, point: [f32; 2]) -> &[u16] {
-        let fx = (point[0] - self.grid_origin[0]) / self.grid_cell;
-        let fy = (point[1] - self.grid_origin[1]) / self.grid_cell;
-        if fx < 0.0 || fy < 0.0 || fx >= self.grid_nx as f32 || fy >= self.grid_ny as f32 {
+        let grid = &self.grid;
+        let fx = (point[0] - grid.origin[0]) / GRID_CELL;
+        let fy = (point[1] - grid.origin[1]) / GRID_CELL;
+        if fx < 0.0 || fy < 0.0 || fx >= grid.nx as f32 || fy >= grid.ny as f32 {
             return &self.all_solids;
         }
-        let (start, end) = self.cell_ranges[fy as usize * self.grid_nx + fx as usize];
+        let (start, end) = self.cell_ranges[fy as usize * grid.nx + fx as usize];
         &self.candidates[start as usize..end as usize]
     }
 

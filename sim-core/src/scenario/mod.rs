@@ -480,7 +480,7 @@ fn line_of_path(text: &str, path: &str) -> Option<usize> {
     let root = DeTable::parse(text).ok()?;
     let mut table = Some(root.get_ref());
     let mut line = None;
-    for segment in path.split('.').filter(|segment| !segment.is_empty()) {
+    'path: for segment in path.split('.').filter(|segment| !segment.is_empty()) {
         let mut parts = segment.split('[');
         let key = parts.next().unwrap_or_default();
         let Some((written_key, mut value)) =
@@ -489,26 +489,21 @@ fn line_of_path(text: &str, path: &str) -> Option<usize> {
             break;
         };
         line = Some(line_of(text, written_key.span().start));
-        table = None;
-        let mut complete = true;
         for index in parts.map(|i| i.trim_end_matches(']')) {
             let item = match (value.get_ref(), index.parse::<usize>()) {
                 (DeValue::Array(items), Ok(idx)) => items.get(idx),
                 _ => None,
             };
             let Some(item) = item else {
-                complete = false;
-                break;
+                break 'path;
             };
             value = item;
             line = Some(line_of(text, item.span().start));
         }
-        if !complete {
-            break;
-        }
-        if let DeValue::Table(inner) = value.get_ref() {
-            table = Some(inner);
-        }
+        table = match value.get_ref() {
+            DeValue::Table(inner) => Some(inner),
+            _ => None,
+        };
     }
     line
 }
