@@ -3,18 +3,19 @@
 //! threads; each call owns its own world and random streams, so results depend only on
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
-use crate::env::{self, Environment, Ground, LightSpec, Statics};
+use crate::env::{self, Environment, Ground, Statics};
 use crate::float::hypot;
 use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
-use crate::scenario::formula::{Atom, Condition, Quantity, RegionTest};
-use crate::scenario::{Scenario, Solved, TeammateBehaviour, Trigger, ending_slot};
+use crate::scenario::blocks::{
+    self, CycleView, EndView, Motion, TeammateBehaviour, TeammateView, Tracked,
+};
+use crate::scenario::{Scenario, Trigger, ending_slot};
 use crate::scene::{Cone, ConeLanes, Rect, Scene};
 use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
 use crate::task::{ConfigError, TaskConfig};
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 
 /// Anything that drives the robot: an evolved controller tree or a scripted reference policy.
 pub trait Policy {
@@ -233,9 +234,6 @@ pub struct Evaluator {
     sensor_offsets: [[f32; 2]; N_IR],
 }
 
-/// The follower's keep-away distance, centre to centre: it stops this close behind the robot.
-const TEAMMATE_GAP: f32 = 0.10;
-
 impl Evaluator {
     /// Validates the task and builds what all its samples share.
     pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
@@ -415,18 +413,9 @@ impl<'e> SampleRun<'e> {
             .scenario
             .teammate
             .as_ref()
-            .map_or(TeammateBehaviour::Follow, |plan| plan.behaviour);
+            .map_or(blocks::BEHAVIOURS[0], |plan| plan.behaviour);
         let teammate = env.teammate.map(|(pose, following)| {
-            let mut mate = Teammate::new(pose, following, task.max_cycles());
-            mate.behaviour = behaviour;
-            if behaviour == TeammateBehaviour::Wander {
-                // Only a wanderer draws from this stream, so no other sample's draws move.
-                mate.walk = Some(Walk::new(
-                    &mut mate.pose,
-                    stream_rng(sample.seed, Stream::Teammate),
-                ));
-            }
-            mate
+            Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
         });
         let lights: Vec<LiveLight> = env
             .lights
@@ -441,11 +430,13 @@ impl<'e> SampleRun<'e> {
             .collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
         let ground = std::mem::take(&mut env.ground);
-        let mut judge = Judge::new(&task.scenario, ground, &env.lights, robot, phase_child);
-        if let Some(mate) = &teammate {
-            let d = robot.distance_to(mate.pose.position());
-            judge.teammate_approach = (d, d);
-        }
+        let judge = Judge::new(
+            task,
+            ground,
+            robot,
+            teammate.as_ref().map(Teammate::view),
+            phase_child,
+        );
         SampleRun {
             evaluator,
             env,
@@ -517,7 +508,9 @@ impl<'e> SampleRun<'e> {
             mate.pose.distance_to(robot.position()) < task.robot.near_robot_range
         });
         self.lit_mask = lit_mask;
-        self.sub_task = self.judge.phase(&robot, self.teammate.as_ref());
+        self.sub_task = self
+            .judge
+            .phase(&robot, self.teammate.as_ref().map(Teammate::view));
         SensorFrame {
             ir,
             light,
@@ -606,7 +599,7 @@ impl<'e> SampleRun<'e> {
         }
         if let Some(end) = self
             .judge
-            .check(&self.robot, self.teammate.as_ref(), task, &self.lights)
+            .check(&self.robot, self.teammate.as_ref().map(Teammate::view))
         {
             return Some(end);
         }
@@ -615,13 +608,12 @@ impl<'e> SampleRun<'e> {
 
     /// The sample's outcome, its world (for a trace) and the robot's final pose.
     pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
-        let task = &self.evaluator.task;
         let judge = self.judge;
         let fitness = judge.fitness(
-            task,
             ending,
             self.cycles_run,
             &self.robot,
+            self.teammate.as_ref().map(Teammate::view),
             &self.sub_task_choices,
         );
         let stage = judge.stage(ending);
@@ -691,28 +683,36 @@ fn trigger_lights(
     }
 }
 
-/// The preprogrammed teammate: waits (or, wandering, walks at random) until the robot comes
-/// within the near-robot range, then follows the robot's own trail (so it never cuts a corner
-/// into a wall), keeping a gap. A fixed teammate is met the same way but never moves.
+/// The other robot: met when the robot comes within the near-robot range, moving as its
+/// behaviour ([`blocks::teammates`]) says before and after.
 #[derive(Debug)]
 struct Teammate {
     pose: Pose,
     /// Whether it has been met (and so, unless fixed, follows).
     following: bool,
-    trail: VecDeque<[f32; 2]>,
-    behaviour: TeammateBehaviour,
-    /// A wanderer's walk, until it is met.
-    walk: Option<Walk>,
+    motion: Box<dyn Motion>,
 }
 
 impl Teammate {
-    fn new(pose: Pose, following: bool, max_cycles: u32) -> Teammate {
+    fn new(
+        mut pose: Pose,
+        following: bool,
+        behaviour: &dyn TeammateBehaviour,
+        sample_seed: u64,
+        max_cycles: u32,
+    ) -> Teammate {
+        let motion = behaviour.start(&mut pose, sample_seed, max_cycles);
         Teammate {
             pose,
             following,
-            trail: VecDeque::with_capacity(max_cycles as usize + 1),
-            behaviour: TeammateBehaviour::Follow,
-            walk: None,
+            motion,
+        }
+    }
+
+    fn view(&self) -> TeammateView {
+        TeammateView {
+            pose: self.pose,
+            following: self.following,
         }
     }
 
@@ -721,109 +721,26 @@ impl Teammate {
             if self.pose.distance_to(robot.position()) < near_range {
                 self.following = true;
             } else {
-                if let Some(walk) = self.walk.as_mut() {
-                    walk.step(&mut self.pose, WANDER_SPEED_SHARE * step, scene, radius);
-                }
+                self.motion.before_met(&mut self.pose, step, scene, radius);
                 return;
             }
         }
-        if self.behaviour == TeammateBehaviour::Fixed {
-            return;
-        }
-        self.trail.push_back(robot.position());
-        let mut budget = step;
-        while budget > 0.0 && self.pose.distance_to(robot.position()) > TEAMMATE_GAP {
-            let Some(&target) = self.trail.front() else {
-                break;
-            };
-            let (dx, dy) = (target[0] - self.pose.x, target[1] - self.pose.y);
-            let d = hypot(dx, dy);
-            if d <= budget {
-                self.pose.x = target[0];
-                self.pose.y = target[1];
-                budget -= d;
-                self.trail.pop_front();
-            } else {
-                self.pose.x += dx / d * budget;
-                self.pose.y += dy / d * budget;
-                budget = 0.0;
-            }
-            if d > 1e-6 {
-                self.pose.heading = dy.atan2(dx);
-            }
-        }
+        self.motion.after_met(&mut self.pose, robot, step);
     }
 }
 
-/// A wanderer moves at this share of the robot's top speed: slow enough for a robot to catch.
-const WANDER_SPEED_SHARE: f32 = 0.5;
-/// A wanderer keeps a heading for a whole number of cycles drawn uniformly from this range...
-const WANDER_LEG_CYCLES: std::ops::RangeInclusive<u32> = 10..=40;
-/// ...then turns by an angle drawn uniformly from plus or minus this, radians (90 degrees).
-const WANDER_TURN: f32 = std::f32::consts::FRAC_PI_2;
-
-/// A wandering teammate's random walk, drawn from its own stream: straight legs of random
-/// length, a random turn between legs, and when the next step would touch a solid (the robot's
-/// own disc test) no move but a turn away, by 90 to 270 degrees.
-#[derive(Debug)]
-struct Walk {
-    rng: SimRng,
-    /// Cycles left on the current leg.
-    leg_left: u32,
-}
-
-impl Walk {
-    /// Starts a walk: the first heading and the first leg's length are its first draws.
-    fn new(pose: &mut Pose, mut rng: SimRng) -> Walk {
-        use rand::RngExt;
-        pose.heading = rng.random_range(-std::f32::consts::PI..std::f32::consts::PI);
-        let leg_left = rng.random_range(WANDER_LEG_CYCLES);
-        Walk { rng, leg_left }
-    }
-
-    fn step(&mut self, pose: &mut Pose, step: f32, scene: &Scene, radius: f32) {
-        use rand::RngExt;
-        use std::f32::consts::PI;
-        if self.leg_left == 0 {
-            pose.heading =
-                wrap_angle(pose.heading + self.rng.random_range(-WANDER_TURN..=WANDER_TURN));
-            self.leg_left = self.rng.random_range(WANDER_LEG_CYCLES);
-        }
-        self.leg_left -= 1;
-        let (sin_h, cos_h) = pose.heading.sin_cos();
-        let next = [pose.x + step * cos_h, pose.y + step * sin_h];
-        if scene.disc_hits(next, radius) {
-            pose.heading = wrap_angle(pose.heading + self.rng.random_range(0.5 * PI..=1.5 * PI));
-        } else {
-            pose.x = next[0];
-            pose.y = next[1];
-        }
-    }
-}
-
-/// An angle in [-pi, pi).
-fn wrap_angle(angle: f32) -> f32 {
-    use std::f32::consts::PI;
-    (angle + PI).rem_euclid(2.0 * PI) - PI
-}
-
-/// The scenario's bookkeeping of a sample: what it has reached, how close it came, which
-/// child each phase asks for.
+/// The scenario's bookkeeping of a sample: what each quantity keeps, which stages it has
+/// reached, which child each phase asks for.
 #[derive(Debug)]
 struct Judge<'a> {
+    task: &'a TaskConfig,
     scenario: &'a Scenario,
     /// The sample's ground truth, owned for the sample's length.
     ground: Ground,
-    /// Closest approach to the room's exit so far.
-    closest_exit: f32,
-    /// Per light: the distance at the start, and the closest approach so far.
-    light_approach: Vec<(f32, f32)>,
+    /// What each of the scenario's quantities keeps, by index.
+    tracked: Vec<Tracked>,
     /// Which stages have been reached.
     reached: [bool; 8],
-    /// Whether the teammate has followed at some cycle.
-    found: bool,
-    /// The robot's distance to the teammate at the start, and the closest approach so far.
-    teammate_approach: (f32, f32),
     /// The child each phase asks for, as an output index of the root.
     phase_child: [usize; N_SUB_TASKS],
 }
@@ -846,112 +763,80 @@ pub(crate) fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usiz
 
 impl<'a> Judge<'a> {
     fn new(
-        scenario: &'a Scenario,
+        task: &'a TaskConfig,
         ground: Ground,
-        lights: &[LightSpec],
         start: Pose,
+        teammate: Option<TeammateView>,
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
-        Judge {
+        let scenario: &Scenario = &task.scenario;
+        let view = CycleView {
+            robot: &start,
+            teammate,
+            ground: &ground,
             scenario,
-            closest_exit: ground
-                .room
-                .as_ref()
-                .map_or(f32::INFINITY, |room| start.distance_to(room.exit_center)),
+            task,
+        };
+        let tracked = scenario
+            .quantities
+            .iter()
+            .map(|(_, quantity)| quantity.start(&view))
+            .collect();
+        Judge {
+            task,
+            scenario,
             ground,
-            light_approach: lights
-                .iter()
-                .map(|light| {
-                    let d = start.distance_to(light.position);
-                    (d, d)
-                })
-                .collect(),
+            tracked,
             reached: [false; 8],
-            found: false,
-            teammate_approach: (f32::INFINITY, f32::INFINITY),
             phase_child,
         }
     }
 
-    /// Whether a condition's atom holds for the robot at `robot`.
-    fn truth(&self, atom: &Atom, robot: &Pose, teammate: Option<&Teammate>) -> bool {
-        match atom {
-            Atom::Always => true,
-            Atom::InMaze => self
-                .ground
-                .cells
-                .as_ref()
-                .is_some_and(|cells| cells.cell_at(robot.position()).is_some()),
-            Atom::InGoal => self
-                .ground
-                .goal
-                .as_ref()
-                .is_some_and(|goal| goal.map.cell_at(robot.position()) == Some(goal.goal)),
-            Atom::InRegion(region) => self.in_region(region, robot),
-            Atom::TeammateFollowing => teammate.is_some_and(|mate| mate.following),
-            Atom::Near(light) => {
-                self.light_approach.get(*light).is_some() && {
-                    let position = self.scenario.lights[*light].position;
-                    robot.distance_to(position) < self.scenario.near_m
-                }
-            }
+    /// What the blocks see of this cycle.
+    #[inline]
+    fn view<'v>(&'v self, robot: &'v Pose, teammate: Option<TeammateView>) -> CycleView<'v> {
+        CycleView {
+            robot,
+            teammate,
+            ground: &self.ground,
+            scenario: self.scenario,
+            task: self.task,
         }
-    }
-
-    fn in_region(&self, region: &RegionTest, robot: &Pose) -> bool {
-        match region {
-            RegionTest::Rect([x0, y0, x1, y1]) => {
-                (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y)
-            }
-            RegionTest::Room => self
-                .ground
-                .room
-                .as_ref()
-                .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
-            RegionTest::Cells(mask) => self.ground.cells.as_ref().is_some_and(|cells| {
-                cells
-                    .cell_at(robot.position())
-                    .is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
-            }),
-        }
-    }
-
-    fn holds(&self, condition: &Condition, robot: &Pose, teammate: Option<&Teammate>) -> bool {
-        condition.holds(&|atom| self.truth(atom, robot, teammate))
     }
 
     /// The phase of the derived fitness in force, if the scenario has phases.
-    fn phase(&self, robot: &Pose, teammate: Option<&Teammate>) -> Option<u8> {
+    #[inline]
+    fn phase(&self, robot: &Pose, teammate: Option<TeammateView>) -> Option<u8> {
+        if self.scenario.phases.is_empty() {
+            return None;
+        }
+        let view = self.view(robot, teammate);
         self.scenario
             .phases
             .iter()
-            .position(|phase| self.holds(&phase.when, robot, teammate))
+            .position(|phase| phase.when.holds(&view))
             .map(|idx| idx as u8)
     }
 
-    fn check(
-        &mut self,
-        robot: &Pose,
-        teammate: Option<&Teammate>,
-        task: &TaskConfig,
-        lights: &[LiveLight],
-    ) -> Option<Ending> {
-        let scenario = self.scenario;
-        if let Some(room) = &self.ground.room {
-            self.closest_exit = self.closest_exit.min(robot.distance_to(room.exit_center));
-        }
-        for ((_, closest), light) in self.light_approach.iter_mut().zip(lights) {
-            *closest = closest.min(robot.distance_to(light.position));
+    /// After a cycle's move: the quantities observe, stages are reached, and the sample ends
+    /// if it took a wrong branch or is solved.
+    #[inline]
+    fn check(&mut self, robot: &Pose, teammate: Option<TeammateView>) -> Option<Ending> {
+        let (scenario, task) = (self.scenario, self.task);
+        let view = CycleView {
+            robot,
+            teammate,
+            ground: &self.ground,
+            scenario,
+            task,
+        };
+        for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
+            quantity.observe(tracked, &view);
         }
         for (idx, stage) in scenario.stages.iter().enumerate() {
-            if !self.reached[idx] && self.holds(&stage.reached, robot, teammate) {
+            if !self.reached[idx] && stage.reached.holds(&view) {
                 self.reached[idx] = true;
             }
-        }
-        self.found |= teammate.is_some_and(|mate| mate.following);
-        if let Some(mate) = teammate {
-            let closest = &mut self.teammate_approach.1;
-            *closest = closest.min(robot.distance_to(mate.pose.position()));
         }
         if scenario.wrong_branch
             && (scenario.wrong_branch_ends || task.end_on_wrong_branch)
@@ -963,74 +848,26 @@ impl<'a> Judge<'a> {
         {
             return Some(Ending::WrongBranch);
         }
-        let solved = match &scenario.solved {
-            Solved::InGoal => self.truth(&Atom::InGoal, robot, teammate),
-            Solved::BeyondExit => self.ground.room.as_ref().is_some_and(|room| {
-                room.depth_beyond_exit(robot.position())
-                    > task.room.wall_thickness + task.robot.radius
-            }),
-            Solved::TeammateInRoom => {
-                self.found
-                    && self.ground.room.as_ref().is_some_and(|room| {
-                        teammate.is_some_and(|mate| {
-                            room.depth_beyond_exit(mate.pose.position()) < -task.robot.radius
-                        })
-                    })
-            }
-            Solved::Near(light) => self.truth(&Atom::Near(*light), robot, teammate),
-            Solved::TeammateMet => self.found,
-        };
-        solved.then_some(Ending::Solved)
+        scenario.solved.holds(&view).then_some(Ending::Solved)
     }
 
     fn fitness(
         &self,
-        task: &TaskConfig,
         ending: Ending,
         cycles: u32,
         robot: &Pose,
+        teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
     ) -> f32 {
-        let max_cycles = task.max_cycles() as f32;
-        let time_bonus = (max_cycles - cycles as f32) / max_cycles;
-        let value_of = |quantity: &Quantity| match quantity {
-            Quantity::Constant(value) => *value,
-            Quantity::TimeBonus => time_bonus,
-            Quantity::Progress => self.ground.goal.as_ref().map_or(0.0, |goal| {
-                let current = goal
-                    .distance_from(robot.position())
-                    .unwrap_or(goal.total_distance);
-                ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0)
-            }),
-            Quantity::ApproachExit => self.ground.room.as_ref().map_or(0.0, |room| {
-                let to_exit = hypot(
-                    room.center[0] - room.exit_center[0],
-                    room.center[1] - room.exit_center[1],
-                );
-                ((to_exit - self.closest_exit) / to_exit).clamp(0.0, 1.0)
-            }),
-            Quantity::ApproachLight(light) => {
-                self.light_approach
-                    .get(*light)
-                    .map_or(0.0, |&(start, closest)| {
-                        if start > 0.0 {
-                            ((start - closest) / start).clamp(0.0, 1.0)
-                        } else {
-                            1.0
-                        }
-                    })
-            }
-            Quantity::ApproachTeammate => {
-                let (start, closest) = self.teammate_approach;
-                if !start.is_finite() {
-                    0.0
-                } else if start > 0.0 {
-                    ((start - closest) / start).clamp(0.0, 1.0)
-                } else {
-                    1.0
-                }
-            }
-            Quantity::Derived => sub_task_choices.derived_fitness(),
+        let end = EndView {
+            cycle: self.view(robot, teammate),
+            cycles,
+            sub_task_choices,
+        };
+        let value_of = |idx: usize| {
+            self.scenario.quantities[idx]
+                .1
+                .value(&self.tracked[idx], &end)
         };
         let slot = match ending {
             Ending::Solved => ending_slot::SOLVED,
@@ -1040,8 +877,8 @@ impl<'a> Judge<'a> {
         };
         let fitness = self.scenario.fitness[slot].eval(&value_of);
         // The authors' code rewards finishing: a solved derived fitness earns the time bonus.
-        if task.rescue_time_bonus && ending == Ending::Solved {
-            fitness + time_bonus
+        if self.task.rescue_time_bonus && ending == Ending::Solved {
+            fitness + blocks::quantities::time_bonus(cycles, self.task.max_cycles())
         } else {
             fitness
         }
@@ -1121,10 +958,10 @@ mod tests {
         };
         let task = shipped(name);
         judge(&task, &ground, origin()).fitness(
-            &task,
             ending,
             cycles,
             &end,
+            None,
             &SubTaskChoices::default(),
         )
     }
@@ -1137,10 +974,10 @@ mod tests {
     /// their order.
     fn judge<'a>(task: &'a TaskConfig, ground: &'a Ground, start: Pose) -> Judge<'a> {
         Judge::new(
-            &task.scenario,
+            task,
             ground.clone(),
-            &[],
             start,
+            None,
             std::array::from_fn(|idx| idx),
         )
     }
@@ -1292,8 +1129,14 @@ mod tests {
         let none = SubTaskChoices::default();
         let fitness = |closest: f32, ending: Ending, cycles: u32| {
             let mut judge = judge(&task, &ground, origin());
-            judge.closest_exit = closest;
-            judge.fitness(&task, ending, cycles, &origin(), &none)
+            let exit = task
+                .scenario
+                .quantities
+                .iter()
+                .position(|(name, _)| name == "approach room.exit")
+                .expect("f1 approaches the exit");
+            judge.tracked[exit].best = closest;
+            judge.fitness(ending, cycles, &origin(), None, &none)
         };
         // Exited at cycle 400 of 1000.
         assert_close(
@@ -1329,32 +1172,32 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &task, &[]), None);
+            assert_eq!(judge.check(&at(0.0, y), None), None);
         }
         let f = judge.fitness(
-            &task,
             Ending::Timeout,
             1000,
             &at(0.0, 0.0),
+            None,
             &SubTaskChoices::default(),
         );
         assert_close(f, (0.5 - 0.15) / 0.5, "closest 0.15");
         // A judge whose robot never moves keeps its start's distance, hypot(0.1, 0.4).
         let still = self::judge(&task, &ground, at(0.1, 0.1));
         let f = still.fitness(
-            &task,
             Ending::Timeout,
             1000,
             &at(0.1, 0.1),
+            None,
             &SubTaskChoices::default(),
         );
         assert_close(f, (0.5 - 0.1f32.hypot(0.4)) / 0.5, "start");
         // Exited: the centre a body radius beyond the exit wall's outer face, 0.10 + 0.0375 m
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
-        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None, &task, &[]), None);
+        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None), None);
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &task, &[]),
+            judge.check(&at(0.0, 0.5 + 0.138), None),
             Some(Ending::Solved)
         );
     }
@@ -1377,7 +1220,7 @@ mod tests {
         choices: SubTaskChoices,
     ) -> f32 {
         let ground = rescue_ground();
-        judge(task, &ground, origin()).fitness(task, ending, cycles, &origin(), &choices)
+        judge(task, &ground, origin()).fitness(ending, cycles, &origin(), None, &choices)
     }
 
     #[test]
@@ -1446,16 +1289,22 @@ mod tests {
         let ground = rescue_ground();
         let task = shipped("rescue");
         let judge = self::judge(&task, &ground, origin());
-        let waiting = Teammate::new(at(-0.6, 0.6), false, 10);
-        let following = Teammate::new(at(-0.6, 0.6), true, 10);
+        let waiting = TeammateView {
+            pose: at(-0.6, 0.6),
+            following: false,
+        };
+        let following = TeammateView {
+            following: true,
+            ..waiting
+        };
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(&waiting)), Some(0));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(&waiting)), Some(1));
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(&following)), Some(2));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(&following)), Some(2));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting)), Some(0));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting)), Some(1));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(following)), Some(2));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following)), Some(2));
         // The boundary of the first cell, half a cell below its centre.
-        assert_eq!(judge.phase(&at(0.0, -0.1499), Some(&waiting)), Some(1));
-        assert_eq!(judge.phase(&at(0.0, -0.1501), Some(&waiting)), Some(0));
+        assert_eq!(judge.phase(&at(0.0, -0.1499), Some(waiting)), Some(1));
+        assert_eq!(judge.phase(&at(0.0, -0.1501), Some(waiting)), Some(0));
         // Other tasks have no sub-tasks.
         let solve_maze = shipped("solve_maze");
         assert_eq!(

@@ -270,12 +270,8 @@ impl TaskConfig {
     /// derived fitness up to one per phase), and the time bonus added to a solved derived
     /// fitness when asked for.
     pub fn fitness_range(&self) -> (f32, f32) {
-        use crate::scenario::formula::Quantity;
-        let n_phases = self.scenario.phases.len() as f32;
-        let range_of = |q: &Quantity| match q {
-            Quantity::Derived => (0.0, n_phases),
-            _ => (0.0, 1.0),
-        };
+        let n_phases = self.scenario.phases.len();
+        let range_of = |idx: usize| self.scenario.quantities[idx].1.range(n_phases);
         let mut low = f32::INFINITY;
         let mut high = f32::NEG_INFINITY;
         for (slot, formula) in self.scenario.fitness.iter().enumerate() {
@@ -324,9 +320,8 @@ impl TaskConfig {
                 ),
             ));
         }
-        let map_wrong_branches = scenario.wrong_branch
-            && scenario.wrong_branch_ends
-            && scenario.world == crate::scenario::WorldKind::Map;
+        let map_wrong_branches =
+            scenario.wrong_branch && scenario.wrong_branch_ends && scenario.world.is_map_alone();
         if self.wrong_branch_at_end_only && !map_wrong_branches {
             return Err(invalid(
                 "wrong_branch_at_end_only",

@@ -252,7 +252,8 @@ fn a_huge_value_is_quoted_back_bounded() {
 }
 
 mod formulas {
-    use hevo_sim_core::scenario::formula::{Formula, Quantity};
+    use hevo_sim_core::scenario::blocks::Facts;
+    use hevo_sim_core::scenario::formula::{Formula, Quantities};
     use proptest::prelude::*;
 
     /// A term as a file writes it: a number or a quantity, perhaps scaled.
@@ -282,16 +283,24 @@ mod formulas {
             derived in 0.0f32..=3.0,
         ) {
             let text = terms.join(" + ");
-            let formula = Formula::parse(&text, &|_| None).unwrap();
-            let range_of = |q: &Quantity| match q {
-                Quantity::Derived => (0.0, 3.0),
-                _ => (0.0, 1.0),
+            let facts = Facts {
+                lights: &[],
+                region: &|name| Err(format!("no region '{name}'")),
+                has_room: true,
+                goals_in_cells: true,
+                has_teammate: true,
+                has_phases: true,
+                near_m: 0.1,
             };
-            let value_of = |q: &Quantity| match q {
-                Quantity::TimeBonus => values[0],
-                Quantity::Progress => values[1],
-                Quantity::ApproachExit => values[2],
-                Quantity::Derived => derived,
+            let mut quantities = Quantities::new();
+            let formula = Formula::parse(&text, &facts, &mut quantities).unwrap();
+            // Each quantity's own range, for a scenario of three phases.
+            let range_of = |idx: usize| quantities[idx].1.range(3);
+            let value_of = |idx: usize| match quantities[idx].0.as_str() {
+                "time_bonus" => values[0],
+                "progress" => values[1],
+                "approach room.exit" => values[2],
+                "derived" => derived,
                 _ => values[3],
             };
             let (low, high) = formula.range(&range_of);

@@ -15,13 +15,12 @@ pub mod room;
 
 use crate::rng::SimRng;
 use crate::robot::Pose;
-use crate::scenario::{Facing, PlaceAt, Scenario, Trigger, WorldKind};
-use crate::scene::{Rect, Scene};
+use crate::scenario::{Facing, PlaceAt, Scenario, Trigger};
+use crate::scene::Scene;
 use crate::task::TaskConfig;
-use cells::{CellMap, Side};
-use corridor::{Junction, Turn};
+use cells::CellMap;
 use rand::RngExt;
-use room::{Placement, Room};
+use room::Room;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -130,14 +129,9 @@ impl Statics {
     /// Builds what never changes between samples of this task.
     pub fn new(task: &TaskConfig) -> Statics {
         let scenario = &task.scenario;
-        let closed_map = match (&scenario.world, &scenario.map) {
-            (WorldKind::Map, Some(map)) => {
-                let scene = Scene::new(map.map.wall_rects(&[]), task.query_margin());
-                Some((Arc::new(scene), Arc::new(map.map.clone())))
-            }
-            _ => None,
-        };
-        Statics { closed_map }
+        Statics {
+            closed_map: scenario.world.statics(scenario, task),
+        }
     }
 }
 
@@ -167,50 +161,14 @@ pub fn build(
         None => 0,
     };
     let plan = &scenario.variants[variant_idx as usize];
-    let margin = task.query_margin();
 
     // The world: its scene, cells, room, and a generated corridor's path and shape.
-    let mut reported = variant_idx;
-    let mut room_made = None;
-    let mut corridor_path = None;
-    let (scene, cells) = match &scenario.world {
-        WorldKind::Room => {
-            let room = room::generate(&task.room, Placement::Standalone, rng);
-            let scene = Arc::new(Scene::new(room.rects.clone(), margin));
-            room_made = Some(room);
-            (scene, None)
-        }
-        WorldKind::Corridor(turn) => {
-            let (map, path, junction) = generate_corridor(*turn, task, rng);
-            reported = junction.index();
-            let map = Arc::new(map);
-            corridor_path = Some(path);
-            (Arc::new(Scene::new(map.wall_rects(&[]), margin)), Some(map))
-        }
-        WorldKind::Map => {
-            let (scene, map) = statics
-                .closed_map
-                .clone()
-                .expect("map statics are built for map worlds");
-            (scene, Some(map))
-        }
-        WorldKind::RoomBelowMap => {
-            let map = &scenario.map.as_ref().expect("checked when compiled").map;
-            let entrance = region_cell(scenario, "entrance");
-            let (scene, room) = room_below(map, entrance, task, rng);
-            room_made = Some(room);
-            (scene, Some(Arc::new(map.clone())))
-        }
-        WorldKind::RoomBelowCorridor(turn) => {
-            // The corridor is drawn first, then the room under its first cell.
-            let (map, path, junction) = generate_corridor(*turn, task, rng);
-            reported = junction.index();
-            let (scene, room) = room_below(&map, path[0], task, rng);
-            room_made = Some(room);
-            corridor_path = Some(path);
-            (scene, Some(Arc::new(map)))
-        }
-    };
+    let built = scenario
+        .world
+        .build(scenario, task, statics.closed_map.as_ref(), rng);
+    let reported = built.shape.unwrap_or(variant_idx);
+    let (scene, cells, room_made, corridor_path) =
+        (built.scene, built.cells, built.room, built.corridor_path);
 
     // The path from the start to the goal, in cells.
     let start_cell = |cells: &CellMap| -> Option<usize> {
@@ -336,69 +294,6 @@ pub fn build(
         },
         variant: reported,
     }
-}
-
-/// A room generated under the cell `entrance` of `map`, its exit centred under that cell: the
-/// room's top wall is the map's lower border there, so the map leaves that border open and
-/// the room's exit gap is the way in. The scene holds both.
-fn room_below(
-    map: &CellMap,
-    entrance: usize,
-    task: &TaskConfig,
-    rng: &mut SimRng,
-) -> (Arc<Scene>, Room) {
-    let entrance_center = map.center(entrance);
-    let half = 0.5 * map.cell_size;
-    let room_exit = [
-        entrance_center[0],
-        entrance_center[1] - half - 0.5 * map.wall_thickness,
-    ];
-    let room = room::generate(
-        &task.room,
-        Placement::Below {
-            exit_center: room_exit,
-        },
-        rng,
-    );
-    let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
-    rects.extend(room.rects.iter().copied());
-    (Arc::new(Scene::new(rects, task.query_margin())), room)
-}
-
-/// A corridor drawn from the stream as the turning and following primitives need it: its
-/// cells, its path, and the shape of its turn.
-fn generate_corridor(
-    turn: Turn,
-    task: &TaskConfig,
-    rng: &mut SimRng,
-) -> (CellMap, Vec<usize>, Junction) {
-    let c = &task.corridor;
-    let (before, after) = match turn {
-        Turn::Straight => (
-            rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
-            0,
-        ),
-        _ => (
-            rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
-            rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
-        ),
-    };
-    // One draw picks the turn's shape, so tasks without side junctions draw exactly what they
-    // drew before side junctions existed.
-    let junction = if turn == Turn::Straight {
-        Junction::Bend
-    } else {
-        let draw = rng.random::<f32>();
-        if draw < c.junction_share {
-            Junction::TEnd
-        } else if draw < c.junction_share + c.side_junction_share {
-            Junction::Side
-        } else {
-            Junction::Bend
-        }
-    };
-    let corridor = corridor::build(turn, before, after, junction);
-    (corridor.map, corridor.path, junction)
 }
 
 /// A start pose at a corridor cell: jittered sideways and in heading (SPEC is silent; the

@@ -73,7 +73,7 @@ pub fn named_regions(task: &TaskConfig, env: &Environment) -> Vec<NamedRegion> {
             ]],
         });
     }
-    if scenario.world.corridor().is_some()
+    if scenario.world.has_corridor()
         && let Some(goal) = &env.ground.goal
     {
         // A generated corridor's path is its cells from 0: the first is its start.

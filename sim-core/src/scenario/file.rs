@@ -239,11 +239,8 @@ pub struct TeammateDecl {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EndDecl {
-    /// When the sample is solved: `"in goal"` (the robot's centre in the goal region),
-    /// `"beyond room.exit"` (a body radius beyond the exit wall's outer face), `"teammate in
-    /// room"` (the teammate back in the room, a body radius inside), `"near NAME"` (within
-    /// `near_m` of a light) or `"teammate met"` (the robot within `robot.near_robot_range` of
-    /// the teammate).
+    /// When the sample is solved: a condition (`"in goal"`, `"beyond room.exit"`, `"teammate
+    /// in room"`, `"near NAME and teammate met"`, ...; docs/scenario-file.md lists the atoms).
     pub solved: String,
     /// `"off path"`: entering a cell off the path to the goal is a wrong branch.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -252,7 +249,7 @@ pub struct EndDecl {
     /// search on, and `end_on_wrong_branch = true` changes that).
     #[serde(default = "default_true")]
     pub wrong_branch_ends: bool,
-    /// For `near NAME`: how close counts, metres.
+    /// For the `near NAME` atom: how close counts, metres.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub near_m: f32,
 }

@@ -10,35 +10,31 @@
 //! move), and `derived` (the derived fitness: the sum over the phases
 //! reached of the share of cycles the arbitrator chose the phase's child).
 //!
-//! A *condition* says when a phase is in force or a stage reached: atoms joined by `and`, each
-//! optionally preceded by `not`: `in maze` (the robot's centre in a map cell), `in goal`,
-//! `in REGION`, `teammate following`, `near LIGHT` (within the scenario's `near_m`), `always`.
+//! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
+//! joined by `and`, each optionally preceded by `not`: `in maze` (the robot's centre in a map
+//! cell), `in goal`, `in REGION`, `teammate following` (or `teammate met`), `teammate in room`,
+//! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `always`.
+//!
+//! The quantities and atoms themselves are building blocks ([`super::blocks`]): this module
+//! only splits the text and asks the registered blocks what each piece names.
 
-/// What a term of a formula is.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Quantity {
+use super::blocks::{self, Atom, CycleView, Facts, Quantity};
+
+/// What a term adds: a number, or a quantity (an index into the scenario's compiled
+/// quantities).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TermBase {
     /// A number.
-    Constant(f32),
-    /// (max_cycles - cycles) / max_cycles.
-    TimeBonus,
-    /// Share of the corridor distance to the goal covered.
-    Progress,
-    /// Share of the way from the room's centre to its exit covered by the closest approach.
-    ApproachExit,
-    /// Share of the way from the start to a light covered by the closest approach.
-    ApproachLight(usize),
-    /// Share of the start's distance to the teammate covered by the closest approach (the
-    /// teammate may move: each cycle's distance counts).
-    ApproachTeammate,
-    /// The derived fitness.
-    Derived,
+    Number(f32),
+    /// The quantity at this index.
+    Quantity(usize),
 }
 
-/// One term: a quantity, divided or multiplied by a number.
+/// One term: a number or a quantity, divided or multiplied by a number.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Term {
-    /// The quantity.
-    pub quantity: Quantity,
+    /// What it adds.
+    pub base: TermBase,
     /// `/ d` (true) or `* f` (false), and the number.
     pub scale: Option<(bool, f32)>,
 }
@@ -50,9 +46,18 @@ pub struct Formula {
     pub terms: Vec<Term>,
 }
 
+/// The quantities a scenario's formulas use, each compiled once and kept under the text that
+/// names it (two formulas naming `approach room.exit` share one).
+pub type Quantities = Vec<(String, Box<dyn Quantity>)>;
+
 impl Formula {
-    /// Parses a formula; `light` resolves a light's name to its index.
-    pub fn parse(text: &str, light: &dyn Fn(&str) -> Option<usize>) -> Result<Formula, String> {
+    /// Parses a formula, compiling each quantity it names into `quantities` (unless one of
+    /// that name is there already).
+    pub fn parse(
+        text: &str,
+        facts: &Facts<'_>,
+        quantities: &mut Quantities,
+    ) -> Result<Formula, String> {
         let mut terms = Vec::new();
         for raw in text.split('+') {
             let raw = raw.trim();
@@ -73,43 +78,40 @@ impl Formula {
                 }
                 None => (raw, None),
             };
-            let quantity = match base {
-                "time_bonus" => Quantity::TimeBonus,
-                "progress" => Quantity::Progress,
-                "derived" => Quantity::Derived,
-                "approach room.exit" => Quantity::ApproachExit,
-                "approach teammate" => Quantity::ApproachTeammate,
-                other => {
-                    if let Some(name) = other.strip_prefix("approach ") {
-                        Quantity::ApproachLight(light(name.trim()).ok_or_else(|| {
-                            format!("'{raw}': no light is named '{}'", name.trim())
-                        })?)
-                    } else if let Ok(value) = other.parse::<f32>() {
-                        Quantity::Constant(value)
-                    } else {
-                        return Err(format!(
-                            "'{raw}': expected a number, time_bonus, progress, derived, \
-                             approach room.exit, approach teammate or approach LIGHT"
-                        ));
-                    }
-                }
+            let base = if let Some(idx) = quantities.iter().position(|(name, _)| name == base) {
+                TermBase::Quantity(idx)
+            } else if let Some(compiled) = blocks::QUANTITIES
+                .iter()
+                .find_map(|kind| (kind.compile)(base, facts))
+            {
+                quantities.push((
+                    base.to_string(),
+                    compiled.map_err(|why| format!("'{raw}': {why}"))?,
+                ));
+                TermBase::Quantity(quantities.len() - 1)
+            } else if let Ok(value) = base.parse::<f32>() {
+                TermBase::Number(value)
+            } else {
+                return Err(format!(
+                    "'{raw}': expected a number, {}",
+                    blocks::listed(
+                        blocks::QUANTITIES
+                            .iter()
+                            .flat_map(|k| k.syntax.iter().copied())
+                    )
+                ));
             };
-            terms.push(Term { quantity, scale });
+            terms.push(Term { base, scale });
         }
         Ok(Formula { terms })
     }
 
-    /// Whether any term is `q`.
-    pub fn uses(&self, q: &dyn Fn(&Quantity) -> bool) -> bool {
-        self.terms.iter().any(|term| q(&term.quantity))
-    }
-
-    /// The formula's value, given each quantity's (`value_of` is not asked for numbers).
-    pub fn eval(&self, value_of: &dyn Fn(&Quantity) -> f32) -> f32 {
+    /// The formula's value, given each quantity's by index.
+    pub fn eval(&self, value_of: &dyn Fn(usize) -> f32) -> f32 {
         let mut terms = self.terms.iter().map(|term| {
-            let value = match term.quantity {
-                Quantity::Constant(value) => value,
-                ref quantity => value_of(quantity),
+            let value = match term.base {
+                TermBase::Number(value) => value,
+                TermBase::Quantity(idx) => value_of(idx),
             };
             match term.scale {
                 Some((true, d)) => value / d,
@@ -121,13 +123,12 @@ impl Formula {
         terms.fold(first, |sum, value| sum + value)
     }
 
-    /// The formula's smallest and largest value when every quantity lies in its range
-    /// (`range_of` is not asked for numbers).
-    pub fn range(&self, range_of: &dyn Fn(&Quantity) -> (f32, f32)) -> (f32, f32) {
+    /// The formula's smallest and largest value when every quantity lies in its range.
+    pub fn range(&self, range_of: &dyn Fn(usize) -> (f32, f32)) -> (f32, f32) {
         self.terms.iter().fold((0.0, 0.0), |(low, high), term| {
-            let (a, b) = match term.quantity {
-                Quantity::Constant(value) => (value, value),
-                ref quantity => range_of(quantity),
+            let (a, b) = match term.base {
+                TermBase::Number(value) => (value, value),
+                TermBase::Quantity(idx) => range_of(idx),
             };
             let (a, b) = match term.scale {
                 Some((true, d)) => (a / d, b / d),
@@ -139,50 +140,16 @@ impl Formula {
     }
 }
 
-/// An atom of a condition.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Atom {
-    /// Always true.
-    Always,
-    /// The robot's centre in a map cell.
-    InMaze,
-    /// The robot's centre in the goal region.
-    InGoal,
-    /// The robot's centre in a named region, resolved to its test when the scenario compiles
-    /// so that no name is looked up in the control loop.
-    InRegion(RegionTest),
-    /// The teammate follows.
-    TeammateFollowing,
-    /// Within `near_m` of a light.
-    Near(usize),
-}
-
-/// What `in REGION` tests.
-#[derive(Debug, Clone, PartialEq)]
-pub enum RegionTest {
-    /// Inside a rectangle `[x0, y0, x1, y1]`, metres, edges included.
-    Rect([f32; 4]),
-    /// Inside the generated room, short of its exit.
-    Room,
-    /// In one of a map's cells: `true` at the cell indices of the region.
-    Cells(Vec<bool>),
-}
-
 /// A condition: every atom (or its negation) holds.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct Condition {
     /// (negated, atom).
-    pub atoms: Vec<(bool, Atom)>,
+    pub atoms: Vec<(bool, Box<dyn Atom>)>,
 }
 
 impl Condition {
-    /// Parses a condition; `region` resolves a region's name to its test (or says why a
-    /// condition may not name it), `light` resolves a light.
-    pub fn parse(
-        text: &str,
-        region: &dyn Fn(&str) -> Result<RegionTest, String>,
-        light: &dyn Fn(&str) -> Option<usize>,
-    ) -> Result<Condition, String> {
+    /// Parses a condition, compiling each atom by the first registered kind that knows it.
+    pub fn parse(text: &str, facts: &Facts<'_>) -> Result<Condition, String> {
         let mut atoms = Vec::new();
         for raw in text.split(" and ") {
             let raw = raw.trim();
@@ -190,108 +157,145 @@ impl Condition {
                 Some(rest) => (true, rest.trim()),
                 None => (false, raw),
             };
-            let atom = match body {
-                "always" | "otherwise" => Atom::Always,
-                "in maze" => Atom::InMaze,
-                "in goal" => Atom::InGoal,
-                "teammate following" => Atom::TeammateFollowing,
-                other => {
-                    if let Some(name) = other.strip_prefix("in ") {
-                        let name = name.trim();
-                        Atom::InRegion(region(name).map_err(|why| format!("'{raw}': {why}"))?)
-                    } else if let Some(name) = other.strip_prefix("near ") {
-                        Atom::Near(light(name.trim()).ok_or_else(|| {
-                            format!("'{raw}': no light is named '{}'", name.trim())
-                        })?)
-                    } else {
-                        return Err(format!(
-                            "'{raw}': expected in maze, in goal, in REGION, teammate following, \
-                             near LIGHT or always, each perhaps after 'not', joined by 'and'"
-                        ));
-                    }
-                }
-            };
+            let atom = blocks::ATOMS
+                .iter()
+                .find_map(|kind| (kind.compile)(body, facts))
+                .ok_or_else(|| {
+                    format!(
+                        "'{raw}': expected {}, each perhaps after 'not', joined by 'and'",
+                        blocks::listed(blocks::ATOMS.iter().flat_map(|k| k.syntax.iter().copied()))
+                    )
+                })?
+                .map_err(|why| format!("'{raw}': {why}"))?;
             atoms.push((negated, atom));
         }
         Ok(Condition { atoms })
     }
 
-    /// Whether the condition holds, given each atom's truth.
+    /// Whether the condition holds in this cycle.
     #[inline]
-    pub fn holds(&self, truth: &dyn Fn(&Atom) -> bool) -> bool {
+    pub fn holds(&self, view: &CycleView<'_>) -> bool {
         self.atoms
             .iter()
-            .all(|(negated, atom)| truth(atom) != *negated)
+            .all(|(negated, atom)| atom.holds(view) != *negated)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scenario::blocks::atoms::RegionTest;
 
     fn no_region(name: &str) -> Result<RegionTest, String> {
         Err(format!("no region is named '{name}'"))
     }
 
-    fn no_light(_: &str) -> Option<usize> {
-        None
+    /// A scenario with everything but lights and regions.
+    fn facts() -> Facts<'static> {
+        Facts {
+            lights: &[],
+            region: &no_region,
+            has_room: true,
+            goals_in_cells: true,
+            has_teammate: true,
+            has_phases: true,
+            near_m: 0.1,
+        }
+    }
+
+    fn named<'q>(quantities: &'q Quantities) -> impl Fn(usize) -> &'q str {
+        |idx| quantities[idx].0.as_str()
     }
 
     #[test]
     fn formulas_add_left_to_right_as_written() {
-        let f = Formula::parse("5 + time_bonus", &no_light).unwrap();
+        let mut quantities = Quantities::new();
+        let f = Formula::parse("5 + time_bonus", &facts(), &mut quantities).unwrap();
+        let name = named(&quantities);
         assert_eq!(
-            f.eval(&|q| if *q == Quantity::TimeBonus { 0.25 } else { 0.0 }),
+            f.eval(&|q| if name(q) == "time_bonus" { 0.25 } else { 0.0 }),
             5.25
         );
-        let f = Formula::parse("progress / 3", &no_light).unwrap();
+        let mut quantities = Quantities::new();
+        let f = Formula::parse("progress / 3", &facts(), &mut quantities).unwrap();
         let third = f.eval(&|_| 0.5);
         assert_eq!(third, 0.5f32 / 3.0);
-        let f = Formula::parse(" 0 ", &no_light).unwrap();
+        let f = Formula::parse(" 0 ", &facts(), &mut quantities).unwrap();
         assert_eq!(f.eval(&|_| 9.0), 0.0);
-        assert_eq!(
-            Formula::parse("1 + time_bonus", &no_light)
-                .unwrap()
-                .range(&|q| if *q == Quantity::TimeBonus {
-                    (0.0, 1.0)
-                } else {
-                    (0.0, 0.0)
-                }),
-            (1.0, 2.0)
-        );
+        let mut quantities = Quantities::new();
+        let f = Formula::parse("1 + time_bonus", &facts(), &mut quantities).unwrap();
+        assert_eq!(f.range(&|_| (0.0, 1.0)), (1.0, 2.0));
+    }
+
+    #[test]
+    fn a_quantity_named_twice_is_compiled_once() {
+        let mut quantities = Quantities::new();
+        Formula::parse("progress + 2 * 1", &facts(), &mut quantities).unwrap();
+        Formula::parse("progress / 3 + time_bonus", &facts(), &mut quantities).unwrap();
+        let names: Vec<&str> = quantities.iter().map(|(name, _)| name.as_str()).collect();
+        assert_eq!(names, ["progress", "time_bonus"]);
     }
 
     #[test]
     fn bad_formulas_say_what_is_wrong() {
+        let bare = Facts {
+            has_room: false,
+            goals_in_cells: false,
+            has_teammate: false,
+            has_phases: false,
+            ..facts()
+        };
         for (text, wanted) in [
             ("1 +", "a term is missing"),
             ("progress / zero", "'zero' is not a number"),
             ("progress / 0", "division by zero"),
-            ("speed", "expected a number"),
+            (
+                "speed",
+                "expected a number, time_bonus, progress, derived, approach room.exit, \
+                 approach teammate or approach LIGHT",
+            ),
             ("approach beacon", "no light is named 'beacon'"),
+            ("progress", "progress needs a goal in cells"),
+            ("approach room.exit", "approach room.exit needs a room"),
+            ("approach teammate", "approach teammate needs a [teammate]"),
+            ("1 + derived", "'derived': derived needs [[phase]]s"),
         ] {
-            let error = Formula::parse(text, &no_light).unwrap_err();
+            let error = Formula::parse(text, &bare, &mut Quantities::new()).unwrap_err();
             assert!(error.contains(wanted), "{text}: {error}");
         }
     }
 
     #[test]
-    fn conditions_join_negated_atoms() {
-        let c =
-            Condition::parse("in maze and not teammate following", &no_region, &no_light).unwrap();
-        let truth = |maze: bool, following: bool| {
-            move |atom: &Atom| match atom {
-                Atom::InMaze => maze,
-                Atom::TeammateFollowing => following,
-                _ => false,
-            }
-        };
-        assert!(c.holds(&truth(true, false)));
-        assert!(!c.holds(&truth(true, true)));
-        assert!(!c.holds(&truth(false, false)));
-        let error = Condition::parse("in kitchen", &no_region, &no_light).unwrap_err();
+    fn conditions_compile_their_atoms_and_refuse_what_the_scenario_lacks() {
+        let c = Condition::parse("in maze and not teammate following", &facts()).unwrap();
+        assert_eq!(c.atoms.len(), 2);
+        assert!(!c.atoms[0].0 && c.atoms[1].0);
+        let error = Condition::parse("in kitchen", &facts()).unwrap_err();
         assert!(error.contains("no region is named 'kitchen'"), "{error}");
-        let error = Condition::parse("flying", &no_region, &no_light).unwrap_err();
-        assert!(error.contains("expected in maze"), "{error}");
+        let error = Condition::parse("flying", &facts()).unwrap_err();
+        assert!(
+            error.contains("expected in maze, in goal, in REGION, teammate following"),
+            "{error}"
+        );
+        let alone = Facts {
+            has_teammate: false,
+            has_room: false,
+            goals_in_cells: false,
+            ..facts()
+        };
+        for (text, wanted) in [
+            ("teammate met", "needs a [teammate]"),
+            ("not teammate following", "needs a [teammate]"),
+            ("beyond room.exit", "needs a room"),
+            ("teammate in room", "needs a room and a [teammate]"),
+            (
+                "in goal",
+                "needs a corridor, or a map and a goal in every variant",
+            ),
+            ("near lamp", "no light is named 'lamp'"),
+        ] {
+            let error = Condition::parse(text, &alone).unwrap_err();
+            assert!(error.contains(wanted), "{text}: {error}");
+        }
     }
 }

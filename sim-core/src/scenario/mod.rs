@@ -10,18 +10,19 @@
 //! cells and regions, resolved light and region indices, parsed formulas and conditions. The
 //! control loop interprets nothing but a handful of resolved conditions per cycle.
 //!
-//! Building blocks, and where to add one: a world generator is a `WorldKind` variant and its
-//! arm in `env::build`; a fitness quantity a [`formula::Quantity`] variant, its parse and its
-//! value in `evaluate.rs`; a condition a [`formula::Atom`]; a robot behaviour a
-//! `TeammateBehaviour`. Each is matched in one place per concern.
+//! The condition atoms, fitness quantities and teammate behaviours a file names are building
+//! blocks, each a small type behind a trait, registered in [`blocks`].
 
+pub mod blocks;
 pub mod file;
 pub mod formula;
 
 use crate::env::cells::{Cell, CellMap};
 use crate::hash::fnv1a_hex;
+use blocks::atoms::RegionTest;
+use blocks::{Facts, TeammateBehaviour, World};
 use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
-use formula::{Condition, Formula, Quantity, RegionTest};
+use formula::{Condition, Formula, Quantities};
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 
@@ -98,39 +99,6 @@ fn at_key(path: &str) -> String {
         String::new()
     } else {
         format!(" at `{path}`:")
-    }
-}
-
-/// How the world is made.
-#[derive(Debug, Clone, PartialEq)]
-pub enum WorldKind {
-    /// A generated room, centred, its exit in any wall.
-    Room,
-    /// A generated corridor.
-    Corridor(crate::env::corridor::Turn),
-    /// A fixed map.
-    Map,
-    /// A generated room under the map, its exit the map's entrance.
-    RoomBelowMap,
-    /// A generated room under a generated corridor, its exit the corridor's first cell.
-    RoomBelowCorridor(crate::env::corridor::Turn),
-}
-
-impl WorldKind {
-    /// Whether the world holds a generated room.
-    pub fn has_room(&self) -> bool {
-        matches!(
-            self,
-            WorldKind::Room | WorldKind::RoomBelowMap | WorldKind::RoomBelowCorridor(_)
-        )
-    }
-
-    /// The generated corridor's turn, if the world holds one.
-    pub fn corridor(&self) -> Option<crate::env::corridor::Turn> {
-        match self {
-            WorldKind::Corridor(turn) | WorldKind::RoomBelowCorridor(turn) => Some(*turn),
-            _ => None,
-        }
     }
 }
 
@@ -215,7 +183,7 @@ pub struct Place {
 }
 
 /// How the teammate is placed and behaves.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct TeammatePlan {
     /// At the variant's goal (true) or start (false).
     pub at_goal: bool,
@@ -230,41 +198,12 @@ pub struct TeammatePlan {
     pub behind_m: f32,
     /// Whether it follows from the start.
     pub following: bool,
-    /// How it moves.
-    pub behaviour: TeammateBehaviour,
-}
-
-/// How the teammate moves (`teammate.behaviour`). Every behaviour is *met* when the robot comes
-/// within `robot.near_robot_range` of it (`teammate following` holds from then on); they differ
-/// in what it does before and after.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TeammateBehaviour {
-    /// Waits where it is; once met, follows the robot's trail, keeping a gap.
-    Follow,
-    /// Never moves, met or not.
-    Fixed,
-    /// Walks at random on its own (its own stream, never into a solid) until met, then follows
-    /// as `Follow` does.
-    Wander,
-}
-
-/// When a sample is solved.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Solved {
-    /// The robot's centre in the goal cell.
-    InGoal,
-    /// A body radius beyond the room's exit wall.
-    BeyondExit,
-    /// The teammate back in the room, a body radius inside.
-    TeammateInRoom,
-    /// Within `near_m` of a light.
-    Near(usize),
-    /// The teammate met: the robot came within `robot.near_robot_range` of it.
-    TeammateMet,
+    /// How it moves, a registered behaviour ([`blocks::BEHAVIOURS`]).
+    pub behaviour: &'static dyn TeammateBehaviour,
 }
 
 /// One phase of the derived fitness.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct Phase {
     /// Its name.
     pub name: String,
@@ -275,7 +214,7 @@ pub struct Phase {
 }
 
 /// One stage post-evaluation reports.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct Stage {
     /// Its name.
     pub name: String,
@@ -290,8 +229,8 @@ pub struct Scenario {
     pub file: ScenarioFile,
     /// The text it was parsed from: what travels to workers and what its hash covers.
     pub source: String,
-    /// How the world is made.
-    pub world: WorldKind,
+    /// How the world is made, a registered world ([`blocks::WORLDS`]).
+    pub world: Box<dyn World>,
     /// The map, for map worlds.
     pub map: Option<Arc<CompiledMap>>,
     /// Named rectangles, metres.
@@ -304,8 +243,8 @@ pub struct Scenario {
     pub place: Place,
     /// The teammate.
     pub teammate: Option<TeammatePlan>,
-    /// When solved.
-    pub solved: Solved,
+    /// When a sample is solved.
+    pub solved: Condition,
     /// Whether wrong branches are judged (cells off the path).
     pub wrong_branch: bool,
     /// Whether a wrong branch ends the sample by default.
@@ -314,6 +253,8 @@ pub struct Scenario {
     pub near_m: f32,
     /// Fitness when solved, after a wrong branch, a collision, a timeout.
     pub fitness: [Formula; 4],
+    /// The quantities the formulas name, each compiled once.
+    pub quantities: Quantities,
     /// The derived fitness's phases.
     pub phases: Vec<Phase>,
     /// The stages.
@@ -403,17 +344,18 @@ impl Scenario {
     /// How many values a sample's reported variant can take: the variants, or for a turning
     /// corridor its shape (bend, T end, side junction), which is drawn, never asked for.
     pub fn reported_variants(&self) -> u32 {
-        match self.world.corridor() {
-            Some(turn) if turn != crate::env::corridor::Turn::Straight => 3,
-            _ => self.n_variants(),
+        match self.world.shapes().len() {
+            0 => self.n_variants(),
+            n_shapes => n_shapes as u32,
         }
     }
 
     /// The name of variant `idx` as reports show it.
     pub fn variant_label(&self, idx: u32) -> Option<String> {
-        match self.world.corridor() {
-            Some(turn) if turn != crate::env::corridor::Turn::Straight => Some(
-                ["L-bend", "T-junction", "side junction"]
+        let shapes = self.world.shapes();
+        match shapes.len() {
+            1.. => Some(
+                shapes
                     .get(idx as usize)
                     .map_or_else(|| format!("shape {idx}"), |s| s.to_string()),
             ),
@@ -665,57 +607,6 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // The world.
     let w = &file.world;
-    let turn = |turn: &str| match turn {
-        "straight" => Ok(crate::env::corridor::Turn::Straight),
-        "left" => Ok(crate::env::corridor::Turn::Left),
-        "right" => Ok(crate::env::corridor::Turn::Right),
-        other => Err(error(
-            "world.corridor",
-            format!("'{other}' is not straight, left or right"),
-        )),
-    };
-    let world = match (&w.map, w.room.as_deref(), w.corridor.as_deref()) {
-        (None, Some("standalone"), None) => WorldKind::Room,
-        (Some(_), Some("below entrance"), None) => WorldKind::RoomBelowMap,
-        (Some(_), None, None) => WorldKind::Map,
-        (None, None, Some(t)) => WorldKind::Corridor(turn(t)?),
-        (None, Some("below corridor"), Some(t)) => WorldKind::RoomBelowCorridor(turn(t)?),
-        (None, Some(room), Some(_)) => {
-            return Err(error(
-                "world.room",
-                format!("'{room}': a room with a corridor is \"below corridor\""),
-            ));
-        }
-        (Some(_), _, Some(_)) => {
-            return Err(error(
-                "world.corridor",
-                "a map and a generated corridor do not join: give one of them".into(),
-            ));
-        }
-        (None, Some(room), None) => {
-            return Err(error(
-                "world.room",
-                format!(
-                    "'{room}': a room alone is \"standalone\" (\"below corridor\" needs a \
-                     corridor)"
-                ),
-            ));
-        }
-        (Some(_), Some(room), None) => {
-            return Err(error(
-                "world.room",
-                format!("'{room}': a room with a map is \"below entrance\""),
-            ));
-        }
-        _ => {
-            return Err(error(
-                "world",
-                "give a map, a room (\"standalone\"), a corridor, a map and a room \
-                 (\"below entrance\"), or a corridor and a room (\"below corridor\")"
-                    .into(),
-            ));
-        }
-    };
     let map = match &w.map {
         None => None,
         Some(MapRef::Shipped(name)) => {
@@ -741,16 +632,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         ),
     }
     .map(Arc::new);
-    if world == WorldKind::RoomBelowMap
-        && map
-            .as_ref()
-            .is_none_or(|m| m.regions.get("entrance").is_none_or(|c| c.len() != 1))
-    {
-        return Err(error(
-            "world.room",
-            "a room below the map's entrance needs a one-cell region 'entrance' in the map".into(),
-        ));
-    }
+    let world = blocks::worlds::compile(w, map.as_deref())
+        .map_err(|(path, message)| error(path, message))?;
 
     // Regions: the map's, the generators', and rectangles.
     let mut region_names: Vec<String> = map
@@ -760,7 +643,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     if world.has_room() {
         region_names.extend(["room".to_string(), "room.exit".to_string()]);
     }
-    if world.corridor().is_some() {
+    if world.has_corridor() {
         region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
     }
     let mut rect_regions = BTreeMap::new();
@@ -899,7 +782,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let place_decl = &file.place;
     let at = match place_decl.at.as_str() {
         "room.start" if world.has_room() => PlaceAt::RoomStart,
-        "corridor.start" if world.corridor().is_some() => PlaceAt::CorridorStart,
+        "corridor.start" if world.has_corridor() => PlaceAt::CorridorStart,
         "start" => {
             if variants.iter().any(|v| v.start.is_none()) {
                 return Err(error(
@@ -944,7 +827,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             },
         ));
     }
-    if place_decl.advance && !matches!(world, WorldKind::Corridor(_)) {
+    if place_decl.advance && !world.advances() {
         return Err(error(
             "place.advance",
             "advancing the start is for corridors".into(),
@@ -1000,24 +883,23 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 ));
             }
             let behaviour = match t.behaviour.as_deref() {
-                None | Some("follow") => TeammateBehaviour::Follow,
-                Some("fixed") => TeammateBehaviour::Fixed,
-                Some("wander") => TeammateBehaviour::Wander,
-                Some(other) => {
-                    return Err(error(
-                        "teammate.behaviour",
-                        format!("'{other}' is not follow, fixed or wander"),
-                    ));
-                }
+                None => blocks::BEHAVIOURS[0],
+                Some(name) => *blocks::BEHAVIOURS
+                    .iter()
+                    .find(|b| b.name() == name)
+                    .ok_or_else(|| {
+                        error(
+                            "teammate.behaviour",
+                            format!(
+                                "'{name}' is not {}",
+                                blocks::listed(blocks::BEHAVIOURS.iter().map(|b| b.name()))
+                            ),
+                        )
+                    })?,
             };
-            if behaviour == TeammateBehaviour::Wander && t.following {
-                return Err(error(
-                    "teammate.following",
-                    "a wandering teammate that follows from the start would never wander: \
-                     leave `following` out"
-                        .into(),
-                ));
-            }
+            behaviour
+                .check(t.following)
+                .map_err(|why| error("teammate.following", why))?;
             let regions_named = region.is_some()
                 || variants.iter().all(|v| {
                     if at_goal {
@@ -1044,53 +926,29 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         }
     };
 
-    // Endings.
+    // What the blocks may rely on.
     let end = &file.end;
-    let solved = match end.solved.as_str() {
-        "in goal" => {
-            let goals = world.corridor().is_some()
-                || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
-            if !goals {
-                return Err(error(
-                    "end.solved",
-                    "'in goal' needs a corridor, or a map and a goal in every variant".into(),
-                ));
-            }
-            Solved::InGoal
-        }
-        "beyond room.exit" if world == WorldKind::Room => Solved::BeyondExit,
-        "teammate in room" if world == WorldKind::RoomBelowMap && teammate.is_some() => {
-            Solved::TeammateInRoom
-        }
-        "teammate met" if teammate.is_some() => Solved::TeammateMet,
-        other => {
-            if let Some(name) = other.strip_prefix("near ") {
-                let light = light_index(name.trim()).ok_or_else(|| {
-                    error("end.solved", format!("no light is named '{}'", name.trim()))
-                })?;
-                // Also refuses NaN.
-                if end.near_m.is_nan() || end.near_m <= 0.0 {
-                    return Err(error("end.near_m", "must be positive for 'near'".into()));
-                }
-                Solved::Near(light)
-            } else {
-                return Err(error(
-                    "end.solved",
-                    format!(
-                        "'{other}' does not fit this world: use 'in goal', 'beyond room.exit' \
-                         (a room), 'teammate in room' (a room below a map, with a teammate), \
-                         'teammate met' (with a teammate) or 'near LIGHT'"
-                    ),
-                ));
-            }
-        }
+    let goals_in_cells =
+        world.has_corridor() || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
+    let facts = Facts {
+        lights: &lights,
+        region: &judged_region,
+        has_room: world.has_room(),
+        goals_in_cells,
+        has_teammate: teammate.is_some(),
+        has_phases: !file.phases.is_empty(),
+        near_m: end.near_m,
     };
+    let condition = |path: &str, text: &str| {
+        Condition::parse(text, &facts).map_err(|message| error(path, message))
+    };
+
+    // Endings.
+    let solved = condition("end.solved", &end.solved)?;
     let wrong_branch = match end.wrong_branch.as_deref() {
         None => false,
         Some("off path") => {
-            let paths = world.corridor().is_some()
-                || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
-            if !paths {
+            if !goals_in_cells {
                 return Err(error(
                     "end.wrong_branch",
                     "'off path' needs a corridor, or a map and a goal in every variant".into(),
@@ -1108,61 +966,32 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // Fitness.
     let f = &file.fitness;
-    let parse = |key: &str, text: &str| {
-        Formula::parse(text, &light_index)
-            .map_err(|message| error(&format!("fitness.{key}"), message))
-    };
-    let other = |key: &str, own: &Option<String>| -> Result<Formula, ScenarioError> {
-        match (own, &f.otherwise) {
-            (Some(text), _) => parse(key, text),
-            (None, Some(text)) => parse("otherwise", text),
-            (None, None) => Err(error(
-                &format!("fitness.{key}"),
-                "give it, or `otherwise` for every ending but solved".into(),
-            )),
-        }
-    };
-    let fitness = [
-        parse("solved", &f.solved)?,
-        other("wrong_branch", &f.wrong_branch)?,
-        other("collision", &f.collision)?,
-        other("timeout", &f.timeout)?,
-    ];
-    for (key, formula) in ["solved", "wrong_branch", "collision", "timeout"]
-        .iter()
-        .zip(&fitness)
-    {
-        if formula.uses(&|q| *q == Quantity::Progress) && !(solved == Solved::InGoal) {
-            return Err(error(
-                &format!("fitness.{key}"),
-                "progress needs a goal in cells ('in goal')".into(),
-            ));
-        }
-        if formula.uses(&|q| *q == Quantity::ApproachExit) && !world.has_room() {
-            return Err(error(
-                &format!("fitness.{key}"),
-                "approach room.exit needs a room".into(),
-            ));
-        }
-        if formula.uses(&|q| *q == Quantity::ApproachTeammate) && teammate.is_none() {
-            return Err(error(
-                &format!("fitness.{key}"),
-                "approach teammate needs a [teammate]".into(),
-            ));
-        }
-        if formula.uses(&|q| *q == Quantity::Derived) && file.phases.is_empty() {
-            return Err(error(
-                &format!("fitness.{key}"),
-                "derived needs [[phase]]s".into(),
-            ));
-        }
+    let mut quantities = Quantities::new();
+    let mut fitness = Vec::with_capacity(4);
+    for (key, own) in [
+        ("solved", Some(&f.solved)),
+        ("wrong_branch", f.wrong_branch.as_ref()),
+        ("collision", f.collision.as_ref()),
+        ("timeout", f.timeout.as_ref()),
+    ] {
+        let (key, text) = match (own, &f.otherwise) {
+            (Some(text), _) => (key, text),
+            (None, Some(text)) => ("otherwise", text),
+            (None, None) => {
+                return Err(error(
+                    &format!("fitness.{key}"),
+                    "give it, or `otherwise` for every ending but solved".into(),
+                ));
+            }
+        };
+        fitness.push(
+            Formula::parse(text, &facts, &mut quantities)
+                .map_err(|message| error(&format!("fitness.{key}"), message))?,
+        );
     }
+    let fitness: [Formula; 4] = fitness.try_into().expect("one formula per ending");
 
     // Phases and stages.
-    let condition = |path: String, text: &str| {
-        Condition::parse(text, &judged_region, &light_index)
-            .map_err(|message| error(&path, message))
-    };
     if file.phases.len() > MAX_PHASES {
         return Err(error(
             "phase",
@@ -1174,33 +1003,19 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         phases.push(Phase {
             name: phase.name.clone(),
             child: phase.child.clone(),
-            when: condition(format!("phase[{idx}].when"), &phase.when)?,
+            when: condition(&format!("phase[{idx}].when"), &phase.when)?,
         });
     }
     let mut stages = Vec::new();
     for (idx, stage) in file.stages.iter().enumerate() {
         stages.push(Stage {
             name: stage.name.clone(),
-            reached: condition(format!("stage[{idx}].reached"), &stage.reached)?,
+            reached: condition(&format!("stage[{idx}].reached"), &stage.reached)?,
         });
     }
     if stages.len() > 8 {
         return Err(error("stage", "at most 8 stages".into()));
     }
-    for (idx, phase) in phases.iter().chain([]).enumerate() {
-        let uses_teammate = phase
-            .when
-            .atoms
-            .iter()
-            .any(|(_, a)| *a == formula::Atom::TeammateFollowing);
-        if uses_teammate && teammate.is_none() {
-            return Err(error(
-                &format!("phase[{idx}].when"),
-                "'teammate following' needs a [teammate]".into(),
-            ));
-        }
-    }
-
     // Goals reachable from starts, in map worlds.
     if let Some(map) = &map {
         for (idx, variant) in variants.iter().enumerate() {
@@ -1238,6 +1053,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         wrong_branch_ends: end.wrong_branch_ends,
         near_m: end.near_m,
         fitness,
+        quantities,
         phases,
         stages,
         file,

@@ -1,0 +1,225 @@
+//! The condition atoms: what a phase's `when`, a stage's `reached` and `end.solved` are made
+//! of. Each tests the robot (or the teammate) against the sample's ground truth, with every
+//! name resolved when the scenario compiles.
+
+use super::{Atom, AtomKind, CycleView};
+
+/// `in maze`: the robot's centre in a map cell.
+pub const IN_MAZE: AtomKind = AtomKind {
+    syntax: &["in maze"],
+    compile: |text, _| (text == "in maze").then(|| Ok(Box::new(InMaze) as Box<dyn Atom>)),
+};
+
+#[derive(Debug)]
+struct InMaze;
+
+impl Atom for InMaze {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.ground
+            .cells
+            .as_ref()
+            .is_some_and(|cells| cells.cell_at(view.robot.position()).is_some())
+    }
+}
+
+/// `in goal`: the robot's centre in the goal cell.
+pub const IN_GOAL: AtomKind = AtomKind {
+    syntax: &["in goal"],
+    compile: |text, facts| {
+        (text == "in goal").then(|| {
+            if facts.goals_in_cells {
+                Ok(Box::new(InGoal) as Box<dyn Atom>)
+            } else {
+                Err("'in goal' needs a corridor, or a map and a goal in every variant".into())
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct InGoal;
+
+impl Atom for InGoal {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.ground
+            .goal
+            .as_ref()
+            .is_some_and(|goal| goal.map.cell_at(view.robot.position()) == Some(goal.goal))
+    }
+}
+
+/// `in REGION`: the robot's centre in a named region, resolved to its test.
+pub const IN_REGION: AtomKind = AtomKind {
+    syntax: &["in REGION"],
+    compile: |text, facts| {
+        let name = text.strip_prefix("in ")?.trim();
+        Some((facts.region)(name).map(|test| Box::new(InRegion(test)) as Box<dyn Atom>))
+    },
+};
+
+/// What `in REGION` tests.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RegionTest {
+    /// Inside a rectangle `[x0, y0, x1, y1]`, metres, edges included.
+    Rect([f32; 4]),
+    /// Inside the generated room, short of its exit.
+    Room,
+    /// In one of a map's cells: `true` at the cell indices of the region.
+    Cells(Vec<bool>),
+}
+
+#[derive(Debug)]
+struct InRegion(RegionTest);
+
+impl Atom for InRegion {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        let robot = view.robot;
+        match &self.0 {
+            RegionTest::Rect([x0, y0, x1, y1]) => {
+                (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y)
+            }
+            RegionTest::Room => view
+                .ground
+                .room
+                .as_ref()
+                .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
+            RegionTest::Cells(mask) => view.ground.cells.as_ref().is_some_and(|cells| {
+                cells
+                    .cell_at(robot.position())
+                    .is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
+            }),
+        }
+    }
+}
+
+/// `teammate following` (or `teammate met`): the robot has come within
+/// `robot.near_robot_range` of the teammate at some cycle.
+pub const TEAMMATE_FOLLOWING: AtomKind = AtomKind {
+    syntax: &["teammate following", "teammate met"],
+    compile: |text, facts| {
+        matches!(text, "teammate following" | "teammate met").then(|| {
+            if facts.has_teammate {
+                Ok(Box::new(TeammateFollowing) as Box<dyn Atom>)
+            } else {
+                Err(format!("'{text}' needs a [teammate]"))
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct TeammateFollowing;
+
+impl Atom for TeammateFollowing {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.teammate.is_some_and(|mate| mate.following)
+    }
+}
+
+/// `teammate in room`: the teammate, met, a body radius inside the room.
+pub const TEAMMATE_IN_ROOM: AtomKind = AtomKind {
+    syntax: &["teammate in room"],
+    compile: |text, facts| {
+        (text == "teammate in room").then(|| {
+            if facts.has_teammate && facts.has_room {
+                Ok(Box::new(TeammateInRoom) as Box<dyn Atom>)
+            } else {
+                Err("'teammate in room' needs a room and a [teammate]".into())
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct TeammateInRoom;
+
+impl Atom for TeammateInRoom {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.teammate.is_some_and(|mate| {
+            mate.following
+                && view.ground.room.as_ref().is_some_and(|room| {
+                    room.depth_beyond_exit(mate.pose.position()) < -view.task.robot.radius
+                })
+        })
+    }
+}
+
+/// `beyond room.exit`: the robot a body radius beyond the exit wall's outer face.
+pub const BEYOND_EXIT: AtomKind = AtomKind {
+    syntax: &["beyond room.exit"],
+    compile: |text, facts| {
+        (text == "beyond room.exit").then(|| {
+            if facts.has_room {
+                Ok(Box::new(BeyondExit) as Box<dyn Atom>)
+            } else {
+                Err("'beyond room.exit' needs a room".into())
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct BeyondExit;
+
+impl Atom for BeyondExit {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.ground.room.as_ref().is_some_and(|room| {
+            room.depth_beyond_exit(view.robot.position())
+                > view.task.room.wall_thickness + view.task.robot.radius
+        })
+    }
+}
+
+/// `near LIGHT`: the robot's centre within `end.near_m` of a light.
+pub const NEAR: AtomKind = AtomKind {
+    syntax: &["near LIGHT"],
+    compile: |text, facts| {
+        let name = text.strip_prefix("near ")?.trim();
+        Some(match facts.light(name) {
+            None => Err(format!("no light is named '{name}'")),
+            // Also refuses NaN.
+            Some(_) if facts.near_m.is_nan() || facts.near_m <= 0.0 => {
+                Err("'near' needs a positive `end.near_m`".into())
+            }
+            Some(light) => Ok(Box::new(Near {
+                position: facts.lights[light].position,
+            }) as Box<dyn Atom>),
+        })
+    },
+};
+
+#[derive(Debug)]
+struct Near {
+    position: [f32; 2],
+}
+
+impl Atom for Near {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.robot.distance_to(self.position) < view.scenario.near_m
+    }
+}
+
+/// `always` (or `otherwise`).
+pub const ALWAYS: AtomKind = AtomKind {
+    syntax: &["always"],
+    compile: |text, _| {
+        matches!(text, "always" | "otherwise").then(|| Ok(Box::new(Always) as Box<dyn Atom>))
+    },
+};
+
+#[derive(Debug)]
+struct Always;
+
+impl Atom for Always {
+    #[inline]
+    fn holds(&self, _view: &CycleView<'_>) -> bool {
+        true
+    }
+}

@@ -1,0 +1,303 @@
+//! The building blocks a scenario file names, and the one place they are registered. A block
+//! is a small type implementing one trait: a world ([`World`]: a map, a generated room or
+//! corridor, their joins), a condition's atom ([`Atom`]: `in goal`, `near LIGHT`, ...; the
+//! phases, the stages and `end.solved` are conditions), a fitness quantity ([`Quantity`]:
+//! `time_bonus`, `approach NAME`, ...), or how the teammate moves ([`TeammateBehaviour`]:
+//! `follow`, `fixed`, `wander`). Each kind of block has a registry below ([`WORLDS`],
+//! [`ATOMS`], [`QUANTITIES`], [`BEHAVIOURS`]): the scenario compiler asks the registered
+//! blocks in order which one a piece of the file names, and the evaluator only ever calls the
+//! compiled blocks' traits. A new block is one file in this folder and one line in its
+//! registry; ARCHITECTURE.md walks through one.
+//!
+//! Blocks compile once per scenario (names resolved to indices, regions to tests, requirements
+//! checked against [`Facts`]), so in the control loop a block does arithmetic on what it sees
+//! ([`CycleView`]), never a lookup by name.
+
+pub mod atoms;
+pub mod quantities;
+pub mod teammates;
+pub mod worlds;
+
+use crate::env::Ground;
+use crate::env::cells::CellMap;
+use crate::env::room::Room;
+use crate::evaluate::SubTaskChoices;
+use crate::rng::SimRng;
+use crate::robot::Pose;
+use crate::scenario::file::WorldDecl;
+use crate::scenario::{CompiledMap, LightDef, Scenario};
+use crate::scene::Scene;
+use crate::task::TaskConfig;
+use atoms::RegionTest;
+use std::fmt::Debug;
+use std::sync::Arc;
+
+/// The worlds (the combinations of `map`, `room` and `corridor` they recognise are disjoint).
+pub static WORLDS: &[WorldKind] = &[
+    worlds::MAP,
+    worlds::ROOM,
+    worlds::CORRIDOR,
+    worlds::ROOM_BELOW_MAP,
+    worlds::ROOM_BELOW_CORRIDOR,
+];
+
+/// The condition atoms, in the order the compiler tries them (the first that recognises the
+/// text wins, so `in REGION` comes after the `in` atoms with fixed names).
+pub static ATOMS: &[AtomKind] = &[
+    atoms::IN_MAZE,
+    atoms::IN_GOAL,
+    atoms::IN_REGION,
+    atoms::TEAMMATE_FOLLOWING,
+    atoms::TEAMMATE_IN_ROOM,
+    atoms::BEYOND_EXIT,
+    atoms::NEAR,
+    atoms::ALWAYS,
+];
+
+/// The fitness quantities, in the order the compiler tries them.
+pub static QUANTITIES: &[QuantityKind] = &[
+    quantities::TIME_BONUS,
+    quantities::PROGRESS,
+    quantities::DERIVED,
+    quantities::APPROACH,
+];
+
+/// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
+/// default).
+pub static BEHAVIOURS: &[&dyn TeammateBehaviour] =
+    &[&teammates::Follow, &teammates::Fixed, &teammates::Wander];
+
+/// What a scenario holds, as far as a block's requirements go: a block that needs a room, a
+/// teammate or a goal in cells says so when it compiles, naming what is missing.
+pub struct Facts<'a> {
+    /// The lights, by index.
+    pub lights: &'a [LightDef],
+    /// Resolves a region's name to its test, or says why a condition may not name it.
+    pub region: &'a dyn Fn(&str) -> Result<RegionTest, String>,
+    /// Whether the world holds a generated room.
+    pub has_room: bool,
+    /// Whether every sample has a goal in cells (a corridor, or a map and a goal in every
+    /// variant): the corridor distance to it is known.
+    pub goals_in_cells: bool,
+    /// Whether the scenario has a teammate.
+    pub has_teammate: bool,
+    /// Whether the scenario has phases (a derived fitness).
+    pub has_phases: bool,
+    /// `end.near_m`.
+    pub near_m: f32,
+}
+
+impl std::fmt::Debug for Facts<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Facts")
+            .field("lights", &self.lights)
+            .field("has_room", &self.has_room)
+            .field("goals_in_cells", &self.goals_in_cells)
+            .field("has_teammate", &self.has_teammate)
+            .field("has_phases", &self.has_phases)
+            .field("near_m", &self.near_m)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Facts<'_> {
+    /// A light's index by name.
+    pub fn light(&self, name: &str) -> Option<usize> {
+        self.lights.iter().position(|light| light.name == name)
+    }
+}
+
+/// The other robot as a block sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct TeammateView {
+    /// Where it is.
+    pub pose: Pose,
+    /// Whether it has been met (it follows from then on, unless fixed).
+    pub following: bool,
+}
+
+/// What a block sees of a sample in one cycle.
+#[derive(Debug, Clone, Copy)]
+pub struct CycleView<'a> {
+    /// The robot.
+    pub robot: &'a Pose,
+    /// The teammate, in scenarios with one.
+    pub teammate: Option<TeammateView>,
+    /// The sample's ground truth (room, goal, cells).
+    pub ground: &'a Ground,
+    /// The scenario.
+    pub scenario: &'a Scenario,
+    /// The task's settings in force.
+    pub task: &'a TaskConfig,
+}
+
+/// What a quantity sees when the sample ends.
+#[derive(Debug, Clone, Copy)]
+pub struct EndView<'a> {
+    /// The last cycle.
+    pub cycle: CycleView<'a>,
+    /// Cycles run.
+    pub cycles: u32,
+    /// Which child the arbitrator chose in each phase.
+    pub sub_task_choices: &'a SubTaskChoices,
+}
+
+/// What a kind of block makes of a piece of a file: `None` when the piece is not its kind's,
+/// else the compiled block or what is wrong with the piece.
+pub type Recognised<Block, Problem = String> = Option<Result<Box<Block>, Problem>>;
+
+/// A world's refusal: the key and what is wrong.
+pub type Refusal = (&'static str, String);
+
+/// One kind of world: how it is written and how it compiles.
+#[derive(Debug)]
+pub struct WorldKind {
+    /// How it is written, for the message that lists what a world may be.
+    pub syntax: &'static str,
+    /// The compiled world, if the `[world]` table is this kind's; a refusal names its key.
+    /// `map` is the table's map, compiled.
+    pub compile: fn(decl: &WorldDecl, map: Option<&CompiledMap>) -> Recognised<dyn World, Refusal>,
+}
+
+/// What a world makes for one sample.
+#[derive(Debug)]
+pub struct Built {
+    /// The solids.
+    pub scene: Arc<Scene>,
+    /// The cells, in worlds made of cells.
+    pub cells: Option<Arc<CellMap>>,
+    /// The generated room.
+    pub room: Option<Room>,
+    /// A generated corridor's path, its first cell first.
+    pub corridor_path: Option<Vec<usize>>,
+    /// The shape drawn, reported in place of the variant (a turning corridor's).
+    pub shape: Option<u32>,
+}
+
+/// A compiled world: what it provides, and one sample's layout.
+pub trait World: Debug + Send + Sync {
+    /// Whether it holds a generated room (regions `room` and `room.exit`, start `room.start`).
+    fn has_room(&self) -> bool {
+        false
+    }
+    /// Whether it holds a generated corridor (regions and start `corridor.start`,
+    /// `corridor.end`; a goal in cells).
+    fn has_corridor(&self) -> bool {
+        false
+    }
+    /// Whether `place.advance` fits it.
+    fn advances(&self) -> bool {
+        false
+    }
+    /// Whether it is a fixed map and nothing else.
+    fn is_map_alone(&self) -> bool {
+        false
+    }
+    /// The shapes it draws and reports in place of the variant, by index.
+    fn shapes(&self) -> &'static [&'static str] {
+        &[]
+    }
+    /// What never changes between samples, built once per evaluator.
+    fn statics(
+        &self,
+        _scenario: &Scenario,
+        _task: &TaskConfig,
+    ) -> Option<(Arc<Scene>, Arc<CellMap>)> {
+        None
+    }
+    /// One sample's layout, drawn from its environment stream.
+    fn build(
+        &self,
+        scenario: &Scenario,
+        task: &TaskConfig,
+        statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        rng: &mut SimRng,
+    ) -> Built;
+}
+
+/// One kind of condition atom: how it is written and how it compiles.
+#[derive(Debug)]
+pub struct AtomKind {
+    /// How it is written, for the message that lists what a condition may say.
+    pub syntax: &'static [&'static str],
+    /// The compiled atom, if the text is this kind's (`None`: not this kind); an error says
+    /// what is wrong with text that is.
+    pub compile: fn(text: &str, facts: &Facts<'_>) -> Recognised<dyn Atom>,
+}
+
+/// A compiled condition atom: whether it holds in a cycle.
+pub trait Atom: Debug + Send + Sync {
+    /// Whether it holds.
+    fn holds(&self, view: &CycleView<'_>) -> bool;
+}
+
+/// One kind of fitness quantity: how it is written and how it compiles.
+#[derive(Debug)]
+pub struct QuantityKind {
+    /// How it is written, for the message that lists what a formula may say.
+    pub syntax: &'static [&'static str],
+    /// The compiled quantity, if the text is this kind's.
+    pub compile: fn(text: &str, facts: &Facts<'_>) -> Recognised<dyn Quantity>,
+}
+
+/// What a quantity keeps during a sample: its value at the start and the best so far (a
+/// closest approach, say).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Tracked {
+    /// At the start.
+    pub start: f32,
+    /// The best so far.
+    pub best: f32,
+}
+
+/// A compiled fitness quantity: its value when the sample ends, from what it kept.
+pub trait Quantity: Debug + Send + Sync {
+    /// Whether it keeps anything during the sample (only those are asked to `observe`).
+    fn tracks(&self) -> bool {
+        false
+    }
+    /// What it keeps, seen at the start (before the first cycle).
+    fn start(&self, _view: &CycleView<'_>) -> Tracked {
+        Tracked::default()
+    }
+    /// Updates what it keeps, after each cycle's move.
+    fn observe(&self, _tracked: &mut Tracked, _view: &CycleView<'_>) {}
+    /// Its value.
+    fn value(&self, tracked: &Tracked, end: &EndView<'_>) -> f32;
+    /// The least and most it can be, for a scenario of `n_phases` phases.
+    fn range(&self, _n_phases: usize) -> (f32, f32) {
+        (0.0, 1.0)
+    }
+}
+
+/// How the teammate moves: a name, a check of the file's other teammate keys, and a fresh
+/// motion per sample.
+pub trait TeammateBehaviour: Debug + Send + Sync {
+    /// The name `teammate.behaviour` gives.
+    fn name(&self) -> &'static str;
+    /// Refuses settings that do not fit (`following`: whether it follows from the start).
+    fn check(&self, _following: bool) -> Result<(), String> {
+        Ok(())
+    }
+    /// A sample's motion; may set the starting pose's heading and draw from the sample's own
+    /// teammate stream (`sample_seed`). `max_cycles` bounds the trail it may keep.
+    fn start(&self, pose: &mut Pose, sample_seed: u64, max_cycles: u32) -> Box<dyn Motion>;
+}
+
+/// A teammate's motion during one sample.
+pub trait Motion: Debug + Send {
+    /// A cycle before it is met.
+    fn before_met(&mut self, pose: &mut Pose, step: f32, scene: &Scene, radius: f32);
+    /// A cycle once met (from the first on, for one that follows from the start).
+    fn after_met(&mut self, pose: &mut Pose, robot: &Pose, step: f32);
+}
+
+/// `a, b, c or d`.
+pub(crate) fn listed(items: impl Iterator<Item = &'static str>) -> String {
+    let items: Vec<&str> = items.collect();
+    match items.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        Some((last, _)) => last.to_string(),
+        None => String::new(),
+    }
+}

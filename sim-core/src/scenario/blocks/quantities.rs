@@ -1,0 +1,214 @@
+//! The fitness quantities a formula's terms name: the time left, the progress along the
+//! corridor distance, a closest approach, the derived fitness. Each is a number in a known
+//! range when the sample ends; an approach keeps its closest distance cycle by cycle.
+
+use super::{CycleView, EndView, Quantity, QuantityKind, Tracked};
+use crate::float::hypot;
+
+/// `time_bonus`: (max_cycles - cycles) / max_cycles.
+pub const TIME_BONUS: QuantityKind = QuantityKind {
+    syntax: &["time_bonus"],
+    compile: |text, _| (text == "time_bonus").then(|| Ok(Box::new(TimeBonus) as Box<dyn Quantity>)),
+};
+
+/// The share of the cycle limit left, as the time bonus and the rescue's solved bonus count it.
+pub fn time_bonus(cycles: u32, max_cycles: u32) -> f32 {
+    let max_cycles = max_cycles as f32;
+    (max_cycles - cycles as f32) / max_cycles
+}
+
+#[derive(Debug)]
+struct TimeBonus;
+
+impl Quantity for TimeBonus {
+    fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        time_bonus(end.cycles, end.cycle.task.max_cycles())
+    }
+}
+
+/// `progress`: the share of the corridor distance to the goal covered, in [0, 1].
+pub const PROGRESS: QuantityKind = QuantityKind {
+    syntax: &["progress"],
+    compile: |text, facts| {
+        (text == "progress").then(|| {
+            if facts.goals_in_cells {
+                Ok(Box::new(Progress) as Box<dyn Quantity>)
+            } else {
+                Err(
+                    "progress needs a goal in cells (a corridor, or a map and a goal in every \
+                     variant)"
+                        .into(),
+                )
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct Progress;
+
+impl Quantity for Progress {
+    fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        end.cycle.ground.goal.as_ref().map_or(0.0, |goal| {
+            let current = goal
+                .distance_from(end.cycle.robot.position())
+                .unwrap_or(goal.total_distance);
+            ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0)
+        })
+    }
+}
+
+/// `derived`: the sum over the phases reached of the share of cycles the arbitrator chose the
+/// phase's child.
+pub const DERIVED: QuantityKind = QuantityKind {
+    syntax: &["derived"],
+    compile: |text, facts| {
+        (text == "derived").then(|| {
+            if facts.has_phases {
+                Ok(Box::new(Derived) as Box<dyn Quantity>)
+            } else {
+                Err("derived needs [[phase]]s".into())
+            }
+        })
+    },
+};
+
+#[derive(Debug)]
+struct Derived;
+
+impl Quantity for Derived {
+    fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        end.sub_task_choices.derived_fitness()
+    }
+
+    fn range(&self, n_phases: usize) -> (f32, f32) {
+        (0.0, n_phases as f32)
+    }
+}
+
+/// `approach room.exit` (from the room's centre to its exit), `approach teammate` and
+/// `approach LIGHT` (from the start): the share of the way the closest approach covered, in
+/// [0, 1].
+pub const APPROACH: QuantityKind = QuantityKind {
+    syntax: &["approach room.exit", "approach teammate", "approach LIGHT"],
+    compile: |text, facts| {
+        let target = text.strip_prefix("approach ")?.trim();
+        Some(match target {
+            "room.exit" if facts.has_room => Ok(Box::new(ApproachExit) as Box<dyn Quantity>),
+            "room.exit" => Err("approach room.exit needs a room".into()),
+            "teammate" if facts.has_teammate => Ok(Box::new(ApproachTeammate) as Box<dyn Quantity>),
+            "teammate" => Err("approach teammate needs a [teammate]".into()),
+            name => match facts.light(name) {
+                Some(light) => Ok(Box::new(ApproachLight {
+                    position: facts.lights[light].position,
+                }) as Box<dyn Quantity>),
+                None => Err(format!("no light is named '{name}'")),
+            },
+        })
+    },
+};
+
+/// The share of `start` covered by the closest approach `closest` (1 when starting there).
+fn share_covered(start: f32, closest: f32) -> f32 {
+    if start > 0.0 {
+        ((start - closest) / start).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+#[derive(Debug)]
+struct ApproachExit;
+
+impl Quantity for ApproachExit {
+    fn tracks(&self) -> bool {
+        true
+    }
+
+    fn start(&self, view: &CycleView<'_>) -> Tracked {
+        let closest = view.ground.room.as_ref().map_or(f32::INFINITY, |room| {
+            view.robot.distance_to(room.exit_center)
+        });
+        Tracked {
+            start: closest,
+            best: closest,
+        }
+    }
+
+    #[inline]
+    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
+        if let Some(room) = &view.ground.room {
+            tracked.best = tracked.best.min(view.robot.distance_to(room.exit_center));
+        }
+    }
+
+    fn value(&self, tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        // From the room's centre, not the start: the start is drawn anywhere in the room.
+        end.cycle.ground.room.as_ref().map_or(0.0, |room| {
+            let to_exit = hypot(
+                room.center[0] - room.exit_center[0],
+                room.center[1] - room.exit_center[1],
+            );
+            ((to_exit - tracked.best) / to_exit).clamp(0.0, 1.0)
+        })
+    }
+}
+
+#[derive(Debug)]
+struct ApproachLight {
+    position: [f32; 2],
+}
+
+impl Quantity for ApproachLight {
+    fn tracks(&self) -> bool {
+        true
+    }
+
+    fn start(&self, view: &CycleView<'_>) -> Tracked {
+        let d = view.robot.distance_to(self.position);
+        Tracked { start: d, best: d }
+    }
+
+    #[inline]
+    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
+        tracked.best = tracked.best.min(view.robot.distance_to(self.position));
+    }
+
+    fn value(&self, tracked: &Tracked, _end: &EndView<'_>) -> f32 {
+        share_covered(tracked.start, tracked.best)
+    }
+}
+
+/// The teammate may move: each cycle's distance counts.
+#[derive(Debug)]
+struct ApproachTeammate;
+
+impl Quantity for ApproachTeammate {
+    fn tracks(&self) -> bool {
+        true
+    }
+
+    fn start(&self, view: &CycleView<'_>) -> Tracked {
+        let d = view.teammate.map_or(f32::INFINITY, |mate| {
+            view.robot.distance_to(mate.pose.position())
+        });
+        Tracked { start: d, best: d }
+    }
+
+    #[inline]
+    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
+        if let Some(mate) = view.teammate {
+            tracked.best = tracked
+                .best
+                .min(view.robot.distance_to(mate.pose.position()));
+        }
+    }
+
+    fn value(&self, tracked: &Tracked, _end: &EndView<'_>) -> f32 {
+        if tracked.start.is_finite() {
+            share_covered(tracked.start, tracked.best)
+        } else {
+            0.0
+        }
+    }
+}

@@ -1,0 +1,352 @@
+//! The worlds a scenario's `[world]` table names: a fixed map, a generated room, a generated
+//! corridor, and the joins (a room below the map's entrance, a room below a corridor). Each
+//! recognises its combination of `map`, `room` and `corridor`, and draws one sample's layout
+//! from the environment stream in a fixed order.
+
+use super::{Built, Refusal, World, WorldKind};
+use crate::env::cells::{CellMap, Side};
+use crate::env::corridor::{self, Junction, Turn};
+use crate::env::room::{self, Placement, Room};
+use crate::rng::SimRng;
+use crate::scenario::file::WorldDecl;
+use crate::scenario::{CompiledMap, Scenario};
+use crate::scene::{Rect, Scene};
+use crate::task::TaskConfig;
+use rand::RngExt;
+use std::sync::Arc;
+
+/// `map` alone: a fixed map, built once per evaluator.
+pub const MAP: WorldKind = WorldKind {
+    syntax: "a map",
+    compile: |decl, _| match (&decl.map, &decl.room, &decl.corridor) {
+        (Some(_), None, None) => Some(Ok(Box::new(FixedMap))),
+        (Some(_), _, Some(_)) => Some(Err((
+            "world.corridor",
+            "a map and a generated corridor do not join: give one of them".into(),
+        ))),
+        _ => None,
+    },
+};
+
+#[derive(Debug)]
+struct FixedMap;
+
+impl World for FixedMap {
+    fn is_map_alone(&self) -> bool {
+        true
+    }
+
+    fn statics(
+        &self,
+        scenario: &Scenario,
+        task: &TaskConfig,
+    ) -> Option<(Arc<Scene>, Arc<CellMap>)> {
+        let map = &scenario.map.as_ref()?.map;
+        let scene = Scene::new(map.wall_rects(&[]), task.query_margin());
+        Some((Arc::new(scene), Arc::new(map.clone())))
+    }
+
+    fn build(
+        &self,
+        _scenario: &Scenario,
+        _task: &TaskConfig,
+        statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        _rng: &mut SimRng,
+    ) -> Built {
+        let (scene, map) = statics
+            .cloned()
+            .expect("map statics are built for map worlds");
+        Built {
+            scene,
+            cells: Some(map),
+            room: None,
+            corridor_path: None,
+            shape: None,
+        }
+    }
+}
+
+/// `room = "standalone"`: a generated room, centred, its exit in any wall.
+pub const ROOM: WorldKind = WorldKind {
+    syntax: "a room (\"standalone\")",
+    compile: |decl, _| match (&decl.map, decl.room.as_deref(), &decl.corridor) {
+        (None, Some("standalone"), None) => Some(Ok(Box::new(StandaloneRoom))),
+        (None, Some(room), None) => Some(Err((
+            "world.room",
+            format!(
+                "'{room}': a room alone is \"standalone\" (\"below corridor\" needs a corridor)"
+            ),
+        ))),
+        _ => None,
+    },
+};
+
+#[derive(Debug)]
+struct StandaloneRoom;
+
+impl World for StandaloneRoom {
+    fn has_room(&self) -> bool {
+        true
+    }
+
+    fn build(
+        &self,
+        _scenario: &Scenario,
+        task: &TaskConfig,
+        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        rng: &mut SimRng,
+    ) -> Built {
+        let room = room::generate(&task.room, Placement::Standalone, rng);
+        let scene = Arc::new(Scene::new(room.rects.clone(), task.query_margin()));
+        Built {
+            scene,
+            cells: None,
+            room: Some(room),
+            corridor_path: None,
+            shape: None,
+        }
+    }
+}
+
+/// `map` and `room = "below entrance"`: a generated room under the map, its exit the map's
+/// one-cell region `entrance`.
+pub const ROOM_BELOW_MAP: WorldKind = WorldKind {
+    syntax: "a map and a room (\"below entrance\")",
+    compile: |decl, map| match (&decl.map, decl.room.as_deref(), &decl.corridor) {
+        (Some(_), Some("below entrance"), None) => {
+            Some(match map.and_then(|m| m.regions.get("entrance")) {
+                Some(cells) if cells.len() == 1 => {
+                    Ok(Box::new(RoomBelowMap { entrance: cells[0] }))
+                }
+                _ => Err((
+                    "world.room",
+                    "a room below the map's entrance needs a one-cell region 'entrance' in the \
+                     map"
+                    .into(),
+                )),
+            })
+        }
+        (Some(_), Some(room), None) => Some(Err((
+            "world.room",
+            format!("'{room}': a room with a map is \"below entrance\""),
+        ))),
+        _ => None,
+    },
+};
+
+#[derive(Debug)]
+struct RoomBelowMap {
+    /// The map's entrance cell.
+    entrance: usize,
+}
+
+impl World for RoomBelowMap {
+    fn has_room(&self) -> bool {
+        true
+    }
+
+    fn build(
+        &self,
+        scenario: &Scenario,
+        task: &TaskConfig,
+        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        rng: &mut SimRng,
+    ) -> Built {
+        let map = &scenario.map.as_ref().expect("checked when compiled").map;
+        let (scene, room) = room_below(map, self.entrance, task, rng);
+        Built {
+            scene,
+            cells: Some(Arc::new(map.clone())),
+            room: Some(room),
+            corridor_path: None,
+            shape: None,
+        }
+    }
+}
+
+/// `corridor = "straight" | "left" | "right"`: a generated corridor.
+pub const CORRIDOR: WorldKind = WorldKind {
+    syntax: "a corridor",
+    compile: |decl, _| match (&decl.map, &decl.room, decl.corridor.as_deref()) {
+        (None, None, Some(turn)) => Some(parse_turn(turn).map(|turn| {
+            Box::new(Corridor {
+                turn,
+                room_below: false,
+            }) as Box<dyn World>
+        })),
+        _ => None,
+    },
+};
+
+/// `corridor` and `room = "below corridor"`: a generated room under a generated corridor,
+/// its exit the corridor's first cell.
+pub const ROOM_BELOW_CORRIDOR: WorldKind = WorldKind {
+    syntax: "a corridor and a room (\"below corridor\")",
+    compile: |decl, _| match (&decl.map, decl.room.as_deref(), decl.corridor.as_deref()) {
+        (None, Some("below corridor"), Some(turn)) => Some(parse_turn(turn).map(|turn| {
+            Box::new(Corridor {
+                turn,
+                room_below: true,
+            }) as Box<dyn World>
+        })),
+        (None, Some(room), Some(_)) => Some(Err((
+            "world.room",
+            format!("'{room}': a room with a corridor is \"below corridor\""),
+        ))),
+        _ => None,
+    },
+};
+
+fn parse_turn(turn: &str) -> Result<Turn, Refusal> {
+    match turn {
+        "straight" => Ok(Turn::Straight),
+        "left" => Ok(Turn::Left),
+        "right" => Ok(Turn::Right),
+        other => Err((
+            "world.corridor",
+            format!("'{other}' is not straight, left or right"),
+        )),
+    }
+}
+
+/// A generated corridor, alone or with a room under its first cell.
+#[derive(Debug)]
+struct Corridor {
+    turn: Turn,
+    room_below: bool,
+}
+
+impl World for Corridor {
+    fn has_room(&self) -> bool {
+        self.room_below
+    }
+
+    fn has_corridor(&self) -> bool {
+        true
+    }
+
+    fn advances(&self) -> bool {
+        !self.room_below
+    }
+
+    fn shapes(&self) -> &'static [&'static str] {
+        if self.turn == Turn::Straight {
+            &[]
+        } else {
+            &["L-bend", "T-junction", "side junction"]
+        }
+    }
+
+    fn build(
+        &self,
+        _scenario: &Scenario,
+        task: &TaskConfig,
+        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        rng: &mut SimRng,
+    ) -> Built {
+        let (map, path, junction) = generate_corridor(self.turn, task, rng);
+        let shape = Some(junction.index());
+        if self.room_below {
+            // The corridor is drawn first, then the room under its first cell.
+            let (scene, room) = room_below(&map, path[0], task, rng);
+            Built {
+                scene,
+                cells: Some(Arc::new(map)),
+                room: Some(room),
+                corridor_path: Some(path),
+                shape,
+            }
+        } else {
+            let map = Arc::new(map);
+            Built {
+                scene: Arc::new(Scene::new(map.wall_rects(&[]), task.query_margin())),
+                cells: Some(map),
+                room: None,
+                corridor_path: Some(path),
+                shape,
+            }
+        }
+    }
+}
+
+/// A room generated under the cell `entrance` of `map`, its exit centred under that cell: the
+/// room's top wall is the map's lower border there, so the map leaves that border open and
+/// the room's exit gap is the way in. The scene holds both.
+fn room_below(
+    map: &CellMap,
+    entrance: usize,
+    task: &TaskConfig,
+    rng: &mut SimRng,
+) -> (Arc<Scene>, Room) {
+    let entrance_center = map.center(entrance);
+    let half = 0.5 * map.cell_size;
+    let room_exit = [
+        entrance_center[0],
+        entrance_center[1] - half - 0.5 * map.wall_thickness,
+    ];
+    let room = room::generate(
+        &task.room,
+        Placement::Below {
+            exit_center: room_exit,
+        },
+        rng,
+    );
+    let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
+    rects.extend(room.rects.iter().copied());
+    (Arc::new(Scene::new(rects, task.query_margin())), room)
+}
+
+/// A corridor drawn from the stream as the turning and following primitives need it: its
+/// cells, its path, and the shape of its turn.
+fn generate_corridor(
+    turn: Turn,
+    task: &TaskConfig,
+    rng: &mut SimRng,
+) -> (CellMap, Vec<usize>, Junction) {
+    let c = &task.corridor;
+    let (before, after) = match turn {
+        Turn::Straight => (
+            rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
+            0,
+        ),
+        _ => (
+            rng.random_range(c.cells_before_turn[0]..=c.cells_before_turn[1]),
+            rng.random_range(c.cells_after_turn[0]..=c.cells_after_turn[1]),
+        ),
+    };
+    // One draw picks the turn's shape, so tasks without side junctions draw exactly what they
+    // drew before side junctions existed.
+    let junction = if turn == Turn::Straight {
+        Junction::Bend
+    } else {
+        let draw = rng.random::<f32>();
+        if draw < c.junction_share {
+            Junction::TEnd
+        } else if draw < c.junction_share + c.side_junction_share {
+            Junction::Side
+        } else {
+            Junction::Bend
+        }
+    };
+    let corridor = corridor::build(turn, before, after, junction);
+    (corridor.map, corridor.path, junction)
+}
+
+/// The world a `[world]` table names, by the first registered kind that recognises it.
+pub(crate) fn compile(
+    decl: &WorldDecl,
+    map: Option<&CompiledMap>,
+) -> Result<Box<dyn World>, Refusal> {
+    super::WORLDS
+        .iter()
+        .find_map(|kind| (kind.compile)(decl, map))
+        .unwrap_or_else(|| {
+            Err((
+                "world",
+                format!(
+                    "give {}",
+                    super::listed(super::WORLDS.iter().map(|kind| kind.syntax))
+                ),
+            ))
+        })
+}
