@@ -359,7 +359,7 @@ fn bad_teammates_are_refused_naming_the_key() {
     let error = refusal(&T_MAZE.replace("timeout = \"0\"", "timeout = \"approach teammate\""));
     assert!(error.contains("fitness.timeout"), "{error}");
     assert!(
-        error.contains("approach teammate needs a [teammate]"),
+        error.contains("'approach teammate': needs a [teammate]"),
         "{error}"
     );
 }

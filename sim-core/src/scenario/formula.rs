@@ -255,10 +255,13 @@ mod tests {
                  approach teammate or approach LIGHT",
             ),
             ("approach beacon", "no light is named 'beacon'"),
-            ("progress", "progress needs a goal in cells"),
-            ("approach room.exit", "approach room.exit needs a room"),
-            ("approach teammate", "approach teammate needs a [teammate]"),
-            ("1 + derived", "'derived': derived needs [[phase]]s"),
+            ("progress", "'progress': needs a goal in cells"),
+            ("approach room.exit", "'approach room.exit': needs a room"),
+            (
+                "approach teammate",
+                "'approach teammate': needs a [teammate]",
+            ),
+            ("1 + derived", "'derived': needs [[phase]]s"),
         ] {
             let error = Formula::parse(text, &bare, &mut Quantities::new()).unwrap_err();
             assert!(error.contains(wanted), "{text}: {error}");

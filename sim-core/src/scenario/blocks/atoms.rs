@@ -31,7 +31,7 @@ pub const IN_GOAL: AtomKind = AtomKind {
             if facts.goals_in_cells {
                 Ok(Box::new(InGoal) as Box<dyn Atom>)
             } else {
-                Err("'in goal' needs a corridor, or a map and a goal in every variant".into())
+                Err("needs a corridor, or a map and a goal in every variant".into())
             }
         })
     },
@@ -104,7 +104,7 @@ pub const TEAMMATE_FOLLOWING: AtomKind = AtomKind {
             if facts.has_teammate {
                 Ok(Box::new(TeammateFollowing) as Box<dyn Atom>)
             } else {
-                Err(format!("'{text}' needs a [teammate]"))
+                Err("needs a [teammate]".into())
             }
         })
     },
@@ -128,7 +128,7 @@ pub const TEAMMATE_IN_ROOM: AtomKind = AtomKind {
             if facts.has_teammate && facts.has_room {
                 Ok(Box::new(TeammateInRoom) as Box<dyn Atom>)
             } else {
-                Err("'teammate in room' needs a room and a [teammate]".into())
+                Err("needs a room and a [teammate]".into())
             }
         })
     },
@@ -157,7 +157,7 @@ pub const BEYOND_EXIT: AtomKind = AtomKind {
             if facts.has_room {
                 Ok(Box::new(BeyondExit) as Box<dyn Atom>)
             } else {
-                Err("'beyond room.exit' needs a room".into())
+                Err("needs a room".into())
             }
         })
     },
@@ -185,7 +185,7 @@ pub const NEAR: AtomKind = AtomKind {
             None => Err(format!("no light is named '{name}'")),
             // Also refuses NaN.
             Some(_) if facts.near_m.is_nan() || facts.near_m <= 0.0 => {
-                Err("'near' needs a positive `end.near_m`".into())
+                Err("needs a positive `end.near_m`".into())
             }
             Some(light) => Ok(Box::new(Near {
                 position: facts.lights[light].position,

@@ -35,7 +35,7 @@ pub const PROGRESS: QuantityKind = QuantityKind {
                 Ok(Box::new(Progress) as Box<dyn Quantity>)
             } else {
                 Err(
-                    "progress needs a goal in cells (a corridor, or a map and a goal in every \
+                    "needs a goal in cells (a corridor, or a map and a goal in every \
                      variant)"
                         .into(),
                 )
@@ -67,7 +67,7 @@ pub const DERIVED: QuantityKind = QuantityKind {
             if facts.has_phases {
                 Ok(Box::new(Derived) as Box<dyn Quantity>)
             } else {
-                Err("derived needs [[phase]]s".into())
+                Err("needs [[phase]]s".into())
             }
         })
     },
@@ -95,9 +95,9 @@ pub const APPROACH: QuantityKind = QuantityKind {
         let target = text.strip_prefix("approach ")?.trim();
         Some(match target {
             "room.exit" if facts.has_room => Ok(Box::new(ApproachExit) as Box<dyn Quantity>),
-            "room.exit" => Err("approach room.exit needs a room".into()),
+            "room.exit" => Err("needs a room".into()),
             "teammate" if facts.has_teammate => Ok(Box::new(ApproachTeammate) as Box<dyn Quantity>),
-            "teammate" => Err("approach teammate needs a [teammate]".into()),
+            "teammate" => Err("needs a [teammate]".into()),
             name => match facts.light(name) {
                 Some(light) => Ok(Box::new(ApproachLight {
                     position: facts.lights[light].position,
