@@ -2,12 +2,12 @@
 //! of. Each tests the robot (or the teammate) against the sample's ground truth, with every
 //! name resolved when the scenario compiles.
 
-use super::{Atom, AtomKind, CycleView};
+use super::{Atom, AtomKind, CycleView, fixed_word};
 
 /// `in maze`: the robot's centre in a map cell.
 pub const IN_MAZE: AtomKind = AtomKind {
     syntax: &["in maze"],
-    compile: |text, _| (text == "in maze").then(|| Ok(Box::new(InMaze) as Box<dyn Atom>)),
+    compile: |text, _| fixed_word::<dyn Atom>(text, &["in maze"], None, || Box::new(InMaze)),
 };
 
 #[derive(Debug)]
@@ -27,13 +27,9 @@ impl Atom for InMaze {
 pub const IN_GOAL: AtomKind = AtomKind {
     syntax: &["in goal"],
     compile: |text, facts| {
-        (text == "in goal").then(|| {
-            if facts.goals_in_cells {
-                Ok(Box::new(InGoal) as Box<dyn Atom>)
-            } else {
-                Err("needs a corridor, or a map and a goal in every variant".into())
-            }
-        })
+        let missing = (!facts.goals_in_cells)
+            .then_some("needs a corridor, or a map and a goal in every variant");
+        fixed_word::<dyn Atom>(text, &["in goal"], missing, || Box::new(InGoal))
     },
 };
 
@@ -100,13 +96,13 @@ impl Atom for InRegion {
 pub const TEAMMATE_FOLLOWING: AtomKind = AtomKind {
     syntax: &["teammate following", "teammate met"],
     compile: |text, facts| {
-        matches!(text, "teammate following" | "teammate met").then(|| {
-            if facts.has_teammate {
-                Ok(Box::new(TeammateFollowing) as Box<dyn Atom>)
-            } else {
-                Err("needs a [teammate]".into())
-            }
-        })
+        let missing = (!facts.has_teammate).then_some("needs a [teammate]");
+        fixed_word::<dyn Atom>(
+            text,
+            &["teammate following", "teammate met"],
+            missing,
+            || Box::new(TeammateFollowing),
+        )
     },
 };
 
@@ -124,12 +120,10 @@ impl Atom for TeammateFollowing {
 pub const TEAMMATE_IN_ROOM: AtomKind = AtomKind {
     syntax: &["teammate in room"],
     compile: |text, facts| {
-        (text == "teammate in room").then(|| {
-            if facts.has_teammate && facts.has_room {
-                Ok(Box::new(TeammateInRoom) as Box<dyn Atom>)
-            } else {
-                Err("needs a room and a [teammate]".into())
-            }
+        let missing =
+            (!(facts.has_teammate && facts.has_room)).then_some("needs a room and a [teammate]");
+        fixed_word::<dyn Atom>(text, &["teammate in room"], missing, || {
+            Box::new(TeammateInRoom)
         })
     },
 };
@@ -153,12 +147,9 @@ impl Atom for TeammateInRoom {
 pub const BEYOND_EXIT: AtomKind = AtomKind {
     syntax: &["beyond room.exit"],
     compile: |text, facts| {
-        (text == "beyond room.exit").then(|| {
-            if facts.has_room {
-                Ok(Box::new(BeyondExit) as Box<dyn Atom>)
-            } else {
-                Err("needs a room".into())
-            }
+        let missing = (!facts.has_room).then_some("needs a room");
+        fixed_word::<dyn Atom>(text, &["beyond room.exit"], missing, || {
+            Box::new(BeyondExit)
         })
     },
 };
@@ -210,7 +201,7 @@ impl Atom for Near {
 pub const ALWAYS: AtomKind = AtomKind {
     syntax: &["always"],
     compile: |text, _| {
-        matches!(text, "always" | "otherwise").then(|| Ok(Box::new(Always) as Box<dyn Atom>))
+        fixed_word::<dyn Atom>(text, &["always", "otherwise"], None, || Box::new(Always))
     },
 };
 

@@ -292,6 +292,24 @@ pub trait Motion: Debug + Send {
     fn after_met(&mut self, pose: &mut Pose, robot: &Pose, step: f32);
 }
 
+/// What a block written as a fixed word (one of `words`) makes of `text`: nothing when the text
+/// is another word, else the block, or the refusal `missing` when the scenario lacks what the
+/// block needs.
+pub(crate) fn fixed_word<Block: ?Sized>(
+    text: &str,
+    words: &[&str],
+    missing: Option<&str>,
+    make: impl FnOnce() -> Box<Block>,
+) -> Recognised<Block> {
+    if !words.contains(&text) {
+        return None;
+    }
+    Some(match missing {
+        None => Ok(make()),
+        Some(why) => Err(why.to_string()),
+    })
+}
+
 /// `a, b, c or d`.
 pub(crate) fn listed(items: impl Iterator<Item = &'static str>) -> String {
     let items: Vec<&str> = items.collect();

@@ -2,13 +2,15 @@
 //! corridor distance, a closest approach, the derived fitness. Each is a number in a known
 //! range when the sample ends; an approach keeps its closest distance cycle by cycle.
 
-use super::{CycleView, EndView, Quantity, QuantityKind, Tracked};
+use super::{CycleView, EndView, Quantity, QuantityKind, Tracked, fixed_word};
 use crate::float::hypot;
 
 /// `time_bonus`: (max_cycles - cycles) / max_cycles.
 pub const TIME_BONUS: QuantityKind = QuantityKind {
     syntax: &["time_bonus"],
-    compile: |text, _| (text == "time_bonus").then(|| Ok(Box::new(TimeBonus) as Box<dyn Quantity>)),
+    compile: |text, _| {
+        fixed_word::<dyn Quantity>(text, &["time_bonus"], None, || Box::new(TimeBonus))
+    },
 };
 
 /// The share of the cycle limit left, as the time bonus and the rescue's solved bonus count it.
@@ -30,17 +32,9 @@ impl Quantity for TimeBonus {
 pub const PROGRESS: QuantityKind = QuantityKind {
     syntax: &["progress"],
     compile: |text, facts| {
-        (text == "progress").then(|| {
-            if facts.goals_in_cells {
-                Ok(Box::new(Progress) as Box<dyn Quantity>)
-            } else {
-                Err(
-                    "needs a goal in cells (a corridor, or a map and a goal in every \
-                     variant)"
-                        .into(),
-                )
-            }
-        })
+        let missing = (!facts.goals_in_cells)
+            .then_some("needs a goal in cells (a corridor, or a map and a goal in every variant)");
+        fixed_word::<dyn Quantity>(text, &["progress"], missing, || Box::new(Progress))
     },
 };
 
@@ -63,13 +57,8 @@ impl Quantity for Progress {
 pub const DERIVED: QuantityKind = QuantityKind {
     syntax: &["derived"],
     compile: |text, facts| {
-        (text == "derived").then(|| {
-            if facts.has_phases {
-                Ok(Box::new(Derived) as Box<dyn Quantity>)
-            } else {
-                Err("needs [[phase]]s".into())
-            }
-        })
+        let missing = (!facts.has_phases).then_some("needs [[phase]]s");
+        fixed_word::<dyn Quantity>(text, &["derived"], missing, || Box::new(Derived))
     },
 };
 
