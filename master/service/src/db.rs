@@ -181,11 +181,20 @@ impl JobStore {
                 ),
             });
         }
-        let store = guarded(&path_text, || Self::open_verified(path, &path_text))?;
+        let store = guarded(&path_text, || {
+            Self::open_verified(path, &path_text, jobs_dir, existing)
+        })?;
         Ok(store)
     }
 
-    fn open_verified(path: &Path, path_text: &str) -> Result<JobStore, StoreError> {
+    /// Opens, checks and reads back every record; `existing` is how many job directories
+    /// `jobs_dir` holds, which a repaired store must still account for.
+    fn open_verified(
+        path: &Path,
+        path_text: &str,
+        jobs_dir: &Path,
+        existing: usize,
+    ) -> Result<JobStore, StoreError> {
         let error = |message: String| StoreError {
             path: path_text.to_string(),
             message,
@@ -196,18 +205,21 @@ impl JobStore {
             }
             other => error(format!("cannot be opened ({other}). {DAMAGED_ADVICE}")),
         })?;
-        match db.check_integrity() {
-            Ok(true) => {}
-            Ok(false) => tracing::warn!(
-                store = path_text,
-                "the job store was damaged and has been repaired"
-            ),
+        let repaired = match db.check_integrity() {
+            Ok(true) => false,
+            Ok(false) => {
+                tracing::warn!(
+                    store = path_text,
+                    "the job store was damaged and has been repaired"
+                );
+                true
+            }
             Err(e) => {
                 return Err(error(format!(
                     "is damaged beyond repair ({e}). {DAMAGED_ADVICE}"
                 )));
             }
-        }
+        };
         let store = JobStore {
             db,
             path: path_text.to_string(),
@@ -219,9 +231,19 @@ impl JobStore {
             Ok(())
         })?;
         // Every record must read back: a damaged value is found now, not by a client later.
-        store
+        let records = store
             .list()
             .map_err(|e| error(format!("{}. {DAMAGED_ADVICE}", e.message)))?;
+        // A repair rolls back to the last whole commit, which may predate the newest jobs:
+        // serving then would hide jobs whose directories exist.
+        if repaired && records.len() < existing {
+            return Err(error(format!(
+                "was damaged, and the repaired store holds {} of the {existing} job(s) in {}. \
+                 {DAMAGED_ADVICE}",
+                records.len(),
+                jobs_dir.display()
+            )));
+        }
         Ok(store)
     }
 
