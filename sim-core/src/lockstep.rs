@@ -9,10 +9,25 @@
 //! ends takes the next sample at once, so samples that end early leave no lane idle.
 
 use crate::controller::{Controller, NodeKind, arbitrate};
-use crate::ctrnn::euler_step;
+use crate::ctrnn::{StepWeights, euler_step};
 use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
 use crate::frame::{N_FLAT, SensorFrame};
 use crate::lanes::{LANES, Lanes};
+
+/// [`euler_step`] on lanes, compiled for the baseline CPU and again for AVX2, where one
+/// register holds all [`LANES`] lanes; the CPU the program runs on picks the version once.
+/// Both versions perform the same IEEE operations in the same order (Rust never fuses a
+/// multiply and an add on its own), so the outcomes do not depend on the CPU.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn step_network(
+    weights: &StepWeights<'_>,
+    inputs: &[Lanes],
+    presynaptic: &mut [Lanes],
+    state: &mut [Lanes],
+    outputs: &mut [Lanes],
+) {
+    euler_step(weights, inputs, presynaptic, state, outputs);
+}
 
 /// One network's state in every lane, and the scratch a partial step needs.
 #[derive(Debug, Clone)]
@@ -192,7 +207,7 @@ impl LaneController {
             // is active, as the scalar controller steps only the active path.
             let every_live_lane = (0..LANES).all(|lane| lanes[lane] || !live[lane]);
             if every_live_lane {
-                euler_step(
+                step_network(
                     &weights,
                     inputs,
                     &mut network.presynaptic,
@@ -205,7 +220,7 @@ impl LaneController {
                     .copy_from_slice(&network.presynaptic);
                 network.scratch_state.copy_from_slice(&network.state);
                 network.scratch_outputs.copy_from_slice(&network.outputs);
-                euler_step(
+                step_network(
                     &weights,
                     inputs,
                     &mut network.scratch_presynaptic,
@@ -323,5 +338,49 @@ impl Evaluator {
             }
         }
         outcomes.into_iter().flatten().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ctrnn::{Ctrnn, CtrnnTopology};
+    use crate::lanes::Real;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The version the CPU picks (AVX2 where it has it) gives the generic step's bits.
+        #[test]
+        fn dispatched_network_step_matches_the_generic_one_bit_for_bit(
+            genes in prop::collection::vec(-10.0f32..10.0, CtrnnTopology::new(6, 10, 3).n_genes()),
+            inputs in prop::collection::vec(0.0f32..1.0, 6 * LANES),
+            n_steps in 1usize..20,
+        ) {
+            let net = Ctrnn::new(CtrnnTopology::new(6, 10, 3), &genes).unwrap();
+            let dt_over_taus = net.dt_over_taus(0.1);
+            let weights = net.step_weights(&dt_over_taus);
+            let inputs: Vec<Lanes> = inputs
+                .chunks_exact(LANES)
+                .map(|chunk| Lanes(std::array::from_fn(|lane| chunk[lane])))
+                .collect();
+            let fresh = || {
+                let mut presynaptic = vec![Lanes::ZERO; 16];
+                for (rate, &rest) in presynaptic[6..].iter_mut().zip(net.rest_firing()) {
+                    *rate = Lanes::splat(rest);
+                }
+                (presynaptic, vec![Lanes::ZERO; 10], vec![Lanes::ZERO; 3])
+            };
+            let (mut pre_a, mut state_a, mut out_a) = fresh();
+            let (mut pre_b, mut state_b, mut out_b) = fresh();
+            for _ in 0..n_steps {
+                step_network(&weights, &inputs, &mut pre_a, &mut state_a, &mut out_a);
+                euler_step(&weights, &inputs, &mut pre_b, &mut state_b, &mut out_b);
+            }
+            let bits = |values: &[Lanes]| -> Vec<u32> {
+                values.iter().flat_map(|v| v.0.map(f32::to_bits)).collect()
+            };
+            prop_assert_eq!(bits(&state_a), bits(&state_b));
+            prop_assert_eq!(bits(&out_a), bits(&out_b));
+        }
     }
 }
