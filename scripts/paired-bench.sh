@@ -5,10 +5,10 @@
 # change on a shared machine hits far less than either figure alone. Run from the repository
 # root:
 #
-#   scripts/paired-bench.sh OLD_HEVO NEW_HEVO [ROUNDS] [SECONDS] [NEW_FLAGS]
+#   scripts/paired-bench.sh OLD_HEVO NEW_HEVO [ROUNDS] [SECONDS] [NEW_FLAGS] [OLD_FLAGS]
 #
-# NEW_FLAGS go to the new binary only (an older binary may lack them), e.g.
-# "--evaluator lockstep".
+# NEW_FLAGS go to the new binary and OLD_FLAGS to the old one (an older binary may lack a
+# flag), e.g. "--evaluator lockstep" for both when two lockstep builds are compared.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 old=$1
@@ -16,6 +16,7 @@ new=$2
 rounds=${3:-5}
 seconds=${4:-3}
 new_flags=${5:-}
+old_flags=${6:-}
 tmp=$(mktemp)
 trap 'rm -f "$tmp"' EXIT
 
@@ -27,7 +28,8 @@ for ((round = 0; round < rounds; round++)); do
             ((round % 2 == 1)) && order=(new old)
             for who in "${order[@]}"; do
                 if [[ $who == old ]]; then
-                    line=$("$old" bench --task "$task" --threads "$n" --seconds "$seconds" --json | tail -n 1)
+                    # shellcheck disable=SC2086 # the flags are words
+                    line=$("$old" bench --task "$task" --threads "$n" --seconds "$seconds" --json $old_flags | tail -n 1)
                 else
                     # shellcheck disable=SC2086 # the flags are words
                     line=$("$new" bench --task "$task" --threads "$n" --seconds "$seconds" --json $new_flags | tail -n 1)
