@@ -146,7 +146,7 @@ struct CellTable {
 /// range beyond the body and one cycle's worth of movement, with room to spare.
 pub const DEFAULT_QUERY_MARGIN: f32 = 0.25;
 /// The margin of the contact table: a disc test of radius up to this, less
-/// [`TABLE_SLACK`], reads the short lists (the e-puck's body is 0.0375 m); a wider disc falls
+/// `TABLE_SLACK`, reads the short lists (the e-puck's body is 0.0375 m); a wider disc falls
 /// back to the sensing table or every solid, so the answer never depends on the table.
 pub const CONTACT_MARGIN: f32 = 0.06;
 /// How much wider than a query's reach a table's margin must be for the query to use it: room
@@ -267,7 +267,7 @@ impl Scene {
     /// Builds the scene: each rectangle's box (parry's), and two per-cell tables listing, for
     /// every 0.1 m grid cell, the rectangles whose boxes come within a margin of it: the
     /// sensing table within `query_margin`, which must cover the robot radius plus the IR
-    /// range, and the contact table within [`CONTACT_MARGIN`] (see [`CellTable::binned`]).
+    /// range, and the contact table within [`CONTACT_MARGIN`] (see `CellTable::binned`).
     pub fn new(rects: Vec<Rect>, query_margin: f32) -> Scene {
         let solids: Vec<Solid> = rects
             .iter()
