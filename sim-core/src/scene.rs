@@ -1,5 +1,6 @@
 //! The static scene of one sample: walls and obstacles as rectangles with their parry (rapier2d)
-//! boxes, plus a per-cell table of candidate rectangles built once when the scene is made.
+//! boxes, plus per-cell tables of candidate rectangles (one for the IR cones, a shorter one for the
+//! collision test) built once when the scene is made.
 //!
 //! Why the table: one rapier `QueryPipeline::cast_ray` costs about 113 ns here, and a control
 //! cycle casts 28 IR rays, which would cap the simulator near 300 thousand cycles per second.
@@ -142,8 +143,8 @@ struct CellTable {
     candidates: Vec<u16>,
 }
 
-/// The distance beyond a cell that its candidate list must cover: the robot's body, the IR
-/// range beyond the body and one cycle's worth of movement, with room to spare.
+/// A sensing margin for scenes built outside a task: the robot's body and the IR range
+/// beyond it, with room to spare.
 pub const DEFAULT_QUERY_MARGIN: f32 = 0.25;
 /// The margin of the contact table: a disc test of radius up to this, less
 /// `TABLE_SLACK`, reads the short lists (the e-puck's body is 0.0375 m); a wider disc falls
@@ -840,6 +841,21 @@ mod tests {
         }
     }
 
+    /// A proptest's rectangle from (centre, half extents, kind, angle): walls are
+    /// axis-aligned; obstacles may turn.
+    fn random_rect((x, y, hx, hy, kind, angle): (f32, f32, f32, f32, u8, f32)) -> Rect {
+        Rect {
+            center: [x, y],
+            half_extents: [hx, hy],
+            angle: if kind == 0 { 0.0 } else { angle },
+            kind: if kind == 0 {
+                RectKind::Wall
+            } else {
+                RectKind::Obstacle
+            },
+        }
+    }
+
     proptest::proptest! {
         /// Random rectangles, rotated or not, at any margin: lists touching at an edge, boxes
         /// beyond the grid's border and cells with nothing near them included.
@@ -853,13 +869,7 @@ mod tests {
         ) {
             let rects = rects
                 .into_iter()
-                .map(|(x, y, hx, hy, kind, angle)| Rect {
-                    center: [x, y],
-                    half_extents: [hx, hy],
-                    // Walls are axis-aligned; obstacles may turn.
-                    angle: if kind == 0 { 0.0 } else { angle },
-                    kind: if kind == 0 { RectKind::Wall } else { RectKind::Obstacle },
-                })
+                .map(random_rect)
                 .collect();
             let scene = Scene::new(rects, margin);
             let (cell_ranges, candidates) = broad_phase_table(&scene, margin);
@@ -881,12 +891,7 @@ mod tests {
         ) {
             let rects: Vec<Rect> = rects
                 .into_iter()
-                .map(|(x, y, hx, hy, kind, angle)| Rect {
-                    center: [x, y],
-                    half_extents: [hx, hy],
-                    angle: if kind == 0 { 0.0 } else { angle },
-                    kind: if kind == 0 { RectKind::Wall } else { RectKind::Obstacle },
-                })
+                .map(random_rect)
                 .collect();
             let scene = Scene::new(rects, 0.2);
             for (x, y, radius) in discs {
