@@ -1,6 +1,5 @@
 //! The static scene of one sample: walls and obstacles as rectangles with their parry (rapier2d)
-//! boxes, plus per-cell tables of candidate rectangles (one for the IR cones, a shorter one for the
-//! collision test) built once when the scene is made.
+//! boxes, plus a per-cell table of candidate rectangles built once when the scene is made.
 //!
 //! Why the table: one rapier `QueryPipeline::cast_ray` costs about 113 ns here, and a control
 //! cycle casts 28 IR rays, which would cap the simulator near 300 thousand cycles per second.
@@ -119,40 +118,23 @@ impl Solid {
     }
 }
 
-/// The static geometry of a sample, with the spatial tables the sensors and the collision test use.
+/// The static geometry of a sample, with the spatial table the sensors and the collision test use.
 #[derive(Debug)]
 pub struct Scene {
     rects: Vec<Rect>,
     solids: Vec<Solid>,
-    /// The solids near each cell within the query margin: what the IR cones may see.
-    sensing: CellTable,
-    /// The solids near each cell within [`CONTACT_MARGIN`]: what a robot's body may touch.
-    /// Far shorter lists than `sensing`'s, for the collision test of every move.
-    contact: CellTable,
-    /// Every solid, for a query from outside the grid (never on a legal trajectory).
-    all_solids: Vec<u16>,
-}
-
-/// For every grid cell, the solids whose boxes come within the table's margin of it.
-#[derive(Debug)]
-struct CellTable {
     /// The grid the table is over.
     grid: Grid,
     /// For each cell, the range of `candidates` that lists the solids near it.
     cell_ranges: Vec<(u32, u32)>,
     candidates: Vec<u16>,
+    /// Every solid, for a query from outside the grid (never on a legal trajectory).
+    all_solids: Vec<u16>,
 }
 
-/// A sensing margin for scenes built outside a task: the robot's body and the IR range
-/// beyond it, with room to spare.
+/// The distance beyond a cell that its candidate list must cover: the robot's body, the IR
+/// range beyond the body and one cycle's worth of movement, with room to spare.
 pub const DEFAULT_QUERY_MARGIN: f32 = 0.25;
-/// The margin of the contact table: a disc test of radius up to this, less
-/// `TABLE_SLACK`, reads the short lists (the e-puck's body is 0.0375 m); a wider disc falls
-/// back to the sensing table or every solid, so the answer never depends on the table.
-pub const CONTACT_MARGIN: f32 = 0.06;
-/// How much wider than a query's reach a table's margin must be for the query to use it: room
-/// for rounding between the cell a point is looked up in and the cell's box.
-const TABLE_SLACK: f32 = 0.01;
 const GRID_CELL: f32 = 0.1;
 
 /// A sensor cone in world coordinates: its axis, the cosine of half its opening, and its two
@@ -265,10 +247,16 @@ impl Grid {
 }
 
 impl Scene {
-    /// Builds the scene: each rectangle's box (parry's), and two per-cell tables listing, for
-    /// every 0.1 m grid cell, the rectangles whose boxes come within a margin of it: the
-    /// sensing table within `query_margin`, which must cover the robot radius plus the IR
-    /// range, and the contact table within [`CONTACT_MARGIN`] (see `CellTable::binned`).
+    /// Builds the scene: each rectangle's box (parry's), and the per-cell table listing, for
+    /// every 0.1 m grid cell, the rectangles whose boxes come within `query_margin` of it.
+    /// `query_margin` must cover the robot radius plus the IR range.
+    ///
+    /// The table is binned: each box visits the few cells near it and the exact box test
+    /// (`Aabb::intersects` against the cell's box widened by the margin) decides. Rectangles are
+    /// visited in order, so every list comes out sorted and no query depends on a tree's
+    /// layout. It is the table a broad-phase query per cell gives (the test
+    /// `binned_table_is_the_broad_phase_table` builds that one through rapier and compares),
+    /// at a small part of the cost (decision 0033).
     pub fn new(rects: Vec<Rect>, query_margin: f32) -> Scene {
         let solids: Vec<Solid> = rects
             .iter()
@@ -283,12 +271,34 @@ impl Scene {
                 }
             })
             .collect();
+        let grid = Grid::around(&solids, query_margin);
+
+        // Two passes over the same cells: count per cell, then fill the slots.
+        let n_cells = grid.nx * grid.ny;
+        let mut counts = vec![0u32; n_cells + 1];
+        for solid in &solids {
+            grid.for_each_cell_near(&solid.aabb, |cell| counts[cell + 1] += 1);
+        }
+        for cell in 0..n_cells {
+            counts[cell + 1] += counts[cell];
+        }
+        let cell_ranges: Vec<(u32, u32)> = counts.windows(2).map(|w| (w[0], w[1])).collect();
+        let mut filled = counts;
+        let mut candidates = vec![0u16; cell_ranges.last().map_or(0, |r| r.1 as usize)];
+        for (solid_idx, solid) in solids.iter().enumerate() {
+            grid.for_each_cell_near(&solid.aabb, |cell| {
+                candidates[filled[cell] as usize] = solid_idx as u16;
+                filled[cell] += 1;
+            });
+        }
+
         Scene {
             all_solids: (0..solids.len() as u16).collect(),
-            sensing: CellTable::binned(&solids, query_margin),
-            contact: CellTable::binned(&solids, CONTACT_MARGIN),
             rects,
             solids,
+            grid,
+            cell_ranges,
+            candidates,
         }
     }
 
@@ -300,27 +310,20 @@ impl Scene {
     /// The solids that may lie within the query margin of `point`.
     #[inline]
     fn near(&self, point: [f32; 2]) -> &[u16] {
-        self.sensing.near(point).unwrap_or(&self.all_solids)
-    }
-
-    /// The solids a disc of `radius` centred at `point` may touch: the contact table's list
-    /// when its margin covers the disc, else the sensing table's when that one does.
-    #[inline]
-    fn touching(&self, point: [f32; 2], radius: f32) -> &[u16] {
-        let table = if radius + TABLE_SLACK <= self.contact.grid.margin {
-            &self.contact
-        } else if radius + TABLE_SLACK <= self.sensing.grid.margin {
-            &self.sensing
-        } else {
+        let grid = &self.grid;
+        let fx = (point[0] - grid.origin[0]) / GRID_CELL;
+        let fy = (point[1] - grid.origin[1]) / GRID_CELL;
+        if fx < 0.0 || fy < 0.0 || fx >= grid.nx as f32 || fy >= grid.ny as f32 {
             return &self.all_solids;
-        };
-        table.near(point).unwrap_or(&self.all_solids)
+        }
+        let (start, end) = self.cell_ranges[fy as usize * grid.nx + fx as usize];
+        &self.candidates[start as usize..end as usize]
     }
 
     /// Whether a disc of `radius` centred at `center` overlaps any solid.
     pub fn disc_hits(&self, center: [f32; 2], radius: f32) -> bool {
         let point = Vector::new(center[0], center[1]);
-        self.touching(center, radius).iter().any(|&solid_idx| {
+        self.near(center).iter().any(|&solid_idx| {
             let solid = &self.solids[solid_idx as usize];
             // The box test is a cheap reject before parry's exact distance.
             solid.aabb.mins.x - radius < point.x
@@ -391,54 +394,6 @@ impl Scene {
             self.solids[solid_idx as usize].cone_lanes(origins, cones, &mut best, &mut hit);
         }
         std::array::from_fn(|lane| (hit[lane] != 0).then_some(best[lane]))
-    }
-}
-
-impl CellTable {
-    /// Bins every solid's box into the cells it comes within `margin` of: each box visits the
-    /// few cells near it and the exact box test (`Aabb::intersects` against the cell's box
-    /// widened by the margin) decides. Solids are visited in order, so every list comes out
-    /// sorted and no query depends on a tree's layout. It is the table a broad-phase query per
-    /// cell gives (the test `binned_table_is_the_broad_phase_table` builds that one through
-    /// rapier and compares), at a small part of the cost (decision 0033).
-    fn binned(solids: &[Solid], margin: f32) -> CellTable {
-        let grid = Grid::around(solids, margin);
-        // Two passes over the same cells: count per cell, then fill the slots.
-        let n_cells = grid.nx * grid.ny;
-        let mut counts = vec![0u32; n_cells + 1];
-        for solid in solids {
-            grid.for_each_cell_near(&solid.aabb, |cell| counts[cell + 1] += 1);
-        }
-        for cell in 0..n_cells {
-            counts[cell + 1] += counts[cell];
-        }
-        let cell_ranges: Vec<(u32, u32)> = counts.windows(2).map(|w| (w[0], w[1])).collect();
-        let mut filled = counts;
-        let mut candidates = vec![0u16; cell_ranges.last().map_or(0, |r| r.1 as usize)];
-        for (solid_idx, solid) in solids.iter().enumerate() {
-            grid.for_each_cell_near(&solid.aabb, |cell| {
-                candidates[filled[cell] as usize] = solid_idx as u16;
-                filled[cell] += 1;
-            });
-        }
-        CellTable {
-            grid,
-            cell_ranges,
-            candidates,
-        }
-    }
-
-    /// The list of the cell `point` lies in, or `None` outside the grid.
-    #[inline]
-    fn near(&self, point: [f32; 2]) -> Option<&[u16]> {
-        let grid = &self.grid;
-        let fx = (point[0] - grid.origin[0]) / GRID_CELL;
-        let fy = (point[1] - grid.origin[1]) / GRID_CELL;
-        if fx < 0.0 || fy < 0.0 || fx >= grid.nx as f32 || fy >= grid.ny as f32 {
-            return None;
-        }
-        let (start, end) = self.cell_ranges[fy as usize * grid.nx + fx as usize];
-        Some(&self.candidates[start as usize..end as usize])
     }
 }
 
@@ -746,7 +701,7 @@ mod tests {
 
     /// The table as the broad phase gives it: every rectangle a static collider in rapier, and
     /// one conservative box query per grid cell, narrowed by the exact box test and sorted.
-    fn broad_phase_table(scene: &Scene, margin: f32) -> (Vec<(u32, u32)>, Vec<u16>) {
+    fn broad_phase_table(scene: &Scene, query_margin: f32) -> (Vec<(u32, u32)>, Vec<u16>) {
         use rapier2d::parry::query::DefaultQueryDispatcher;
         use rapier2d::prelude::{
             BroadPhaseBvh, ColliderBuilder, ColliderSet, IntegrationParameters, QueryFilter,
@@ -770,7 +725,7 @@ mod tests {
             }
             handle_to_solid[raw] = solid_idx as u16;
         }
-        let grid = Grid::around(&scene.solids, margin);
+        let grid = Grid::around(&scene.solids, query_margin);
         let dispatcher = DefaultQueryDispatcher;
         let query =
             broad_phase.as_query_pipeline(&dispatcher, &bodies, &colliders, QueryFilter::default());
@@ -794,21 +749,13 @@ mod tests {
 
     fn assert_broad_phase_table(rects: Vec<Rect>, query_margin: f32, what: &str) {
         let scene = Scene::new(rects, query_margin);
-        for (table, margin, which) in [
-            (&scene.sensing, query_margin, "sensing"),
-            (&scene.contact, CONTACT_MARGIN, "contact"),
-        ] {
-            let (cell_ranges, candidates) = broad_phase_table(&scene, margin);
-            assert_eq!(
-                table.cell_ranges, cell_ranges,
-                "{what}: {which} cell ranges"
-            );
-            assert_eq!(table.candidates, candidates, "{what}: {which} candidates");
-            assert!(
-                !table.candidates.is_empty() || scene.rects.is_empty(),
-                "{what}: empty {which} table"
-            );
-        }
+        let (cell_ranges, candidates) = broad_phase_table(&scene, query_margin);
+        assert_eq!(scene.cell_ranges, cell_ranges, "{what}: cell ranges");
+        assert_eq!(scene.candidates, candidates, "{what}: candidates");
+        assert!(
+            !scene.candidates.is_empty() || scene.rects.is_empty(),
+            "{what}: empty table"
+        );
     }
 
     #[test]
@@ -841,21 +788,6 @@ mod tests {
         }
     }
 
-    /// A proptest's rectangle from (centre, half extents, kind, angle): walls are
-    /// axis-aligned; obstacles may turn.
-    fn random_rect((x, y, hx, hy, kind, angle): (f32, f32, f32, f32, u8, f32)) -> Rect {
-        Rect {
-            center: [x, y],
-            half_extents: [hx, hy],
-            angle: if kind == 0 { 0.0 } else { angle },
-            kind: if kind == 0 {
-                RectKind::Wall
-            } else {
-                RectKind::Obstacle
-            },
-        }
-    }
-
     proptest::proptest! {
         /// Random rectangles, rotated or not, at any margin: lists touching at an edge, boxes
         /// beyond the grid's border and cells with nothing near them included.
@@ -869,41 +801,18 @@ mod tests {
         ) {
             let rects = rects
                 .into_iter()
-                .map(random_rect)
+                .map(|(x, y, hx, hy, kind, angle)| Rect {
+                    center: [x, y],
+                    half_extents: [hx, hy],
+                    // Walls are axis-aligned; obstacles may turn.
+                    angle: if kind == 0 { 0.0 } else { angle },
+                    kind: if kind == 0 { RectKind::Wall } else { RectKind::Obstacle },
+                })
                 .collect();
             let scene = Scene::new(rects, margin);
             let (cell_ranges, candidates) = broad_phase_table(&scene, margin);
-            proptest::prop_assert_eq!(&scene.sensing.cell_ranges, &cell_ranges);
-            proptest::prop_assert_eq!(&scene.sensing.candidates, &candidates);
-        }
-    }
-
-    proptest::proptest! {
-        /// The disc test through the tables answers as a test against every solid does, for
-        /// discs the contact table covers, ones only the sensing table covers and wider ones.
-        #[test]
-        fn disc_test_through_the_tables_is_the_test_against_every_solid(
-            rects in proptest::collection::vec(
-                (-1.0f32..1.0, -1.0f32..1.0, 0.005f32..0.4, 0.005f32..0.4, 0u8..3, -3.2f32..3.2),
-                1..16,
-            ),
-            discs in proptest::collection::vec((-1.4f32..1.4, -1.4f32..1.4, 0.0f32..0.3), 64),
-        ) {
-            let rects: Vec<Rect> = rects
-                .into_iter()
-                .map(random_rect)
-                .collect();
-            let scene = Scene::new(rects, 0.2);
-            for (x, y, radius) in discs {
-                let every_solid = scene.solids.iter().any(|solid| {
-                    solid.nearest_offset(solid.to_local([x, y])).1 < radius
-                });
-                proptest::prop_assert_eq!(
-                    scene.disc_hits([x, y], radius),
-                    every_solid,
-                    "disc at ({}, {}) of radius {}", x, y, radius
-                );
-            }
+            proptest::prop_assert_eq!(&scene.cell_ranges, &cell_ranges);
+            proptest::prop_assert_eq!(&scene.candidates, &candidates);
         }
     }
 

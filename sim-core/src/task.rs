@@ -285,12 +285,10 @@ impl TaskConfig {
         (low, high)
     }
 
-    /// How far around a grid cell the scene must list solids for the IR cones: the body (the
-    /// sensors sit on its rim) and the IR range, with room for rounding. The IR cones are
-    /// looked up at the robot's centre, so nothing farther can be in range; the collision test
-    /// has its own, shorter lists.
+    /// How far around a grid cell the scene must list solids: the body, the IR range and a
+    /// cycle of movement.
     pub fn query_margin(&self) -> f32 {
-        self.robot.radius + self.ir.range_m + 0.02
+        self.robot.radius + self.ir.range_m + self.robot.v_max * self.robot.cycle_seconds + 0.02
     }
 
     /// Checks every value; the error names the key.
