@@ -12,9 +12,57 @@ pub(crate) fn hypot(x: f32, y: f32) -> f32 {
     (x * x + y * y).sqrt() as f32
 }
 
+/// `x.floor() as i32`, without the call into libm that `floor` is on the baseline x86-64
+/// (SSE2 has no rounding instruction): truncation, one lower for a negative non-integer. The
+/// casts saturate as `as i32` does, and NaN gives 0 as there.
+#[inline(always)]
+pub(crate) fn floor_to_i32(x: f32) -> i32 {
+    let truncated = x as i32;
+    truncated.saturating_sub(i32::from(x < truncated as f32))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn floor_to_i32_is_floor_then_cast(bits in any::<u32>()) {
+            let x = f32::from_bits(bits);
+            prop_assert_eq!(floor_to_i32(x), x.floor() as i32, "{}", x);
+        }
+
+        #[test]
+        fn floor_to_i32_is_floor_then_cast_near_integers(whole in -70_000i32..70_000, frac in -1.0f32..1.0) {
+            let x = whole as f32 + frac;
+            prop_assert_eq!(floor_to_i32(x), x.floor() as i32, "{}", x);
+        }
+    }
+
+    #[test]
+    fn floor_to_i32_at_the_edges() {
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            -1.0,
+            1.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            2147483520.0,
+            -2147483648.0,
+            -2147483904.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            8388607.5,
+            -8388607.5,
+        ] {
+            assert_eq!(floor_to_i32(x), x.floor() as i32, "{x}");
+        }
+    }
 
     #[test]
     fn hypot_is_the_correctly_rounded_length() {

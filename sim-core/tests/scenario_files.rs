@@ -205,6 +205,24 @@ fn references_to_missing_things_are_named() {
 }
 
 #[test]
+fn more_lights_than_a_cycle_can_mark_are_refused_and_the_most_compile() {
+    let with_lights = |n_lights: usize| {
+        let extra: String = (0..n_lights - 2)
+            .map(|light_idx| {
+                format!("[[light]]\nname = \"extra_{light_idx}\"\ncell = [0.33, 1.0]\ntrigger = \"always\"\n\n")
+            })
+            .collect();
+        T_MAZE.replacen("[[light]]", &format!("{extra}[[light]]"), 1)
+    };
+    let most = hevo_sim_core::scenario::MAX_LIGHTS;
+    Scenario::parse(&with_lights(most), "mine.toml").expect("the most lights compile");
+    let error = refusal(&with_lights(most + 1));
+    assert!(error.starts_with("mine.toml"), "{error}");
+    assert!(error.contains(&format!("light[{most}]")), "{error}");
+    assert!(error.contains("at most 32 lights"), "{error}");
+}
+
+#[test]
 fn a_map_with_a_symbol_the_legend_lacks_is_refused() {
     let error = refusal(&T_MAZE.replace("###S###", "###S#?#"));
     assert!(error.contains("world.map"), "{error}");

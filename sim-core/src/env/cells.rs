@@ -3,7 +3,7 @@
 //! 0.30 m cell leaves a 0.20 m corridor), tells which cell a point is in, and measures the
 //! distance along the corridors to a goal cell, which f2 and the corridor fitness need.
 
-use crate::float::hypot;
+use crate::float::{floor_to_i32, hypot};
 use crate::scene::{Rect, RectKind};
 use std::collections::VecDeque;
 
@@ -120,8 +120,8 @@ impl CellMap {
 
     /// The cell containing a point, if any.
     pub fn cell_at(&self, point: [f32; 2]) -> Option<usize> {
-        let gx = (point[0] / self.cell_size + 0.5).floor() as i32;
-        let gy = (point[1] / self.cell_size + 0.5).floor() as i32;
+        let gx = floor_to_i32(point[0] / self.cell_size + 0.5);
+        let gy = floor_to_i32(point[1] / self.cell_size + 0.5);
         self.index_of([gx, gy])
     }
 

@@ -32,6 +32,10 @@ pub const SCHEMA: &str = "hevo.scenario/1";
 /// The most phases a derived fitness may have.
 pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
 
+/// The most lights a scenario may hold: a cycle's lit lights are one bit each of a `u32`, in
+/// traces too.
+pub const MAX_LIGHTS: usize = 32;
+
 /// The scenarios shipped with hevo: the paper's tasks.
 pub const SHIPPED: [(&str, &str); 7] = [
     (
@@ -693,6 +697,12 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let mut lights = Vec::new();
     for (idx, light) in file.lights.iter().enumerate() {
         let at = |key: &str| format!("light[{idx}].{key}");
+        if idx >= MAX_LIGHTS {
+            return Err(error(
+                &at("name"),
+                format!("a scenario holds at most {MAX_LIGHTS} lights"),
+            ));
+        }
         if lights.iter().any(|l: &LightDef| l.name == light.name) {
             return Err(error(
                 &at("name"),
