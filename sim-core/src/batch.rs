@@ -46,6 +46,14 @@ pub enum BatchError {
     /// The controller template or a genome does not fit.
     #[error(transparent)]
     Controller(#[from] ControllerError),
+    /// The controller reads a sensor the scenario's robot lacks.
+    #[error("controller '{node}' {problem}")]
+    Sensors {
+        /// The root's name.
+        node: String,
+        /// Which group, and what the robot has.
+        problem: String,
+    },
 }
 
 /// Which evaluator runs a batch's samples. Both give bit-identical outcomes (a property test
@@ -75,6 +83,12 @@ impl BatchEvaluator {
     /// Validates the template and the task once.
     pub fn new(template: ControllerFile, task: TaskConfig) -> Result<BatchEvaluator, BatchError> {
         template.validate()?;
+        task.scenario
+            .check_sensors(&template.root.groups_read())
+            .map_err(|problem| BatchError::Sensors {
+                node: template.root.name.clone(),
+                problem,
+            })?;
         let n_free_genes = template
             .free_node_topology()
             .map_or(0, |(_, topology)| topology.n_genes());

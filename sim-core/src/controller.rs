@@ -86,6 +86,24 @@ pub struct NodeSpec {
     pub min_active_cycles: u32,
 }
 
+impl NodeSpec {
+    /// Every input group a node of this sub-tree reads, each once, in frame order.
+    pub fn groups_read(&self) -> Vec<InputGroup> {
+        let mut read = [false; InputGroup::ALL.len()];
+        let mut stack = vec![self];
+        while let Some(node) = stack.pop() {
+            for group in &node.inputs {
+                read[group.index()] = true;
+            }
+            stack.extend(&node.children);
+        }
+        InputGroup::ALL
+            .into_iter()
+            .filter(|group| read[group.index()])
+            .collect()
+    }
+}
+
 fn is_zero(value: &u32) -> bool {
     *value == 0
 }
@@ -495,11 +513,7 @@ fn hash_node_tree(hasher: &mut Fnv1a, root: &NodeSpec) {
         }]);
         hasher.write_u64(node.inputs.len() as u64);
         for group in &node.inputs {
-            hasher.write_bytes(&[match group {
-                InputGroup::Ir => 0,
-                InputGroup::Light => 1,
-                InputGroup::NearRobot => 2,
-            }]);
+            hasher.write_bytes(&[group.index() as u8]);
         }
         hasher.write_u64(node.hidden as u64);
         match &node.genome {

@@ -5,7 +5,7 @@
 
 use crate::env::{self, Environment, Ground, Statics};
 use crate::float::hypot;
-use crate::frame::{IR_ANGLES, N_IR, N_LIGHT, SensorFrame};
+use crate::frame::{IR_ANGLES, InputGroup, N_IR, N_LIGHT, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scenario::blocks::{
@@ -469,25 +469,36 @@ impl<'e> SampleRun<'e> {
         let (sin_h, cos_h) = robot.heading.sin_cos();
         let cones = evaluator.cone_lanes.rotated(sin_h, cos_h);
         let origins = evaluator.sensor_lanes(&robot, sin_h, cos_h);
-        let ir_distances =
-            self.env
-                .scene
-                .cone_lane_distances(robot.position(), &origins, &cones, task.ir.range_m);
-        let ir = evaluator
-            .ir_model
-            .read_all(&self.ir_setup, &ir_distances, &mut self.noise);
+        let sensors = task.scenario.sensors;
+        let ir = if sensors.carries(InputGroup::Ir) {
+            let ir_distances = self.env.scene.cone_lane_distances(
+                robot.position(),
+                &origins,
+                &cones,
+                task.ir.range_m,
+            );
+            evaluator
+                .ir_model
+                .read_all(&self.ir_setup, &ir_distances, &mut self.noise)
+        } else {
+            [0.0; N_IR]
+        };
         let mut lit_mask = 0u32;
         let light = if self.lights.is_empty() {
             [0.0; N_LIGHT]
         } else {
             // The lateral sensors (IR inputs 1 and 2) see a lit light on their own side only:
             // the body hides a light behind the sensor.
+            let sees_light = sensors.carries(InputGroup::Light);
             let mut nearest = [None::<f32>; N_LIGHT];
             for (light_idx, light) in self.lights.iter().enumerate() {
                 if !light.lit() {
                     continue;
                 }
                 lit_mask |= 1 << light_idx;
+                if !sees_light {
+                    continue;
+                }
                 for (side, sensor) in [1usize, 2].into_iter().enumerate() {
                     let p = [origins[0][sensor], origins[1][sensor]];
                     let facing = [p[0] - robot.x, p[1] - robot.y];
@@ -501,12 +512,17 @@ impl<'e> SampleRun<'e> {
             for light in &mut self.lights {
                 light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
             }
-            self.flash
-                .update(LightModel::builtin().read_raw_both(nearest, &mut self.noise))
+            if sees_light {
+                self.flash
+                    .update(LightModel::builtin().read_raw_both(nearest, &mut self.noise))
+            } else {
+                [0.0; N_LIGHT]
+            }
         };
-        let near_robot = self.teammate.as_ref().is_some_and(|mate| {
-            mate.pose.distance_to(robot.position()) < task.robot.near_robot_range
-        });
+        let near_robot = sensors.carries(InputGroup::NearRobot)
+            && self.teammate.as_ref().is_some_and(|mate| {
+                mate.pose.distance_to(robot.position()) < task.robot.near_robot_range
+            });
         self.lit_mask = lit_mask;
         self.sub_task = self
             .judge

@@ -59,6 +59,27 @@ pub enum InputGroup {
 }
 
 impl InputGroup {
+    /// Every group, in frame order.
+    pub const ALL: [InputGroup; 3] = [InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+
+    /// The group's place in [`InputGroup::ALL`].
+    pub fn index(self) -> usize {
+        match self {
+            InputGroup::Ir => 0,
+            InputGroup::Light => 1,
+            InputGroup::NearRobot => 2,
+        }
+    }
+
+    /// The group's name in controller and scenario files.
+    pub fn name(self) -> &'static str {
+        match self {
+            InputGroup::Ir => "ir",
+            InputGroup::Light => "light",
+            InputGroup::NearRobot => "near_robot",
+        }
+    }
+
     /// How many network inputs this group contributes.
     pub fn width(self) -> usize {
         match self {
@@ -87,9 +108,55 @@ impl InputGroup {
     }
 }
 
+/// The input groups a robot's sensors give; a group the robot lacks reads 0 and its sensor
+/// draws no noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SensorSet([bool; InputGroup::ALL.len()]);
+
+impl SensorSet {
+    /// The e-puck's: every group.
+    pub const ALL: SensorSet = SensorSet([true; InputGroup::ALL.len()]);
+
+    /// The set of `groups`.
+    pub fn of(groups: &[InputGroup]) -> SensorSet {
+        let mut set = [false; InputGroup::ALL.len()];
+        for group in groups {
+            set[group.index()] = true;
+        }
+        SensorSet(set)
+    }
+
+    /// Whether the robot has the sensor of `group`.
+    #[inline]
+    pub fn carries(self, group: InputGroup) -> bool {
+        self.0[group.index()]
+    }
+
+    /// The groups carried, in frame order.
+    pub fn groups(self) -> impl Iterator<Item = InputGroup> {
+        InputGroup::ALL
+            .into_iter()
+            .filter(move |&group| self.carries(group))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn groups_know_their_index_and_name_and_a_set_what_it_carries() {
+        for (idx, group) in InputGroup::ALL.into_iter().enumerate() {
+            assert_eq!(group.index(), idx);
+            let json = serde_json::to_string(&group).unwrap();
+            assert_eq!(json, format!("\"{}\"", group.name()));
+        }
+        let set = SensorSet::of(&[InputGroup::NearRobot, InputGroup::Ir]);
+        assert!(set.carries(InputGroup::Ir) && !set.carries(InputGroup::Light));
+        let carried: Vec<_> = set.groups().collect();
+        assert_eq!(carried, [InputGroup::Ir, InputGroup::NearRobot]);
+        assert_eq!(SensorSet::ALL.groups().count(), 3);
+    }
 
     #[test]
     fn a_flat_frame_holds_each_group_where_its_range_says() {

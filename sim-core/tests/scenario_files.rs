@@ -100,6 +100,94 @@ fn driving_straight_into_the_junction_wall_is_a_collision_in_both_variants() {
     }
 }
 
+/// The example T-maze with only the listed sensors.
+fn t_maze_sensing(sensors: &str) -> TaskConfig {
+    let text = T_MAZE.replacen(
+        "max_cycles = 500",
+        &format!("sensors = {sensors}\nmax_cycles = 500"),
+        1,
+    );
+    TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "mine.toml").unwrap()))
+}
+
+#[test]
+fn a_sensor_the_robot_lacks_reads_zero_and_the_rest_still_sense() {
+    let variant_0 = Sample {
+        seed: 3,
+        variant: Some(0),
+    };
+    let trace = |task: TaskConfig| {
+        Evaluator::new(task)
+            .unwrap()
+            .evaluate_traced(&mut StraightOn, variant_0)
+    };
+    // Driving straight up the stem, the robot passes the flashing light and meets the wall.
+    let all = trace(t_maze());
+    let max_of = |trace: &hevo_sim_core::Trace,
+                  input: fn(&hevo_sim_core::frame::SensorFrame) -> f32| {
+        trace
+            .cycles
+            .iter()
+            .map(|cycle| input(&cycle.frame))
+            .fold(0.0, f32::max)
+    };
+    let ir =
+        |frame: &hevo_sim_core::frame::SensorFrame| frame.ir.iter().copied().fold(0.0, f32::max);
+    let light =
+        |frame: &hevo_sim_core::frame::SensorFrame| frame.light.iter().copied().fold(0.0, f32::max);
+    assert!(max_of(&all, ir) > 0.5 && max_of(&all, light) > 0.5);
+
+    let blind = trace(t_maze_sensing(r#"["light"]"#));
+    assert_eq!(max_of(&blind, ir), 0.0);
+    assert!(max_of(&blind, light) > 0.5, "the light is still seen");
+    let dark = trace(t_maze_sensing(r#"["ir"]"#));
+    assert_eq!(max_of(&dark, light), 0.0);
+    assert!(max_of(&dark, ir) > 0.5, "the wall is still seen");
+    // The world does not depend on what the robot senses: the lights flash all the same.
+    assert_eq!(
+        dark.cycles.iter().map(|c| c.lit_lights).collect::<Vec<_>>()
+            [..blind.cycles.len().min(dark.cycles.len())],
+        blind
+            .cycles
+            .iter()
+            .map(|c| c.lit_lights)
+            .collect::<Vec<_>>()[..blind.cycles.len().min(dark.cycles.len())]
+    );
+    // Listing every sensor is the default, bit for bit.
+    let listed = trace(t_maze_sensing(r#"["near_robot", "light", "ir"]"#));
+    assert_eq!(listed.cycles, all.cycles);
+    assert_eq!(listed.outcome, all.outcome);
+}
+
+#[test]
+fn a_controller_reading_a_sensor_the_robot_lacks_is_refused() {
+    use hevo_sim_core::batch::BatchEvaluator;
+    use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+    use hevo_sim_core::frame::InputGroup;
+    let leaf = |name: &str, inputs: Vec<InputGroup>| {
+        let spec = NodeSpec::primitive(name, inputs, 2);
+        let genes = vec![0.5; spec.topology().n_genes()];
+        spec.with_genome(genes)
+    };
+    let reads_light = ControllerFile::new(NodeSpec::arbitrator(
+        "top",
+        vec![InputGroup::Ir],
+        2,
+        vec![
+            leaf("ir_leaf", vec![InputGroup::Ir]),
+            leaf("light_leaf", vec![InputGroup::Light]),
+        ],
+    ));
+    let error = BatchEvaluator::new(reads_light.clone(), t_maze_sensing(r#"["ir"]"#))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("'top'") && error.contains("reads 'light'") && error.contains("it has ir"),
+        "{error}"
+    );
+    BatchEvaluator::new(reads_light, t_maze()).expect("the e-puck has every sensor");
+}
+
 #[test]
 fn every_example_compiles_with_one_goal_per_variant() {
     for (name, text) in EXAMPLES {
@@ -198,6 +286,21 @@ fn references_to_missing_things_are_named() {
             "is not hevo.scenario/1",
         ),
         ("max_cycles = 500", "max_cycles = 0", "max_cycles"),
+        (
+            "max_cycles = 500",
+            "sensors = [\"ir\", \"sonar\"]\nmax_cycles = 500",
+            "sensors[1]",
+        ),
+        (
+            "max_cycles = 500",
+            "sensors = [\"ir\", \"ir\"]\nmax_cycles = 500",
+            "'ir' is listed twice",
+        ),
+        (
+            "max_cycles = 500",
+            "sensors = []\nmax_cycles = 500",
+            "name at least one of ir, light, near_robot",
+        ),
     ] {
         let error = edit_refusal(T_MAZE, from, to);
         assert!(error.contains(expected), "{to}: {error}");

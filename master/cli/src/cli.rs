@@ -435,6 +435,13 @@ pub fn execute(cli: Cli) -> Result<()> {
     }
 }
 
+/// Refuses a controller that reads a sensor the task's robot lacks (it would read zeros).
+fn check_sensors(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Result<()> {
+    task.scenario
+        .check_sensors(&controller.root.groups_read())
+        .map_err(|problem| anyhow::anyhow!("{}: the controller {problem}", path.display()))
+}
+
 /// A note when a controller looks evolved for another task than the one it is judged on:
 /// its root node is named after a task (as `hevo run` names nodes), and not this one.
 fn other_task_warning(
@@ -604,6 +611,7 @@ fn human_duration(seconds: f64) -> String {
 fn eval(args: EvalArgs) -> Result<()> {
     let task = args.task.task_config()?;
     let controller = load_controller(&args.controller)?;
+    check_sensors(&args.controller, &controller, &task)?;
     if let Some(warning) = other_task_warning(&args.controller, &controller, &task) {
         eprintln!("{warning}");
     }
@@ -735,6 +743,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let task_name = task.name().to_string();
     let n_variants = task.scenario.n_variants();
     let file = load_controller(&args.controller)?;
+    check_sensors(&args.controller, &file, &task)?;
     if let Some(warning) = other_task_warning(&args.controller, &file, &task) {
         eprintln!("{warning}");
     }

@@ -5,7 +5,8 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::ctrnn::CtrnnTopology;
+use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::scenario::Scenario;
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
 use std::path::PathBuf;
@@ -141,6 +142,16 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
         let names: Vec<String> = scenario.variants.iter().map(|v| v.name.clone()).collect();
         text.push_str(&format!("\n  variants: {}", names.join("; ")));
     }
+    // The regions of the first sample's world (generators may leave one out of a sample).
+    let env = Evaluator::new(task.clone())?.environment(Sample::seeded(0));
+    let regions: Vec<String> = hevo_sim_core::env::regions::named_regions(task, &env)
+        .into_iter()
+        .map(|region| region.name)
+        .collect();
+    if !regions.is_empty() {
+        text.push_str(&format!("\n  regions: {}", regions.join(", ")));
+    }
+    text.push_str(&inputs_summary(scenario));
     if !scenario.stages.is_empty() {
         text.push_str(&format!(
             "\n  stages: {}",
@@ -166,6 +177,48 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
         ));
     }
     Ok(text)
+}
+
+/// The robot's sensors, the inputs a network over all of them reads, and the genome such a
+/// network needs (the sizes `hevo run` evolves: a primitive drives two wheels, an arbitrator
+/// has an output per child).
+fn inputs_summary(scenario: &hevo_sim_core::scenario::Scenario) -> String {
+    let groups: Vec<InputGroup> = scenario.sensors.groups().collect();
+    let n_inputs: usize = groups.iter().map(|group| group.width()).sum();
+    let sensors: Vec<String> = groups
+        .iter()
+        .map(|group| format!("{} ({})", group.name(), group.width()))
+        .collect();
+    let genes = |n_outputs: usize, n_hidden: usize| {
+        CtrnnTopology {
+            n_inputs,
+            n_hidden,
+            n_outputs,
+        }
+        .n_genes()
+    };
+    let mut text = format!(
+        "\n  sensors: {}; a network over all of them reads {n_inputs} inputs\n  \
+         genome over all {n_inputs} inputs: {} / {} / {} genes for a primitive with 3 / 5 / 10 hidden neurons",
+        sensors.join(", "),
+        genes(2, 3),
+        genes(2, 5),
+        genes(2, 10),
+    );
+    if scenario.has_phases() {
+        let mut children = Vec::new();
+        for phase in &scenario.phases {
+            if !children.contains(&&phase.child) {
+                children.push(&phase.child);
+            }
+        }
+        text.push_str(&format!(
+            "; {} for an arbitrator with 10 over the {} children its phases name",
+            genes(children.len(), 10),
+            children.len(),
+        ));
+    }
+    text
 }
 
 fn draw(args: &DrawArgs) -> Result<()> {

@@ -72,6 +72,19 @@ fn check_accepts_and_draw_names_every_region() {
     ] {
         let checked = hevo_ok(&["scenario", "check", file]);
         assert!(checked.contains(": ok ("), "{file}: {checked}");
+        let regions = checked
+            .lines()
+            .find_map(|line| line.trim().strip_prefix("regions: "))
+            .unwrap_or_else(|| panic!("{file}: no regions line in {checked}"));
+        let regions: Vec<&str> = regions.split(", ").collect();
+        for name in expected {
+            assert!(regions.contains(name), "{file}: {name} not in {regions:?}");
+        }
+        assert!(
+            checked.contains("sensors: ir (4), light (2), near_robot (1)")
+                && checked.contains("genome over all 7 inputs: 44 / 82 / 212 genes"),
+            "{file}: {checked}"
+        );
         let out = dir.path().join("world.svg");
         hevo_ok(&[
             "scenario",

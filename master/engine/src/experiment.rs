@@ -736,6 +736,35 @@ impl Experiment {
                 )
             })?;
         }
+        // Children first: every node's sub-tree, children evolved elsewhere included, may read
+        // only the sensors its own scenario gives the robot.
+        let mut groups_read: Vec<Vec<InputGroup>> = vec![Vec::new(); parsed.nodes.len()];
+        for &node_idx in &order {
+            let plan = plans[node_idx].as_ref().expect("each node planned once");
+            let scenario = &plan.task.scenario;
+            scenario
+                .check_sensors(&plan.decl.inputs)
+                .map_err(|message| invalid(format!("node[{node_idx}].inputs"), message))?;
+            let mut read = plan.decl.inputs.clone();
+            for (child_idx, child) in plan.decl.children.iter().enumerate() {
+                let child_reads = match (child, plan.fixed_children.get(&child_idx)) {
+                    (ChildDecl::Node(name), _) => groups_read[index_of[name.as_str()]].clone(),
+                    (_, Some(controller)) => controller.root.groups_read(),
+                    (_, None) => Vec::new(),
+                };
+                scenario.check_sensors(&child_reads).map_err(|message| {
+                    invalid(
+                        format!("node[{node_idx}].children[{child_idx}]"),
+                        format!("the child {message}"),
+                    )
+                })?;
+                read.extend(child_reads);
+            }
+            groups_read[node_idx] = InputGroup::ALL
+                .into_iter()
+                .filter(|group| read.contains(group))
+                .collect();
+        }
         let nodes = order
             .into_iter()
             .map(|i| plans[i].take().expect("each node planned once"))
@@ -1217,6 +1246,64 @@ runs = 1
         assert_eq!(
             json,
             serde_json::json!([{"file": "controllers/fw.json"}, {"runs": "main", "node": "tl"}, "tr"])
+        );
+    }
+
+    #[test]
+    fn a_node_and_its_children_read_only_the_sensors_of_its_scenario() {
+        let blind = include_str!("../../../scenarios/examples/t_maze.toml")
+            .replacen("name = \"t_maze\"", "name = \"ir_only\"", 1)
+            .replacen(
+                "max_cycles = 500",
+                "sensors = [\"ir\"]\nmax_cycles = 500",
+                1,
+            );
+        let files: BTreeMap<String, String> = [("ir_only.toml".to_string(), blind)].into();
+        let experiment = |top_inputs: &str, leaf_inputs: &str| {
+            let text = format!(
+                r#"
+[experiment]
+name = "blind"
+
+[[node]]
+name = "top"
+kind = "arbitrator"
+inputs = {top_inputs}
+hidden = 3
+children = ["leaf"]
+task = "ir_only.toml"
+samples = 2
+generations = 1
+runs = 1
+
+[[node]]
+name = "leaf"
+kind = "primitive"
+inputs = {leaf_inputs}
+hidden = 3
+task = "solve_maze"
+samples = 2
+generations = 1
+runs = 1
+"#
+            );
+            Experiment::parse_with(&text, Path::new("x.toml"), &files).map_err(|e| e.to_string())
+        };
+        experiment(r#"["ir"]"#, r#"["ir"]"#).expect("every node reads what its robot has");
+        let err = experiment(r#"["ir", "light"]"#, r#"["ir"]"#).unwrap_err();
+        assert!(
+            err.contains("node[0].inputs")
+                && err.contains("reads 'light'")
+                && err.contains("'ir_only'")
+                && err.contains("it has ir"),
+            "{err}"
+        );
+        // The leaf is evolved in solve_maze, which has lights, but drives in the arbitrator's
+        // scenario once composed.
+        let err = experiment(r#"["ir"]"#, r#"["ir", "near_robot"]"#).unwrap_err();
+        assert!(
+            err.contains("node[0].children[0]") && err.contains("the child reads 'near_robot'"),
+            "{err}"
         );
     }
 

@@ -3,6 +3,7 @@
 //! compiling it ([`super::Scenario::parse`]) does.
 
 use crate::env::room::RoomConfig;
+use crate::frame::InputGroup;
 use crate::robot::RobotConfig;
 use crate::sensors::ir::IrConfig;
 use crate::sensors::light::LightConfig;
@@ -33,6 +34,10 @@ pub struct ScenarioFile {
     /// Whether touching a wall ends the sample.
     #[serde(default = "default_true")]
     pub end_on_collision: bool,
+    /// The input groups the robot's sensors give (`"ir"`, `"light"`, `"near_robot"`); all
+    /// three, the e-puck's, when omitted. The others read 0 and draw no noise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensors: Option<Vec<InputGroup>>,
     /// The robot's body and motors.
     #[serde(default)]
     pub robot: RobotConfig,

@@ -18,6 +18,7 @@ pub mod file;
 pub mod formula;
 
 use crate::env::cells::{Cell, CellMap};
+use crate::frame::{InputGroup, SensorSet};
 use crate::hash::fnv1a_hex;
 use blocks::atoms::RegionTest;
 use blocks::{Facts, TeammateBehaviour, World};
@@ -233,6 +234,8 @@ pub struct Scenario {
     pub file: ScenarioFile,
     /// The text it was parsed from: what travels to workers and what its hash covers.
     pub source: String,
+    /// The input groups the robot's sensors give.
+    pub sensors: SensorSet,
     /// How the world is made, a registered world ([`blocks::WORLDS`]).
     pub world: Box<dyn World>,
     /// The map, for map worlds.
@@ -328,6 +331,23 @@ impl Scenario {
         let mut names: Vec<&'static str> = SHIPPED.iter().map(|(name, _)| *name).collect();
         names.push("maze_single");
         names
+    }
+
+    /// Whether the robot has a sensor for every group of `groups` (those a controller's nodes
+    /// read); else which one it lacks, for the message that refuses the controller.
+    pub fn check_sensors(&self, groups: &[InputGroup]) -> Result<(), String> {
+        match groups.iter().find(|&&group| !self.sensors.carries(group)) {
+            None => Ok(()),
+            Some(group) => {
+                let carried: Vec<&str> = self.sensors.groups().map(InputGroup::name).collect();
+                Err(format!(
+                    "reads '{}', a sensor the robot of scenario '{}' lacks (it has {})",
+                    group.name(),
+                    self.name(),
+                    carried.join(", ")
+                ))
+            }
+        }
     }
 
     /// Its name.
@@ -693,6 +713,28 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     };
     let cell_region = |name: &str| map.as_ref().is_some_and(|m| m.regions.contains_key(name));
 
+    // The robot's sensors.
+    let sensors = match &file.sensors {
+        None => SensorSet::ALL,
+        Some(groups) => {
+            if groups.is_empty() {
+                return Err(error(
+                    "sensors",
+                    "name at least one of ir, light, near_robot".into(),
+                ));
+            }
+            for (idx, group) in groups.iter().enumerate() {
+                if groups[..idx].contains(group) {
+                    return Err(error(
+                        &format!("sensors[{idx}]"),
+                        format!("'{}' is listed twice", group.name()),
+                    ));
+                }
+            }
+            SensorSet::of(groups)
+        }
+    };
+
     // Lights.
     let mut lights = Vec::new();
     for (idx, light) in file.lights.iter().enumerate() {
@@ -1051,6 +1093,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     Ok(Scenario {
         source: text.to_string(),
+        sensors,
         world,
         map,
         rect_regions,
