@@ -223,6 +223,9 @@ pub fn evaluate(
     }
     hevo_sim_core::Evaluator::new(task.clone())
         .map_err(|error| crate::ConfigError::new_err(crate::message(&error)))?;
+    task.scenario
+        .check_sensors(&template.root.groups_read())
+        .map_err(|problem| ControllerError::new_err(format!("the template {problem}")))?;
     let rows: Vec<Arc<[f32]>> = genomes
         .as_array()
         .rows()

@@ -331,6 +331,9 @@ pub fn trace(
             n_variants - 1
         )));
     }
+    task.scenario
+        .check_sensors(&file.root.groups_read())
+        .map_err(|problem| ControllerError::new_err(format!("the controller {problem}")))?;
     let mut network = Network::new(&file, None)
         .map_err(|error| ControllerError::new_err(crate::message(&error)))?;
     let evaluator =

@@ -98,6 +98,20 @@ def test_threads_do_not_change_results(repo):
     )
 
 
+def test_a_template_reading_a_sensor_the_robot_lacks(repo, tmp_path):
+    text = (repo / "scenarios" / "examples" / "t_maze.toml").read_text()
+    ir_only = tmp_path / "ir_only.toml"
+    ir_only.write_text(text.replace("max_cycles = 500", 'sensors = ["ir"]\nmax_cycles = 500', 1))
+    task = hevo.Task(str(ir_only))
+    maze = hevo.Controller.load(repo / "controllers" / "solve_maze.json")
+    template = maze.without_genome()
+    genomes = np.zeros((1, template.n_genes), dtype=np.float32)
+    with pytest.raises(hevo.ControllerError, match="reads 'light'.*it has ir"):
+        hevo.evaluate(template, genomes, task)
+    with pytest.raises(hevo.ControllerError, match="reads 'light'"):
+        hevo.trace(maze, task)
+
+
 def test_bad_inputs(repo):
     complete = hevo.Controller.load(repo / "controllers" / "follow_wall.json")
     template = complete.without_genome()
