@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::ctrnn::{Ctrnn, CtrnnError, CtrnnTopology, GENE_MAX, GENE_MIN};
-use crate::frame::{InputGroup, SensorFrame};
+use crate::frame::{InputGroup, SensorFrame, SensorSet};
 use crate::hash::Fnv1a;
 
 /// The schema string of the controller file format this module reads and writes.
@@ -89,18 +89,13 @@ pub struct NodeSpec {
 impl NodeSpec {
     /// Every input group a node of this sub-tree reads, each once, in frame order.
     pub fn groups_read(&self) -> Vec<InputGroup> {
-        let mut read = [false; InputGroup::ALL.len()];
+        let mut read = Vec::new();
         let mut stack = vec![self];
         while let Some(node) = stack.pop() {
-            for group in &node.inputs {
-                read[group.index()] = true;
-            }
+            read.extend(&node.inputs);
             stack.extend(&node.children);
         }
-        InputGroup::ALL
-            .into_iter()
-            .filter(|group| read[group.index()])
-            .collect()
+        SensorSet::of(&read).groups().collect()
     }
 }
 

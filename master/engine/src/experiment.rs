@@ -5,7 +5,7 @@
 
 use hevo_sim_core::TaskConfig;
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
-use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::frame::{InputGroup, SensorSet};
 use hevo_sim_core::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -760,10 +760,7 @@ impl Experiment {
                 })?;
                 read.extend(child_reads);
             }
-            groups_read[node_idx] = InputGroup::ALL
-                .into_iter()
-                .filter(|group| read.contains(group))
-                .collect();
+            groups_read[node_idx] = SensorSet::of(&read).groups().collect();
         }
         let nodes = order
             .into_iter()

@@ -718,9 +718,10 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         None => SensorSet::ALL,
         Some(groups) => {
             if groups.is_empty() {
+                let names: Vec<&str> = InputGroup::ALL.into_iter().map(InputGroup::name).collect();
                 return Err(error(
                     "sensors",
-                    "name at least one of ir, light, near_robot".into(),
+                    format!("name at least one of {}", names.join(", ")),
                 ));
             }
             for (idx, group) in groups.iter().enumerate() {
