@@ -24,8 +24,9 @@ cycles = json.load(open(sys.argv[1]))["cycles"]
 task, evaluator = sys.argv[2], sys.argv[3]
 # (part, file pattern, function pattern): the first match wins.
 rules = [
+    ("IR geometry (cones, sensor poses)", r"blocks/sensors\.rs$|scene\.rs$", r"IrRun|sense|cone_"),
+    ("sensing and loop bookkeeping", r"blocks/sensors\.rs$", r"."),
     ("judging (phases, stages, endings)", r"/scenario/", r"."),
-    ("IR geometry (cones, sensor poses)", r"scene\.rs$", r"sense|cone_"),
     ("collision (disc test)", r"scene\.rs$", r"disc_hits|move_robot"),
     ("world building per sample", r"scene\.rs$|/env/|rapier|parry|glam|smallvec|malloc|memmove|memcpy|memset|_int_free|free", r"new|build|Scene|room|Arena|Bvh|insert|set_aabb|Leaves|malloc|free|mem|traverse|."),
     ("IR and light reading (curves, noise draws)", r"sensors/|rand_distr|rand_core|rand_xoshiro", r"."),

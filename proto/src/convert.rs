@@ -261,7 +261,7 @@ mod tests {
     fn template(genes: Option<Vec<f32>>) -> ControllerFile {
         ControllerFile::new(NodeSpec {
             genome: genes,
-            ..NodeSpec::primitive("p", vec![InputGroup::Ir], 2)
+            ..NodeSpec::primitive("p", vec![InputGroup::IR], 2)
         })
     }
 

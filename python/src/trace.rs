@@ -8,6 +8,7 @@ use crate::controller::Controller;
 use crate::task::Task;
 use crate::{ConfigError, ControllerError, RunError};
 use hevo_sim_core::controller::Controller as Network;
+use hevo_sim_core::frame::SensorFrame;
 use hevo_sim_core::{Evaluator, Sample};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{PyArray1, PyArray2, PyArray3};
@@ -112,36 +113,18 @@ impl Trace {
         Ok(PyArray3::from_owned_array(py, array).unbind())
     }
 
-    /// The sensor inputs, float32 (cycles, 7), columns as `input_names`: the four IR
-    /// proximities, the two light inputs, near-robot; each in [0, 1].
+    /// The sensor inputs, float32 (cycles, inputs), columns as `input_names`: the four IR
+    /// proximities, the two light inputs, near-robot; each in [0, 1]. A sensor the task's
+    /// robot lacks reads 0.
     #[getter]
     fn inputs(&self, py: Python<'_>) -> PyResult<Py<PyArray2<f32>>> {
-        self.rows(py, |cycle| {
-            let frame = &cycle.frame;
-            [
-                frame.ir[0],
-                frame.ir[1],
-                frame.ir[2],
-                frame.ir[3],
-                frame.light[0],
-                frame.light[1],
-                frame.near_robot,
-            ]
-        })
+        self.rows(py, |cycle| cycle.frame.inputs)
     }
 
-    /// The columns of `inputs`.
+    /// The columns of `inputs`, every registered sensor's inputs in frame order.
     #[getter]
     fn input_names(&self) -> Vec<&'static str> {
-        vec![
-            "ir_front_left",
-            "ir_left",
-            "ir_right",
-            "ir_front_right",
-            "light_left",
-            "light_right",
-            "near_robot",
-        ]
+        SensorFrame::INPUT_NAMES.to_vec()
     }
 
     /// The network outputs that drove the wheels, float32 (cycles, 2): left, right, in [0, 1].

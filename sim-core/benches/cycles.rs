@@ -18,7 +18,7 @@ fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
 }
 
 fn primitive(name: &str, rng: &mut SimRng) -> NodeSpec {
-    NodeSpec::primitive(name, vec![InputGroup::Ir], 3).with_genome(random_genes(rng, 35))
+    NodeSpec::primitive(name, vec![InputGroup::IR], 3).with_genome(random_genes(rng, 35))
 }
 
 fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
@@ -30,7 +30,7 @@ fn maze_arbitrator() -> (ControllerFile, Vec<f32>) {
     ];
     let root = NodeSpec::arbitrator(
         "solve_maze",
-        vec![InputGroup::Ir, InputGroup::Light],
+        vec![InputGroup::IR, InputGroup::LIGHT],
         10,
         children,
     );

@@ -301,9 +301,9 @@ mod tests {
 
     /// A two-level tree whose root sees every input group, so one template fits every task.
     fn template() -> ControllerFile {
-        let inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+        let inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
         let child = |name: &str| {
-            let spec = NodeSpec::primitive(name, vec![InputGroup::Ir], 2);
+            let spec = NodeSpec::primitive(name, vec![InputGroup::IR], 2);
             let n = spec.topology().n_genes();
             spec.with_genome((0..n).map(|i| (i % 7) as f32 - 3.0).collect())
         };

@@ -120,7 +120,7 @@ pub enum NodeProblem {
     #[error("declares no inputs")]
     NoInputs,
     /// The same input group is listed twice.
-    #[error("input group {group:?} is listed more than once")]
+    #[error("input group '{group}' is listed more than once")]
     DuplicateInput { group: InputGroup },
     /// The network has no hidden neuron.
     #[error("hidden is 0, a network needs at least one hidden neuron")]
@@ -711,7 +711,7 @@ impl Controller {
 
             let mut n_filled = 0;
             for group in &node.inputs {
-                let values = group.values(frame);
+                let values = frame.values(*group);
                 let slots = self.input_buffer.get_mut(n_filled..).unwrap_or_default();
                 for (slot, &value) in slots.iter_mut().zip(values) {
                     *slot = value;
@@ -925,35 +925,36 @@ mod tests {
 
     /// The rescue tree of the paper, with random genes and `solve_maze` free.
     fn rescue_tree() -> ControllerFile {
-        use InputGroup::*;
+        const IR: InputGroup = InputGroup::IR;
+        const LIGHT: InputGroup = InputGroup::LIGHT;
+        const NEAR_ROBOT: InputGroup = InputGroup::NEAR_ROBOT;
         let maze_children = |suffix: &str, seed: u64| {
             vec![
-                primitive(&format!("follow_wall{suffix}"), &[Ir], 3, seed),
-                primitive(&format!("turn_left{suffix}"), &[Ir], 3, seed + 1),
-                primitive(&format!("turn_right{suffix}"), &[Ir], 3, seed + 2),
+                primitive(&format!("follow_wall{suffix}"), &[IR], 3, seed),
+                primitive(&format!("turn_left{suffix}"), &[IR], 3, seed + 1),
+                primitive(&format!("turn_right{suffix}"), &[IR], 3, seed + 2),
             ]
         };
-        let mut solve_maze = arbitrator("solve_maze", &[Ir, Light], 10, 10, maze_children("", 20));
+        let mut solve_maze = arbitrator("solve_maze", &[IR, LIGHT], 10, 10, maze_children("", 20));
         solve_maze.genome = None;
         ControllerFile::new(arbitrator(
             "rescue",
-            &[Ir, NearRobot],
+            &[IR, NEAR_ROBOT],
             10,
             1,
             vec![
-                primitive("exit_room", &[Ir], 10, 2),
+                primitive("exit_room", &[IR], 10, 2),
                 solve_maze,
-                arbitrator("return_to_room", &[Ir], 10, 3, maze_children("", 30)),
+                arbitrator("return_to_room", &[IR], 10, 3, maze_children("", 30)),
             ],
         ))
     }
 
     fn frame(ir: [f32; 4], light: [f32; 2], near_robot: f32) -> SensorFrame {
-        SensorFrame {
-            ir,
-            light,
-            near_robot,
-        }
+        SensorFrame::default()
+            .with(InputGroup::IR, &ir)
+            .with(InputGroup::LIGHT, &light)
+            .with(InputGroup::NEAR_ROBOT, &[near_robot])
     }
 
     #[test]
@@ -1044,7 +1045,7 @@ mod tests {
         let mut file = rescue_tree();
         file.root.children[0]
             .children
-            .push(primitive("stray", &[InputGroup::Ir], 1, 5));
+            .push(primitive("stray", &[InputGroup::IR], 1, 5));
         assert_eq!(
             file.validate().unwrap_err().to_string(),
             "rescue/exit_room: a primitive has no children, found 1"
@@ -1066,10 +1067,10 @@ mod tests {
         );
 
         let mut file = rescue_tree();
-        file.root.children[0].inputs.push(InputGroup::Ir);
+        file.root.children[0].inputs.push(InputGroup::IR);
         assert_eq!(
             file.validate().unwrap_err().to_string(),
-            "rescue/exit_room: input group Ir is listed more than once"
+            "rescue/exit_room: input group 'ir' is listed more than once"
         );
 
         let mut file = rescue_tree();
@@ -1199,7 +1200,7 @@ mod tests {
         // A 1-1-2 primitive reading near_robot: 1 + 1 + 1 + 1 + 2 + 2 = 8 genes.
         let genes = [0.5f32, -1.0, 0.0, -0.0, 10.0, -10.0, 3.25, 1e-3];
         let tiny = ControllerFile::new(
-            NodeSpec::primitive("p", vec![InputGroup::NearRobot], 1).with_genome(genes.to_vec()),
+            NodeSpec::primitive("p", vec![InputGroup::NEAR_ROBOT], 1).with_genome(genes.to_vec()),
         );
         let mut bytes = Vec::new();
         string(&mut bytes, "hevo.controller/1");
@@ -1221,11 +1222,11 @@ mod tests {
         // A free arbitrator that keeps a child on for 5 cycles, over two fixed 4-1-2
         // primitives (4 + 1 + 1 + 1 + 2 + 2 = 11 genes each), children in pre-order.
         let child = |name: &str, gene: f32| {
-            NodeSpec::primitive(name, vec![InputGroup::Ir], 1).with_genome(vec![gene; 11])
+            NodeSpec::primitive(name, vec![InputGroup::IR], 1).with_genome(vec![gene; 11])
         };
         let mut root = NodeSpec::arbitrator(
             "a",
-            vec![InputGroup::Light, InputGroup::Ir],
+            vec![InputGroup::LIGHT, InputGroup::IR],
             2,
             vec![child("x", 1.0), child("yz", -2.0)],
         );
@@ -1278,10 +1279,10 @@ mod tests {
             }),
             ("kind", |f| f.root.children[0].kind = NodeKind::Arbitrator),
             ("an input group more", |f| {
-                f.root.children[0].inputs.push(InputGroup::Light)
+                f.root.children[0].inputs.push(InputGroup::LIGHT)
             }),
             ("an input group other", |f| {
-                f.root.children[0].inputs[0] = InputGroup::Light
+                f.root.children[0].inputs[0] = InputGroup::LIGHT
             }),
             ("input groups reordered", |f| f.root.inputs.reverse()),
             ("hidden", |f| f.root.children[0].hidden += 1),
@@ -1374,7 +1375,7 @@ mod tests {
         genes[layout.output_weights.start + 1] = -10.0;
         genes[layout.output_biases.start] = -5.0;
         genes[layout.output_biases.start + 1] = 5.0;
-        NodeSpec::primitive(name, vec![InputGroup::Ir], 1).with_genome(genes)
+        NodeSpec::primitive(name, vec![InputGroup::IR], 1).with_genome(genes)
     }
 
     fn switch_tree(n_children: usize, other_bias: f32) -> ControllerFile {
@@ -1382,7 +1383,7 @@ mod tests {
             .map(|idx| integrator(&format!("child{idx}")))
             .collect();
         ControllerFile::new(
-            NodeSpec::arbitrator("switch", vec![InputGroup::Light], 2, children)
+            NodeSpec::arbitrator("switch", vec![InputGroup::LIGHT], 2, children)
                 .with_genome(light_switch_genes(n_children, other_bias)),
         )
     }
@@ -1528,25 +1529,27 @@ mod tests {
 
     #[test]
     fn depth_three_tree_with_independent_topologies() {
-        use InputGroup::*;
+        const IR: InputGroup = InputGroup::IR;
+        const LIGHT: InputGroup = InputGroup::LIGHT;
+        const NEAR_ROBOT: InputGroup = InputGroup::NEAR_ROBOT;
         // Pre-order: 0 root, 1 middle, 2 leaf_a, 3 leaf_b, 4 leaf_c.
         let mut root = arbitrator(
             "root",
-            &[Ir, Light],
+            &[IR, LIGHT],
             4,
             1,
             vec![
                 arbitrator(
                     "middle",
-                    &[NearRobot],
+                    &[NEAR_ROBOT],
                     2,
                     2,
                     vec![
-                        primitive("leaf_a", &[Ir], 3, 3),
-                        primitive("leaf_b", &[Light], 1, 4),
+                        primitive("leaf_a", &[IR], 3, 3),
+                        primitive("leaf_b", &[LIGHT], 1, 4),
                     ],
                 ),
-                primitive("leaf_c", &[Ir, Light, NearRobot], 5, 5),
+                primitive("leaf_c", &[IR, LIGHT, NEAR_ROBOT], 5, 5),
             ],
         );
         // Force the choices with output biases: root -> middle, middle -> leaf_b.
@@ -1608,7 +1611,7 @@ mod tests {
 
     #[test]
     fn primitive_root_drives_the_wheels_directly() {
-        let file = ControllerFile::new(primitive("alone", &[InputGroup::Ir], 3, 11));
+        let file = ControllerFile::new(primitive("alone", &[InputGroup::IR], 3, 11));
         let mut controller = Controller::new(&file, None).unwrap();
         let wheels = controller.step(&frame([0.5; 4], [0.0; 2], 0.0), 0.1);
         assert_eq!(controller.root_choice(), None);

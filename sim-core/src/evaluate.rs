@@ -4,16 +4,15 @@
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
 use crate::env::{self, Environment, Ground, Statics};
-use crate::float::hypot;
-use crate::frame::{IR_ANGLES, InputGroup, N_IR, N_LIGHT, SensorFrame};
+use crate::frame::{InputGroup, N_GROUPS, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
 use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
 use crate::scenario::blocks::{
-    self, CycleView, EndView, Motion, TeammateBehaviour, TeammateView, Tracked,
+    self, CycleView, EndView, Motion, SenseView, Sensor, SensorRun, TeammateBehaviour,
+    TeammateView, Tracked,
 };
 use crate::scenario::{Scenario, Trigger, ending_slot};
-use crate::scene::{Cone, ConeLanes, Rect, Scene};
-use crate::sensors::{FlashDetector, IrModel, IrSensorSetup, LightModel};
+use crate::scene::{Rect, Scene};
 use crate::task::{ConfigError, TaskConfig};
 use serde::{Deserialize, Serialize};
 
@@ -224,31 +223,26 @@ pub struct TaskError(#[from] pub ConfigError);
 pub struct Evaluator {
     task: TaskConfig,
     statics: Statics,
-    /// Each IR sensor's cone in the robot frame.
-    cones: [Cone; N_IR],
-    /// The same cones lane by lane, for the control loop.
-    cone_lanes: ConeLanes<N_IR>,
-    /// The IR model, looked up once rather than every cycle.
-    ir_model: &'static IrModel,
-    /// Each IR sensor's position on the body, in the robot frame.
-    sensor_offsets: [[f32; 2]; N_IR],
+    /// By input group, the sensor compiled, if the scenario's robot carries it and anything in
+    /// the scenario can excite it.
+    sensors: [Option<Box<dyn Sensor>>; N_GROUPS],
 }
 
 impl Evaluator {
     /// Validates the task and builds what all its samples share.
     pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
         task.validate()?;
-        let opening = task.ir.cone_deg.to_radians();
-        let cones = IR_ANGLES.map(|angle| Cone::new(angle, opening));
-        let radius = task.robot.radius;
-        let sensor_offsets = IR_ANGLES.map(|a| [radius * a.cos(), radius * a.sin()]);
+        let carried = task.scenario.sensors;
+        let sensors = InputGroup::ALL.map(|group| {
+            carried
+                .carries(group)
+                .then(|| (group.kind().compile)(&task))
+                .flatten()
+        });
         Ok(Evaluator {
             statics: Statics::new(&task),
             task,
-            cone_lanes: ConeLanes::new(&cones),
-            ir_model: IrModel::builtin(),
-            cones,
-            sensor_offsets,
+            sensors,
         })
     }
 
@@ -298,30 +292,7 @@ impl Evaluator {
     /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
     /// boundary rays, and the range; for drawing.
     pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
-        let (sin_h, cos_h) = pose.heading.sin_cos();
-        let origins = self.sensor_lanes(pose, sin_h, cos_h);
-        (0..N_IR)
-            .map(|sensor| {
-                let cone = self.cones[sensor].rotated(sin_h, cos_h);
-                (
-                    [origins[0][sensor], origins[1][sensor]],
-                    cone.boundaries[0],
-                    cone.boundaries[1],
-                    self.task.ir.range_m,
-                )
-            })
-            .collect()
-    }
-
-    /// Every IR sensor's position given the heading's sine and cosine (computed once per
-    /// cycle), lane by lane: `[axis][sensor]`.
-    #[inline(always)]
-    fn sensor_lanes(&self, pose: &Pose, sin_h: f32, cos_h: f32) -> [[f32; N_IR]; 2] {
-        let offsets = &self.sensor_offsets;
-        [
-            std::array::from_fn(|s| pose.x + cos_h * offsets[s][0] - sin_h * offsets[s][1]),
-            std::array::from_fn(|s| pose.y + sin_h * offsets[s][0] + cos_h * offsets[s][1]),
-        ]
+        blocks::sensors::ir_cones(&self.task, pose)
     }
 
     fn run<R: Recorder>(
@@ -370,9 +341,10 @@ impl Evaluator {
 pub(crate) struct SampleRun<'e> {
     evaluator: &'e Evaluator,
     env: Environment,
-    ir_setup: IrSensorSetup,
+    /// By input group, the sample's reading of the robot's sensor (none where the evaluator
+    /// compiled none).
+    sensor_runs: [Option<Box<dyn SensorRun + 'e>>; N_GROUPS],
     noise: SimRng,
-    flash: FlashDetector,
     robot: Pose,
     teammate: Option<Teammate>,
     lights: Vec<LiveLight>,
@@ -403,11 +375,14 @@ impl<'e> SampleRun<'e> {
     ) -> SampleRun<'e> {
         let task = &evaluator.task;
         let mut env = evaluator.environment(sample);
-        let ir_setup: IrSensorSetup = task
-            .ir
-            .draw_setup(&mut stream_rng(sample.seed, Stream::SensorSetup));
+        let mut setup = stream_rng(sample.seed, Stream::SensorSetup);
+        // Started in registry order: the order they draw from the setup stream.
+        let sensor_runs = std::array::from_fn(|group| {
+            evaluator.sensors[group]
+                .as_ref()
+                .map(|sensor| sensor.start(&mut setup))
+        });
         let noise: SimRng = stream_rng(sample.seed, Stream::Noise);
-        let flash = FlashDetector::from_config(&task.light);
         let robot = env.start;
         let behaviour = task
             .scenario
@@ -440,9 +415,8 @@ impl<'e> SampleRun<'e> {
         SampleRun {
             evaluator,
             env,
-            ir_setup,
+            sensor_runs,
             noise,
-            flash,
             robot,
             teammate,
             lights,
@@ -462,76 +436,39 @@ impl<'e> SampleRun<'e> {
     /// Begins a cycle: reads every sensor at the robot's pose and notes the sub-task in force.
     #[inline]
     pub(crate) fn sense(&mut self) -> SensorFrame {
-        let evaluator = self.evaluator;
-        let task = &evaluator.task;
         let robot = self.robot;
         self.cycles_run += 1;
-        let (sin_h, cos_h) = robot.heading.sin_cos();
-        let cones = evaluator.cone_lanes.rotated(sin_h, cos_h);
-        let origins = evaluator.sensor_lanes(&robot, sin_h, cos_h);
-        let sensors = task.scenario.sensors;
-        let ir = if sensors.carries(InputGroup::Ir) {
-            let ir_distances = self.env.scene.cone_lane_distances(
-                robot.position(),
-                &origins,
-                &cones,
-                task.ir.range_m,
-            );
-            evaluator
-                .ir_model
-                .read_all(&self.ir_setup, &ir_distances, &mut self.noise)
-        } else {
-            [0.0; N_IR]
-        };
+        // Each light's state this cycle, before it counts the cycle down.
         let mut lit_mask = 0u32;
-        let light = if self.lights.is_empty() {
-            [0.0; N_LIGHT]
-        } else {
-            // The lateral sensors (IR inputs 1 and 2) see a lit light on their own side only:
-            // the body hides a light behind the sensor.
-            let sees_light = sensors.carries(InputGroup::Light);
-            let mut nearest = [None::<f32>; N_LIGHT];
-            for (light_idx, light) in self.lights.iter().enumerate() {
-                if !light.lit() {
-                    continue;
-                }
+        for (light_idx, light) in self.lights.iter_mut().enumerate() {
+            if light.lit() {
                 lit_mask |= 1 << light_idx;
-                if !sees_light {
-                    continue;
-                }
-                for (side, sensor) in [1usize, 2].into_iter().enumerate() {
-                    let p = [origins[0][sensor], origins[1][sensor]];
-                    let facing = [p[0] - robot.x, p[1] - robot.y];
-                    let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
-                    if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
-                        let d = hypot(to_light[0], to_light[1]);
-                        nearest[side] = Some(nearest[side].map_or(d, |n: f32| n.min(d)));
-                    }
-                }
             }
-            for light in &mut self.lights {
-                light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
-            }
-            if sees_light {
-                self.flash
-                    .update(LightModel::builtin().read_raw_both(nearest, &mut self.noise))
-            } else {
-                [0.0; N_LIGHT]
-            }
+            light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
+        }
+        let (sin_heading, cos_heading) = robot.heading.sin_cos();
+        let view = SenseView {
+            robot: &robot,
+            sin_heading,
+            cos_heading,
+            scene: &self.env.scene,
+            lights: &self.env.lights,
+            lit_mask,
+            teammate: self.teammate.as_ref().map(|mate| &mate.pose),
         };
-        let near_robot = sensors.carries(InputGroup::NearRobot)
-            && self.teammate.as_ref().is_some_and(|mate| {
-                mate.pose.distance_to(robot.position()) < task.robot.near_robot_range
-            });
+        let mut frame = SensorFrame::default();
+        // A loop over a constant number of groups, which the compiler unrolls: one call site
+        // per sensor, and each group's place in the frame a constant.
+        for (group, run) in InputGroup::ALL.into_iter().zip(&mut self.sensor_runs) {
+            if let Some(run) = run {
+                run.read(&view, &mut self.noise, frame.values_mut(group));
+            }
+        }
         self.lit_mask = lit_mask;
         self.sub_task = self
             .judge
             .phase(&robot, self.teammate.as_ref().map(Teammate::view));
-        SensorFrame {
-            ir,
-            light,
-            near_robot: if near_robot { 1.0 } else { 0.0 },
-        }
+        frame
     }
 
     /// Counts the controller's decision of this cycle: which nodes drove, and whether the root

@@ -1,125 +1,228 @@
 //! The sensor frame: what the robot perceives in one control cycle, in the normalised form the
-//! networks read. It is the single interface between the world (which fills it) and the
-//! controllers (which read the groups of inputs each network declares).
+//! networks read. It is the single interface between the world (whose sensors fill it) and the
+//! controllers (which read the groups of inputs each network declares). The groups are the
+//! registered sensors ([`SENSORS`]): a frame holds every registered sensor's inputs, one after
+//! the other in registry order, so its layout is fixed when the crate compiles.
 
-use serde::{Deserialize, Serialize};
+use crate::scenario::blocks::{SENSORS, SensorKind};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::fmt;
 
-/// Number of infrared proximity inputs: front-left (+17 deg), left (+90 deg), right (-90 deg),
-/// front-right (-17 deg), in that order.
-pub const N_IR: usize = 4;
-/// Number of light-flash inputs: left, right.
-pub const N_LIGHT: usize = 2;
+/// Number of input groups: one per registered sensor.
+pub const N_GROUPS: usize = SENSORS.len();
 
-/// Angles of the four IR sensors from the heading, radians, in input order.
-pub const IR_ANGLES: [f32; N_IR] = [
-    17.0 * std::f32::consts::PI / 180.0,
-    std::f32::consts::FRAC_PI_2,
-    -std::f32::consts::FRAC_PI_2,
-    -17.0 * std::f32::consts::PI / 180.0,
-];
+/// Number of inputs in a frame: every registered sensor's, in registry order.
+pub const N_FLAT: usize = GROUP_STARTS[N_GROUPS];
 
-/// Number of inputs in a frame laid out flat ([`SensorFrame::flat`]): IR, light, near-robot.
-pub const N_FLAT: usize = N_IR + N_LIGHT + 1;
+/// Where each group's inputs start in a frame, and (last) where the frame ends.
+const GROUP_STARTS: [usize; N_GROUPS + 1] = {
+    let mut starts = [0; N_GROUPS + 1];
+    let mut group = 0;
+    while group < N_GROUPS {
+        starts[group + 1] = starts[group] + SENSORS[group].inputs.len();
+        group += 1;
+    }
+    starts
+};
 
-/// All inputs of one control cycle, each in [0, 1].
+/// Every group's name, in registry order (what a file may name).
+const GROUP_NAMES: [&str; N_GROUPS] = {
+    let mut names = [""; N_GROUPS];
+    let mut group = 0;
+    while group < N_GROUPS {
+        names[group] = SENSORS[group].name;
+        group += 1;
+    }
+    names
+};
+
+/// All inputs of one control cycle, each in [0, 1]: every group's where
+/// [`InputGroup::flat_range`] says. A group the robot lacks reads 0.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct SensorFrame {
-    /// IR proximity: 1 at contact, 0 at 12 cm or beyond.
-    pub ir: [f32; N_IR],
-    /// Light flash held inputs: left, right.
-    pub light: [f32; N_LIGHT],
-    /// 1 when another robot is within the near-robot range.
-    pub near_robot: f32,
+    /// The inputs, group after group.
+    pub inputs: [f32; N_FLAT],
 }
 
 impl SensorFrame {
-    /// Every input in one array: IR, then light, then near-robot ([`InputGroup::flat_range`]
-    /// says where a group sits).
+    /// Every input's name, in frame order: each group's [`InputGroup::input_names`].
+    pub const INPUT_NAMES: [&'static str; N_FLAT] = {
+        let mut names = [""; N_FLAT];
+        let mut group = 0;
+        while group < N_GROUPS {
+            let inputs = SENSORS[group].inputs;
+            let mut input = 0;
+            while input < inputs.len() {
+                names[GROUP_STARTS[group] + input] = inputs[input];
+                input += 1;
+            }
+            group += 1;
+        }
+        names
+    };
+
+    /// The current values of `group`.
     #[inline]
-    pub fn flat(&self) -> [f32; N_FLAT] {
-        let mut flat = [0.0; N_FLAT];
-        flat[..N_IR].copy_from_slice(&self.ir);
-        flat[N_IR..N_IR + N_LIGHT].copy_from_slice(&self.light);
-        flat[N_IR + N_LIGHT] = self.near_robot;
-        flat
+    pub fn values(&self, group: InputGroup) -> &[f32] {
+        &self.inputs[group.flat_range()]
+    }
+
+    /// The values of `group`, to fill.
+    #[inline]
+    pub fn values_mut(&mut self, group: InputGroup) -> &mut [f32] {
+        &mut self.inputs[group.flat_range()]
+    }
+
+    /// This frame with `group` reading `values` (as many as its width); for tests and
+    /// scripted inputs.
+    pub fn with(mut self, group: InputGroup, values: &[f32]) -> SensorFrame {
+        self.values_mut(group).copy_from_slice(values);
+        self
     }
 }
 
-/// A named group of inputs a network can declare. A network's inputs are the concatenation of
-/// its groups in the order it lists them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum InputGroup {
-    /// The four IR proximity inputs.
-    Ir,
-    /// The two light-flash inputs.
-    Light,
-    /// The near-robot boolean.
-    NearRobot,
-}
+/// A named group of inputs a network can declare: one registered sensor's. A network's inputs
+/// are the concatenation of its groups in the order it lists them. Files name a group by its
+/// sensor's name (`"ir"`).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct InputGroup(u8);
 
 impl InputGroup {
-    /// Every group, in frame order.
-    pub const ALL: [InputGroup; 3] = [InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+    /// Every group, in registry (frame) order.
+    pub const ALL: [InputGroup; N_GROUPS] = {
+        let mut all = [InputGroup(0); N_GROUPS];
+        let mut group = 0;
+        while group < N_GROUPS {
+            all[group] = InputGroup(group as u8);
+            group += 1;
+        }
+        all
+    };
+
+    /// The e-puck's four IR proximity inputs (`ir`).
+    pub const IR: InputGroup = InputGroup::registered("ir");
+    /// The e-puck's two light-flash inputs (`light`).
+    pub const LIGHT: InputGroup = InputGroup::registered("light");
+    /// The near-robot boolean (`near_robot`).
+    pub const NEAR_ROBOT: InputGroup = InputGroup::registered("near_robot");
+
+    /// The group of the sensor registered as `name`; fails to compile when there is none.
+    const fn registered(name: &str) -> InputGroup {
+        let mut group = 0;
+        while group < N_GROUPS {
+            if const_str_eq(GROUP_NAMES[group], name) {
+                return InputGroup(group as u8);
+            }
+            group += 1;
+        }
+        panic!("no sensor of that name is registered")
+    }
+
+    /// The group named `name` in files, if a sensor of that name is registered.
+    pub fn named(name: &str) -> Option<InputGroup> {
+        GROUP_NAMES
+            .iter()
+            .position(|&registered| registered == name)
+            .map(|group| InputGroup(group as u8))
+    }
 
     /// The group's place in [`InputGroup::ALL`].
+    #[inline]
     pub fn index(self) -> usize {
-        match self {
-            InputGroup::Ir => 0,
-            InputGroup::Light => 1,
-            InputGroup::NearRobot => 2,
-        }
+        usize::from(self.0)
+    }
+
+    /// The sensor that fills it.
+    pub fn kind(self) -> &'static SensorKind {
+        &SENSORS[self.index()]
     }
 
     /// The group's name in controller and scenario files.
     pub fn name(self) -> &'static str {
-        match self {
-            InputGroup::Ir => "ir",
-            InputGroup::Light => "light",
-            InputGroup::NearRobot => "near_robot",
-        }
+        GROUP_NAMES[self.index()]
+    }
+
+    /// Each of its inputs' names, as trace columns show them.
+    pub fn input_names(self) -> &'static [&'static str] {
+        self.kind().inputs
     }
 
     /// How many network inputs this group contributes.
+    #[inline]
     pub fn width(self) -> usize {
-        match self {
-            InputGroup::Ir => N_IR,
-            InputGroup::Light => N_LIGHT,
-            InputGroup::NearRobot => 1,
-        }
+        self.flat_range().len()
     }
 
-    /// Where the group's values sit in [`SensorFrame::flat`].
+    /// Where the group's values sit in [`SensorFrame::inputs`].
+    #[inline]
     pub fn flat_range(self) -> std::ops::Range<usize> {
-        match self {
-            InputGroup::Ir => 0..N_IR,
-            InputGroup::Light => N_IR..N_IR + N_LIGHT,
-            InputGroup::NearRobot => N_IR + N_LIGHT..N_FLAT,
-        }
+        GROUP_STARTS[self.index()]..GROUP_STARTS[self.index() + 1]
     }
+}
 
-    /// The group's current values in the frame.
-    pub fn values(self, frame: &SensorFrame) -> &[f32] {
-        match self {
-            InputGroup::Ir => &frame.ir,
-            InputGroup::Light => &frame.light,
-            InputGroup::NearRobot => std::slice::from_ref(&frame.near_robot),
+/// Byte-wise string equality, in a constant.
+const fn const_str_eq(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut idx = 0;
+    while idx < a.len() {
+        if a[idx] != b[idx] {
+            return false;
         }
+        idx += 1;
+    }
+    true
+}
+
+impl fmt::Debug for InputGroup {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl fmt::Display for InputGroup {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for InputGroup {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for InputGroup {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<InputGroup, D::Error> {
+        let name = <std::borrow::Cow<'de, str>>::deserialize(deserializer)?;
+        InputGroup::named(&name)
+            .ok_or_else(|| serde::de::Error::unknown_variant(&name, &GROUP_NAMES))
     }
 }
 
 /// The input groups a robot's sensors give; a group the robot lacks reads 0 and its sensor
 /// draws no noise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SensorSet([bool; InputGroup::ALL.len()]);
+pub struct SensorSet([bool; N_GROUPS]);
 
 impl SensorSet {
-    /// The e-puck's: every group.
-    pub const ALL: SensorSet = SensorSet([true; InputGroup::ALL.len()]);
+    /// A robot's whose scenario names no `sensors`: the sensors registered as carried by
+    /// default (the e-puck's).
+    pub const DEFAULT: SensorSet = {
+        let mut set = [false; N_GROUPS];
+        let mut group = 0;
+        while group < N_GROUPS {
+            set[group] = SENSORS[group].by_default;
+            group += 1;
+        }
+        SensorSet(set)
+    };
 
     /// The set of `groups`.
     pub fn of(groups: &[InputGroup]) -> SensorSet {
-        let mut set = [false; InputGroup::ALL.len()];
+        let mut set = [false; N_GROUPS];
         for group in groups {
             set[group.index()] = true;
         }
@@ -150,25 +253,53 @@ mod tests {
             assert_eq!(group.index(), idx);
             let json = serde_json::to_string(&group).unwrap();
             assert_eq!(json, format!("\"{}\"", group.name()));
+            assert_eq!(serde_json::from_str::<InputGroup>(&json).unwrap(), group);
+            assert_eq!(InputGroup::named(group.name()), Some(group));
+            assert_eq!(group.input_names().len(), group.width());
         }
-        let set = SensorSet::of(&[InputGroup::NearRobot, InputGroup::Ir]);
-        assert!(set.carries(InputGroup::Ir) && !set.carries(InputGroup::Light));
+        assert_eq!(
+            [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT].map(InputGroup::name),
+            ["ir", "light", "near_robot"]
+        );
+        let set = SensorSet::of(&[InputGroup::NEAR_ROBOT, InputGroup::IR]);
+        assert!(set.carries(InputGroup::IR) && !set.carries(InputGroup::LIGHT));
         let carried: Vec<_> = set.groups().collect();
-        assert_eq!(carried, [InputGroup::Ir, InputGroup::NearRobot]);
-        assert_eq!(SensorSet::ALL.groups().count(), 3);
+        assert_eq!(carried, [InputGroup::IR, InputGroup::NEAR_ROBOT]);
+        assert_eq!(
+            SensorSet::DEFAULT.groups().collect::<Vec<_>>(),
+            [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT]
+        );
     }
 
     #[test]
-    fn a_flat_frame_holds_each_group_where_its_range_says() {
-        let frame = SensorFrame {
-            ir: [0.1, 0.2, 0.3, 0.4],
-            light: [0.5, 0.6],
-            near_robot: 1.0,
-        };
-        let flat = frame.flat();
-        for group in [InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot] {
-            assert_eq!(&flat[group.flat_range()], group.values(&frame), "{group:?}");
-            assert_eq!(group.flat_range().len(), group.width());
+    fn an_unknown_group_is_refused_naming_the_registered_ones() {
+        let err = serde_json::from_str::<InputGroup>("\"sonar\"").unwrap_err();
+        assert!(
+            err.to_string().starts_with(
+                "unknown variant `sonar`, expected one of `ir`, `light`, `near_robot`"
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn the_groups_tile_the_frame_in_registry_order() {
+        let mut next = 0;
+        for group in InputGroup::ALL {
+            assert_eq!(group.flat_range().start, next, "{group}");
+            next = group.flat_range().end;
         }
+        assert_eq!(next, N_FLAT);
+        let frame = SensorFrame::default()
+            .with(InputGroup::IR, &[0.1, 0.2, 0.3, 0.4])
+            .with(InputGroup::NEAR_ROBOT, &[1.0]);
+        assert_eq!(frame.values(InputGroup::IR), [0.1, 0.2, 0.3, 0.4]);
+        assert_eq!(frame.values(InputGroup::LIGHT), [0.0, 0.0]);
+        assert_eq!(frame.values(InputGroup::NEAR_ROBOT), [1.0]);
+        assert_eq!(
+            SensorFrame::INPUT_NAMES[InputGroup::IR.flat_range()],
+            ["ir_front_left", "ir_left", "ir_right", "ir_front_right"]
+        );
+        assert_eq!(SensorFrame::INPUT_NAMES[N_FLAT - 1], "near_robot");
     }
 }

@@ -172,7 +172,7 @@ impl LaneController {
     ) -> [[f32; 2]; LANES] {
         let mut wheels = [[0.0f32; 2]; LANES];
         // The frames lane by lane, once per step: every node then copies whole lanes.
-        let flat_frames = frames.map(|frame| frame.flat());
+        let flat_frames = frames.map(|frame| frame.inputs);
         let frame_lanes: [Lanes; N_FLAT] = std::array::from_fn(|input| {
             Lanes(std::array::from_fn(|lane| flat_frames[lane][input]))
         });

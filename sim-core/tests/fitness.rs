@@ -13,7 +13,7 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::scene::RectKind;
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
 use std::collections::BTreeSet;
@@ -76,10 +76,8 @@ impl Policy for AgainstTheLights {
     }
 
     fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2] {
-        let swapped = SensorFrame {
-            light: [frame.light[1], frame.light[0]],
-            ..*frame
-        };
+        let mut swapped = *frame;
+        swapped.values_mut(InputGroup::LIGHT).reverse();
         self.0.step(&swapped, dt)
     }
 }

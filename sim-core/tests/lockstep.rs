@@ -34,13 +34,13 @@ fn tasks() -> Vec<TaskConfig> {
 }
 
 fn random_inputs(rng: &mut SimRng) -> Vec<InputGroup> {
-    let all = [InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+    let all = [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
     let mut inputs: Vec<InputGroup> = all
         .into_iter()
         .filter(|_| rng.random_range(0..3) > 0)
         .collect();
     if inputs.is_empty() {
-        inputs.push(InputGroup::Ir);
+        inputs.push(InputGroup::IR);
     }
     // Any order: a network reads its groups in the order it lists them.
     if rng.random_range(0..2) == 0 {
@@ -154,7 +154,7 @@ fn full_length_samples_agree_on_every_task() {
             .map(|_| random_node("root".into(), 2, rng))
             .find(|node| !node.children.is_empty())
             .expect("an arbitrator comes up");
-        root.inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+        root.inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
         let n_genes = root.topology().n_genes();
         root.genome = Some(random_genes(rng, n_genes));
         let samples: Vec<Sample> = (0..11).map(|seed| Sample::seeded(1000 + seed)).collect();

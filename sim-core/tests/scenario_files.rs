@@ -131,10 +131,15 @@ fn a_sensor_the_robot_lacks_reads_zero_and_the_rest_still_sense() {
             .map(|cycle| input(&cycle.frame))
             .fold(0.0, f32::max)
     };
-    let ir =
-        |frame: &hevo_sim_core::frame::SensorFrame| frame.ir.iter().copied().fold(0.0, f32::max);
-    let light =
-        |frame: &hevo_sim_core::frame::SensorFrame| frame.light.iter().copied().fold(0.0, f32::max);
+    use hevo_sim_core::frame::{InputGroup, SensorFrame};
+    let ir = |frame: &SensorFrame| {
+        let values = frame.values(InputGroup::IR);
+        values.iter().copied().fold(0.0, f32::max)
+    };
+    let light = |frame: &SensorFrame| {
+        let values = frame.values(InputGroup::LIGHT);
+        values.iter().copied().fold(0.0, f32::max)
+    };
     assert!(max_of(&all, ir) > 0.5 && max_of(&all, light) > 0.5);
 
     let blind = trace(t_maze_sensing(r#"["light"]"#));
@@ -165,11 +170,11 @@ fn a_controller_reading_a_sensor_the_robot_lacks_is_refused() {
     };
     let reads_light = ControllerFile::new(NodeSpec::arbitrator(
         "top",
-        vec![InputGroup::Ir],
+        vec![InputGroup::IR],
         2,
         vec![
-            leaf("ir_leaf", vec![InputGroup::Ir]),
-            leaf("light_leaf", vec![InputGroup::Light]),
+            leaf("ir_leaf", vec![InputGroup::IR]),
+            leaf("light_leaf", vec![InputGroup::LIGHT]),
         ],
     ));
     let error = BatchEvaluator::new(reads_light.clone(), t_maze_sensing(r#"["ir"]"#))

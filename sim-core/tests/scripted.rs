@@ -22,7 +22,7 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::sensors::IrMapping;
 use hevo_sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, Trace};
 
@@ -338,10 +338,8 @@ impl<P: Policy> Policy for SwappedLights<P> {
     }
 
     fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2] {
-        let swapped = SensorFrame {
-            light: [frame.light[1], frame.light[0]],
-            ..*frame
-        };
+        let mut swapped = *frame;
+        swapped.values_mut(InputGroup::LIGHT).reverse();
         self.0.step(&swapped, dt)
     }
 }
@@ -650,7 +648,7 @@ fn light_runs(trace: &Trace) -> Vec<(usize, usize, usize, bool)> {
     for side in 0..2 {
         let mut start = None;
         for (index, cycle) in trace.cycles.iter().enumerate() {
-            let lit = cycle.frame.light[side] >= 0.5;
+            let lit = cycle.frame.values(InputGroup::LIGHT)[side] >= 0.5;
             match (lit, start) {
                 (true, None) => start = Some(index),
                 (false, Some(first)) => {

@@ -15,12 +15,13 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::{N_IR, SensorFrame};
+use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::rng::{Stream, stream_rng};
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scenario::{SHIPPED_NAMES, Scenario};
 use hevo_sim_core::scene::Rect;
 use hevo_sim_core::sensors::IrMapping;
+use hevo_sim_core::sensors::N_IR;
 use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
 use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig, Trace};
 use proptest::prelude::*;
@@ -377,7 +378,7 @@ fn empty_room_start_readings(mapping: IrMapping) -> Vec<String> {
             nearest > reach + 0.01,
             "seed {seed}: something within reach at the start"
         );
-        let ir = trace.cycles[0].frame.ir;
+        let ir = trace.cycles[0].frame.values(InputGroup::IR);
         if ir.iter().any(|&input| input > 0.05) {
             bad.push(format!(
                 "exit_room seed {seed}: nothing within {reach} m, IR inputs {ir:?}"

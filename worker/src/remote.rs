@@ -466,7 +466,7 @@ mod tests {
     fn the_sim_executor_evaluates_and_refuses_what_it_cannot_trust() {
         use hevo_sim_core::controller::{ControllerFile, NodeSpec};
         use hevo_sim_core::frame::InputGroup;
-        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 2));
+        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 2));
         let mut task = hevo_sim_core::TaskConfig::shipped("follow_wall").unwrap();
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();

@@ -42,7 +42,7 @@ fn maze_primitives(rng: &mut SimRng) -> Vec<NodeSpec> {
             node(
                 name,
                 NodeKind::Primitive,
-                vec![InputGroup::Ir],
+                vec![InputGroup::IR],
                 3,
                 vec![],
                 rng,
@@ -58,7 +58,7 @@ fn exit_room_primitive(rng: &mut SimRng) -> NodeSpec {
     node(
         "exit_room",
         NodeKind::Primitive,
-        vec![InputGroup::Ir],
+        vec![InputGroup::IR],
         10,
         vec![],
         rng,
@@ -70,7 +70,7 @@ fn solve_maze_arbitrator(rng: &mut SimRng) -> NodeSpec {
     node(
         "solve_maze",
         NodeKind::Arbitrator,
-        vec![InputGroup::Ir, InputGroup::Light],
+        vec![InputGroup::IR, InputGroup::LIGHT],
         10,
         children,
         rng,
@@ -81,7 +81,7 @@ fn return_room_arbitrator(children: Vec<NodeSpec>, rng: &mut SimRng) -> NodeSpec
     node(
         "return_room",
         NodeKind::Arbitrator,
-        vec![InputGroup::Ir],
+        vec![InputGroup::IR],
         10,
         children,
         rng,
@@ -100,7 +100,7 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
         name @ ("follow_wall" | "turn_left" | "turn_right") => node(
             name,
             NodeKind::Primitive,
-            vec![InputGroup::Ir],
+            vec![InputGroup::IR],
             3,
             vec![],
             rng,
@@ -118,14 +118,14 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
             node(
                 "rescue",
                 NodeKind::Arbitrator,
-                vec![InputGroup::Ir, InputGroup::NearRobot],
+                vec![InputGroup::IR, InputGroup::NEAR_ROBOT],
                 10,
                 vec![exit, maze, ret],
                 rng,
             )
         }
         _ => {
-            let all_inputs = vec![InputGroup::Ir, InputGroup::Light, InputGroup::NearRobot];
+            let all_inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
             let primitive = |name: &str, rng: &mut SimRng| {
                 node(
                     name,

@@ -936,7 +936,7 @@ mod tests {
     use hevo_sim_core::frame::InputGroup;
 
     fn request(job: &str, n_genomes: usize, n_samples: usize) -> EvaluationRequest {
-        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 1));
+        let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 1));
         let task = TaskConfig::shipped("follow_wall").unwrap();
         EvaluationRequest {
             job: job.into(),

@@ -187,7 +187,7 @@ mod tests {
     use hevo_sim_core::frame::InputGroup;
 
     fn template() -> ControllerFile {
-        ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3))
+        ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 3))
     }
 
     fn task() -> TaskConfig {

@@ -1203,7 +1203,7 @@ runs = 1
 "#;
 
     fn finished_primitive(name: &str) -> String {
-        let spec = NodeSpec::primitive(name, vec![InputGroup::Ir], 3);
+        let spec = NodeSpec::primitive(name, vec![InputGroup::IR], 3);
         let genes = vec![0.5; spec.topology().n_genes()];
         ControllerFile::new(spec.with_genome(genes))
             .to_json_pretty()
@@ -1324,7 +1324,7 @@ runs = 1
             "{err}"
         );
         files.insert("main/tl/summary.json".into(), "{}".into());
-        let free = ControllerFile::new(NodeSpec::primitive("fw", vec![InputGroup::Ir], 3));
+        let free = ControllerFile::new(NodeSpec::primitive("fw", vec![InputGroup::IR], 3));
         files.insert("controllers/fw.json".into(), free.to_json_pretty().unwrap());
         let err = error(&files);
         assert!(

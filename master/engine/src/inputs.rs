@@ -202,7 +202,7 @@ mod tests {
         let free = dir.path().join("free.json");
         let template = ControllerFile::new(hevo_sim_core::controller::NodeSpec::primitive(
             "p",
-            vec![hevo_sim_core::frame::InputGroup::Ir],
+            vec![hevo_sim_core::frame::InputGroup::IR],
             2,
         ));
         std::fs::write(&free, template.to_json_pretty().unwrap()).unwrap();

@@ -62,7 +62,7 @@ pub struct LoadReport {
 }
 
 fn template() -> (ControllerFile, TaskConfig) {
-    let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::Ir], 3));
+    let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 3));
     (
         template,
         TaskConfig::shipped("follow_wall").expect("a shipped task"),

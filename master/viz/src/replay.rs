@@ -8,6 +8,7 @@
 
 use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour, text_width};
 use hevo_sim_core::env::regions::NamedRegion;
+use hevo_sim_core::frame::InputGroup;
 use hevo_sim_core::robot::Pose;
 use hevo_sim_core::scene::RectKind;
 use hevo_sim_core::{Ending, Trace};
@@ -1146,7 +1147,7 @@ fn draw_rays(
                 .close();
             let reading = cycle
                 .frame
-                .ir
+                .values(InputGroup::IR)
                 .get(sensor)
                 .copied()
                 .unwrap_or(0.0)
@@ -1598,10 +1599,12 @@ mod tests {
         }
 
         fn step(&mut self, frame: &SensorFrame, _dt: f32) -> [f32; 2] {
-            let [front_left, left, right, front_right] = frame.ir;
-            if frame.light[0] > 0.5 {
+            let ir = frame.values(InputGroup::IR);
+            let (front_left, left, right, front_right) = (ir[0], ir[1], ir[2], ir[3]);
+            let light = frame.values(InputGroup::LIGHT);
+            if light[0] > 0.5 {
                 self.turn_towards_left = Some(true);
-            } else if frame.light[1] > 0.5 {
+            } else if light[1] > 0.5 {
                 self.turn_towards_left = Some(false);
             }
             let front = front_left.max(front_right);

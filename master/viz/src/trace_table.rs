@@ -5,11 +5,11 @@
 
 use hevo_sim_core::Trace;
 use hevo_sim_core::evaluate::TraceCycle;
+use hevo_sim_core::frame::{N_FLAT, SensorFrame};
 use std::fmt::Write as _;
 
-/// The columns of a row, in order. The teammate's pose columns are empty where the task has
-/// no teammate.
-pub const TRACE_COLUMNS: [&str; 21] = [
+/// The columns before the sensor inputs.
+const POSE_COLUMNS: [&str; 7] = [
     "cycle",
     "robot_x",
     "robot_y",
@@ -17,13 +17,10 @@ pub const TRACE_COLUMNS: [&str; 21] = [
     "teammate_x",
     "teammate_y",
     "teammate_heading",
-    "ir_front_left",
-    "ir_left",
-    "ir_right",
-    "ir_front_right",
-    "light_left",
-    "light_right",
-    "near_robot",
+];
+
+/// The columns after them.
+const OUTCOME_COLUMNS: [&str; 7] = [
     "wheel_left",
     "wheel_right",
     "active_node",
@@ -32,6 +29,25 @@ pub const TRACE_COLUMNS: [&str; 21] = [
     "lit_lights",
     "sub_task",
 ];
+
+/// The columns of a row, in order: the poses, every sensor input under its name
+/// ([`SensorFrame::INPUT_NAMES`]: `ir_front_left`, ..., `near_robot`), then the wheels and
+/// what happened. The teammate's pose columns are empty where the task has no teammate.
+pub const TRACE_COLUMNS: [&str; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.len()] = {
+    let mut columns = [""; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.len()];
+    let mut idx = 0;
+    while idx < columns.len() {
+        columns[idx] = if idx < POSE_COLUMNS.len() {
+            POSE_COLUMNS[idx]
+        } else if idx < POSE_COLUMNS.len() + N_FLAT {
+            SensorFrame::INPUT_NAMES[idx - POSE_COLUMNS.len()]
+        } else {
+            OUTCOME_COLUMNS[idx - POSE_COLUMNS.len() - N_FLAT]
+        };
+        idx += 1;
+    }
+    columns
+};
 
 /// One cell.
 enum Cell {
@@ -61,7 +77,7 @@ fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
                 .unwrap_or_else(|| format!("node {node}"))
         })
         .unwrap_or_default();
-    vec![
+    let poses = [
         Cell::Integer(index as u64),
         number(cycle.robot.x),
         number(cycle.robot.y),
@@ -69,13 +85,9 @@ fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
         teammate(|pose| pose.x),
         teammate(|pose| pose.y),
         teammate(|pose| pose.heading),
-        number(cycle.frame.ir[0]),
-        number(cycle.frame.ir[1]),
-        number(cycle.frame.ir[2]),
-        number(cycle.frame.ir[3]),
-        number(cycle.frame.light[0]),
-        number(cycle.frame.light[1]),
-        number(cycle.frame.near_robot),
+    ];
+    let inputs = cycle.frame.inputs.map(number);
+    let outcomes = [
         number(cycle.wheels[0]),
         number(cycle.wheels[1]),
         Cell::Text(active),
@@ -83,7 +95,8 @@ fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
         Cell::Integer(u64::from(cycle.collided)),
         Cell::Integer(u64::from(cycle.lit_lights)),
         Cell::Integer(u64::from(cycle.sub_task)),
-    ]
+    ];
+    poses.into_iter().chain(inputs).chain(outcomes).collect()
 }
 
 /// CSV text: a header line, then one line per cycle. Numbers are the shortest decimals that

@@ -18,12 +18,19 @@
 //! task configuration's robot (size, speed) and IR mapping.
 
 use hevo_sim_core::evaluate::Policy;
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::robot::RobotConfig;
 use hevo_sim_core::sensors::ir::{IrMapping, IrModel, MEAN_IR_CURVE};
+use hevo_sim_core::sensors::{N_IR, N_LIGHT};
 use hevo_sim_core::task::TaskConfig;
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
+
+/// A group's values as an array of its width (zeros should the width differ: it cannot, the
+/// widths are the registry's).
+fn group<const N: usize>(frame: &SensorFrame, group: InputGroup) -> [f32; N] {
+    frame.values(group).try_into().unwrap_or([0.0; N])
+}
 
 /// A side of the robot, or the direction of a turn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -307,11 +314,12 @@ impl Driver {
     /// Reads the frame into distances and updates the open-side counters.
     fn perceive(&mut self, frame: &SensorFrame) -> Ranges {
         let ranger = self.ranger;
+        let [front_left, left, right, front_right] = group::<N_IR>(frame, InputGroup::IR);
         let ranges = Ranges {
-            front_left: ranger.distance(frame.ir[0]),
-            left: ranger.distance(frame.ir[1]),
-            right: ranger.distance(frame.ir[2]),
-            front_right: ranger.distance(frame.ir[3]),
+            front_left: ranger.distance(front_left),
+            left: ranger.distance(left),
+            right: ranger.distance(right),
+            front_right: ranger.distance(front_right),
         };
         for side in [TurnSide::Left, TurnSide::Right] {
             let distance = ranges.lateral(side);
@@ -523,13 +531,14 @@ impl CorridorLogic {
 
     /// Records the side of each new flash (a rising edge of a light input).
     fn watch_lights(&mut self, frame: &SensorFrame) {
+        let light = group::<N_LIGHT>(frame, InputGroup::LIGHT);
         for side in [TurnSide::Left, TurnSide::Right] {
-            let now = frame.light[side.index()];
+            let now = light[side.index()];
             if now >= 0.5 && self.last_light[side.index()] < 0.5 {
                 self.flashes.push(side);
             }
         }
-        self.last_light = frame.light;
+        self.last_light = light;
     }
 
     /// Which way to turn at a wall ahead, given which sides are open; `None` in a dead end.
@@ -1313,7 +1322,7 @@ impl Policy for Rescuer {
         if self.phase != RescuePhase::SolveMaze {
             self.maze.watch_lights(frame);
         }
-        if self.phase != RescuePhase::Return && frame.near_robot >= 0.5 {
+        if self.phase != RescuePhase::Return && frame.values(InputGroup::NEAR_ROBOT)[0] >= 0.5 {
             self.phase = RescuePhase::Return;
             // Turn around in the branch: the teammate waits at its dead end.
             self.back.mode = CorridorMode::Spin {

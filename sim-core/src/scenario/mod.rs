@@ -715,7 +715,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // The robot's sensors.
     let sensors = match &file.sensors {
-        None => SensorSet::ALL,
+        None => SensorSet::DEFAULT,
         Some(groups) => {
             if groups.is_empty() {
                 let names: Vec<&str> = InputGroup::ALL.into_iter().map(InputGroup::name).collect();

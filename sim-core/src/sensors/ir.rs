@@ -35,8 +35,19 @@ use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
 use super::calibration::{CalibrationError, CalibrationTable, MeasuredCurve, ResampledCurve};
-use crate::frame::N_IR;
 use crate::rng::{SimRng, standard_normal};
+
+/// Number of infrared proximity sensors: front-left (+17 deg), left (+90 deg), right (-90 deg),
+/// front-right (-17 deg), in input order.
+pub const N_IR: usize = 4;
+
+/// Angles of the four IR sensors from the heading, radians, in input order.
+pub const IR_ANGLES: [f32; N_IR] = [
+    17.0 * std::f32::consts::PI / 180.0,
+    std::f32::consts::FRAC_PI_2,
+    -std::f32::consts::FRAC_PI_2,
+    -17.0 * std::f32::consts::PI / 180.0,
+];
 
 /// The measured curves' names, in curve-index order: robot 1 sensors 0, 2, 5, 7, then robot 2.
 pub const IR_CURVE_NAMES: [&str; N_MEASURED_IR_CURVES] = [

@@ -10,8 +10,15 @@ use std::sync::OnceLock;
 use serde::{Deserialize, Serialize};
 
 use super::calibration::{CalibrationError, CalibrationTable, MeanStd, ResampledCurve};
-use crate::frame::N_LIGHT;
 use crate::rng::{SimRng, standard_normal};
+
+/// Number of light-flash inputs: left, right.
+pub const N_LIGHT: usize = 2;
+
+/// Angles of the two light sensors from the heading, radians (left, right): the lateral IR
+/// sensors' ([`super::ir::IR_ANGLES`] 1 and 2).
+pub const LIGHT_ANGLES: [f32; N_LIGHT] =
+    [std::f32::consts::FRAC_PI_2, -std::f32::consts::FRAC_PI_2];
 
 /// Index of the left (+90 deg) light sensor.
 pub const LEFT: usize = 0;

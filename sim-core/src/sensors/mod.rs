@@ -9,5 +9,5 @@ pub mod ir;
 pub mod light;
 
 pub use calibration::{CalibrationError, CalibrationTable, MeanStd, MeasuredCurve, ResampledCurve};
-pub use ir::{CurveChoice, IrConfig, IrMapping, IrModel, IrSensorSetup};
-pub use light::{FlashDetector, LightConfig, LightModel};
+pub use ir::{CurveChoice, IR_ANGLES, IrConfig, IrMapping, IrModel, IrSensorSetup, N_IR};
+pub use light::{FlashDetector, LIGHT_ANGLES, LightConfig, LightModel, N_LIGHT};

@@ -2,9 +2,10 @@
 //! is a small type implementing one trait: a world ([`World`]: a map, a generated room or
 //! corridor, their joins), a condition's atom ([`Atom`]: `in goal`, `near LIGHT`, ...; the
 //! phases, the stages and `end.solved` are conditions), a fitness quantity ([`Quantity`]:
-//! `time_bonus`, `approach NAME`, ...), or how the teammate moves ([`TeammateBehaviour`]:
-//! `follow`, `fixed`, `wander`). Each kind of block has a registry below ([`WORLDS`],
-//! [`ATOMS`], [`QUANTITIES`], [`BEHAVIOURS`]): the scenario compiler asks the registered
+//! `time_bonus`, `approach NAME`, ...), how the teammate moves ([`TeammateBehaviour`]:
+//! `follow`, `fixed`, `wander`), or one of the robot's sensors ([`Sensor`]: `ir`, `light`,
+//! `near_robot`). Each kind of block has a registry below ([`WORLDS`], [`ATOMS`],
+//! [`QUANTITIES`], [`BEHAVIOURS`], [`SENSORS`]): the scenario compiler asks the registered
 //! blocks in order which one a piece of the file names, and the evaluator only ever calls the
 //! compiled blocks' traits. A new block is one file in this folder and one line in its
 //! registry; ARCHITECTURE.md walks through one.
@@ -15,12 +16,13 @@
 
 pub mod atoms;
 pub mod quantities;
+pub mod sensors;
 pub mod teammates;
 pub mod worlds;
 
-use crate::env::Ground;
 use crate::env::cells::CellMap;
 use crate::env::room::Room;
+use crate::env::{Ground, LightSpec};
 use crate::evaluate::SubTaskChoices;
 use crate::rng::SimRng;
 use crate::robot::Pose;
@@ -66,6 +68,12 @@ pub static QUANTITIES: &[QuantityKind] = &[
 /// default).
 pub static BEHAVIOURS: &[&dyn TeammateBehaviour] =
     &[&teammates::Follow, &teammates::Fixed, &teammates::Wander];
+
+/// The robot's sensors, in frame order: a frame holds each one's inputs in this order, and a
+/// cycle reads them (and draws their noise) in this order, so a new one goes last. A
+/// scenario's robot carries those its `sensors` key names, or else those carried by default;
+/// each one's name is also the input group a network lists.
+pub const SENSORS: &[SensorKind] = &[sensors::IR, sensors::LIGHT, sensors::NEAR_ROBOT];
 
 /// What a scenario holds, as far as a block's requirements go: a block that needs a room, a
 /// teammate or a goal in cells says so when it compiles, naming what is missing.
@@ -290,6 +298,58 @@ pub trait Motion: Debug + Send {
     fn before_met(&mut self, pose: &mut Pose, step: f32, scene: &Scene, radius: f32);
     /// A cycle once met (from the first on, for one that follows from the start).
     fn after_met(&mut self, pose: &mut Pose, robot: &Pose, step: f32);
+}
+
+/// One kind of sensor: its name, its inputs and how it compiles for a task.
+#[derive(Debug)]
+pub struct SensorKind {
+    /// The name `sensors` and a network's `inputs` give.
+    pub name: &'static str,
+    /// Each input's name, in the order the sensor fills them: trace columns and the Python
+    /// binding's `input_names`. Their number is the group's width.
+    pub inputs: &'static [&'static str],
+    /// Whether a robot whose scenario names no `sensors` carries it: the e-puck's sensors do.
+    /// A new sensor that does not leaves every existing scenario's results as they are.
+    pub by_default: bool,
+    /// The sensor with a task's settings (its geometry, noise, calibration), built once per
+    /// evaluator; `None` when nothing in the task's scenario can excite it (no light for
+    /// `light`, no teammate for `near_robot`), so that it would read 0 and draw nothing in
+    /// every cycle of every sample: it is then not run at all.
+    pub compile: fn(task: &TaskConfig) -> Option<Box<dyn Sensor>>,
+}
+
+/// A compiled sensor: what all samples of an evaluator share.
+pub trait Sensor: Debug + Send + Sync {
+    /// A sample's reading of it, with whatever it keeps between cycles; drawn at the sample's
+    /// start from the sample's own sensor-setup stream (shared by the sensors in registry
+    /// order).
+    fn start<'s>(&'s self, setup: &mut SimRng) -> Box<dyn SensorRun + 's>;
+}
+
+/// One sample's reading of a sensor.
+pub trait SensorRun: Debug + Send {
+    /// Fills `out` (as many values as the kind's `inputs`, each in [0, 1], all 0 on entry)
+    /// with this cycle's reading, drawing any noise from the sample's noise stream.
+    fn read(&mut self, view: &SenseView<'_>, noise: &mut SimRng, out: &mut [f32]);
+}
+
+/// What a sensor sees of a sample at the start of a cycle.
+#[derive(Debug, Clone, Copy)]
+pub struct SenseView<'a> {
+    /// The robot.
+    pub robot: &'a Pose,
+    /// The sine of the robot's heading, computed once per cycle for every sensor.
+    pub sin_heading: f32,
+    /// The cosine of the robot's heading.
+    pub cos_heading: f32,
+    /// The solids.
+    pub scene: &'a Scene,
+    /// The sample's lights.
+    pub lights: &'a [LightSpec],
+    /// Bit `i` set when light `i` is lit in this cycle.
+    pub lit_mask: u32,
+    /// The teammate, in scenarios with one.
+    pub teammate: Option<&'a Pose>,
 }
 
 /// What a block written as a fixed word (one of `words`) makes of `text`: nothing when the text

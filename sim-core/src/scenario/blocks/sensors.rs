@@ -1,0 +1,290 @@
+//! The robot's sensors (a scenario's `sensors`, and the input groups a network lists): `ir`,
+//! the four IR proximity sensors read through the measured calibration curves
+//! ([`crate::sensors::ir`]); `light`, the two lateral sensors in ambient-light mode, as flash
+//! detectors ([`crate::sensors::light`]); `near_robot`, whether the teammate is within
+//! `robot.near_robot_range`. Each turns what a cycle's [`SenseView`] shows into its inputs;
+//! the models and their calibration tables live in [`crate::sensors`], and this file only
+//! wires them to the frame.
+
+use super::{SenseView, Sensor, SensorKind, SensorRun};
+use crate::evaluate::IrCone;
+use crate::float::hypot;
+use crate::rng::SimRng;
+use crate::robot::Pose;
+use crate::scene::{Cone, ConeLanes};
+use crate::sensors::{
+    FlashDetector, IR_ANGLES, IrConfig, IrModel, IrSensorSetup, LIGHT_ANGLES, LightConfig,
+    LightModel, N_IR, N_LIGHT,
+};
+use crate::task::TaskConfig;
+
+/// `ir`: front-left, left, right and front-right proximity, 1 at contact, 0 at 12 cm or beyond.
+pub const IR: SensorKind = SensorKind {
+    name: "ir",
+    inputs: &["ir_front_left", "ir_left", "ir_right", "ir_front_right"],
+    by_default: true,
+    compile: compile_ir,
+};
+
+/// `light`: a flash seen on the left or on the right, held for `light.hold_cycles`.
+pub const LIGHT: SensorKind = SensorKind {
+    name: "light",
+    inputs: &["light_left", "light_right"],
+    by_default: true,
+    compile: compile_light,
+};
+
+/// `near_robot`: 1 while the teammate is within `robot.near_robot_range`, else 0.
+pub const NEAR_ROBOT: SensorKind = SensorKind {
+    name: "near_robot",
+    inputs: &["near_robot"],
+    by_default: true,
+    compile: compile_near_robot,
+};
+
+const _: () = assert!(IR.inputs.len() == N_IR && LIGHT.inputs.len() == N_LIGHT);
+
+/// Where each of a ring of sensors sits, given the heading's sine and cosine: `[axis][sensor]`.
+#[inline(always)]
+fn positions<const N: usize>(
+    offsets: &[[f32; 2]; N],
+    pose: &Pose,
+    sin_h: f32,
+    cos_h: f32,
+) -> [[f32; N]; 2] {
+    [
+        std::array::from_fn(|s| pose.x + cos_h * offsets[s][0] - sin_h * offsets[s][1]),
+        std::array::from_fn(|s| pose.y + sin_h * offsets[s][0] + cos_h * offsets[s][1]),
+    ]
+}
+
+/// Each sensor's place on the body of a robot of `radius`, in the robot frame.
+fn body_offsets<const N: usize>(angles: [f32; N], radius: f32) -> [[f32; 2]; N] {
+    angles.map(|a| [radius * a.cos(), radius * a.sin()])
+}
+
+/// The IR ring as the task's `ir` and `robot.radius` set it.
+#[derive(Debug)]
+struct IrSensor {
+    /// Each sensor's cone in the robot frame, lane by lane.
+    cones: ConeLanes<N_IR>,
+    offsets: [[f32; 2]; N_IR],
+    config: IrConfig,
+    model: &'static IrModel,
+}
+
+fn compile_ir(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
+    Some(Box::new(IrSensor {
+        cones: ConeLanes::new(&ir_cones_at_rest(&task.ir)),
+        offsets: body_offsets(IR_ANGLES, task.robot.radius),
+        config: task.ir,
+        model: IrModel::builtin(),
+    }))
+}
+
+fn ir_cones_at_rest(config: &IrConfig) -> [Cone; N_IR] {
+    let opening = config.cone_deg.to_radians();
+    IR_ANGLES.map(|angle| Cone::new(angle, opening))
+}
+
+/// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
+/// boundary rays, and the range; for drawing.
+pub fn ir_cones(task: &TaskConfig, pose: &Pose) -> Vec<IrCone> {
+    let (sin_h, cos_h) = pose.heading.sin_cos();
+    let origins = positions(
+        &body_offsets(IR_ANGLES, task.robot.radius),
+        pose,
+        sin_h,
+        cos_h,
+    );
+    ir_cones_at_rest(&task.ir)
+        .iter()
+        .enumerate()
+        .map(|(sensor, cone)| {
+            let cone = cone.rotated(sin_h, cos_h);
+            (
+                [origins[0][sensor], origins[1][sensor]],
+                cone.boundaries[0],
+                cone.boundaries[1],
+                task.ir.range_m,
+            )
+        })
+        .collect()
+}
+
+impl Sensor for IrSensor {
+    fn start<'s>(&'s self, setup: &mut SimRng) -> Box<dyn SensorRun + 's> {
+        Box::new(IrRun {
+            sensor: self,
+            setup: self.config.draw_setup(setup),
+        })
+    }
+}
+
+/// A sample's IR ring: which measured curve models each sensor, and its offset.
+#[derive(Debug)]
+struct IrRun<'s> {
+    sensor: &'s IrSensor,
+    setup: IrSensorSetup,
+}
+
+impl SensorRun for IrRun<'_> {
+    #[inline]
+    fn read(&mut self, view: &SenseView<'_>, noise: &mut SimRng, out: &mut [f32]) {
+        let sensor = self.sensor;
+        let (sin_h, cos_h) = (view.sin_heading, view.cos_heading);
+        let cones = sensor.cones.rotated(sin_h, cos_h);
+        let origins = positions(&sensor.offsets, view.robot, sin_h, cos_h);
+        let distances = view.scene.cone_lane_distances(
+            view.robot.position(),
+            &origins,
+            &cones,
+            sensor.config.range_m,
+        );
+        out.copy_from_slice(&sensor.model.read_all(&self.setup, &distances, noise));
+    }
+}
+
+/// The two light sensors as the task's `light` and `robot.radius` set them.
+#[derive(Debug)]
+struct LightSensor {
+    offsets: [[f32; 2]; N_LIGHT],
+    config: LightConfig,
+    model: &'static LightModel,
+}
+
+fn compile_light(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
+    if task.scenario.lights.is_empty() {
+        return None;
+    }
+    Some(Box::new(LightSensor {
+        offsets: body_offsets(LIGHT_ANGLES, task.robot.radius),
+        config: task.light,
+        model: LightModel::builtin(),
+    }))
+}
+
+impl Sensor for LightSensor {
+    fn start<'s>(&'s self, _setup: &mut SimRng) -> Box<dyn SensorRun + 's> {
+        Box::new(LightRun {
+            sensor: self,
+            flash: FlashDetector::from_config(&self.config),
+        })
+    }
+}
+
+/// A sample's light sensors: the flash each side holds.
+#[derive(Debug)]
+struct LightRun<'s> {
+    sensor: &'s LightSensor,
+    flash: FlashDetector,
+}
+
+impl SensorRun for LightRun<'_> {
+    #[inline]
+    fn read(&mut self, view: &SenseView<'_>, noise: &mut SimRng, out: &mut [f32]) {
+        // Without lights there is nothing to see, and nothing is drawn.
+        if view.lights.is_empty() {
+            return;
+        }
+        let robot = view.robot;
+        let origins = positions(
+            &self.sensor.offsets,
+            robot,
+            view.sin_heading,
+            view.cos_heading,
+        );
+        // A side sees a lit light on its own side only: the body hides a light behind it.
+        let mut nearest = [None::<f32>; N_LIGHT];
+        // The lit lights only, in index order: the set bits of the mask.
+        let mut lit = view.lit_mask;
+        while lit != 0 {
+            let light_idx = lit.trailing_zeros() as usize;
+            lit &= lit - 1;
+            let Some(light) = view.lights.get(light_idx) else {
+                break;
+            };
+            for (side, nearest) in nearest.iter_mut().enumerate() {
+                let p = [origins[0][side], origins[1][side]];
+                let facing = [p[0] - robot.x, p[1] - robot.y];
+                let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
+                if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
+                    let d = hypot(to_light[0], to_light[1]);
+                    *nearest = Some(nearest.map_or(d, |n: f32| n.min(d)));
+                }
+            }
+        }
+        let raw = self.sensor.model.read_raw_both(nearest, noise);
+        out.copy_from_slice(&self.flash.update(raw));
+    }
+}
+
+/// The near-robot detector, with the task's range: no state, no noise.
+#[derive(Debug, Clone, Copy)]
+struct NearRobot {
+    range_m: f32,
+}
+
+fn compile_near_robot(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
+    task.scenario.teammate.as_ref()?;
+    Some(Box::new(NearRobot {
+        range_m: task.robot.near_robot_range,
+    }))
+}
+
+impl Sensor for NearRobot {
+    fn start<'s>(&'s self, _setup: &mut SimRng) -> Box<dyn SensorRun + 's> {
+        Box::new(*self)
+    }
+}
+
+impl SensorRun for NearRobot {
+    #[inline]
+    fn read(&mut self, view: &SenseView<'_>, _noise: &mut SimRng, out: &mut [f32]) {
+        let near = view
+            .teammate
+            .is_some_and(|mate| mate.distance_to(view.robot.position()) < self.range_m);
+        if let Some(slot) = out.first_mut() {
+            *slot = if near { 1.0 } else { 0.0 };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::SENSORS;
+    use crate::task::TaskConfig;
+    use std::collections::HashSet;
+
+    #[test]
+    fn registered_sensors_have_distinct_names_and_input_names() {
+        let names: HashSet<&str> = SENSORS.iter().map(|kind| kind.name).collect();
+        assert_eq!(names.len(), SENSORS.len());
+        let inputs: Vec<&str> = SENSORS
+            .iter()
+            .flat_map(|kind| kind.inputs.iter().copied())
+            .collect();
+        let distinct: HashSet<&str> = inputs.iter().copied().collect();
+        assert_eq!(
+            distinct.len(),
+            inputs.len(),
+            "trace columns must be distinct: {inputs:?}"
+        );
+        assert!(SENSORS.iter().all(|kind| !kind.inputs.is_empty()));
+    }
+
+    #[test]
+    fn a_sensor_nothing_in_the_scenario_can_excite_is_not_compiled() {
+        let compiled = |task: &str| -> Vec<&str> {
+            let task = TaskConfig::shipped(task).unwrap();
+            SENSORS
+                .iter()
+                .filter(|kind| (kind.compile)(&task).is_some())
+                .map(|kind| kind.name)
+                .collect()
+        };
+        assert_eq!(compiled("exit_room"), ["ir"]);
+        assert_eq!(compiled("solve_maze"), ["ir", "light"]);
+        assert_eq!(compiled("rescue"), ["ir", "light", "near_robot"]);
+    }
+}
