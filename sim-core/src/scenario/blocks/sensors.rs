@@ -284,7 +284,7 @@ mod tests {
                 .collect()
         };
         assert_eq!(compiled("exit_room"), ["ir"]);
-        assert_eq!(compiled("solve_maze"), ["ir", "light"]);
+        assert_eq!(compiled("return_room"), ["ir", "near_robot"]);
         assert_eq!(compiled("rescue"), ["ir", "light", "near_robot"]);
     }
 }
