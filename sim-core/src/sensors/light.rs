@@ -10,15 +10,15 @@ use std::sync::OnceLock;
 use serde::{Deserialize, Serialize};
 
 use super::calibration::{CalibrationError, CalibrationTable, MeanStd, ResampledCurve};
+use super::ir::IR_ANGLES;
 use crate::rng::{SimRng, standard_normal};
 
 /// Number of light-flash inputs: left, right.
 pub const N_LIGHT: usize = 2;
 
 /// Angles of the two light sensors from the heading, radians (left, right): the lateral IR
-/// sensors' ([`super::ir::IR_ANGLES`] 1 and 2).
-pub const LIGHT_ANGLES: [f32; N_LIGHT] =
-    [std::f32::consts::FRAC_PI_2, -std::f32::consts::FRAC_PI_2];
+/// sensors', which they are in ambient-light mode.
+pub const LIGHT_ANGLES: [f32; N_LIGHT] = [IR_ANGLES[1], IR_ANGLES[2]];
 
 /// Index of the left (+90 deg) light sensor.
 pub const LEFT: usize = 0;
