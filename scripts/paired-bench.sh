@@ -9,6 +9,7 @@
 #
 # NEW_FLAGS go to the new binary and OLD_FLAGS to the old one (an older binary may lack a
 # flag), e.g. "--evaluator lockstep" for both when two lockstep builds are compared.
+# TASKS="solve_maze rescue" and THREADS="1" narrow the run to those tasks and thread counts.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 old=$1
@@ -21,9 +22,9 @@ tmp=$(mktemp)
 trap 'rm -f "$tmp"' EXIT
 
 for ((round = 0; round < rounds; round++)); do
-    for task in solve_maze rescue exit_room follow_wall return_room scenarios/examples/t_maze.toml \
-        scenarios/examples/triple_t_maze.toml scenarios/examples/room_to_yard.toml; do
-        for n in 1 2; do
+    for task in ${TASKS:-solve_maze rescue exit_room follow_wall return_room scenarios/examples/t_maze.toml \
+        scenarios/examples/triple_t_maze.toml scenarios/examples/room_to_yard.toml}; do
+        for n in ${THREADS:-1 2}; do
             order=(old new)
             ((round % 2 == 1)) && order=(new old)
             for who in "${order[@]}"; do
@@ -51,7 +52,7 @@ rounds = sorted({key[3] for key in rows})
 print("| task | threads | old, median cycles/s | new, median | new / old, median of paired ratios | range |")
 print("|---|---|---|---|---|---|")
 for task in tasks:
-    for n in (1, 2):
+    for n in sorted({key[1] for key in rows if key[0] == task}):
         pairs = [(rows[(task, n, "old", r)], rows[(task, n, "new", r)]) for r in rounds]
         ratios = [new / old for old, new in pairs]
         print(f"| {task} | {n} | {statistics.median(p[0] for p in pairs)/1e6:.2f} M "

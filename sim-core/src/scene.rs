@@ -380,7 +380,7 @@ impl Scene {
     /// keeps it): reject by box, reject by the solid's nearest distance, take that distance
     /// when it lies inside the cone, else cast the two boundary rays, the second against the
     /// first's result.
-    #[inline]
+    #[inline(always)]
     pub fn cone_lane_distances<const N: usize>(
         &self,
         near: [f32; 2],

@@ -131,18 +131,32 @@ struct IrRun<'s> {
 impl SensorRun for IrRun<'_> {
     #[inline]
     fn read(&mut self, view: &SenseView<'_>, noise: &mut SimRng, out: &mut [f32]) {
-        let sensor = self.sensor;
-        let (sin_h, cos_h) = (view.sin_heading, view.cos_heading);
-        let cones = sensor.cones.rotated(sin_h, cos_h);
-        let origins = positions(&sensor.offsets, view.robot, sin_h, cos_h);
-        let distances = view.scene.cone_lane_distances(
-            view.robot.position(),
-            &origins,
-            &cones,
-            sensor.config.range_m,
-        );
-        out.copy_from_slice(&sensor.model.read_all(&self.setup, &distances, noise));
+        read_ir(self.sensor, &self.setup, view, noise, out);
     }
+}
+
+/// One IR reading: the cones' distances through the scene, then the curves. Compiled for the
+/// baseline CPU and again for AVX2, which the CPU picks at run time: the cone test's lane code
+/// then uses three-operand vector instructions and blends. Both versions perform the same IEEE
+/// operations in the same order (no fused multiply-add), so they give the same bits.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn read_ir(
+    sensor: &IrSensor,
+    setup: &IrSensorSetup,
+    view: &SenseView<'_>,
+    noise: &mut SimRng,
+    out: &mut [f32],
+) {
+    let (sin_h, cos_h) = (view.sin_heading, view.cos_heading);
+    let cones = sensor.cones.rotated(sin_h, cos_h);
+    let origins = positions(&sensor.offsets, view.robot, sin_h, cos_h);
+    let distances = view.scene.cone_lane_distances(
+        view.robot.position(),
+        &origins,
+        &cones,
+        sensor.config.range_m,
+    );
+    out.copy_from_slice(&sensor.model.read_all(setup, &distances, noise));
 }
 
 /// The two light sensors as the task's `light` and `robot.radius` set them.
@@ -253,8 +267,68 @@ impl SensorRun for NearRobot {
 #[cfg(test)]
 mod tests {
     use super::super::SENSORS;
+    use super::*;
+    use crate::evaluate::{Evaluator, Sample};
+    use crate::rng::{Stream, stream_rng};
     use crate::task::TaskConfig;
+    use proptest::prelude::*;
     use std::collections::HashSet;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The IR reading in the version the CPU picks (AVX2 where it has it) gives the bits,
+        /// and leaves the noise stream where, the same code compiled for the baseline CPU
+        /// does: at random poses, near walls and far from them, in the maze and in rooms.
+        #[test]
+        fn dispatched_ir_reading_matches_the_baseline_one_bit_for_bit(
+            task_idx in 0usize..3,
+            seed in any::<u64>(),
+            offset in (-0.3f32..0.3, -0.3f32..0.3, -3.2f32..3.2),
+        ) {
+            let task = TaskConfig::shipped(["solve_maze", "rescue", "exit_room"][task_idx]).unwrap();
+            let evaluator = Evaluator::new(task.clone()).unwrap();
+            let env = evaluator.environment(Sample::seeded(seed));
+            let robot = Pose {
+                x: env.start.x + offset.0,
+                y: env.start.y + offset.1,
+                heading: offset.2,
+            };
+            let (sin_heading, cos_heading) = robot.heading.sin_cos();
+            let view = SenseView {
+                robot: &robot,
+                sin_heading,
+                cos_heading,
+                scene: &env.scene,
+                lights: &env.lights,
+                lit_mask: 0,
+                teammate: None,
+            };
+            let sensor = IrSensor {
+                cones: ConeLanes::new(&ir_cones_at_rest(&task.ir)),
+                offsets: body_offsets(IR_ANGLES, task.robot.radius),
+                config: task.ir,
+                model: IrModel::builtin(),
+            };
+            let setup = task.ir.draw_setup(&mut stream_rng(seed, Stream::SensorSetup));
+            let (mut noise_dispatched, mut noise_baseline) =
+                (stream_rng(seed, Stream::Noise), stream_rng(seed, Stream::Noise));
+            let mut dispatched = [0.0f32; N_IR];
+            read_ir(&sensor, &setup, &view, &mut noise_dispatched, &mut dispatched);
+            // The body of `read_ir`, inlined here and so compiled for the baseline CPU.
+            let cones = sensor.cones.rotated(sin_heading, cos_heading);
+            let origins = positions(&sensor.offsets, &robot, sin_heading, cos_heading);
+            let distances =
+                env.scene
+                    .cone_lane_distances(robot.position(), &origins, &cones, task.ir.range_m);
+            let baseline = sensor.model.read_all(&setup, &distances, &mut noise_baseline);
+            prop_assert_eq!(dispatched.map(f32::to_bits), baseline.map(f32::to_bits));
+            prop_assert_eq!(
+                noise_dispatched.random::<u64>(),
+                noise_baseline.random::<u64>()
+            );
+        }
+    }
 
     #[test]
     fn registered_sensors_have_distinct_names_and_input_names() {
