@@ -136,6 +136,7 @@ pub struct Scene {
 /// range beyond the body and one cycle's worth of movement, with room to spare.
 pub const DEFAULT_QUERY_MARGIN: f32 = 0.25;
 const GRID_CELL: f32 = 0.1;
+const CELLS_PER_METRE: f32 = 1.0 / GRID_CELL;
 
 /// A sensor cone in world coordinates: its axis, the cosine of half its opening, and its two
 /// boundary rays (unit vectors).
@@ -308,11 +309,19 @@ impl Scene {
     }
 
     /// The solids that may lie within the query margin of `point`.
+    ///
+    /// The cell is found by a multiplication, not a division: the division's latency sits on
+    /// the chain from one cycle's pose to the next. The two can disagree about a point within
+    /// a hair of a cell border, and either cell is right: its list holds every solid within the
+    /// margin of the point but for that hair, and the margin has centimetres to spare over what
+    /// the cones and the disc test reach (a solid farther away fails their box test, and a
+    /// list holds its solids in index order, so the ones that matter meet the tests in the same
+    /// order from either list).
     #[inline]
     fn near(&self, point: [f32; 2]) -> &[u16] {
         let grid = &self.grid;
-        let fx = (point[0] - grid.origin[0]) / GRID_CELL;
-        let fy = (point[1] - grid.origin[1]) / GRID_CELL;
+        let fx = (point[0] - grid.origin[0]) * CELLS_PER_METRE;
+        let fy = (point[1] - grid.origin[1]) * CELLS_PER_METRE;
         if fx < 0.0 || fy < 0.0 || fx >= grid.nx as f32 || fy >= grid.ny as f32 {
             return &self.all_solids;
         }
@@ -322,8 +331,14 @@ impl Scene {
 
     /// Whether a disc of `radius` centred at `center` overlaps any solid.
     pub fn disc_hits(&self, center: [f32; 2], radius: f32) -> bool {
+        self.disc_hits_among(self.near(center), center, radius)
+    }
+
+    /// [`Scene::disc_hits`] over the solids of `candidates`.
+    #[inline(always)]
+    fn disc_hits_among(&self, candidates: &[u16], center: [f32; 2], radius: f32) -> bool {
         let point = Vector::new(center[0], center[1]);
-        self.near(center).iter().any(|&solid_idx| {
+        candidates.iter().any(|&solid_idx| {
             let solid = &self.solids[solid_idx as usize];
             // The box test is a cheap reject before parry's exact distance.
             solid.aabb.mins.x - radius < point.x
@@ -388,9 +403,21 @@ impl Scene {
         cones: &ConeLanes<N>,
         max_distance: f32,
     ) -> [Option<f32>; N] {
+        self.cone_lane_distances_among(self.near(near), origins, cones, max_distance)
+    }
+
+    /// [`Scene::cone_lane_distances`] over the solids of `candidates`, in their order.
+    #[inline(always)]
+    fn cone_lane_distances_among<const N: usize>(
+        &self,
+        candidates: &[u16],
+        origins: &[[f32; N]; 2],
+        cones: &ConeLanes<N>,
+        max_distance: f32,
+    ) -> [Option<f32>; N] {
         let mut best = [max_distance; N];
         let mut hit = [0u32; N];
-        for &solid_idx in self.near(near) {
+        for &solid_idx in candidates {
             self.solids[solid_idx as usize].cone_lanes(origins, cones, &mut best, &mut hit);
         }
         std::array::from_fn(|lane| (hit[lane] != 0).then_some(best[lane]))
@@ -813,6 +840,67 @@ mod tests {
             let (cell_ranges, candidates) = broad_phase_table(&scene, margin);
             proptest::prop_assert_eq!(&scene.cell_ranges, &cell_ranges);
             proptest::prop_assert_eq!(&scene.candidates, &candidates);
+        }
+    }
+
+    proptest::proptest! {
+        /// Which list a query reads does not change its answer, as long as the list holds
+        /// every solid within the margin: the cell's own, a neighbour's for a point a hair from
+        /// their border (the cell lookup multiplies where the table's borders were made by
+        /// multiplying the other way), or every solid. Robot-sized discs and the IR cones of
+        /// the shipped e-puck, at random poses in the shipped worlds.
+        #[test]
+        fn any_list_covering_the_margin_gives_the_same_answer(
+            task_idx in 0usize..7,
+            seed in 0u64..1000,
+            at in (-2.0f32..2.0, -2.0f32..2.0, -3.2f32..3.2),
+            border_nudge in proptest::option::of(0u8..4),
+        ) {
+            use crate::sensors::IR_ANGLES;
+            use crate::{Sample, Scenario, TaskConfig};
+            let name = Scenario::shipped_names()[task_idx % Scenario::shipped_names().len()];
+            let task = TaskConfig::shipped(name).expect("shipped");
+            let evaluator = crate::Evaluator::new(task.clone()).expect("valid");
+            let env = evaluator.environment(Sample::seeded(seed));
+            let scene = &env.scene;
+            let grid = &scene.grid;
+            // A point in the world, or one moved onto the nearest cell border.
+            let mut point = [env.start.x + at.0, env.start.y + at.1];
+            if let Some(side) = border_nudge {
+                let axis = usize::from(side / 2);
+                let cells = ((point[axis] - grid.origin[axis]) / GRID_CELL).round();
+                point[axis] = grid.origin[axis] + cells * GRID_CELL;
+                if side % 2 == 1 {
+                    point[axis] = point[axis].next_up();
+                }
+            }
+            let radius = task.robot.radius;
+            let (sin_h, cos_h) = at.2.sin_cos();
+            let cones = ConeLanes::new(&IR_ANGLES.map(|angle| Cone::new(angle, task.ir.cone_deg.to_radians())))
+                .rotated(sin_h, cos_h);
+            let origins = [
+                IR_ANGLES.map(|a| point[0] + radius * (at.2 + a).cos()),
+                IR_ANGLES.map(|a| point[1] + radius * (at.2 + a).sin()),
+            ];
+            let range = task.ir.range_m;
+            let bits = |d: [Option<f32>; 4]| d.map(|d| d.map(f32::to_bits));
+            let all = &scene.all_solids;
+            let expected_cones = bits(scene.cone_lane_distances_among(all, &origins, &cones, range));
+            let expected_disc = scene.disc_hits_among(all, point, radius);
+            proptest::prop_assert_eq!(bits(scene.cone_lane_distances(point, &origins, &cones, range)), expected_cones);
+            proptest::prop_assert_eq!(scene.disc_hits(point, radius), expected_disc);
+            // Every cell the point lies in or within a hair of.
+            let hair = 1e-4;
+            for dx in [-hair, 0.0, hair] {
+                for dy in [-hair, 0.0, hair] {
+                    let list = scene.near([point[0] + dx, point[1] + dy]);
+                    proptest::prop_assert_eq!(
+                        bits(scene.cone_lane_distances_among(list, &origins, &cones, range)),
+                        expected_cones
+                    );
+                    proptest::prop_assert_eq!(scene.disc_hits_among(list, point, radius), expected_disc);
+                }
+            }
         }
     }
 

@@ -259,13 +259,14 @@ pub struct IrModel {
     inverse_starts: InverseStarts,
 }
 
-/// A guess of the grid point at which the means fall to a raw reading, indexed by the reading's
-/// exponent and leading seven mantissa bits: positive floats order like their bits, and that
-/// index splits every octave into 128 buckets, as fine where the curve is steep (near, large
-/// readings) as where it is flat (far). A guess of the same bucket's lowest reading is at most
-/// a grid point or two off, and [`IrModel::raw_to_distance`] walks from it to the exact answer,
-/// so the answer is the binary search's whatever the guess. Empty when the means are not
-/// positive, which leaves the binary search.
+/// Where the means fall to a raw reading, by the reading's exponent and leading seven mantissa
+/// bits: positive floats order like their bits, and that index splits every octave into 128
+/// buckets, as fine where the curve is steep (near, large readings) as where it is flat (far).
+/// For each bucket it keeps the grid point at which the means fall to the bucket's largest
+/// reading; a smaller reading of the same bucket falls at most one grid point later when no
+/// bucket spans two grid points (checked when the table is built), so one comparison gives the
+/// binary search's answer without a branch. Empty, which leaves the binary search, when the
+/// means are not positive or some bucket spans more.
 #[derive(Debug, Clone, PartialEq)]
 struct InverseStarts {
     first_bucket: u32,
@@ -276,30 +277,37 @@ impl InverseStarts {
     const SHIFT: u32 = 16;
 
     fn new(means: &[f32]) -> InverseStarts {
+        let none = InverseStarts {
+            first_bucket: 0,
+            starts: Vec::new(),
+        };
         let (low, high) = (means[means.len() - 1], means[0]);
         if !(low > 0.0 && high.is_finite()) || means.len() > usize::from(u16::MAX) {
-            return InverseStarts {
-                first_bucket: 0,
-                starts: Vec::new(),
-            };
+            return none;
         }
         let first_bucket = low.to_bits() >> Self::SHIFT;
         let last_bucket = high.to_bits() >> Self::SHIFT;
-        let starts = (first_bucket..=last_bucket)
-            .map(|bucket| {
-                let lowest = f32::from_bits(bucket << Self::SHIFT);
-                means
-                    .partition_point(|&m| m > lowest)
-                    .clamp(1, means.len() - 1) as u16
-            })
-            .collect();
+        // The readings asked about lie strictly between the last and the first mean.
+        let (smallest, largest) = (low.next_up(), high.next_down());
+        let fall = |raw: f32| means.partition_point(|&m| m > raw);
+        let mut starts = Vec::with_capacity((last_bucket - first_bucket + 1) as usize);
+        for bucket in first_bucket..=last_bucket {
+            let lowest = f32::from_bits(bucket << Self::SHIFT).max(smallest);
+            let highest = f32::from_bits(((bucket + 1) << Self::SHIFT) - 1).min(largest);
+            let start = fall(highest);
+            if fall(lowest) > start + 1 {
+                return none;
+            }
+            starts.push(start as u16);
+        }
         InverseStarts {
             first_bucket,
             starts,
         }
     }
 
-    /// The guess for `raw`, a reading strictly between the last and the first mean.
+    /// The grid point at which the means fall to the largest reading of `raw`'s bucket, for a
+    /// reading strictly between the last and the first mean.
     #[inline(always)]
     fn start(&self, raw: f32) -> Option<usize> {
         let bucket = (raw.to_bits() >> Self::SHIFT).wrapping_sub(self.first_bucket);
@@ -376,21 +384,15 @@ impl IrModel {
 
     /// The first grid point whose mean is at or below `raw`, for a reading strictly between
     /// the last and the first mean (the means are non-increasing): what
-    /// `inverse_means.partition_point(|&m| m > raw)` gives, found from the bucketed guess.
+    /// `inverse_means.partition_point(|&m| m > raw)` gives, found from the bucket's start and
+    /// one comparison.
     #[inline]
     fn first_at_or_below(&self, raw: f32) -> usize {
         let means = &self.inverse_means;
         match self.inverse_starts.start(raw) {
-            Some(mut above) => {
-                // `means[0] > raw > means[last]` keeps the walk inside 1..=last.
-                while means[above - 1] <= raw {
-                    above -= 1;
-                }
-                while means[above] > raw {
-                    above += 1;
-                }
-                above
-            }
+            // `means[0] > raw > means[last]` keeps the start inside 1..=last, and the grid
+            // point after it exists whenever the mean at the start is still above `raw`.
+            Some(start) => start + usize::from(means[start] > raw),
             None => means.partition_point(|&m| m > raw),
         }
     }
@@ -451,7 +453,7 @@ impl IrModel {
     }
 
     /// One cycle's inputs of all four IR sensors, in IR input order (draws in that order).
-    #[inline]
+    #[inline(always)]
     pub fn read_all(
         &self,
         setup: &IrSensorSetup,
@@ -825,10 +827,30 @@ mod tests {
         assert!(margin < 0.05 && table > 0.2, "{margin} vs {table}");
     }
 
-    /// The bucketed walk finds exactly the grid point the binary search finds: at every mean,
-    /// its float neighbours, and a dense sweep across the whole range of readings.
+    /// A table whose means crowd several grid points into one bucket leaves the lookup to the
+    /// binary search; one whose means are far apart keeps it.
     #[test]
-    fn raw_to_distance_walk_agrees_with_the_binary_search() {
+    fn buckets_spanning_two_grid_points_fall_back_to_the_binary_search() {
+        let crowded = InverseStarts::new(&[100.0, 99.99, 99.98, 99.97, 1.0]);
+        assert!(crowded.starts.is_empty());
+        let sparse = InverseStarts::new(&[512.0, 256.0, 128.0, 64.0]);
+        assert!(!sparse.starts.is_empty());
+        for raw in [500.0f32, 256.0, 255.9, 200.0, 128.5, 100.0, 64.5] {
+            let start = sparse.start(raw).unwrap();
+            let means = [512.0f32, 256.0, 128.0, 64.0];
+            assert_eq!(
+                start + usize::from(means[start] > raw),
+                means.partition_point(|&m| m > raw),
+                "raw {raw}"
+            );
+        }
+    }
+
+    /// The bucketed lookup finds exactly the grid point the binary search finds: at every
+    /// mean, its float neighbours, both ends of every bucket, and a dense sweep across the whole
+    /// range of readings.
+    #[test]
+    fn raw_to_distance_lookup_agrees_with_the_binary_search() {
         let model = IrModel::builtin();
         assert!(
             !model.inverse_starts.starts.is_empty(),
@@ -839,6 +861,12 @@ mod tests {
         let mut raws: Vec<f32> = Vec::new();
         for &m in means.iter() {
             raws.extend([m, m.next_down(), m.next_up()]);
+        }
+        let buckets = &model.inverse_starts;
+        for bucket in 0..buckets.starts.len() as u32 {
+            let first_bits = (buckets.first_bucket + bucket) << InverseStarts::SHIFT;
+            let last_bits = first_bits + (1 << InverseStarts::SHIFT) - 1;
+            raws.extend([f32::from_bits(first_bits), f32::from_bits(last_bits)]);
         }
         for k in 0..=200_000 {
             raws.push(low + (high - low) * k as f32 / 200_000.0);
@@ -853,7 +881,7 @@ mod tests {
             compared += 1;
         }
         assert!(compared > 200_000, "{compared}");
-        // Outside the means the walk is never asked: the ends of the table answer.
+        // Outside the means the lookup is never asked: the ends of the table answer.
         let farthest = (means.len() - 1) as f32 * model.inverse_step;
         for (raw, distance) in [
             (f32::NAN, 0.0),
