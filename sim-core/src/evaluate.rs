@@ -6,7 +6,7 @@
 use crate::env::{self, Environment, Ground, Statics};
 use crate::frame::{InputGroup, N_GROUPS, SensorFrame};
 use crate::rng::{SimRng, Stream, stream_rng};
-use crate::robot::{Pose, kinematic_step, move_or_collide, noisy_speed, wheel_speed};
+use crate::robot::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::scenario::blocks::{
     self, CycleView, EndView, Motion, SenseView, Sensor, SensorRun, TeammateBehaviour,
     TeammateView, Tracked,
@@ -14,6 +14,7 @@ use crate::scenario::blocks::{
 use crate::scenario::{Scenario, Trigger, ending_slot};
 use crate::scene::{Rect, Scene};
 use crate::task::{ConfigError, TaskConfig};
+use crate::trig;
 use serde::{Deserialize, Serialize};
 
 /// Anything that drives the robot: an evolved controller tree or a scripted reference policy.
@@ -436,6 +437,18 @@ impl<'e> SampleRun<'e> {
     /// Begins a cycle: reads every sensor at the robot's pose and notes the sub-task in force.
     #[inline]
     pub(crate) fn sense(&mut self) -> SensorFrame {
+        self.sense_at(trig::sin_cos(self.robot.heading))
+    }
+
+    /// The robot's heading, whose sine and cosine [`SampleRun::sense_at`] takes.
+    #[inline]
+    pub(crate) fn heading(&self) -> f32 {
+        self.robot.heading
+    }
+
+    /// [`SampleRun::sense`], given the sine and cosine of the robot's heading.
+    #[inline]
+    pub(crate) fn sense_at(&mut self, (sin_heading, cos_heading): (f32, f32)) -> SensorFrame {
         let robot = self.robot;
         self.cycles_run += 1;
         // Each light's state this cycle, before it counts the cycle down.
@@ -446,7 +459,6 @@ impl<'e> SampleRun<'e> {
             }
             light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
         }
-        let (sin_heading, cos_heading) = robot.heading.sin_cos();
         let view = SenseView {
             robot: &robot,
             sin_heading,
@@ -506,6 +518,15 @@ impl<'e> SampleRun<'e> {
     /// Returns the pose before the move and whether it was undone.
     #[inline]
     pub(crate) fn move_robot(&mut self, wheels: [f32; 2]) -> (Pose, bool) {
+        let arc = self.plan_move(wheels);
+        let (sin_half_turn, _) = trig::sin_cos(arc.half_turn);
+        self.finish_move(&arc, sin_half_turn, trig::sin_cos(arc.mid_heading))
+    }
+
+    /// The first half of [`SampleRun::move_robot`]: the wheel speeds with their noise (drawn
+    /// here) and the arc they drive, up to its sines.
+    #[inline]
+    pub(crate) fn plan_move(&mut self, wheels: [f32; 2]) -> Arc {
         let robot_config = &self.evaluator.task.robot;
         let left = noisy_speed(
             wheel_speed(wheels[0], robot_config.v_max),
@@ -517,8 +538,21 @@ impl<'e> SampleRun<'e> {
             robot_config,
             &mut self.noise,
         );
+        Arc::of(&self.robot, left, right, robot_config)
+    }
+
+    /// The second half: the arc's end from its sines (`sin(half_turn)`, and the sine and
+    /// cosine of the mid-arc heading), unless it touches a solid.
+    #[inline]
+    pub(crate) fn finish_move(
+        &mut self,
+        arc: &Arc,
+        sin_half_turn: f32,
+        mid: (f32, f32),
+    ) -> (Pose, bool) {
+        let robot_config = &self.evaluator.task.robot;
         let before = self.robot;
-        let next = kinematic_step(self.robot, left, right, robot_config);
+        let next = arc.end_pose(&self.robot, sin_half_turn, mid);
         let collided = move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene);
         self.collided_ever |= collided;
         (before, collided)

@@ -20,6 +20,7 @@ pub mod robot;
 pub mod scenario;
 pub mod scene;
 pub mod task;
+mod trig;
 
 /// Version of the simulation model. Bump it whenever a change alters any trajectory or fitness
 /// (the golden tests catch such changes): run fingerprints include it, so checkpoints written by

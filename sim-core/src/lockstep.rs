@@ -13,6 +13,8 @@ use crate::ctrnn::{StepWeights, euler_step};
 use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
 use crate::frame::{N_FLAT, SensorFrame};
 use crate::lanes::{LANES, Lanes};
+use crate::robot::Arc;
+use crate::trig;
 
 /// [`euler_step`] on lanes, compiled for the baseline CPU and again for AVX2, where one
 /// register holds all [`LANES`] lanes; the CPU the program runs on picks the version once.
@@ -318,18 +320,33 @@ impl Evaluator {
             if !live.contains(&true) {
                 break;
             }
-            for (frame, slot) in frames.iter_mut().zip(&mut runs) {
+            // The sines of every lane's heading at once, then each lane senses.
+            let headings = runs
+                .each_ref()
+                .map(|slot| slot.as_ref().map_or(0.0, |(_, run)| run.heading()));
+            let (sines, cosines) = trig::sin_cos_lanes(&headings);
+            for (lane, (frame, slot)) in frames.iter_mut().zip(&mut runs).enumerate() {
                 if let Some((_, run)) = slot {
-                    *frame = run.sense();
+                    *frame = run.sense_at((sines[lane], cosines[lane]));
                 }
             }
             let wheels = controller.step(&frames, &live);
-            for (lane, slot) in runs.iter_mut().enumerate() {
-                let Some((_, run)) = slot else {
+            // Each lane's arc, the sines of all the arcs at once, then each lane moves and the
+            // cycle ends.
+            let arcs: [Option<Arc>; LANES] = std::array::from_fn(|lane| {
+                let (_, run) = runs[lane].as_mut()?;
+                run.count_decision(controller.active_path(lane), controller.root_choice(lane));
+                Some(run.plan_move(wheels[lane]))
+            });
+            let angles = |of: fn(&Arc) -> f32| arcs.map(|arc| arc.as_ref().map_or(0.0, of));
+            let (sin_half_turns, _) = trig::sin_cos_lanes(&angles(|arc| arc.half_turn));
+            let (sin_mids, cos_mids) = trig::sin_cos_lanes(&angles(|arc| arc.mid_heading));
+            for (lane, (slot, arc)) in runs.iter_mut().zip(&arcs).enumerate() {
+                let (Some((_, run)), Some(arc)) = (slot.as_mut(), arc) else {
                     continue;
                 };
-                run.count_decision(controller.active_path(lane), controller.root_choice(lane));
-                let (before, collided) = run.move_robot(wheels[lane]);
+                let (before, collided) =
+                    run.finish_move(arc, sin_half_turns[lane], (sin_mids[lane], cos_mids[lane]));
                 if let Some(ending) = run.finish_cycle(&before, collided)
                     && let Some((idx, run)) = slot.take()
                 {

@@ -5,6 +5,7 @@ use crate::float::hypot;
 use crate::rng::{SimRng, standard_normal};
 use crate::scene::Scene;
 use crate::task::{ConfigError, invalid};
+use crate::trig;
 use serde::{Deserialize, Serialize};
 
 /// Physical constants of the robot and the control cycle (SPEC section 1).
@@ -117,29 +118,67 @@ pub fn noisy_speed(speed: f32, config: &RobotConfig, rng: &mut SimRng) -> f32 {
 /// exact arc integration so that spinning in place does not drift.
 #[inline]
 pub fn kinematic_step(pose: Pose, left: f32, right: f32, config: &RobotConfig) -> Pose {
-    let dt = config.cycle_seconds;
-    let linear = 0.5 * (left + right);
-    let angular = (right - left) / config.wheel_base;
-    let dtheta = angular * dt;
-    // The chord of the arc: its length is 2 v/w sin(w dt / 2), along the mid-arc heading.
-    let chord = if dtheta.abs() < 1e-6 {
-        linear * dt
-    } else {
-        2.0 * linear / angular * (0.5 * dtheta).sin()
-    };
-    let mid = pose.heading + 0.5 * dtheta;
-    let (sin_mid, cos_mid) = mid.sin_cos();
-    let mut heading = pose.heading + dtheta;
-    // Keep the heading in (-pi, pi] so traces stay readable over long runs.
-    if heading > std::f32::consts::PI {
-        heading -= std::f32::consts::TAU;
-    } else if heading <= -std::f32::consts::PI {
-        heading += std::f32::consts::TAU;
+    let arc = Arc::of(&pose, left, right, config);
+    let (sin_half_turn, _) = trig::sin_cos(arc.half_turn);
+    arc.end_pose(&pose, sin_half_turn, trig::sin_cos(arc.mid_heading))
+}
+
+/// One control cycle's arc, up to its sines: what [`kinematic_step`] computes before it needs
+/// the sine of half the turn and the sine and cosine of the mid-arc heading. The lockstep
+/// evaluator takes those of all its samples at once ([`trig::sin_cos_lanes`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Arc {
+    linear: f32,
+    angular: f32,
+    turn: f32,
+    /// The chord of a straight move (no turn to speak of).
+    straight_chord: f32,
+    /// Half the turn, radians.
+    pub half_turn: f32,
+    /// The heading halfway along the arc, radians.
+    pub mid_heading: f32,
+}
+
+impl Arc {
+    /// The arc from `pose` at wheel speeds `left`, `right`.
+    #[inline]
+    pub fn of(pose: &Pose, left: f32, right: f32, config: &RobotConfig) -> Arc {
+        let linear = 0.5 * (left + right);
+        let angular = (right - left) / config.wheel_base;
+        let turn = angular * config.cycle_seconds;
+        let half_turn = 0.5 * turn;
+        Arc {
+            linear,
+            angular,
+            turn,
+            straight_chord: linear * config.cycle_seconds,
+            half_turn,
+            mid_heading: pose.heading + half_turn,
+        }
     }
-    Pose {
-        x: pose.x + chord * cos_mid,
-        y: pose.y + chord * sin_mid,
-        heading,
+
+    /// The pose at the arc's end, given `sin(half_turn)` and `(sin, cos)(mid_heading)`.
+    #[inline]
+    pub fn end_pose(&self, pose: &Pose, sin_half_turn: f32, mid: (f32, f32)) -> Pose {
+        let (sin_mid, cos_mid) = mid;
+        // The chord of the arc: its length is 2 v/w sin(w dt / 2), along the mid-arc heading.
+        let chord = if self.turn.abs() < 1e-6 {
+            self.straight_chord
+        } else {
+            2.0 * self.linear / self.angular * sin_half_turn
+        };
+        let mut heading = pose.heading + self.turn;
+        // Keep the heading in (-pi, pi] so traces stay readable over long runs.
+        if heading > std::f32::consts::PI {
+            heading -= std::f32::consts::TAU;
+        } else if heading <= -std::f32::consts::PI {
+            heading += std::f32::consts::TAU;
+        }
+        Pose {
+            x: pose.x + chord * cos_mid,
+            y: pose.y + chord * sin_mid,
+            heading,
+        }
     }
 }
 

@@ -193,6 +193,8 @@ struct Grid {
     origin: [f32; 2],
     nx: usize,
     ny: usize,
+    /// `nx` and `ny` as floats, for the lookup's range test.
+    extent: [f32; 2],
     margin: f32,
 }
 
@@ -208,10 +210,13 @@ impl Grid {
         if solids.is_empty() {
             (min, max) = ([0.0; 2], [0.0; 2]);
         }
+        let nx = (((max[0] - min[0]) / GRID_CELL).ceil() as usize).max(1);
+        let ny = (((max[1] - min[1]) / GRID_CELL).ceil() as usize).max(1);
         Grid {
             origin: min,
-            nx: (((max[0] - min[0]) / GRID_CELL).ceil() as usize).max(1),
-            ny: (((max[1] - min[1]) / GRID_CELL).ceil() as usize).max(1),
+            nx,
+            ny,
+            extent: [nx as f32, ny as f32],
             margin,
         }
     }
@@ -322,10 +327,14 @@ impl Scene {
         let grid = &self.grid;
         let fx = (point[0] - grid.origin[0]) * CELLS_PER_METRE;
         let fy = (point[1] - grid.origin[1]) * CELLS_PER_METRE;
-        if fx < 0.0 || fy < 0.0 || fx >= grid.nx as f32 || fy >= grid.ny as f32 {
+        // Outside the grid (or not a number): every solid.
+        if !(fx >= 0.0 && fy >= 0.0 && fx < grid.extent[0] && fy < grid.extent[1]) {
             return &self.all_solids;
         }
-        let (start, end) = self.cell_ranges[fy as usize * grid.nx + fx as usize];
+        // Within the grid the cell indices fit a u32, whose conversion is cheaper than a
+        // usize's.
+        let (ix, iy) = (fx as u32 as usize, fy as u32 as usize);
+        let (start, end) = self.cell_ranges[iy * grid.nx + ix];
         &self.candidates[start as usize..end as usize]
     }
 
