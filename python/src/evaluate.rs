@@ -223,8 +223,7 @@ pub fn evaluate(
     }
     hevo_sim_core::Evaluator::new(task.clone())
         .map_err(|error| crate::ConfigError::new_err(crate::message(&error)))?;
-    task.scenario
-        .check_sensors(&template.root.groups_read())
+    hevo_sim_core::batch::controller_fits(&template, &task.scenario)
         .map_err(|problem| ControllerError::new_err(format!("the template {problem}")))?;
     let rows: Vec<Arc<[f32]>> = genomes
         .as_array()

@@ -314,8 +314,7 @@ pub fn trace(
             n_variants - 1
         )));
     }
-    task.scenario
-        .check_sensors(&file.root.groups_read())
+    hevo_sim_core::batch::controller_fits(&file, &task.scenario)
         .map_err(|problem| ControllerError::new_err(format!("the controller {problem}")))?;
     let mut network = Network::new(&file, None)
         .map_err(|error| ControllerError::new_err(crate::message(&error)))?;

@@ -3,10 +3,11 @@
 //! a list of samples shared by all genomes; the result is one outcome per (genome, sample).
 //! Built once per batch and shared by reference between the worker's threads.
 
-use crate::controller::{Controller, ControllerError, ControllerFile};
+use crate::controller::{Controller, ControllerError, ControllerFile, NodeKind};
 use crate::evaluate::{Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, TaskError};
 use crate::frame::SensorFrame;
 use crate::lockstep::LaneController;
+use crate::scenario::Scenario;
 use crate::task::TaskConfig;
 
 impl Policy for Controller {
@@ -46,14 +47,31 @@ pub enum BatchError {
     /// The controller template or a genome does not fit.
     #[error(transparent)]
     Controller(#[from] ControllerError),
-    /// The controller reads a sensor the scenario's robot lacks.
+    /// The controller does not fit the scenario ([`controller_fits`]).
     #[error("controller '{node}' {problem}")]
-    Sensors {
+    Mismatch {
         /// The root's name.
         node: String,
-        /// Which group, and what the robot has.
+        /// What does not fit.
         problem: String,
     },
+}
+
+/// Whether `controller` can be judged on `scenario`, checked before any evaluation: the robot
+/// carries every sensor its nodes read, and, where the scenario derives its fitness from the
+/// root's choices, the root (an arbitrator) has every child a phase asks for. Otherwise what
+/// does not fit, as words that follow "the controller": `reads 'light', a sensor ...`. (A
+/// primitive root makes no choices, and a derived fitness has nothing to count for it.)
+pub fn controller_fits(controller: &ControllerFile, scenario: &Scenario) -> Result<(), String> {
+    let root = &controller.root;
+    scenario.check_sensors(&root.groups_read())?;
+    if scenario.has_phases() && root.kind == NodeKind::Arbitrator {
+        let children: Vec<String> = root.children.iter().map(|c| c.name.clone()).collect();
+        scenario.phase_children(&children).map_err(|refusal| {
+            format!("lacks a child its scenario's derived fitness asks for: {refusal}")
+        })?;
+    }
+    Ok(())
 }
 
 /// Which evaluator runs a batch's samples. Both give bit-identical outcomes (a property test
@@ -83,12 +101,10 @@ impl BatchEvaluator {
     /// Validates the template and the task once.
     pub fn new(template: ControllerFile, task: TaskConfig) -> Result<BatchEvaluator, BatchError> {
         template.validate()?;
-        task.scenario
-            .check_sensors(&template.root.groups_read())
-            .map_err(|problem| BatchError::Sensors {
-                node: template.root.name.clone(),
-                problem,
-            })?;
+        controller_fits(&template, &task.scenario).map_err(|problem| BatchError::Mismatch {
+            node: template.root.name.clone(),
+            problem,
+        })?;
         let n_free_genes = template
             .free_node_topology()
             .map_or(0, |(_, topology)| topology.n_genes());

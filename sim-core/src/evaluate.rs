@@ -11,7 +11,7 @@ use crate::scenario::blocks::{
     self, CycleView, EndView, Motion, SenseView, Sensor, SensorRun, TeammateBehaviour,
     TeammateView, Tracked,
 };
-use crate::scenario::{Scenario, Trigger, ending_slot};
+use crate::scenario::{Scenario, ScenarioError, Trigger, ending_slot};
 use crate::scene::{Rect, Scene};
 use crate::task::{ConfigError, TaskConfig};
 use crate::trig;
@@ -215,8 +215,20 @@ impl Recorder for Vec<TraceCycle> {
 
 /// Errors in a task configuration.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("invalid task configuration: {0}")]
-pub struct TaskError(#[from] pub ConfigError);
+pub enum TaskError {
+    /// A number out of range, or an option where it does not apply.
+    #[error("invalid task configuration: {0}")]
+    Config(#[from] ConfigError),
+    /// The scenario's worlds, as the task builds them, break a rule of every world (a start
+    /// touching a solid): the file, key and line.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}
+
+/// Samples per variant whose worlds [`Evaluator::new`] builds to check their starts: a start
+/// that touches a solid is refused before any evaluation (every world's start, in the tests of
+/// the shipped and example scenarios).
+const START_CHECK_SEEDS: u64 = 8;
 
 /// Evaluates policies on samples of one task. Cheap to share between threads (`&Evaluator` is
 /// all a thread needs).
@@ -230,8 +242,17 @@ pub struct Evaluator {
 }
 
 impl Evaluator {
-    /// Validates the task and builds what all its samples share.
+    /// Validates the task and builds what all its samples share; refuses a scenario whose
+    /// robot starts touching a solid in the worlds of the first seeds ([`Evaluator::check_starts`]).
     pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
+        let evaluator = Evaluator::for_drawing(task)?;
+        evaluator.check_starts(START_CHECK_SEEDS)?;
+        Ok(evaluator)
+    }
+
+    /// [`Evaluator::new`] without the check of the starts: for drawing a world, the refused
+    /// ones included, to show what is wrong with them.
+    pub fn for_drawing(task: TaskConfig) -> Result<Evaluator, TaskError> {
         task.validate()?;
         let carried = task.scenario.sensors;
         let sensors = InputGroup::ALL.map(|group| {
@@ -245,6 +266,43 @@ impl Evaluator {
             task,
             sensors,
         })
+    }
+
+    /// Refuses a scenario whose robot starts touching a solid: it would collide in its first
+    /// cycle, every sample, and evolution would go on regardless. Checked on the worlds of
+    /// seeds `0..seeds` of every variant, as the task (with its overrides) builds them.
+    pub fn check_starts(&self, seeds: u64) -> Result<(), ScenarioError> {
+        let scenario = &self.task.scenario;
+        let radius = self.task.robot.radius;
+        for variant in 0..scenario.n_variants() {
+            for seed in 0..seeds {
+                let sample = Sample {
+                    seed,
+                    variant: (scenario.n_variants() > 1).then_some(variant),
+                };
+                let env = self.environment(sample);
+                if env.scene.disc_hits(env.start.position(), radius) {
+                    let start = env.start;
+                    let path = match &scenario.place.at {
+                        crate::scenario::PlaceAt::VariantStart if scenario.n_variants() > 1 => {
+                            format!("variant[{variant}].start")
+                        }
+                        _ => "place".to_string(),
+                    };
+                    return Err(scenario.refusal(
+                        &path,
+                        format!(
+                            "the robot starts touching a solid: at ({:.3}, {:.3}) m in variant \
+                             {variant}, seed {seed}, a robot of radius {radius} m overlaps a \
+                             wall or obstacle (`hevo scenario draw --variant {variant} --seed \
+                             {seed}` shows it)",
+                            start.x, start.y
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The task.

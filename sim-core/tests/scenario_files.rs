@@ -307,6 +307,131 @@ fn references_to_missing_things_are_named() {
 }
 
 #[test]
+fn a_controller_lacking_a_child_a_phase_asks_for_is_refused() {
+    use hevo_sim_core::batch::{BatchEvaluator, controller_fits};
+    use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+    use hevo_sim_core::frame::InputGroup;
+    let rescue = TaskConfig::shipped("rescue").unwrap();
+    let leaf = |name: &str| {
+        let spec = NodeSpec::primitive(name, vec![InputGroup::IR], 2);
+        let genes = vec![0.5; spec.topology().n_genes()];
+        spec.with_genome(genes)
+    };
+    let top = |children: [&str; 3]| {
+        ControllerFile::new(NodeSpec::arbitrator(
+            "rescue",
+            vec![InputGroup::IR],
+            2,
+            children.map(leaf).to_vec(),
+        ))
+    };
+    BatchEvaluator::new(
+        top(["exit_room", "solve_maze", "return_room"]),
+        rescue.clone(),
+    )
+    .expect("the children the phases ask for");
+    let error = BatchEvaluator::new(top(["exit_room", "maze", "return_room"]), rescue.clone())
+        .expect_err("refused")
+        .to_string();
+    let line = SHIPPED
+        .iter()
+        .find(|(name, _)| *name == "rescue")
+        .map(|(_, text)| {
+            text.lines()
+                .position(|l| l == "child = \"solve_maze\"")
+                .unwrap()
+                + 1
+        })
+        .unwrap();
+    assert_eq!(
+        error,
+        format!(
+            "controller 'rescue' lacks a child its scenario's derived fitness asks for: \
+             scenarios/rescue.toml:{line}: at `phase[1].child`: phase 'solve maze' asks for the \
+             child 'solve_maze', the arbitrator's children are exit_room, maze, return_room"
+        )
+    );
+    // A primitive makes no choices: nothing for the phases to count, nothing to refuse.
+    let single = ControllerFile::new(leaf("single"));
+    assert_eq!(single.root.kind, NodeKind::Primitive);
+    assert_eq!(controller_fits(&single, &rescue.scenario), Ok(()));
+}
+
+#[test]
+fn empty_regions_and_lights_that_never_flash_are_refused_with_their_lines() {
+    let empty_rect = edit_refusal(
+        T_MAZE,
+        "[place]",
+        "[regions]\nbay = { rect = [0.5, 0.0, 0.5, 1.0] }\n\n[place]",
+    );
+    let line = T_MAZE.lines().position(|l| l == "[place]").unwrap() + 2;
+    assert_eq!(
+        empty_rect,
+        format!(
+            "mine.toml:{line}: at `regions.bay.rect`: must be [x0, y0, x1, y1] with x0 < x1 \
+             and y0 < y1: an empty region"
+        )
+    );
+    // The second variant flashes the left light too: the right one is never seen.
+    let never = T_MAZE.replacen("flash = [\"right\"]", "flash = [\"left\"]", 1);
+    let error = refusal(&never);
+    assert!(
+        error.starts_with("mine.toml:")
+            && error.ends_with("at `light[1]`: 'right' flashes in no variant"),
+        "{error}"
+    );
+}
+
+/// The example T-maze with its start moved 0.2 m back from the stem's first cell, into the wall
+/// below it.
+fn t_maze_starting_in_the_wall() -> String {
+    T_MAZE.replacen("[place]\n", "[place]\nahead_m = -0.2\n", 1)
+}
+
+#[test]
+fn a_start_touching_a_solid_is_refused_before_any_evaluation() {
+    use hevo_sim_core::batch::BatchEvaluator;
+    use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+    use hevo_sim_core::frame::InputGroup;
+    let text = t_maze_starting_in_the_wall();
+    // It compiles: only building its worlds shows the start in the wall.
+    let scenario = Arc::new(Scenario::parse(&text, "mine.toml").expect("it compiles"));
+    let task = TaskConfig::from_scenario(scenario);
+    let error = Evaluator::new(task.clone())
+        .expect_err("refused")
+        .to_string();
+    let line = text.lines().position(|l| l == "[place]").unwrap() + 1;
+    assert!(
+        error.starts_with(&format!(
+            "mine.toml:{line}: at `place`: the robot starts touching a solid: at (0."
+        )),
+        "{error}"
+    );
+    assert!(error.contains("in variant 0, seed 0"), "{error}");
+    // Every evaluation path makes an evaluator first, the batch evaluator included.
+    let spec = NodeSpec::primitive("still", vec![InputGroup::IR], 2);
+    let genes = vec![0.0; spec.topology().n_genes()];
+    let controller = ControllerFile::new(spec.with_genome(genes));
+    let batch_error = BatchEvaluator::new(controller, task.clone())
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        batch_error.contains("at `place`: the robot starts touching a solid"),
+        "{batch_error}"
+    );
+    // The refused world can still be drawn, to see what is wrong.
+    let env = Evaluator::for_drawing(task)
+        .expect("a world to draw")
+        .environment(Sample::seeded(0));
+    assert!(env.scene.disc_hits(env.start.position(), 0.0375));
+    // The example as shipped starts clear of every wall in the checked worlds and far more.
+    Evaluator::new(t_maze())
+        .expect("the example is valid")
+        .check_starts(200)
+        .expect("clear starts");
+}
+
+#[test]
 fn more_lights_than_a_cycle_can_mark_are_refused_and_the_most_compile() {
     let with_lights = |n_lights: usize| {
         let extra: String = (0..n_lights - 2)

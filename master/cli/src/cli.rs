@@ -435,10 +435,10 @@ pub fn execute(cli: Cli) -> Result<()> {
     }
 }
 
-/// Refuses a controller that reads a sensor the task's robot lacks (it would read zeros).
-fn check_sensors(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Result<()> {
-    task.scenario
-        .check_sensors(&controller.root.groups_read())
+/// Refuses a controller that reads a sensor the task's robot lacks (it would read zeros), or
+/// lacks a child a phase of the task's derived fitness asks for (it would score by position).
+fn check_fits(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Result<()> {
+    hevo_sim_core::batch::controller_fits(controller, &task.scenario)
         .map_err(|problem| anyhow::anyhow!("{}: the controller {problem}", path.display()))
 }
 
@@ -611,7 +611,7 @@ fn human_duration(seconds: f64) -> String {
 fn eval(args: EvalArgs) -> Result<()> {
     let task = args.task.task_config()?;
     let controller = load_controller(&args.controller)?;
-    check_sensors(&args.controller, &controller, &task)?;
+    check_fits(&args.controller, &controller, &task)?;
     if let Some(warning) = other_task_warning(&args.controller, &controller, &task) {
         eprintln!("{warning}");
     }
@@ -743,7 +743,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let task_name = task.name().to_string();
     let n_variants = task.scenario.n_variants();
     let file = load_controller(&args.controller)?;
-    check_sensors(&args.controller, &file, &task)?;
+    check_fits(&args.controller, &file, &task)?;
     if let Some(warning) = other_task_warning(&args.controller, &file, &task) {
         eprintln!("{warning}");
     }

@@ -1,14 +1,15 @@
 //! `hevo scenario`: check a scenario file and draw its world before evolving anything on it.
 //! `check` compiles the file (every error names the file, the key and the line), builds a few
-//! samples of every variant and refuses a world whose robot starts inside a wall; `draw` writes
-//! one sample's world, start and goal as an SVG picture.
+//! samples of every variant and refuses a world whose robot starts inside a wall, as every
+//! evaluator does; `draw` writes one sample's world, start and goal as an SVG picture, a
+//! refused world's too.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use hevo_sim_core::ctrnn::CtrnnTopology;
 use hevo_sim_core::frame::{InputGroup, SensorFrame};
 use hevo_sim_core::scenario::Scenario;
-use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
+use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -62,10 +63,7 @@ pub fn scenario(args: ScenarioArgs) -> Result<()> {
         ScenarioCommand::Check(args) => {
             for file in &args.files {
                 let task = load(file)?;
-                crate::outln!(
-                    "{}",
-                    check(&task, args.samples).with_context(|| file.clone())?
-                );
+                crate::outln!("{}", check(&task, args.samples)?);
             }
             Ok(())
         }
@@ -104,32 +102,20 @@ impl Policy for Still {
     }
 }
 
-/// The first cycle of a sample, traced.
+/// The first cycle of a sample, traced; of any world, a refused one too, to draw it.
 fn first_cycle(task: &TaskConfig, sample: Sample) -> Result<hevo_sim_core::Trace> {
     let mut one_cycle = task.clone();
     one_cycle.max_cycles = Some(1);
-    let evaluator = Evaluator::new(one_cycle)?;
+    let evaluator = Evaluator::for_drawing(one_cycle)?;
     Ok(evaluator.evaluate_traced(&mut Still, sample))
 }
 
-/// What the scenario holds, after building `samples` samples of each variant.
+/// What the scenario holds, after building `samples` samples of each variant: the
+/// evaluator's own refusals (every error names the file, the key and the line), with the
+/// starts checked on that many worlds.
 fn check(task: &TaskConfig, samples: u32) -> Result<String> {
     let scenario = &task.scenario;
-    for variant in 0..scenario.n_variants() {
-        for seed in 0..u64::from(samples) {
-            let sample = Sample {
-                seed,
-                variant: (scenario.n_variants() > 1).then_some(variant),
-            };
-            let trace = first_cycle(task, sample)?;
-            if trace.outcome.ending == Ending::Collision {
-                bail!(
-                    "the robot starts touching a wall (variant {variant}, seed {seed}): \
-                     `hevo scenario draw` shows it"
-                );
-            }
-        }
-    }
+    Evaluator::new(task.clone())?.check_starts(u64::from(samples))?;
     let (low, high) = task.fitness_range();
     let mut text = format!(
         "{}: ok ({} variant(s), {} samples each built)\n  max cycles {}, fitness in [{low}, {high}]",
@@ -257,7 +243,7 @@ fn draw(args: &DrawArgs) -> Result<()> {
         ..hevo_viz::ReplayOptions::default()
     };
     // The regions of the very world the trace ran in: the same sample, so the same draws.
-    let env = Evaluator::new(task.clone())?.environment(sample);
+    let env = Evaluator::for_drawing(task.clone())?.environment(sample);
     let regions = hevo_sim_core::env::regions::named_regions(&task, &env);
     let svg = hevo_viz::scenario_svg(&trace, &options, &regions);
     hevo_engine::store::write_atomic(&args.out, svg.as_bytes())

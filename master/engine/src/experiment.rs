@@ -3,10 +3,10 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
-use hevo_sim_core::TaskConfig;
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::{InputGroup, SensorSet};
 use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::{Evaluator, TaskConfig};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -672,10 +672,13 @@ impl Experiment {
                 }
                 scenario
                     .phase_children(&children)
-                    .map_err(|message| invalid(at("children"), message))?;
+                    .map_err(|refusal| invalid(at("children"), refusal.to_string()))?;
             }
             let task = task_config(scenario.clone(), node)
                 .map_err(|(key, message)| invalid(at(&key), message))?;
+            // What an evaluator refuses (a start touching a solid) is refused here, before
+            // anything runs, naming the scenario file's key as well as the node.
+            Evaluator::new(task.clone()).map_err(|error| invalid(at("task"), error.to_string()))?;
             let per_generation = u64::from(evolution.population) * u64::from(node.samples);
             let post_evaluation =
                 u64::from(evolution.post_evaluation_samples) * u64::from(scenario.n_variants());
@@ -1052,12 +1055,16 @@ pub fn with_task_overrides(
         }
     }
     merge(&mut value, overrides);
-    let task: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
+    let mut overridden: TaskConfig = serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         // serde_path_to_error names the root `.`; the caller prefixes its own key.
         let path = if path == "." { String::new() } else { path };
         (path, one_line(&e.inner().to_string()))
     })?;
+    // The overrides cannot touch the scenario (refused above), so the one compiled from the
+    // same text is the task's own, which knows the file it came from for later refusals.
+    overridden.scenario = task.scenario;
+    let task = overridden;
     task.validate()
         .map_err(|error| (error.key.clone(), error.message))?;
     Ok(task)
@@ -1300,6 +1307,62 @@ runs = 1
         let err = experiment(r#"["ir"]"#, r#"["ir", "near_robot"]"#).unwrap_err();
         assert!(
             err.contains("node[0].children[0]") && err.contains("the child reads 'near_robot'"),
+            "{err}"
+        );
+    }
+
+    /// An experiment over the example room-to-yard scenario, whose phases ask for the
+    /// children `exit_room` and `cross_yard`, with the arbitrator's children named `children`.
+    fn room_to_yard(children: &str) -> Result<Experiment, String> {
+        let scenario = include_str!("../../../scenarios/examples/room_to_yard.toml").to_string();
+        let files: BTreeMap<String, String> = [("yard.toml".to_string(), scenario)].into();
+        let leaf = |name: &str| {
+            format!(
+                "[[node]]\nname = \"{name}\"\nkind = \"primitive\"\ninputs = [\"ir\"]\nhidden = 3\n\
+                 task = \"follow_wall\"\nsamples = 2\ngenerations = 1\nruns = 1\n"
+            )
+        };
+        let text = format!(
+            "[experiment]\nname = \"yard\"\n\n[[node]]\nname = \"top\"\nkind = \"arbitrator\"\n\
+             inputs = [\"ir\", \"light\"]\nhidden = 3\nchildren = {children}\ntask = \"yard.toml\"\n\
+             samples = 2\ngenerations = 1\nruns = 1\n\n{}\n{}\n{}",
+            leaf("exit_room"),
+            leaf("cross_yard"),
+            leaf("cross_the_yard"),
+        );
+        Experiment::parse_with(&text, Path::new("x.toml"), &files).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_phase_asking_for_a_child_the_arbitrator_lacks_is_refused_at_both_keys() {
+        room_to_yard(r#"["exit_room", "cross_yard"]"#).expect("the phases' children");
+        let err = room_to_yard(r#"["exit_room", "cross_the_yard"]"#).unwrap_err();
+        assert!(
+            err.starts_with("x.toml: at `node[0].children`: yard.toml:")
+                && err.contains(": at `phase[1].child`: phase 'cross the yard' asks for the child 'cross_yard', the arbitrator's children are exit_room, cross_the_yard"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_start_touching_a_solid_is_refused_when_the_experiment_loads() {
+        // The example T-maze with its start moved 0.2 m back, into the wall below the stem.
+        let in_the_wall = include_str!("../../../scenarios/examples/t_maze.toml").replacen(
+            "[place]\n",
+            "[place]\nahead_m = -0.2\n",
+            1,
+        );
+        let files: BTreeMap<String, String> = [("mine.toml".to_string(), in_the_wall)].into();
+        let text = "[experiment]\nname = \"wall\"\n\n[[node]]\nname = \"t\"\nkind = \"primitive\"\n\
+                    inputs = [\"ir\", \"light\"]\nhidden = 3\ntask = \"mine.toml\"\nsamples = 2\n\
+                    generations = 1\nruns = 1\n";
+        let err = Experiment::parse_with(text, Path::new("x.toml"), &files)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("x.toml: at `node[0].task`: mine.toml:")
+                && err.contains(": at `place`: the robot starts touching a solid"),
             "{err}"
         );
     }

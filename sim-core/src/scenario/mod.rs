@@ -234,6 +234,9 @@ pub struct Scenario {
     pub file: ScenarioFile,
     /// The text it was parsed from: what travels to workers and what its hash covers.
     pub source: String,
+    /// Where the text came from (a path, or `scenarios/NAME.toml` for a shipped one), for
+    /// refusals found after it compiled.
+    pub origin: String,
     /// The input groups the robot's sensors give.
     pub sensors: SensorSet,
     /// How the world is made, a registered world ([`blocks::WORLDS`]).
@@ -350,6 +353,17 @@ impl Scenario {
         }
     }
 
+    /// A refusal of this file at key path `path`, found after it compiled (when a task or a
+    /// controller meets it): the file, the key's line and the problem, as a parse error gives.
+    pub fn refusal(&self, path: &str, message: String) -> ScenarioError {
+        ScenarioError {
+            origin: self.origin.clone(),
+            path: path.to_string(),
+            line: line_of_path(&self.source, path),
+            message,
+        }
+    }
+
     /// Its name.
     pub fn name(&self) -> &str {
         &self.file.name
@@ -410,24 +424,33 @@ impl Scenario {
         fnv1a_hex(self.source.as_bytes())
     }
 
-    /// Resolves each phase's child to an output index of an arbitrator with these children.
-    pub fn phase_children(&self, children: &[String]) -> Result<Vec<usize>, String> {
+    /// Resolves each phase's child to an output index of an arbitrator with these children;
+    /// a phase asking for a child the arbitrator lacks is refused at its `phase[i].child`.
+    pub fn phase_children(&self, children: &[String]) -> Result<Vec<usize>, ScenarioError> {
         self.phases
             .iter()
-            .map(|phase| match &phase.child {
-                ChildRef::Index(idx) if *idx < children.len() => Ok(*idx),
-                ChildRef::Index(idx) => Err(format!(
-                    "phase '{}' asks for child {idx}, the arbitrator has {}",
-                    phase.name,
-                    children.len()
-                )),
-                ChildRef::Name(name) => children.iter().position(|c| c == name).ok_or_else(|| {
-                    format!(
-                        "phase '{}' asks for the child '{name}', the arbitrator's children are {}",
+            .enumerate()
+            .map(|(phase_idx, phase)| {
+                let refuse =
+                    |message: String| self.refusal(&format!("phase[{phase_idx}].child"), message);
+                match &phase.child {
+                    ChildRef::Index(idx) if *idx < children.len() => Ok(*idx),
+                    ChildRef::Index(idx) => Err(refuse(format!(
+                        "phase '{}' asks for child {idx}, the arbitrator has {}",
                         phase.name,
-                        children.join(", ")
-                    )
-                }),
+                        children.len()
+                    ))),
+                    ChildRef::Name(name) => {
+                        children.iter().position(|c| c == name).ok_or_else(|| {
+                            refuse(format!(
+                                "phase '{}' asks for the child '{name}', the arbitrator's \
+                                 children are {}",
+                                phase.name,
+                                children.join(", ")
+                            ))
+                        })
+                    }
+                }
             })
             .collect()
     }
@@ -1094,6 +1117,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     Ok(Scenario {
         source: text.to_string(),
+        origin: origin.to_string(),
         sensors,
         world,
         map,
