@@ -125,7 +125,7 @@ pub fn kinematic_step(pose: Pose, left: f32, right: f32, config: &RobotConfig) -
 
 /// One control cycle's arc, up to its sines: what [`kinematic_step`] computes before it needs
 /// the sine of half the turn and the sine and cosine of the mid-arc heading. The lockstep
-/// evaluator takes those of all its samples at once ([`trig::sin_cos_lanes`]).
+/// evaluator takes those of all its samples at once (the eight-lane sine in `trig.rs`).
 #[derive(Debug, Clone, Copy)]
 pub struct Arc {
     linear: f32,
