@@ -315,19 +315,31 @@ mod tests {
     use crate::controller::NodeSpec;
     use crate::frame::InputGroup;
 
-    /// A two-level tree whose root sees every input group, so one template fits every task.
-    fn template() -> ControllerFile {
+    /// A two-level tree whose root sees every input group, over the children the task's
+    /// phases ask for (two others when it has none), so it fits every task.
+    fn template(task: &TaskConfig) -> ControllerFile {
         let inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
         let child = |name: &str| {
             let spec = NodeSpec::primitive(name, vec![InputGroup::IR], 2);
             let n = spec.topology().n_genes();
             spec.with_genome((0..n).map(|i| (i % 7) as f32 - 3.0).collect())
         };
+        let mut names: Vec<String> = Vec::new();
+        for phase in &task.scenario.phases {
+            if let crate::scenario::file::ChildRef::Name(name) = &phase.child
+                && !names.contains(name)
+            {
+                names.push(name.clone());
+            }
+        }
+        if names.is_empty() {
+            names = vec!["a".into(), "b".into()];
+        }
         ControllerFile::new(NodeSpec::arbitrator(
             "root",
             inputs,
             3,
-            vec![child("a"), child("b")],
+            names.iter().map(|name| child(name)).collect(),
         ))
     }
 
@@ -337,8 +349,8 @@ mod tests {
     fn every_real_summary_passes_its_check() {
         for name in crate::scenario::Scenario::shipped_names() {
             let task = TaskConfig::shipped(name).unwrap();
-            let evaluator = BatchEvaluator::new(template(), task.clone()).unwrap();
-            let n_nodes = template().node_paths().len();
+            let evaluator = BatchEvaluator::new(template(&task), task.clone()).unwrap();
+            let n_nodes = template(&task).node_paths().len();
             let n_genes = evaluator.n_free_genes();
             for genome_idx in 0..4u32 {
                 let genes: Vec<f32> = (0..n_genes)
