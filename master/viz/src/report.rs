@@ -619,6 +619,83 @@ fn other_tasks_section(nodes: &[NodeResult]) -> String {
             md.push_str(&variant_row(node, run, names.len()));
         }
     }
+    md.push_str(&stage_and_phase_tables(&others));
+    md
+}
+
+/// Per task of `nodes` whose scenario has stages or a derived fitness, a table of each run's
+/// share of samples that reached each stage, and one of the share of each phase's cycles in
+/// which the arbitrator chose the phase's child (the terms of the derived fitness), under the
+/// scenario's names for them.
+fn stage_and_phase_tables(nodes: &[&NodeResult]) -> String {
+    let mut md = String::new();
+    let rows: Vec<(&NodeResult, &RunSummary)> = nodes
+        .iter()
+        .flat_map(|node| node.runs.iter().map(move |run| (*node, run)))
+        .collect();
+    let mut tasks: Vec<&str> = rows
+        .iter()
+        .map(|(_, run)| run.post_evaluation.task.as_str())
+        .collect();
+    tasks.sort_unstable();
+    tasks.dedup();
+    for task in tasks {
+        let of_task = || {
+            rows.iter()
+                .filter(move |(_, run)| run.post_evaluation.task == task)
+        };
+        type Cells = fn(&RunSummary) -> Vec<(String, String)>;
+        let tables: [(&str, Cells); 2] = [
+            ("the share of samples that reached each stage", |run| {
+                run.post_evaluation
+                    .per_stage
+                    .iter()
+                    .map(|s| (s.stage.clone(), percent(s.share)))
+                    .collect()
+            }),
+            (
+                "the share of each phase's cycles in which the arbitrator chose the phase's child \
+                 (the terms of the derived fitness; - where no sample reached the phase)",
+                |run| {
+                    run.post_evaluation
+                        .per_phase
+                        .iter()
+                        .map(|p| (p.phase.clone(), percent_or_dash(p.right_choice)))
+                        .collect()
+                },
+            ),
+        ];
+        for (what, cells) in tables {
+            let Some(names) = of_task()
+                .map(|(_, run)| cells(run))
+                .find(|cells| !cells.is_empty())
+                .map(|cells| cells.into_iter().map(|(name, _)| name).collect::<Vec<_>>())
+            else {
+                continue;
+            };
+            let _ = writeln!(
+                md,
+                "\nIn `{task}`, per run, {what}:\n\n| controller | run | solved | {} |\n|---|---|---|{}",
+                names.join(" | "),
+                "---|".repeat(names.len())
+            );
+            for (node, run) in of_task() {
+                let values = cells(run);
+                if values.is_empty() {
+                    continue;
+                }
+                let values: Vec<String> = values.into_iter().map(|(_, value)| value).collect();
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {} | {} |",
+                    node.name,
+                    run.run,
+                    percent(run.post_evaluation.solve_rate),
+                    values.join(" | ")
+                );
+            }
+        }
+    }
     md
 }
 
@@ -1238,6 +1315,62 @@ mod tests {
         // Run 0 has no per-configuration rates (a task without variants): no row.
         assert!(!table.contains("| maze_single | 0 |"), "{table}");
         assert_eq!(variant_table([&node("follow_wall", "main", 2)]), "");
+    }
+
+    #[test]
+    fn the_stage_and_phase_tables_show_each_runs_shares_under_the_scenarios_names() {
+        use hevo_engine::post_evaluation::{PhaseShare, StageShare};
+        let mut arena = node("forage", "main", 2);
+        for (run_idx, run) in arena.runs.iter_mut().enumerate() {
+            run.run = run_idx as u32;
+            run.post_evaluation.task = "forage".into();
+        }
+        let evaluation = &mut arena.runs[1].post_evaluation;
+        evaluation.solve_rate = 0.5;
+        evaluation.per_stage = vec![
+            StageShare {
+                stage: "left_room".into(),
+                share: 0.9,
+            },
+            StageShare {
+                stage: "solved".into(),
+                share: 0.5,
+            },
+        ];
+        evaluation.per_phase = vec![
+            PhaseShare {
+                phase: "in_room".into(),
+                right_choice: Some(0.75),
+            },
+            PhaseShare {
+                phase: "outside".into(),
+                right_choice: None,
+            },
+        ];
+        let tables = stage_and_phase_tables(&[&arena]);
+        assert!(
+            tables.contains("| controller | run | solved | left_room | solved |"),
+            "{tables}"
+        );
+        assert!(
+            tables.contains("| forage | 1 | 50.0% | 90.0% | 50.0% |"),
+            "{tables}"
+        );
+        assert!(
+            tables.contains("| controller | run | solved | in_room | outside |"),
+            "{tables}"
+        );
+        assert!(
+            tables.contains("| forage | 1 | 50.0% | 75.0% | - |"),
+            "{tables}"
+        );
+        // Run 0 reported neither (written before hevo counted them): no row.
+        assert!(!tables.contains("| forage | 0 |"), "{tables}");
+        // No scenario with stages or phases: nothing at all.
+        assert_eq!(
+            stage_and_phase_tables(&[&node("follow_wall", "main", 2)]),
+            ""
+        );
     }
 
     #[test]
