@@ -72,7 +72,7 @@ pub enum Ending {
     Solved,
     /// The robot touched a wall or obstacle and the task ends on collisions.
     Collision,
-    /// The robot entered a branch off the correct path.
+    /// The robot entered a branch off the correct path, or a region the scenario forbids.
     WrongBranch,
     /// The cycle limit ran out.
     Timeout,
@@ -268,9 +268,10 @@ impl Evaluator {
         })
     }
 
-    /// Refuses a scenario whose robot starts touching a solid: it would collide in its first
-    /// cycle, every sample, and evolution would go on regardless. Checked on the worlds of
-    /// seeds `0..seeds` of every variant, as the task (with its overrides) builds them.
+    /// Refuses a scenario whose robot starts touching a solid or in a region it forbids: it
+    /// would end in its first cycle, every sample, and evolution would go on regardless.
+    /// Checked on the worlds of seeds `0..seeds` of every variant, as the task (with its
+    /// overrides) builds them.
     pub fn check_starts(&self, seeds: u64) -> Result<(), ScenarioError> {
         let scenario = &self.task.scenario;
         let radius = self.task.robot.radius;
@@ -299,6 +300,27 @@ impl Evaluator {
                             start.x, start.y
                         ),
                     ));
+                }
+                if let Some(forbidden) = &scenario.forbidden {
+                    let view = CycleView {
+                        robot: &env.start,
+                        teammate: env
+                            .teammate
+                            .map(|(pose, following)| TeammateView { pose, following }),
+                        ground: &env.ground,
+                        scenario,
+                        task: &self.task,
+                    };
+                    if forbidden.holds(&view) {
+                        return Err(scenario.refusal(
+                            "end.forbidden",
+                            format!(
+                                "the robot starts where the scenario forbids it to go: at \
+                                 ({:.3}, {:.3}) m in variant {variant}, seed {seed}",
+                                env.start.x, env.start.y
+                            ),
+                        ));
+                    }
                 }
             }
         }
@@ -864,7 +886,7 @@ impl<'a> Judge<'a> {
     }
 
     /// After a cycle's move: the quantities observe, stages are reached, and the sample ends
-    /// if it took a wrong branch or is solved.
+    /// if it took a wrong branch, entered a forbidden region, or is solved.
     #[inline]
     fn check(&mut self, robot: &Pose, teammate: Option<TeammateView>) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
@@ -890,6 +912,11 @@ impl<'a> Judge<'a> {
             && !goal.on_path[cell]
             && (!task.wrong_branch_at_end_only
                 || goal.reached_wrong_end(robot.position(), task.robot.radius))
+        {
+            return Some(Ending::WrongBranch);
+        }
+        if let Some(forbidden) = &scenario.forbidden
+            && forbidden.holds(&view)
         {
             return Some(Ending::WrongBranch);
         }

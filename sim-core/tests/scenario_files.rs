@@ -431,6 +431,63 @@ fn a_start_touching_a_solid_is_refused_before_any_evaluation() {
         .expect("clear starts");
 }
 
+/// The example T-maze with a forbidden region `pit`, the rectangle `rect` (metres).
+fn t_maze_with_a_pit(rect: &str) -> String {
+    format!(
+        "{}\n[regions]\npit = {{ rect = {rect} }}\n",
+        T_MAZE.replacen("[end]\n", "[end]\nforbidden = \"in pit\"\n", 1)
+    )
+}
+
+#[test]
+fn entering_a_forbidden_region_ends_the_sample_as_a_wrong_branch() {
+    // A pit over the stem's third cell: the robot driving straight up falls in before it
+    // reaches the junction's wall.
+    let text = t_maze_with_a_pit("[-0.15, 0.45, 0.15, 0.75]");
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "mine.toml").unwrap()));
+    let with_pit = Evaluator::new(task).unwrap();
+    let without = Evaluator::new(t_maze()).unwrap();
+    for variant in 0..2 {
+        let sample = Sample {
+            seed: 3,
+            variant: Some(variant),
+        };
+        let fallen = with_pit.evaluate(&mut StraightOn, sample);
+        let crashed = without.evaluate(&mut StraightOn, sample);
+        assert_eq!(fallen.ending, Ending::WrongBranch, "variant {variant}");
+        assert_eq!(crashed.ending, Ending::Collision, "variant {variant}");
+        assert!(fallen.cycles < crashed.cycles, "{fallen:?} {crashed:?}");
+        // The wrong branch's formula, a third of the progress, with less progress made.
+        assert!(
+            fallen.fitness > 0.0 && fallen.fitness < crashed.fitness,
+            "{fallen:?} {crashed:?}"
+        );
+        let trace = with_pit.evaluate_traced(&mut StraightOn, sample);
+        let last = trace.final_robot;
+        assert!(last.y > 0.45 && last.y < 0.75, "ends in the pit: {last:?}");
+    }
+}
+
+#[test]
+fn a_forbidden_region_that_is_unknown_or_holds_the_start_is_refused() {
+    let error = edit_refusal(T_MAZE, "[end]\n", "[end]\nforbidden = \"in kitchen\"\n");
+    assert!(error.contains("at `end.forbidden`"), "{error}");
+    assert!(error.contains("kitchen"), "{error}");
+    // A pit around the entrance, where every sample starts: it compiles, and every evaluator
+    // refuses it before evaluating anything.
+    let text = t_maze_with_a_pit("[-0.15, -0.15, 0.15, 0.15]");
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "mine.toml").unwrap()));
+    let error = Evaluator::new(task).expect_err("refused").to_string();
+    let line = text.lines().position(|l| l.starts_with("forbidden")).unwrap() + 1;
+    assert!(
+        error.starts_with(&format!(
+            "mine.toml:{line}: at `end.forbidden`: the robot starts where the scenario forbids \
+             it to go: at (0."
+        )),
+        "{error}"
+    );
+}
+
 #[test]
 fn more_lights_than_a_cycle_can_mark_are_refused_and_the_most_compile() {
     let with_lights = |n_lights: usize| {

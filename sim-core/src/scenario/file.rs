@@ -254,6 +254,10 @@ pub struct EndDecl {
     /// search on, and `end_on_wrong_branch = true` changes that).
     #[serde(default = "default_true")]
     pub wrong_branch_ends: bool,
+    /// A condition (`"in pit"`, `"in maze and not teammate met"`): when it holds after a
+    /// move, the robot has gone where it must not, and the sample ends as a wrong branch does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forbidden: Option<String>,
     /// For the `near NAME` atom: how close counts, metres.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub near_m: f32,

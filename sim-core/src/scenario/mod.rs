@@ -259,6 +259,8 @@ pub struct Scenario {
     pub wrong_branch: bool,
     /// Whether a wrong branch ends the sample by default.
     pub wrong_branch_ends: bool,
+    /// Where the robot must not go: the sample ends, as after a wrong branch, when it holds.
+    pub forbidden: Option<Condition>,
     /// `near` distance, metres.
     pub near_m: f32,
     /// Fitness when solved, after a wrong branch, a collision, a timeout.
@@ -1040,6 +1042,12 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         }
     };
 
+    let forbidden = end
+        .forbidden
+        .as_deref()
+        .map(|text| condition("end.forbidden", text))
+        .transpose()?;
+
     // Fitness.
     let f = &file.fitness;
     let mut quantities = Quantities::new();
@@ -1129,6 +1137,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         solved,
         wrong_branch,
         wrong_branch_ends: end.wrong_branch_ends,
+        forbidden,
         near_m: end.near_m,
         fitness,
         quantities,
