@@ -478,7 +478,11 @@ fn a_forbidden_region_that_is_unknown_or_holds_the_start_is_refused() {
     let text = t_maze_with_a_pit("[-0.15, -0.15, 0.15, 0.15]");
     let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "mine.toml").unwrap()));
     let error = Evaluator::new(task).expect_err("refused").to_string();
-    let line = text.lines().position(|l| l.starts_with("forbidden")).unwrap() + 1;
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("forbidden"))
+        .unwrap()
+        + 1;
     assert!(
         error.starts_with(&format!(
             "mine.toml:{line}: at `end.forbidden`: the robot starts where the scenario forbids \
@@ -486,6 +490,134 @@ fn a_forbidden_region_that_is_unknown_or_holds_the_start_is_refused() {
         )),
         "{error}"
     );
+}
+
+/// The example yard with the robot placed by `place` (the `[place]` table's keys) and a
+/// rectangle `middle` over the yard's lower rows and its middle obstacle.
+fn yard_placed(place: &str) -> String {
+    let yard = EXAMPLES
+        .iter()
+        .find(|(name, _)| *name == "cross_yard")
+        .unwrap()
+        .1;
+    let edited = yard.replace(
+        "[place]\nat = \"entrance\"\nfacing = \"up\"\n",
+        &format!("[place]\n{place}\n"),
+    );
+    assert_ne!(edited, yard);
+    format!("{edited}\n[regions]\nmiddle = {{ rect = [-0.9, -0.15, 0.9, 0.6] }}\n")
+}
+
+fn yard_evaluator(place: &str) -> Evaluator {
+    let text = yard_placed(place);
+    let scenario = Scenario::parse(&text, "mine.toml").expect("it compiles");
+    Evaluator::new(TaskConfig::from_scenario(Arc::new(scenario))).expect("clear starts")
+}
+
+#[test]
+fn a_start_anywhere_in_a_rectangle_is_uniform_clear_and_turned_as_asked() {
+    let evaluator =
+        yard_evaluator("at = \"middle\"\nfacing = \"up\"\nanywhere = true\nturn_deg = [-180, 180]");
+    let radius = evaluator.task().robot.radius;
+    let (mut xs, mut ys, mut headings) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..300 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let start = env.start;
+        assert!(
+            (-0.9..=0.9).contains(&start.x) && (-0.15..=0.6).contains(&start.y),
+            "seed {seed}: {start:?}"
+        );
+        assert!(
+            !env.scene.disc_hits(start.position(), radius),
+            "seed {seed}: {start:?}"
+        );
+        assert_eq!(evaluator.environment(Sample::seeded(seed)).start, start);
+        xs.push(start.x);
+        ys.push(start.y);
+        headings.push(start.heading);
+    }
+    let spread = |values: &[f32]| {
+        let (min, max) = values
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        max - min
+    };
+    // Over the whole rectangle, less a robot's radius or so at its walls.
+    assert!(
+        spread(&xs) > 1.5 && spread(&ys) > 0.5,
+        "{} {}",
+        spread(&xs),
+        spread(&ys)
+    );
+    assert!(spread(&headings) > 6.0, "{}", spread(&headings));
+    // Half of them on either side of the middle obstacle's column: uniform, not one spot.
+    let left = xs.iter().filter(|&&x| x < 0.0).count();
+    assert!((100..200).contains(&left), "{left} of 300 on the left");
+}
+
+#[test]
+fn a_start_anywhere_in_a_map_region_lands_in_each_of_its_cells_facing_within_its_turn() {
+    let evaluator = yard_evaluator(
+        "at = \"left_bay\"\nfacing = \"down\"\nanywhere = true\nturn_deg = [-30, 30]",
+    );
+    let task = evaluator.task().clone();
+    let map = task.scenario.map.as_ref().unwrap();
+    let bay = &map.regions["left_bay"];
+    assert_eq!(bay.len(), 2);
+    let mut in_cell = [0; 2];
+    for seed in 0..200 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let start = env.start;
+        let cell = map.map.cell_at(start.position()).expect("in a cell");
+        let idx = bay
+            .iter()
+            .position(|&c| c == cell)
+            .expect("a cell of the bay");
+        in_cell[idx] += 1;
+        assert!(!env.scene.disc_hits(start.position(), task.robot.radius));
+        let down = -std::f32::consts::FRAC_PI_2;
+        assert!(
+            (start.heading - down).abs() <= 30f32.to_radians() + 1e-6,
+            "{start:?}"
+        );
+    }
+    assert!(in_cell.iter().all(|&n| n > 50), "{in_cell:?}");
+}
+
+#[test]
+fn starts_anywhere_or_turned_that_cannot_be_are_refused_naming_the_key() {
+    for (place, key, says) in [
+        (
+            "at = \"middle\"\nfacing = \"path\"",
+            "place.facing",
+            "a fixed way",
+        ),
+        (
+            "at = \"middle\"\nfacing = \"up\"\nanywhere = true\nahead_m = 0.1",
+            "place.anywhere",
+            "ahead_m",
+        ),
+        (
+            "at = \"middle\"\nfacing = \"up\"\nturn_deg = [30, -30]",
+            "place.turn_deg",
+            "from <= to",
+        ),
+        ("at = \"kitchen\"\nfacing = \"up\"", "place.at", "[regions]"),
+    ] {
+        let error = refusal(&yard_placed(place));
+        assert!(error.contains(&format!("at `{key}`")), "{place}: {error}");
+        assert!(error.contains(says), "{place}: {error}");
+    }
+    let (_, exit_room) = SHIPPED
+        .iter()
+        .find(|(name, _)| *name == "exit_room")
+        .unwrap();
+    let text = exit_room
+        .replace("legacy", "# legacy")
+        .replace("name = \"exit_room\"", "name = \"mine\"")
+        .replacen("[place]\n", "[place]\nanywhere = true\n", 1);
+    let error = refusal(&text);
+    assert!(error.contains("at `place.anywhere`"), "{error}");
 }
 
 #[test]

@@ -2,8 +2,9 @@
 //! task's scenario and the sample's environment stream this builds the scene, the start pose,
 //! the teammate, the lights and the ground truth the task judges against (the goal's cells and
 //! path, the room's exit). The draws come in one order for every scenario: the variant (when
-//! there are several and the sample does not fix one), the world's generators, the start's
-//! jitter, the start's advance. Layouts that never change (a fixed map) are built once per
+//! there are several and the sample does not fix one), the world's generators, the start
+//! anywhere in its region, the start's turn, its jitter, its advance (each only when the
+//! scenario asks for it). Layouts that never change (a fixed map) are built once per
 //! evaluator and shared.
 
 pub mod cells;
@@ -135,6 +136,56 @@ impl Statics {
     }
 }
 
+/// How often a start anywhere in its region is drawn again for touching a solid before it
+/// falls back to the region's centre (which `Evaluator::check_starts` refuses if it touches).
+const ANYWHERE_TRIES: u32 = 64;
+
+/// A start drawn uniformly over the start region (a map region's cells, the variant's start
+/// region or a `[regions]` rectangle) where the robot's disc touches no wall or obstacle.
+fn draw_anywhere(
+    scenario: &Scenario,
+    variant_start: Option<&str>,
+    scene: &Scene,
+    cells: Option<&CellMap>,
+    task: &TaskConfig,
+    rng: &mut SimRng,
+) -> [f32; 2] {
+    let in_cells = |name: &str| {
+        let cells = cells.expect("map regions are in cell worlds");
+        let map = scenario.map.as_ref().expect("checked when compiled");
+        (cells, map.regions[name].as_slice())
+    };
+    let region = match &scenario.place.at {
+        PlaceAt::Rect(rect) => Err(*rect),
+        PlaceAt::Region(name) => Ok(in_cells(name)),
+        _ => Ok(in_cells(variant_start.expect("checked when compiled"))),
+    };
+    let mut draw = || match region {
+        Err([x0, y0, x1, y1]) => [rng.random_range(x0..=x1), rng.random_range(y0..=y1)],
+        Ok((cells, of_region)) => {
+            let center = cells.center(of_region[rng.random_range(0..of_region.len())]);
+            let half = cells.cell_size / 2.0;
+            [
+                center[0] + rng.random_range(-half..=half),
+                center[1] + rng.random_range(-half..=half),
+            ]
+        }
+    };
+    let fallback = match region {
+        Err(rect) => rect_centre(&rect),
+        Ok((cells, of_region)) => cells.center(of_region[0]),
+    };
+    (0..ANYWHERE_TRIES)
+        .map(|_| draw())
+        .find(|&at| !scene.disc_hits(at, task.robot.radius))
+        .unwrap_or(fallback)
+}
+
+/// The centre of a rectangle `[x0, y0, x1, y1]`.
+fn rect_centre(rect: &[f32; 4]) -> [f32; 2] {
+    [(rect[0] + rect[2]) / 2.0, (rect[1] + rect[3]) / 2.0]
+}
+
 /// The cell of a map region (its first cell).
 fn region_cell(scenario: &Scenario, region: &str) -> usize {
     scenario
@@ -170,9 +221,26 @@ pub fn build(
     let (scene, cells, room_made, corridor_path) =
         (built.scene, built.cells, built.room, built.corridor_path);
 
+    // Anywhere in the start region: drawn first, as the path starts from the cell drawn.
+    let place = &scenario.place;
+    let drawn = place.anywhere.then(|| {
+        draw_anywhere(
+            scenario,
+            plan.start.as_deref(),
+            &scene,
+            cells.as_deref(),
+            task,
+            rng,
+        )
+    });
+
     // The path from the start to the goal, in cells.
     let start_cell = |cells: &CellMap| -> Option<usize> {
+        if let Some(at) = drawn {
+            return cells.cell_at(at);
+        }
         match &scenario.place.at {
+            PlaceAt::Rect(rect) => cells.cell_at(rect_centre(rect)),
             PlaceAt::VariantStart => plan.start.as_deref().map(|r| region_cell(scenario, r)),
             PlaceAt::Region(region) => Some(region_cell(scenario, region)),
             PlaceAt::CorridorStart => corridor_path.as_ref().map(|p| p[0]),
@@ -197,40 +265,61 @@ pub fn build(
     };
 
     // The start.
-    let place = &scenario.place;
     let mut facing = (0.0f32, [0.0f32, 0.0]);
     let start = match &place.at {
         PlaceAt::RoomStart => room_made.as_ref().expect("a room world").start,
         _ => {
-            let cells = cells.as_ref().expect("cell starts are in cell worlds");
-            let from = match &path {
-                Some(path) => path[0],
-                None => start_cell(cells).expect("checked when compiled"),
+            let center = match (drawn, &place.at) {
+                (Some(at), _) => at,
+                (None, PlaceAt::Rect(rect)) => rect_centre(rect),
+                _ => {
+                    let cells = cells.as_ref().expect("cell starts are in cell worlds");
+                    let from = match &path {
+                        Some(path) => path[0],
+                        None => start_cell(cells).expect("checked when compiled"),
+                    };
+                    cells.center(from)
+                }
             };
-            let center = cells.center(from);
-            let heading = match place.facing.expect("checked when compiled") {
+            let mut heading = match place.facing.expect("checked when compiled") {
                 Facing::Heading(heading) => heading,
                 Facing::Path => {
-                    let next = path.as_ref().map_or(center, |p| cells.center(p[1]));
+                    let next = match (&cells, &path) {
+                        (Some(cells), Some(path)) => path.get(1).map(|&c| cells.center(c)),
+                        _ => None,
+                    };
+                    let next = next.unwrap_or(center);
                     (next[1] - center[1]).atan2(next[0] - center[0])
                 }
             };
+            // Drawn only when asked for, so tasks without a turn keep their draws.
+            if let Some([from, to]) = place.turn {
+                heading = (heading + rng.random_range(from..=to) + PI).rem_euclid(2.0 * PI) - PI;
+            }
             let dir = [heading.cos(), heading.sin()];
             facing = (heading, dir);
-            let at = if place.ahead_m != 0.0 {
-                [
-                    center[0] + place.ahead_m * dir[0],
-                    center[1] + place.ahead_m * dir[1],
-                ]
+            if drawn.is_some() {
+                Pose {
+                    x: center[0],
+                    y: center[1],
+                    heading,
+                }
             } else {
-                center
-            };
-            let mut start = stem_start(at, heading, task, rng);
-            // Drawn only when asked for, so tasks without an advance keep their draws.
-            if place.advance && task.corridor.start_advance > 0.0 {
-                start.y += rng.random_range(0.0..=task.corridor.start_advance);
+                let at = if place.ahead_m != 0.0 {
+                    [
+                        center[0] + place.ahead_m * dir[0],
+                        center[1] + place.ahead_m * dir[1],
+                    ]
+                } else {
+                    center
+                };
+                let mut start = stem_start(at, heading, task, rng);
+                // Drawn only when asked for, so tasks without an advance keep their draws.
+                if place.advance && task.corridor.start_advance > 0.0 {
+                    start.y += rng.random_range(0.0..=task.corridor.start_advance);
+                }
+                start
             }
-            start
         }
     };
 

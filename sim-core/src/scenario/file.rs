@@ -196,7 +196,8 @@ pub struct VariantDecl {
 #[serde(deny_unknown_fields)]
 pub struct PlaceDecl {
     /// `room.start` (the room generator's start), `corridor.start`, `start` (the variant's
-    /// start region), or a region's name: the centre of its first cell.
+    /// start region), or a region's name: the centre of a map region's first cell, or of a
+    /// `[regions]` rectangle.
     pub at: String,
     /// `"up"`, `"down"`, `"left"`, `"right"`, or `"path"` (towards the next cell of the path
     /// to the goal). Not for `room.start`, which draws its own heading.
@@ -209,6 +210,14 @@ pub struct PlaceDecl {
     /// corridor.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub advance: bool,
+    /// Start anywhere in the region, uniformly, clear of walls and obstacles: over a map
+    /// region's cells or a `[regions]` rectangle. Not with `ahead_m` or `advance`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub anywhere: bool,
+    /// A heading range, degrees, `[from, to]`: the start turns from its facing by a uniform
+    /// angle in it (`[-180, 180]`: any heading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_deg: Option<[f32; 2]>,
 }
 
 fn is_zero(value: &f32) -> bool {

@@ -161,8 +161,10 @@ pub enum PlaceAt {
     CorridorStart,
     /// The variant's start region.
     VariantStart,
-    /// A named region's first cell.
+    /// A named region of the map: its first cell, or any of its cells.
     Region(String),
+    /// A `[regions]` rectangle: its centre, or anywhere in it.
+    Rect([f32; 4]),
 }
 
 /// Which way a placed robot faces.
@@ -185,6 +187,10 @@ pub struct Place {
     pub ahead_m: f32,
     /// Whether to advance the start along the corridor.
     pub advance: bool,
+    /// Whether the start is drawn anywhere in its region (clear of solids), not at its centre.
+    pub anywhere: bool,
+    /// A uniform turn from the facing, radians `[from, to]`, drawn only when given.
+    pub turn: Option<[f32; 2]>,
 }
 
 /// How the teammate is placed and behaves.
@@ -871,12 +877,13 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             PlaceAt::VariantStart
         }
         region if cell_region(region) => PlaceAt::Region(region.to_string()),
+        region if rect_regions.contains_key(region) => PlaceAt::Rect(rect_regions[region]),
         other => {
             return Err(error(
                 "place.at",
                 format!(
                     "'{other}' is no start here: use room.start, corridor.start, start, or a \
-                     region of the map"
+                     region of the map or of [regions]"
                 ),
             ));
         }
@@ -911,11 +918,50 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             "advancing the start is for corridors".into(),
         ));
     }
+    if matches!(at, PlaceAt::Rect(_)) && facing == Some(Facing::Path) {
+        return Err(error(
+            "place.facing",
+            "a rectangle's start faces a fixed way: up, down, left or right".into(),
+        ));
+    }
+    if place_decl.anywhere {
+        let why = match at {
+            PlaceAt::RoomStart | PlaceAt::CorridorStart => {
+                Some("is for a region: give its name, or `start`, as `at`")
+            }
+            _ if place_decl.ahead_m != 0.0 => Some("leaves no centre for `ahead_m` to move"),
+            _ if place_decl.advance => Some("does not advance along a corridor"),
+            _ => None,
+        };
+        if let Some(why) = why {
+            return Err(error("place.anywhere", format!("starting anywhere {why}")));
+        }
+    }
+    let turn = match place_decl.turn_deg {
+        None => None,
+        Some(_) if at == PlaceAt::RoomStart => {
+            return Err(error(
+                "place.turn_deg",
+                "the room's start draws its own heading: leave turn_deg out".into(),
+            ));
+        }
+        Some([from, to]) if from.is_finite() && to.is_finite() && from <= to => {
+            Some([from.to_radians(), to.to_radians()])
+        }
+        Some([from, to]) => {
+            return Err(error(
+                "place.turn_deg",
+                format!("[{from}, {to}] is not a range of degrees [from, to] with from <= to"),
+            ));
+        }
+    };
     let place = Place {
         at,
         facing,
         ahead_m: place_decl.ahead_m,
         advance: place_decl.advance,
+        anywhere: place_decl.anywhere,
+        turn,
     };
 
     // Teammate.
@@ -1106,6 +1152,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             let start = match &place.at {
                 PlaceAt::VariantStart => variant.start.clone(),
                 PlaceAt::Region(region) => Some(region.clone()),
+                PlaceAt::Rect(_) => None,
                 _ => map.regions.get("entrance").map(|_| "entrance".to_string()),
             };
             if let (Some(start), Some(goal)) = (start, &variant.goal) {
