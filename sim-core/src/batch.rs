@@ -324,16 +324,9 @@ mod tests {
             let n = spec.topology().n_genes();
             spec.with_genome((0..n).map(|i| (i % 7) as f32 - 3.0).collect())
         };
-        let mut names: Vec<String> = Vec::new();
-        for phase in &task.scenario.phases {
-            if let crate::scenario::file::ChildRef::Name(name) = &phase.child
-                && !names.contains(name)
-            {
-                names.push(name.clone());
-            }
-        }
+        let mut names = task.scenario.named_phase_children();
         if names.is_empty() {
-            names = vec!["a".into(), "b".into()];
+            names = vec!["a", "b"];
         }
         ControllerFile::new(NodeSpec::arbitrator(
             "root",

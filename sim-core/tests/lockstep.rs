@@ -74,6 +74,23 @@ fn random_node(name: String, depth: u32, rng: &mut SimRng) -> NodeSpec {
     spec.with_genome(random_genes(rng, n_genes))
 }
 
+/// A random tree for `task`: when its phases name children, an arbitrator over random
+/// subtrees of those names (the evaluators refuse a root that lacks one), else any tree.
+fn random_root(task: &TaskConfig, depth: u32, rng: &mut SimRng) -> NodeSpec {
+    let names = task.scenario.named_phase_children();
+    if names.is_empty() {
+        return random_node("root".into(), depth, rng);
+    }
+    let children = names
+        .iter()
+        .map(|name| random_node(name.to_string(), depth.saturating_sub(1), rng))
+        .collect();
+    let hidden = rng.random_range(1..7);
+    let spec = NodeSpec::arbitrator("root", random_inputs(rng), hidden, children);
+    let n_genes = spec.topology().n_genes();
+    spec.with_genome(random_genes(rng, n_genes))
+}
+
 /// Both evaluators' outcomes for one case.
 fn both(
     template: ControllerFile,
@@ -128,7 +145,7 @@ proptest! {
         task.max_cycles = max_cycles.map(|limit| limit.min(task.max_cycles()));
         task.end_on_collision = end_on_collision;
         let depth = rng.random_range(0..4);
-        let mut root = random_node("root".into(), depth, rng);
+        let mut root = random_root(&task, depth, rng);
         let genes = if free_root { root.genome.take() } else { None };
         let n_variants = task.scenario.n_variants();
         let samples: Vec<Sample> = (0..n_samples)
@@ -151,7 +168,7 @@ fn full_length_samples_agree_on_every_task() {
         task.end_on_collision = false;
         let rng = &mut SimRng::seed_from_u64(29);
         let mut root = (0..)
-            .map(|_| random_node("root".into(), 2, rng))
+            .map(|_| random_root(&task, 2, rng))
             .find(|node| !node.children.is_empty())
             .expect("an arbitrator comes up");
         root.inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];

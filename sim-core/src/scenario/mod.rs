@@ -432,6 +432,20 @@ impl Scenario {
         fnv1a_hex(self.source.as_bytes())
     }
 
+    /// The children the phases ask for by name, each once, in the phases' order: what an
+    /// arbitrator over this scenario must have among its children.
+    pub fn named_phase_children(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = Vec::new();
+        for phase in &self.phases {
+            if let ChildRef::Name(name) = &phase.child
+                && !names.contains(&name.as_str())
+            {
+                names.push(name);
+            }
+        }
+        names
+    }
+
     /// Resolves each phase's child to an output index of an arbitrator with these children;
     /// a phase asking for a child the arbitrator lacks is refused at its `phase[i].child`.
     pub fn phase_children(&self, children: &[String]) -> Result<Vec<usize>, ScenarioError> {
