@@ -7,7 +7,7 @@ use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
-const EXAMPLES: [(&str, &str); 6] = [
+const EXAMPLES: [(&str, &str); 7] = [
     ("t_maze", T_MAZE),
     (
         "triple_t_maze",
@@ -28,6 +28,10 @@ const EXAMPLES: [(&str, &str); 6] = [
     (
         "room_to_corridor",
         include_str!("../../scenarios/examples/room_to_corridor.toml"),
+    ),
+    (
+        "phototaxis",
+        include_str!("../../scenarios/examples/phototaxis.toml"),
     ),
 ];
 
@@ -618,6 +622,116 @@ fn starts_anywhere_or_turned_that_cannot_be_are_refused_naming_the_key() {
         .replacen("[place]\n", "[place]\nanywhere = true\n", 1);
     let error = refusal(&text);
     assert!(error.contains("at `place.anywhere`"), "{error}");
+}
+
+fn example(name: &str) -> &'static str {
+    EXAMPLES.iter().find(|(n, _)| *n == name).unwrap().1
+}
+
+/// Turns on the spot, left wheel back, right forward, whatever it senses.
+struct Spin;
+
+impl Policy for Spin {
+    fn reset(&mut self) {}
+
+    fn step(&mut self, _frame: &hevo_sim_core::frame::SensorFrame, _dt: f32) -> [f32; 2] {
+        [0.0, 1.0]
+    }
+}
+
+#[test]
+fn a_world_of_solid_rectangles_alone_walls_the_robot_in() {
+    let text = example("phototaxis");
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(text, "p.toml").unwrap()));
+    assert_eq!(task.scenario.solids.len(), 8);
+    let evaluator = Evaluator::new(task).unwrap();
+    for seed in 0..20 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        // The rectangles are the whole world, as written.
+        assert_eq!(env.scene.rects().len(), 8);
+        assert!(env.ground.cells.is_none() && env.ground.room.is_none());
+        // Driving straight on from anywhere along the bottom, facing any way, ends against a
+        // wall or pillar, or in the pit: nothing leaves the arena.
+        let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(seed));
+        assert!(
+            matches!(outcome.ending, Ending::Collision | Ending::WrongBranch),
+            "seed {seed}: {outcome:?}"
+        );
+        // Spinning on the spot neither collides nor gets anywhere.
+        let spun = evaluator.evaluate(&mut Spin, Sample::seeded(seed));
+        assert_eq!(spun.ending, Ending::Timeout, "seed {seed}");
+    }
+}
+
+#[test]
+fn solid_rectangles_join_a_map_and_a_generated_room() {
+    // A block across the T-maze's stem, 0.4 m up: the robot driving straight hits it well
+    // before the junction's wall.
+    let blocked = T_MAZE.replacen(
+        "[world]\n",
+        "[world]\nsolids = [[-0.15, 0.40, 0.15, 0.45]]\n",
+        1,
+    );
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&blocked, "b.toml").unwrap()));
+    let with_block = Evaluator::new(task).unwrap();
+    let without = Evaluator::new(t_maze()).unwrap();
+    let sample = Sample::seeded(3);
+    let (hit, open) = (
+        with_block.evaluate_traced(&mut StraightOn, sample),
+        without.evaluate(&mut StraightOn, sample),
+    );
+    assert_eq!(hit.outcome.ending, Ending::Collision);
+    assert!(
+        hit.outcome.cycles < open.cycles,
+        "{:?} {open:?}",
+        hit.outcome
+    );
+    assert!(hit.final_robot.y < 0.40, "{:?}", hit.final_robot);
+    assert_eq!(
+        hit.rects.len(),
+        without.environment(sample).scene.rects().len() + 1
+    );
+    // In a generated room, every sample's scene is the room's and the solid's.
+    let (_, exit_room) = SHIPPED
+        .iter()
+        .find(|(name, _)| *name == "exit_room")
+        .unwrap();
+    let own_room = exit_room
+        .replace("legacy", "# legacy")
+        .replace("name = \"exit_room\"", "name = \"mine\"");
+    let with_solid =
+        own_room.replacen("[world]\n", "[world]\nsolids = [[3.0, 3.0, 3.2, 3.2]]\n", 1);
+    let evaluator = |text: &str| {
+        let scenario = Scenario::parse(text, "r.toml").unwrap();
+        Evaluator::new(TaskConfig::from_scenario(Arc::new(scenario))).unwrap()
+    };
+    let (plain, solid) = (evaluator(&own_room), evaluator(&with_solid));
+    for seed in 0..5 {
+        let (a, b) = (
+            plain.environment(Sample::seeded(seed)),
+            solid.environment(Sample::seeded(seed)),
+        );
+        assert_eq!(b.scene.rects()[..a.scene.rects().len()], *a.scene.rects());
+        assert_eq!(b.scene.rects().len(), a.scene.rects().len() + 1);
+        assert_eq!(a.start, b.start, "the same draws");
+    }
+}
+
+#[test]
+fn bad_solid_rectangles_are_refused_naming_the_one() {
+    let with =
+        |solids: &str| T_MAZE.replacen("[world]\n", &format!("[world]\nsolids = {solids}\n"), 1);
+    for (solids, says) in [
+        ("[[0, 0, 1, 1], [1, 1, 0.5, 2]]", "at `world.solids[1]`"),
+        ("[[0, 0, 1e9, 1]]", "within 50 m"),
+        ("[[0, 0, 1]]", "world.solids"),
+    ] {
+        let error = refusal(&with(solids));
+        assert!(error.starts_with("mine.toml"), "{solids}: {error}");
+        assert!(error.contains(says), "{solids}: {error}");
+    }
+    let many = format!("[{}]", vec!["[0, 0, 0.1, 0.1]"; 1025].join(", "));
+    assert!(refusal(&with(&many)).contains("at most 1024"));
 }
 
 #[test]

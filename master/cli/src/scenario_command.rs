@@ -137,6 +137,13 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
     if !regions.is_empty() {
         text.push_str(&format!("\n  regions: {}", regions.join(", ")));
     }
+    if !scenario.solids.is_empty() {
+        text.push_str(&format!(
+            "\n  solid rectangles: {} besides the world's own",
+            scenario.solids.len()
+        ));
+    }
+    text.push_str(&endings_summary(task));
     text.push_str(&inputs_summary(scenario));
     if !scenario.stages.is_empty() {
         text.push_str(&format!(
@@ -163,6 +170,27 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
         ));
     }
     Ok(text)
+}
+
+/// What ends a sample.
+fn endings_summary(task: &TaskConfig) -> String {
+    let end = &task.scenario.file.end;
+    let mut endings = vec![format!("solved when `{}`", end.solved)];
+    if let Some(rule) = &end.wrong_branch {
+        let ends = end.wrong_branch_ends || task.end_on_wrong_branch;
+        endings.push(format!(
+            "a wrong branch (`{rule}`){}",
+            if ends { "" } else { ", counted, not ending it" }
+        ));
+    }
+    if let Some(forbidden) = &end.forbidden {
+        endings.push(format!("forbidden: `{forbidden}` (as a wrong branch)"));
+    }
+    if task.end_on_collision {
+        endings.push("a collision".into());
+    }
+    endings.push(format!("{} cycles", task.max_cycles()));
+    format!("\n  ends: {}", endings.join("; "))
 }
 
 /// The robot's sensors, the inputs a network over all of them reads, and the genome such a

@@ -16,6 +16,7 @@ pub mod room;
 
 use crate::rng::SimRng;
 use crate::robot::Pose;
+use crate::scenario::blocks::FixedLayout;
 use crate::scenario::{Facing, PlaceAt, Scenario, Trigger};
 use crate::scene::Scene;
 use crate::task::TaskConfig;
@@ -123,17 +124,29 @@ pub struct Environment {
 /// Geometry shared by all samples of an evaluator: built once.
 #[derive(Debug)]
 pub struct Statics {
-    closed_map: Option<(Arc<Scene>, Arc<CellMap>)>,
+    closed_map: Option<FixedLayout>,
 }
 
 impl Statics {
     /// Builds what never changes between samples of this task.
     pub fn new(task: &TaskConfig) -> Statics {
         let scenario = &task.scenario;
+        let closed_map = scenario.world.statics(scenario, task);
         Statics {
-            closed_map: scenario.world.statics(scenario, task),
+            closed_map: closed_map.map(|(scene, cells)| (with_solids(scene, task), cells)),
         }
     }
+}
+
+/// `scene` with the scenario's solid rectangles added after its own, or `scene` itself when
+/// the scenario has none.
+fn with_solids(scene: Arc<Scene>, task: &TaskConfig) -> Arc<Scene> {
+    let solids = &task.scenario.solids;
+    if solids.is_empty() {
+        return scene;
+    }
+    let rects = scene.rects().iter().chain(solids).copied().collect();
+    Arc::new(Scene::new(rects, task.query_margin()))
 }
 
 /// How often a start anywhere in its region is drawn again for touching a solid before it
@@ -218,8 +231,12 @@ pub fn build(
         .world
         .build(scenario, task, statics.closed_map.as_ref(), rng);
     let reported = built.shape.unwrap_or(variant_idx);
-    let (scene, cells, room_made, corridor_path) =
-        (built.scene, built.cells, built.room, built.corridor_path);
+    // A fixed world's scene has the scenario's solids already; a generated one gets them now.
+    let scene = match statics.closed_map {
+        Some(_) => built.scene,
+        None => with_solids(built.scene, task),
+    };
+    let (cells, room_made, corridor_path) = (built.cells, built.room, built.corridor_path);
 
     // Anywhere in the start region: drawn first, as the path starts from the cell drawn.
     let place = &scenario.place;

@@ -105,6 +105,10 @@ pub struct WorldDecl {
     /// `"right"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corridor: Option<String>,
+    /// Solid rectangles `[x0, y0, x1, y1]`, metres: obstacles added to the world's own solids,
+    /// or, alone, the whole world.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub solids: Vec<[f32; 4]>,
 }
 
 /// A map, by shipped name or written out.

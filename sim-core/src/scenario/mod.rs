@@ -20,6 +20,7 @@ pub mod formula;
 use crate::env::cells::{Cell, CellMap};
 use crate::frame::{InputGroup, SensorSet};
 use crate::hash::fnv1a_hex;
+use crate::scene::{Rect, RectKind};
 use blocks::atoms::RegionTest;
 use blocks::{Facts, TeammateBehaviour, World};
 use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
@@ -36,6 +37,13 @@ pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
 /// The most lights a scenario may hold: a cycle's lit lights are one bit each of a `u32`, in
 /// traces too.
 pub const MAX_LIGHTS: usize = 32;
+
+/// The most solid rectangles `world.solids` may list.
+pub const MAX_SOLIDS: usize = 1024;
+
+/// How far from the origin a solid rectangle may reach, metres: the scene's lookup table
+/// covers the solids' bounding box in 0.1 m cells, which this keeps to a few megabytes.
+pub const MAX_SOLID_COORDINATE: f32 = 50.0;
 
 /// The scenarios shipped with hevo: the paper's tasks.
 pub const SHIPPED: [(&str, &str); 7] = [
@@ -255,6 +263,8 @@ pub struct Scenario {
     pub lights: Vec<LightDef>,
     /// The variants (one unnamed variant when the file lists none).
     pub variants: Vec<Variant>,
+    /// Solid rectangles added to the world's own.
+    pub solids: Vec<Rect>,
     /// The start rule.
     pub place: Place,
     /// The teammate.
@@ -703,6 +713,26 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     .map(Arc::new);
     let world = blocks::worlds::compile(w, map.as_deref())
         .map_err(|(path, message)| error(path, message))?;
+    if w.solids.len() > MAX_SOLIDS {
+        return Err(error(
+            "world.solids",
+            format!("{} rectangles, at most {MAX_SOLIDS}", w.solids.len()),
+        ));
+    }
+    let mut solids = Vec::with_capacity(w.solids.len());
+    for (idx, &[x0, y0, x1, y1]) in w.solids.iter().enumerate() {
+        let within = |v: f32| v.is_finite() && v.abs() <= MAX_SOLID_COORDINATE;
+        if !(x0 < x1 && y0 < y1) || ![x0, y0, x1, y1].into_iter().all(within) {
+            return Err(error(
+                &format!("world.solids[{idx}]"),
+                format!(
+                    "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1, within \
+                     {MAX_SOLID_COORDINATE} m of the origin"
+                ),
+            ));
+        }
+        solids.push(Rect::from_corners(RectKind::Obstacle, x0, y0, x1, y1));
+    }
 
     // Regions: the map's, the generators', and rectangles.
     let mut region_names: Vec<String> = map
@@ -1193,6 +1223,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         rect_regions,
         lights,
         variants,
+        solids,
         place,
         teammate,
         solved,

@@ -41,6 +41,7 @@ pub static WORLDS: &[WorldKind] = &[
     worlds::CORRIDOR,
     worlds::ROOM_BELOW_MAP,
     worlds::ROOM_BELOW_CORRIDOR,
+    worlds::SOLIDS,
 ];
 
 /// The condition atoms, in the order the compiler tries them (the first that recognises the
@@ -182,6 +183,10 @@ pub struct Built {
     pub shape: Option<u32>,
 }
 
+/// What a world keeps between samples: a fixed layout's solids and, if it is made of cells,
+/// its cells.
+pub type FixedLayout = (Arc<Scene>, Option<Arc<CellMap>>);
+
 /// A compiled world: what it provides, and one sample's layout.
 pub trait World: Debug + Send + Sync {
     /// Whether it holds a generated room (regions `room` and `room.exit`, start `room.start`).
@@ -205,12 +210,9 @@ pub trait World: Debug + Send + Sync {
     fn shapes(&self) -> &'static [&'static str] {
         &[]
     }
-    /// What never changes between samples, built once per evaluator.
-    fn statics(
-        &self,
-        _scenario: &Scenario,
-        _task: &TaskConfig,
-    ) -> Option<(Arc<Scene>, Arc<CellMap>)> {
+    /// What never changes between samples, built once per evaluator. A world with statics
+    /// builds every sample on them: its samples' scene is the statics' scene.
+    fn statics(&self, _scenario: &Scenario, _task: &TaskConfig) -> Option<FixedLayout> {
         None
     }
     /// One sample's layout, drawn from its environment stream.
@@ -218,7 +220,7 @@ pub trait World: Debug + Send + Sync {
         &self,
         scenario: &Scenario,
         task: &TaskConfig,
-        statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built;
 }

@@ -3,7 +3,7 @@
 //! recognises its combination of `map`, `room` and `corridor`, and draws one sample's layout
 //! from the environment stream in a fixed order.
 
-use super::{Built, Refusal, World, WorldKind};
+use super::{Built, FixedLayout, Refusal, World, WorldKind};
 use crate::env::cells::{CellMap, Side};
 use crate::env::corridor::{self, Junction, Turn};
 use crate::env::room::{self, Placement, Room};
@@ -36,21 +36,17 @@ impl World for FixedMap {
         true
     }
 
-    fn statics(
-        &self,
-        scenario: &Scenario,
-        task: &TaskConfig,
-    ) -> Option<(Arc<Scene>, Arc<CellMap>)> {
+    fn statics(&self, scenario: &Scenario, task: &TaskConfig) -> Option<FixedLayout> {
         let map = &scenario.map.as_ref()?.map;
         let scene = Scene::new(map.wall_rects(&[]), task.query_margin());
-        Some((Arc::new(scene), Arc::new(map.clone())))
+        Some((Arc::new(scene), Some(Arc::new(map.clone()))))
     }
 
     fn build(
         &self,
         _scenario: &Scenario,
         _task: &TaskConfig,
-        statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        statics: Option<&FixedLayout>,
         _rng: &mut SimRng,
     ) -> Built {
         let (scene, map) = statics
@@ -58,7 +54,7 @@ impl World for FixedMap {
             .expect("map statics are built for map worlds");
         Built {
             scene,
-            cells: Some(map),
+            cells: map,
             room: None,
             corridor_path: None,
             shape: None,
@@ -93,7 +89,7 @@ impl World for StandaloneRoom {
         &self,
         _scenario: &Scenario,
         task: &TaskConfig,
-        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
         let room = room::generate(&task.room, Placement::Standalone, rng);
@@ -149,7 +145,7 @@ impl World for RoomBelowMap {
         &self,
         scenario: &Scenario,
         task: &TaskConfig,
-        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
         let map = &scenario.map.as_ref().expect("checked when compiled").map;
@@ -241,7 +237,7 @@ impl World for Corridor {
         &self,
         _scenario: &Scenario,
         task: &TaskConfig,
-        _statics: Option<&(Arc<Scene>, Arc<CellMap>)>,
+        _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
         let (map, path, junction) = generate_corridor(self.turn, task, rng);
@@ -330,6 +326,46 @@ fn generate_corridor(
     };
     let corridor = corridor::build(turn, before, after, junction);
     (corridor.map, corridor.path, junction)
+}
+
+/// `solids` alone: a fixed world of solid rectangles, built once per evaluator. (With a map,
+/// room or corridor the rectangles are added to that world's solids.)
+pub const SOLIDS: WorldKind = WorldKind {
+    syntax: "solid rectangles (`solids`)",
+    compile: |decl, _| match (&decl.map, &decl.room, &decl.corridor) {
+        (None, None, None) if !decl.solids.is_empty() => Some(Ok(Box::new(Solids))),
+        _ => None,
+    },
+};
+
+#[derive(Debug)]
+struct Solids;
+
+impl World for Solids {
+    fn statics(&self, _scenario: &Scenario, task: &TaskConfig) -> Option<FixedLayout> {
+        // Empty: the scenario's solids are added to every world's (`env::Statics`), and here
+        // they are all there is.
+        Some((Arc::new(Scene::new(Vec::new(), task.query_margin())), None))
+    }
+
+    fn build(
+        &self,
+        _scenario: &Scenario,
+        _task: &TaskConfig,
+        statics: Option<&FixedLayout>,
+        _rng: &mut SimRng,
+    ) -> Built {
+        let (scene, cells) = statics
+            .cloned()
+            .expect("statics are built for fixed worlds");
+        Built {
+            scene,
+            cells,
+            room: None,
+            corridor_path: None,
+            shape: None,
+        }
+    }
 }
 
 /// The world a `[world]` table names, by the first registered kind that recognises it.
