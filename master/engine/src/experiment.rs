@@ -241,7 +241,9 @@ pub struct NodeDecl {
     pub min_active_cycles: u32,
     /// The task the node is evolved on: a shipped scenario (`exit_room`, `follow_wall`,
     /// `turn_left`, `turn_right`, `solve_maze`, `maze_single`, `return_room`, `rescue`) or a
-    /// scenario file, a path ending in `.toml` relative to the experiment file.
+    /// scenario file, a path ending in `.toml` relative to the experiment file. The key may
+    /// be written `scenario`; it is the same key, serialized (and fingerprinted) as `task`.
+    #[serde(alias = "scenario")]
     pub task: String,
     /// Samples per genome per generation.
     pub samples: u32,
@@ -1251,6 +1253,27 @@ runs = 1
             json,
             serde_json::json!([{"file": "controllers/fw.json"}, {"runs": "main", "node": "tl"}, "tr"])
         );
+    }
+
+    #[test]
+    fn a_node_may_name_its_scenario_under_either_key_to_the_same_experiment() {
+        let t_maze = include_str!("../../../scenarios/examples/t_maze.toml").to_string();
+        let files: BTreeMap<String, String> = [("t_maze.toml".to_string(), t_maze)].into();
+        let with_key = |key: &str| {
+            let text = format!(
+                "[experiment]\nname = \"t\"\n\n[[node]]\nname = \"t\"\nkind = \"primitive\"\n\
+                 inputs = [\"ir\", \"light\"]\nhidden = 3\n{key} = \"t_maze.toml\"\nsamples = 2\n\
+                 generations = 1\nruns = 1\n"
+            );
+            Experiment::parse_with(&text, Path::new("x.toml"), &files)
+                .unwrap_or_else(|e| panic!("{key}: {e}"))
+        };
+        let (task, scenario) = (with_key("task"), with_key("scenario"));
+        assert_eq!(
+            serde_json::to_string(&task.nodes[0].decl).unwrap(),
+            serde_json::to_string(&scenario.nodes[0].decl).unwrap()
+        );
+        assert_eq!(scenario.nodes[0].task.name(), "t_maze");
     }
 
     #[test]
