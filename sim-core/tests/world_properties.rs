@@ -8,8 +8,10 @@
 //! every measured curve (SPEC section 2: "1 at contact, 0 at 12 cm or beyond"). The counts of
 //! how long and how often each controller node drove match a known switching schedule.
 //! The same holds in worlds of one's own: random maps (a random walk opens the cells; a map
-//! compiles exactly when its goal can be reached from its entrance, by a search done here) and
-//! the paper's room over random generator ranges.
+//! compiles exactly when its goal can be reached from its entrance, by a search done here),
+//! the paper's room over random generator ranges, and generated corridors over random ranges,
+//! alone or joined under a room, whose goal the robot's body can always reach (and whose
+//! fitness is a number even when the corridor is a single cell).
 //! Case counts keep the file well under half a minute in release.
 
 use hevo_scripted::{
@@ -590,6 +592,83 @@ otherwise = "approach room.exit"
     )
 }
 
+/// A generated corridor of `shape` over random length ranges and junction shares, alone (the
+/// robot at its first cell, perhaps advanced along it) or joined under the paper's room (the
+/// robot in the room), as a scenario file.
+fn random_corridor_scenario(
+    shape: &str,
+    below_room: bool,
+    lengths: [(u32, u32); 3],
+    shares: (f32, f32),
+    advance: bool,
+) -> String {
+    let range = |(low, extra): (u32, u32)| format!("[{low}, {}]", low + extra);
+    let (world, place) = if below_room {
+        ("room = \"below corridor\"\n", "at = \"room.start\"")
+    } else if advance {
+        (
+            "",
+            "at = \"corridor.start\"\nfacing = \"path\"\nadvance = true",
+        )
+    } else {
+        ("", "at = \"corridor.start\"\nfacing = \"path\"")
+    };
+    format!(
+        r#"schema = "hevo.scenario/1"
+name = "random_corridor"
+max_cycles = 300
+
+[corridor]
+straight_cells = {}
+cells_before_turn = {}
+cells_after_turn = {}
+junction_share = {:.3}
+side_junction_share = {:.3}
+start_advance = {}
+
+[world]
+corridor = "{shape}"
+{world}
+[place]
+{place}
+
+[end]
+solved = "in goal"
+wrong_branch = "off path"
+
+[fitness]
+solved = "1 + time_bonus"
+otherwise = "progress / 3"
+"#,
+        range(lengths[0]),
+        range(lengths[1]),
+        range(lengths[2]),
+        shares.0,
+        shares.1,
+        if advance { "0.3" } else { "0.0" },
+    )
+}
+
+/// Whether a disc of `radius` can move along the straight segment `from` -> `to` without
+/// touching a solid, tested every centimetre.
+fn segment_is_clear(
+    scene: &hevo_sim_core::scene::Scene,
+    from: [f32; 2],
+    to: [f32; 2],
+    radius: f32,
+) -> bool {
+    let length = ((to[0] - from[0]).powi(2) + (to[1] - from[1]).powi(2)).sqrt();
+    let steps = (length / 0.01).ceil().max(1.0) as usize;
+    (0..=steps).all(|step| {
+        let t = step as f32 / steps as f32;
+        let at = [
+            from[0] + t * (to[0] - from[0]),
+            from[1] + t * (to[1] - from[1]),
+        ];
+        !scene.disc_hits(at, radius)
+    })
+}
+
 fn wandering_evaluator(scenario: Scenario) -> Evaluator {
     let task = TaskConfig {
         end_on_collision: false,
@@ -659,6 +738,82 @@ proptest! {
         let sample = Sample::seeded(seed);
         let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
         assert_never_inside(&trace, evaluator.task().robot.radius);
+        let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
+        prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// Every generated corridor, alone or joined under a room, over random ranges: its goal
+    /// can be reached by the robot's body (from the start cell, or from inside the room's
+    /// exit, cell centre to cell centre along the path, never touching a wall), the robot
+    /// never enters a wall, and one seed gives one outcome.
+    #[test]
+    fn every_generated_corridor_goal_is_reachable_and_its_walls_hold(
+        shape in prop_oneof![Just("straight"), Just("left"), Just("right")],
+        below_room in any::<bool>(),
+        lengths in [(1u32..8, 0u32..5), (2u32..6, 0u32..4), (1u32..6, 0u32..4)],
+        junction_share in 0.0f32..1.0,
+        side_share in 0.0f32..1.0,
+        advance in any::<bool>(),
+        seed in any::<u64>(),
+        segments in segments(),
+    ) {
+        let shares = (junction_share, side_share * (1.0 - junction_share));
+        let text = random_corridor_scenario(shape, below_room, lengths, shares, advance);
+        let scenario = Scenario::parse(&text, "random_corridor.toml").expect("it compiles");
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        if let Err(error) = task.validate() {
+            // Only an advance from a one-cell corridor is refused, by its key.
+            prop_assert_eq!(error.key.as_str(), "corridor.start_advance", "{}\n{}", error, text);
+            return Ok(());
+        }
+        let evaluator = Evaluator::new(TaskConfig { end_on_collision: false, ..task })
+            .expect("a valid task");
+        let radius = evaluator.task().robot.radius;
+        let sample = Sample::seeded(seed);
+        let env = evaluator.environment(sample);
+        let goal = env.ground.goal.as_ref().expect("a corridor has a goal in cells");
+        let map = &goal.map;
+        let path: Vec<usize> = {
+            // The path from the start cell: down the distances to the goal.
+            let mut at = (0..map.cells.len())
+                .filter(|&cell| goal.on_path[cell])
+                .max_by(|&a, &b| goal.distances[a].total_cmp(&goal.distances[b]))
+                .expect("a path");
+            let mut path = vec![at];
+            while at != goal.goal {
+                at = map
+                    .neighbours(at)
+                    .min_by(|&a, &b| goal.distances[a].total_cmp(&goal.distances[b]))
+                    .expect("a way on");
+                path.push(at);
+                prop_assert!(path.len() <= map.cells.len(), "the distances lead round in circles");
+            }
+            path
+        };
+        prop_assert!(goal.total_distance.is_finite() && goal.total_distance > 0.0 || path.len() == 1);
+        let mut from = match &env.ground.room {
+            // From just inside the room's exit into the corridor's first cell.
+            Some(room) => [
+                room.exit_center[0] - 0.1 * room.exit_outward[0],
+                room.exit_center[1] - 0.1 * room.exit_outward[1],
+            ],
+            None => map.center(path[0]),
+        };
+        for &cell in &path {
+            let to = map.center(cell);
+            prop_assert!(
+                segment_is_clear(&env.scene, from, to, radius),
+                "no way from {from:?} to {to:?} (cell {cell} of {path:?}), seed {seed}:\n{text}"
+            );
+            from = to;
+        }
+        let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
+        assert_never_inside(&trace, radius);
+        prop_assert!(trace.outcome.fitness.is_finite(), "{:?}\n{}", trace.outcome, text);
         let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
         prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
     }

@@ -44,10 +44,10 @@ struct Progress;
 impl Quantity for Progress {
     fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
         end.cycle.ground.goal.as_ref().map_or(0.0, |goal| {
-            let current = goal
-                .distance_from(end.cycle.robot.position())
-                .unwrap_or(goal.total_distance);
-            ((goal.total_distance - current) / goal.total_distance).clamp(0.0, 1.0)
+            // Outside the cells (in a room below them): none made. On a path of no length (a
+            // one-cell corridor) the robot in its cell has made it all, not 0 / 0.
+            goal.distance_from(end.cycle.robot.position())
+                .map_or(0.0, |current| share_covered(goal.total_distance, current))
         })
     }
 }
