@@ -7,7 +7,9 @@
 //! start branch), so the counts are the same on every run and machine. The floors are the
 //! counts measured on those samples less a margin of two or three samples, so any change that
 //! loses more than a couple of them, overall, in one light configuration or at one rescue
-//! stage, fails here. (The rates these counts give agree with REPRODUCTION.md's, which were
+//! stage, fails here. And unless the model changed on purpose, each must solve exactly the
+//! samples it solved when measured (a hash of which ones), as every refactoring keeps outcomes
+//! bit-identical. (The rates these counts give agree with REPRODUCTION.md's, which were
 //! measured on other samples: rescue 88.0 % here, 87.8-88.8 % there.)
 
 use hevo_engine::post_evaluation::{post_evaluation_samples, report};
@@ -31,6 +33,10 @@ struct Floor {
     per_variant: &'static [usize],
     /// Rescue: samples that left the room, reached the teammate, and brought it back.
     stages: Option<[usize; 3]>,
+    /// Which samples it solved when measured: the FNV-1a hash of one `1` (solved) or `0` per
+    /// sample, in post-evaluation order. The floors allow for a change made on purpose; this
+    /// does not: the same simulator solves exactly the same samples.
+    solved_samples: &'static str,
 }
 
 /// Every shipped controller, with its floors: the counts measured on these samples (in the
@@ -43,6 +49,7 @@ const SHIPPED: &[Floor] = &[
         solved: 97, // measured 100 of 100
         per_variant: &[],
         stages: None,
+        solved_samples: "6bf4b31f38d38dd9",
     },
     Floor {
         file: "follow_wall.json",
@@ -50,6 +57,7 @@ const SHIPPED: &[Floor] = &[
         solved: 97, // measured 100 of 100
         per_variant: &[],
         stages: None,
+        solved_samples: "6bf4b31f38d38dd9",
     },
     Floor {
         file: "turn_left.json",
@@ -57,6 +65,7 @@ const SHIPPED: &[Floor] = &[
         solved: 91, // measured 94 of 100
         per_variant: &[],
         stages: None,
+        solved_samples: "a8f3a744c2d7da61",
     },
     Floor {
         file: "turn_right.json",
@@ -64,6 +73,7 @@ const SHIPPED: &[Floor] = &[
         solved: 93, // measured 96 of 100
         per_variant: &[],
         stages: None,
+        solved_samples: "49d2f81341f0a98f",
     },
     Floor {
         file: "solve_maze.json",
@@ -72,6 +82,7 @@ const SHIPPED: &[Floor] = &[
         // measured 100, 100, 100, 98 of 100
         per_variant: &[98, 98, 98, 96],
         stages: None,
+        solved_samples: "c5adfeb7ada2edd5",
     },
     Floor {
         file: "return_room.json",
@@ -80,6 +91,7 @@ const SHIPPED: &[Floor] = &[
         // measured 93, 95, 95, 97 of 100
         per_variant: &[91, 93, 93, 95],
         stages: None,
+        solved_samples: "d1d185c87c6c9c4d",
     },
     Floor {
         file: "rescue.json",
@@ -89,6 +101,7 @@ const SHIPPED: &[Floor] = &[
         per_variant: &[83, 88, 87, 86],
         // measured 380 left the room, 372 reached the teammate, 352 brought it back
         stages: Some([377, 369, 349]),
+        solved_samples: "1822a8253e9bb021",
     },
     // Tasks that are not the paper's, from the example scenario files.
     Floor {
@@ -98,6 +111,7 @@ const SHIPPED: &[Floor] = &[
         // measured 98, 83, 100, 99, 100, 0, 95, 98 of 100
         per_variant: &[96, 81, 98, 97, 98, 0, 93, 96],
         stages: None,
+        solved_samples: "d2bfeddd8a07007c",
     },
     Floor {
         file: "triple_t_maze_single.json",
@@ -106,6 +120,7 @@ const SHIPPED: &[Floor] = &[
         // measured 94, 97, 0, 98, 0, 0, 0, 98 of 100
         per_variant: &[92, 95, 0, 96, 0, 0, 0, 96],
         stages: None,
+        solved_samples: "d26ed034e8d741a6",
     },
     Floor {
         file: "cross_yard.json",
@@ -114,6 +129,7 @@ const SHIPPED: &[Floor] = &[
         // measured 98, 92 of 100
         per_variant: &[96, 90],
         stages: None,
+        solved_samples: "ad6311b2624fb815",
     },
     Floor {
         file: "room_to_yard.json",
@@ -122,6 +138,7 @@ const SHIPPED: &[Floor] = &[
         // measured 94, 97 of 100
         per_variant: &[92, 95],
         stages: None,
+        solved_samples: "97793c63a7e1ab06",
     },
 ];
 
@@ -168,6 +185,7 @@ struct Counts {
     solved: usize,
     per_variant: Vec<usize>,
     stages: Option<[usize; 3]>,
+    solved_samples: String,
 }
 
 /// Runs the shipped controller `file` on its task's samples.
@@ -200,6 +218,12 @@ fn measure(file: &str, task: &TaskConfig) -> Counts {
         },
         stages: (task.name() == "rescue")
             .then(|| [1, 2, 3].map(|stage| count(&|s| s.stage >= stage))),
+        solved_samples: hevo_sim_core::hash::fnv1a_hex(
+            &summaries
+                .iter()
+                .map(|s| if s.solved { b'1' } else { b'0' })
+                .collect::<Vec<u8>>(),
+        ),
     };
     // The post-evaluation report says the same as the counts.
     let report = report(task, &summaries, &controller_file.node_paths());
@@ -267,4 +291,30 @@ fn shipped_controllers_solve_their_tasks() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn shipped_controllers_solve_exactly_the_samples_they_solved_when_measured() {
+    let changed: Vec<String> = SHIPPED
+        .iter()
+        .filter_map(|floor| {
+            let counts = measure(floor.file, &task_of(floor));
+            (counts.solved_samples != floor.solved_samples).then(|| {
+                format!(
+                    "{}: solved samples {} (solving {} of {}), measured {}",
+                    floor.file,
+                    counts.solved_samples,
+                    counts.solved,
+                    counts.samples,
+                    floor.solved_samples
+                )
+            })
+        })
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "a shipped controller solves other samples than when measured; a change to the model \
+         made on purpose bumps MODEL_VERSION, re-measures and updates `solved_samples`:\n{}",
+        changed.join("\n")
+    );
 }
