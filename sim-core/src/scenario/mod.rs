@@ -722,7 +722,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     let mut solids = Vec::with_capacity(w.solids.len());
     for (idx, &[x0, y0, x1, y1]) in w.solids.iter().enumerate() {
         let within = |v: f32| v.is_finite() && v.abs() <= MAX_SOLID_COORDINATE;
-        if !(x0 < x1 && y0 < y1) || ![x0, y0, x1, y1].into_iter().all(within) {
+        if !(x0 < x1 && y0 < y1 && [x0, y0, x1, y1].into_iter().all(within)) {
             return Err(error(
                 &format!("world.solids[{idx}]"),
                 format!(

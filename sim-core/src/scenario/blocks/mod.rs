@@ -381,3 +381,115 @@ pub(crate) fn listed(items: impl Iterator<Item = &'static str>) -> String {
         None => String::new(),
     }
 }
+
+/// The two blocks ARCHITECTURE.md's "Where to add" shows whole, compiled here as written there
+/// and tried, so that the guide a new block starts from never rots.
+#[cfg(test)]
+mod doc_examples {
+    #[path = "compass.rs"]
+    mod compass;
+    #[path = "east_of.rs"]
+    mod east_of;
+
+    // What the examples import from `super`, the blocks module they would live in.
+    use super::{Atom, AtomKind, CycleView, Facts, SenseView, Sensor, SensorKind, SensorRun};
+    use crate::evaluate::{Evaluator, Sample};
+    use crate::rng::{Stream, stream_rng};
+    use crate::robot::Pose;
+    use crate::task::TaskConfig;
+
+    #[test]
+    fn architecture_md_shows_each_example_block_as_compiled_here() {
+        let guide = include_str!("../../../../ARCHITECTURE.md");
+        for (name, code) in [
+            ("east_of.rs", include_str!("doc_examples/east_of.rs")),
+            ("compass.rs", include_str!("doc_examples/compass.rs")),
+        ] {
+            // As the guide shows it: a code block indented under a list item.
+            let shown: String = code
+                .lines()
+                .map(|line| match line {
+                    "" => "\n".to_string(),
+                    _ => format!("  {line}\n"),
+                })
+                .collect();
+            assert!(
+                guide.contains(&format!("  ```rust\n{shown}  ```\n")),
+                "ARCHITECTURE.md no longer shows doc_examples/{name} as it is"
+            );
+        }
+    }
+
+    #[test]
+    fn the_east_of_example_compiles_its_text_and_judges_the_robots_x() {
+        let no_region = |name: &str| Err(format!("no region '{name}'"));
+        let facts = Facts {
+            lights: &[],
+            region: &no_region,
+            has_room: false,
+            goals_in_cells: false,
+            has_teammate: false,
+            has_phases: false,
+            near_m: 0.0,
+        };
+        let compile = east_of::EAST_OF.compile;
+        assert!(compile("in goal", &facts).is_none(), "another atom's text");
+        assert!(compile("east of west", &facts).unwrap().is_err());
+        let atom = compile("east of 0.3", &facts).unwrap().unwrap();
+        let task = TaskConfig::shipped("solve_maze").unwrap();
+        let env = Evaluator::new(task.clone())
+            .unwrap()
+            .environment(Sample::seeded(0));
+        for (x, holds) in [(0.29, false), (0.31, true)] {
+            let robot = Pose {
+                x,
+                y: 0.0,
+                heading: 0.0,
+            };
+            let view = CycleView {
+                robot: &robot,
+                teammate: None,
+                ground: &env.ground,
+                scenario: &task.scenario,
+                task: &task,
+            };
+            assert_eq!(atom.holds(&view), holds, "x = {x}");
+        }
+    }
+
+    #[test]
+    fn the_compass_example_reads_the_heading() {
+        let task = TaskConfig::shipped("exit_room").unwrap();
+        let sensor = (compass::COMPASS.compile)(&task).expect("always built");
+        let env = Evaluator::new(task.clone())
+            .unwrap()
+            .environment(Sample::seeded(0));
+        let mut run = sensor.start(&mut stream_rng(0, Stream::SensorSetup));
+        for (heading, expected) in [
+            (0.0f32, [1.0, 0.5]),
+            (std::f32::consts::FRAC_PI_2, [0.5, 1.0]),
+        ] {
+            let robot = Pose {
+                x: 0.0,
+                y: 0.0,
+                heading,
+            };
+            let (sin_heading, cos_heading) = heading.sin_cos();
+            let view = SenseView {
+                robot: &robot,
+                sin_heading,
+                cos_heading,
+                scene: &env.scene,
+                lights: &env.lights,
+                lit_mask: 0,
+                teammate: None,
+            };
+            let mut out = [0.0f32; 2];
+            run.read(&view, &mut stream_rng(0, Stream::Noise), &mut out);
+            assert!(
+                (out[0] - expected[0]).abs() < 1e-6 && (out[1] - expected[1]).abs() < 1e-6,
+                "heading {heading}: {out:?}"
+            );
+        }
+    }
+}
