@@ -3,7 +3,8 @@
 //! `hevo run` with the same seed; so does a job during which a worker is killed, and one whose
 //! master is killed with SIGKILL and restarted on the same state directory; requests without
 //! the token are refused; a broken experiment file is refused naming the key; TLS with a
-//! private CA works; jobs can be cancelled. The tests that evolve share one local reference
+//! private CA works; jobs can be cancelled; a job on a scenario file of one's own runs on a
+//! worker that has no file and gives the local results. The tests that evolve share one local reference
 //! run and take turns, so timings stay realistic on a two-core machine.
 //!
 //! `overhead_benchmark` (ignored; `cargo test --release -p hevo-tests --test distributed --
@@ -126,6 +127,11 @@ fn spawn_watch(
 }
 
 fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
+    watch_until_done(master, job, extra, 28)
+}
+
+/// `hevo watch` until the job succeeds, having run `generations` generations in all.
+fn watch_until_done(master: &Master, job: &str, extra: &[&str], generations: u32) -> String {
     let mut args = vec!["watch", "--master", &master.url, job];
     args.extend_from_slice(extra);
     let output = hevo(&args, Some(TOKEN), LONG);
@@ -136,7 +142,9 @@ fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(
-        stdout.trim_end().ends_with("succeeded (28/28 generations)"),
+        stdout.trim_end().ends_with(&format!(
+            "succeeded ({generations}/{generations} generations)"
+        )),
         "{stdout}"
     );
     stdout
@@ -278,6 +286,62 @@ fn two_workers_give_exactly_the_local_results() {
         assert!(status.success(), "{}: {status}", worker.name);
     }
     eprintln!("two workers: {:.1} s", started.elapsed().as_secs_f64());
+}
+
+/// A task of one's own: the example T-maze renamed, with a pit across its stem's top cell
+/// that ends a sample, written beside the experiment and named by the node as `scenario`.
+const OWN_SCENARIO_EXPERIMENT: &str = r#"
+[experiment]
+name = "own"
+
+[evolution]
+population = 8
+elites = 2
+post_evaluation_samples = 4
+
+[[node]]
+name = "pit_maze"
+kind = "primitive"
+inputs = ["ir", "light"]
+hidden = 3
+scenario = "pit_maze.toml"
+samples = 4
+generations = 3
+runs = 1
+"#;
+
+#[test]
+fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
+    let _turn = exclusive();
+    let scratch = Scratch::new("own-scenario");
+    let own = include_str!("../../scenarios/examples/t_maze.toml")
+        .replacen("name = \"t_maze\"", "name = \"pit_maze\"", 1)
+        .replacen("[end]\n", "[end]\nforbidden = \"in pit\"\n", 1)
+        + "\n[regions]\npit = { rect = [-0.15, 0.75, 0.15, 1.05] }\n";
+    let dir = scratch.join("job");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("pit_maze.toml"), own).unwrap();
+    let file = dir.join("own.toml");
+    std::fs::write(&file, OWN_SCENARIO_EXPERIMENT).unwrap();
+    let local = scratch.join("local");
+    run_locally(&file, &local);
+
+    // The worker runs elsewhere, with no file: the job carries the scenario's text.
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let _worker = start_worker(
+        &master.url,
+        WORKER_TOKEN,
+        "own0",
+        &[],
+        &scratch.join("own0.log"),
+    );
+    let job = submit(&master, &file, &[]);
+    std::fs::remove_file(dir.join("pit_maze.toml")).unwrap();
+    watch_until_done(&master, &job, &[], 3);
+    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    assert_same_results(&local, &scratch.join("fetched"), None);
+    let summary = std::fs::read_to_string(scratch.join("fetched/pit_maze/summary.json")).unwrap();
+    assert!(summary.contains("\"task\": \"pit_maze\""), "{summary}");
 }
 
 /// A `name=value` field of a log line.
