@@ -705,7 +705,8 @@ impl<'e> SampleRun<'e> {
 }
 
 /// A light's state during a sample: a row light flashes once, when the robot first drives past
-/// it; a beacon is always lit; a timed light flashes once at its cycle. Only the lights of the
+/// it; a beacon is always lit; a timed light flashes once at its cycle; a region's light once,
+/// when the robot first enters the region. Only the lights of the
 /// sample's variant light at all.
 #[derive(Debug)]
 struct LiveLight {
@@ -724,7 +725,8 @@ impl LiveLight {
 }
 
 /// A light row is passed when the robot's centre crosses the light's y going up the stem,
-/// within the stem (|x| below the light's x). A timed light lights at its cycle.
+/// within the stem (|x| below the light's x). A timed light lights at its cycle; a region's
+/// light when the robot's centre is in the region after a move.
 fn trigger_lights(
     lights: &mut [LiveLight],
     before: &Pose,
@@ -739,6 +741,9 @@ fn trigger_lights(
                 before.y < row && after.y >= row && after.x.abs() < light.position[0].abs()
             }
             Trigger::AfterCycles(at) => cycle + 1 >= at,
+            Trigger::Entered([x0, y0, x1, y1]) => {
+                (x0..=x1).contains(&after.x) && (y0..=y1).contains(&after.y)
+            }
             Trigger::Always => false,
         };
         if fired {

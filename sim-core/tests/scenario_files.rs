@@ -734,6 +734,63 @@ fn bad_solid_rectangles_are_refused_naming_the_one() {
     assert!(refusal(&with(&many)).contains("at most 1024"));
 }
 
+/// The example T-maze whose right light flashes when the robot enters `zone`, a rectangle
+/// across the stem from y = 0.40 to 0.50 m, instead of when it passes the light's row.
+fn t_maze_with_a_zone_light(entered: &str) -> String {
+    let right = "name = \"right\"\ncell = [0.33, 1.0]\ntrigger = \"passed\"\n";
+    assert!(T_MAZE.contains(right));
+    format!(
+        "{}\n[regions]\nzone = {{ rect = [-0.15, 0.40, 0.15, 0.50] }}\n",
+        T_MAZE.replace(
+            right,
+            &format!(
+                "name = \"right\"\ncell = [0.33, 1.0]\ntrigger = {{ entered = \"{entered}\" }}\n"
+            ),
+        )
+    )
+}
+
+#[test]
+fn a_light_triggered_by_a_region_lights_when_the_robot_enters_it() {
+    let text = t_maze_with_a_zone_light("zone");
+    let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "z.toml").unwrap()));
+    let flash_cycles = task.light.flash_cycles as usize;
+    let evaluator = Evaluator::new(task).unwrap();
+    let trace = evaluator.evaluate_traced(
+        &mut StraightOn,
+        Sample {
+            seed: 3,
+            variant: Some(1),
+        },
+    );
+    let right_lit = |cycle: &hevo_sim_core::TraceCycle| cycle.lit_lights & 0b10 != 0;
+    let first = trace
+        .cycles
+        .iter()
+        .position(right_lit)
+        .expect("the right light lit");
+    // Lit from the first cycle that starts with the robot's centre in the zone, not before.
+    assert!(
+        trace.cycles[first].robot.y >= 0.40,
+        "{:?}",
+        trace.cycles[first].robot
+    );
+    assert!(trace.cycles[first - 1].robot.y < 0.40);
+    let lit = trace.cycles[first..]
+        .iter()
+        .take_while(|c| right_lit(c))
+        .count();
+    // For the flash's cycles, or until the sample ended.
+    assert!(
+        lit == flash_cycles || first + lit == trace.cycles.len(),
+        "{lit}"
+    );
+    // A map's region is not a rectangle the trigger can test.
+    let error = refusal(&t_maze_with_a_zone_light("entrance"));
+    assert!(error.contains("at `light[1].trigger.entered`"), "{error}");
+    assert!(error.contains("not a [regions] rectangle"), "{error}");
+}
+
 #[test]
 fn more_lights_than_a_cycle_can_mark_are_refused_and_the_most_compile() {
     let with_lights = |n_lights: usize| {

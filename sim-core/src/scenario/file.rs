@@ -161,7 +161,8 @@ pub struct LightDecl {
     pub at: Option<[f32; 2]>,
     /// When it lights: `"passed"` (once, when the robot's centre first crosses its row going
     /// up, within its distance from the centre line, for `light.flash_cycles` cycles),
-    /// `"always"` (a beacon), or `{ after_cycles = N }` (once, at cycle N).
+    /// `"always"` (a beacon), `{ after_cycles = N }` (once, at cycle N), or `{ entered =
+    /// "REGION" }` (once, when the robot's centre is first inside a `[regions]` rectangle).
     pub trigger: TriggerDecl,
 }
 
@@ -175,6 +176,11 @@ pub enum TriggerDecl {
     AfterCycles {
         /// The cycle.
         after_cycles: u32,
+    },
+    /// When the robot enters a region.
+    Entered {
+        /// A `[regions]` rectangle's name.
+        entered: String,
     },
 }
 

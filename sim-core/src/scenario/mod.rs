@@ -145,6 +145,9 @@ pub enum Trigger {
     Always,
     /// Once, at this cycle.
     AfterCycles(u32),
+    /// Once, when the robot's centre is first inside this rectangle `[x0, y0, x1, y1]` after
+    /// a move.
+    Entered([f32; 4]),
 }
 
 /// A variant, compiled.
@@ -841,10 +844,22 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             TriggerDecl::Named(name) if name == "passed" => Trigger::Passed,
             TriggerDecl::Named(name) if name == "always" => Trigger::Always,
             TriggerDecl::AfterCycles { after_cycles } => Trigger::AfterCycles(*after_cycles),
+            TriggerDecl::Entered { entered } => match rect_regions.get(entered) {
+                Some(rect) => Trigger::Entered(*rect),
+                None => {
+                    return Err(error(
+                        &at("trigger.entered"),
+                        format!("'{entered}' is not a [regions] rectangle"),
+                    ));
+                }
+            },
             TriggerDecl::Named(other) => {
                 return Err(error(
                     &at("trigger"),
-                    format!("'{other}' is not passed, always or {{ after_cycles = N }}"),
+                    format!(
+                        "'{other}' is not passed, always, {{ after_cycles = N }} or \
+                         {{ entered = \"REGION\" }}"
+                    ),
                 ));
             }
         };
@@ -895,7 +910,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     // A light that flashes in no variant, with a trigger that only matters for flashes,
     // is probably a mistake in the variants.
     for (light_idx, light) in lights.iter().enumerate() {
-        if light.trigger == Trigger::Passed
+        if matches!(light.trigger, Trigger::Passed | Trigger::Entered(_))
             && file.variants.len() > 1
             && !variants.iter().any(|v| v.flashes[light_idx])
         {
