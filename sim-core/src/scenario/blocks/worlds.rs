@@ -49,16 +49,7 @@ impl World for FixedMap {
         statics: Option<&FixedLayout>,
         _rng: &mut SimRng,
     ) -> Built {
-        let (scene, map) = statics
-            .cloned()
-            .expect("map statics are built for map worlds");
-        Built {
-            scene,
-            cells: map,
-            room: None,
-            corridor_path: None,
-            shape: None,
-        }
+        fixed(statics)
     }
 }
 
@@ -355,16 +346,21 @@ impl World for Solids {
         statics: Option<&FixedLayout>,
         _rng: &mut SimRng,
     ) -> Built {
-        let (scene, cells) = statics
-            .cloned()
-            .expect("statics are built for fixed worlds");
-        Built {
-            scene,
-            cells,
-            room: None,
-            corridor_path: None,
-            shape: None,
-        }
+        fixed(statics)
+    }
+}
+
+/// A fixed world's sample: its statics as they are.
+fn fixed(statics: Option<&FixedLayout>) -> Built {
+    let (scene, cells) = statics
+        .cloned()
+        .expect("statics are built for fixed worlds");
+    Built {
+        scene,
+        cells,
+        room: None,
+        corridor_path: None,
+        shape: None,
     }
 }
 
