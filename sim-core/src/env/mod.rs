@@ -316,6 +316,7 @@ pub fn build(
             let dir = [heading.cos(), heading.sin()];
             facing = (heading, dir);
             if drawn.is_some() {
+                // Already drawn over its region: no stem jitter on top.
                 Pose {
                     x: center[0],
                     y: center[1],
