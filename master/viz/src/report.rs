@@ -586,49 +586,16 @@ fn other_tasks_section(nodes: &[NodeResult]) -> String {
             node.dir.parent().unwrap_or(&node.dir).display()
         );
     }
-    let mut tasks: Vec<&str> = others
-        .iter()
-        .map(|node| node.runs[0].post_evaluation.task.as_str())
-        .collect();
-    tasks.sort_unstable();
-    tasks.dedup();
-    for task in tasks {
-        let rows: Vec<(&NodeResult, &RunSummary)> = others
-            .iter()
-            .flat_map(|node| node.runs.iter().map(move |run| (*node, run)))
-            .filter(|(_, run)| {
-                run.post_evaluation.task == task && run.post_evaluation.per_variant.len() > 1
-            })
-            .collect();
-        let Some((_, first)) = rows.first() else {
-            continue;
-        };
-        let names: Vec<String> = first
-            .post_evaluation
-            .per_variant
-            .iter()
-            .map(|v| v.name.clone().unwrap_or_else(|| v.variant.to_string()))
-            .collect();
-        let _ = writeln!(
-            md,
-            "\nIn `{task}`, per run, the solve rate in each variant:\n\n| controller | run | solved | {} |\n|---|---|---|{}",
-            names.join(" | "),
-            "---|".repeat(names.len())
-        );
-        for (node, run) in rows {
-            md.push_str(&variant_row(node, run, names.len()));
-        }
-    }
-    md.push_str(&stage_and_phase_tables(&others));
+    md.push_str(&per_task_tables(&others));
     md
 }
 
-/// Per task of `nodes` whose scenario has stages or a derived fitness, a table of each run's
-/// share of samples that reached each stage, and one of the share of each phase's cycles in
-/// which the arbitrator chose the phase's child (the terms of the derived fitness), under the
-/// scenario's names for them.
-fn stage_and_phase_tables(nodes: &[&NodeResult]) -> String {
-    let mut md = String::new();
+/// Per task of `nodes`, a table per kind of per-run breakdown its runs report, under the
+/// scenario's names for the columns: the solve rate in each variant (when there are several),
+/// the share of samples that reached each stage, and the share of each phase's cycles in which
+/// the arbitrator chose the phase's child (the terms of the derived fitness). The variant
+/// tables of every task come first, then the stage and phase tables, task by task.
+fn per_task_tables(nodes: &[&NodeResult]) -> String {
     let rows: Vec<(&NodeResult, &RunSummary)> = nodes
         .iter()
         .flat_map(|node| node.runs.iter().map(move |run| (*node, run)))
@@ -639,62 +606,80 @@ fn stage_and_phase_tables(nodes: &[&NodeResult]) -> String {
         .collect();
     tasks.sort_unstable();
     tasks.dedup();
-    for task in tasks {
-        let of_task = || {
-            rows.iter()
-                .filter(move |(_, run)| run.post_evaluation.task == task)
-        };
-        type Cells = fn(&RunSummary) -> Vec<(String, String)>;
-        let tables: [(&str, Cells); 2] = [
-            ("the share of samples that reached each stage", |run| {
-                run.post_evaluation
-                    .per_stage
-                    .iter()
-                    .map(|s| (s.stage.clone(), percent(s.share)))
-                    .collect()
-            }),
-            (
-                "the share of each phase's cycles in which the arbitrator chose the phase's child \
-                 (the terms of the derived fitness; - where no sample reached the phase)",
-                |run| {
-                    run.post_evaluation
-                        .per_phase
-                        .iter()
-                        .map(|p| (p.phase.clone(), percent_or_dash(p.right_choice)))
-                        .collect()
-                },
-            ),
-        ];
-        for (what, cells) in tables {
-            let Some(names) = of_task()
-                .map(|(_, run)| cells(run))
-                .find(|cells| !cells.is_empty())
-                .map(|cells| cells.into_iter().map(|(name, _)| name).collect::<Vec<_>>())
-            else {
-                continue;
-            };
-            let _ = writeln!(
-                md,
-                "\nIn `{task}`, per run, {what}:\n\n| controller | run | solved | {} |\n|---|---|---|{}",
-                names.join(" | "),
-                "---|".repeat(names.len())
-            );
-            for (node, run) in of_task() {
-                let values = cells(run);
-                if values.is_empty() {
-                    continue;
-                }
-                let values: Vec<String> = values.into_iter().map(|(_, value)| value).collect();
-                let _ = writeln!(
-                    md,
-                    "| {} | {} | {} | {} |",
-                    node.name,
-                    run.run,
-                    percent(run.post_evaluation.solve_rate),
-                    values.join(" | ")
-                );
-            }
+    let variants: Breakdown = ("the solve rate in each variant", |run| {
+        let per_variant = &run.post_evaluation.per_variant;
+        if per_variant.len() < 2 {
+            return Vec::new();
         }
+        per_variant
+            .iter()
+            .map(|v| {
+                let name = v.name.clone().unwrap_or_else(|| v.variant.to_string());
+                (name, percent(v.solve_rate))
+            })
+            .collect()
+    });
+    let stages: Breakdown = ("the share of samples that reached each stage", |run| {
+        run.post_evaluation
+            .per_stage
+            .iter()
+            .map(|s| (s.stage.clone(), percent(s.share)))
+            .collect()
+    });
+    let phases: Breakdown = (
+        "the share of each phase's cycles in which the arbitrator chose the phase's child \
+         (the terms of the derived fitness; - where no sample reached the phase)",
+        |run| {
+            run.post_evaluation
+                .per_phase
+                .iter()
+                .map(|p| (p.phase.clone(), percent_or_dash(p.right_choice)))
+                .collect()
+        },
+    );
+    let mut md: String = tasks
+        .iter()
+        .map(|task| task_table(task, variants, &rows))
+        .collect();
+    for task in &tasks {
+        md.push_str(&task_table(task, stages, &rows));
+        md.push_str(&task_table(task, phases, &rows));
+    }
+    md
+}
+
+/// A per-run breakdown the report tabulates: what it is, in words, and a run's cells, each a
+/// column's name and the run's value (none when the run does not report it).
+type Breakdown = (&'static str, fn(&RunSummary) -> Vec<(String, String)>);
+
+/// One table of [`per_task_tables`]: a row for each of `task`'s runs among `rows` that report
+/// the breakdown, the columns named by the first such run; empty when none does.
+fn task_table(task: &str, (what, cells): Breakdown, rows: &[(&NodeResult, &RunSummary)]) -> String {
+    let rows: Vec<(&NodeResult, Vec<(String, String)>, &RunSummary)> = rows
+        .iter()
+        .filter(|(_, run)| run.post_evaluation.task == task)
+        .map(|&(node, run)| (node, cells(run), run))
+        .filter(|(_, cells, _)| !cells.is_empty())
+        .collect();
+    let Some((_, first, _)) = rows.first() else {
+        return String::new();
+    };
+    let names: Vec<&str> = first.iter().map(|(name, _)| name.as_str()).collect();
+    let mut md = format!(
+        "\nIn `{task}`, per run, {what}:\n\n| controller | run | solved | {} |\n|---|---|---|{}\n",
+        names.join(" | "),
+        "---|".repeat(names.len())
+    );
+    for (node, cells, run) in &rows {
+        let values: Vec<&str> = cells.iter().map(|(_, value)| value.as_str()).collect();
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} |",
+            node.name,
+            run.run,
+            percent(run.post_evaluation.solve_rate),
+            values.join(" | ")
+        );
     }
     md
 }
@@ -1347,7 +1332,7 @@ mod tests {
                 right_choice: None,
             },
         ];
-        let tables = stage_and_phase_tables(&[&arena]);
+        let tables = per_task_tables(&[&arena]);
         assert!(
             tables.contains("| controller | run | solved | left_room | solved |"),
             "{tables}"
@@ -1367,10 +1352,7 @@ mod tests {
         // Run 0 reported neither (written before hevo counted them): no row.
         assert!(!tables.contains("| forage | 0 |"), "{tables}");
         // No scenario with stages or phases: nothing at all.
-        assert_eq!(
-            stage_and_phase_tables(&[&node("follow_wall", "main", 2)]),
-            ""
-        );
+        assert_eq!(per_task_tables(&[&node("follow_wall", "main", 2)]), "");
     }
 
     #[test]
