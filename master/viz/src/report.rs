@@ -655,7 +655,7 @@ type Breakdown = (&'static str, fn(&RunSummary) -> Vec<(String, String)>);
 /// One table of [`per_task_tables`]: a row for each of `task`'s runs among `rows` that report
 /// the breakdown, the columns named by the first such run; empty when none does.
 fn task_table(task: &str, (what, cells): Breakdown, rows: &[(&NodeResult, &RunSummary)]) -> String {
-    let rows: Vec<(&NodeResult, Vec<(String, String)>, &RunSummary)> = rows
+    let rows: Vec<_> = rows
         .iter()
         .filter(|(_, run)| run.post_evaluation.task == task)
         .map(|&(node, run)| (node, cells(run), run))
