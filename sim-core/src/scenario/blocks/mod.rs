@@ -215,14 +215,26 @@ pub trait World: Debug + Send + Sync {
     fn statics(&self, _scenario: &Scenario, _task: &TaskConfig) -> Option<FixedLayout> {
         None
     }
-    /// One sample's layout, drawn from its environment stream.
+    /// One sample's layout, drawn from its environment stream. By default, a fixed world's:
+    /// its statics as they are, drawing nothing.
     fn build(
         &self,
-        scenario: &Scenario,
-        task: &TaskConfig,
+        _scenario: &Scenario,
+        _task: &TaskConfig,
         statics: Option<&FixedLayout>,
-        rng: &mut SimRng,
-    ) -> Built;
+        _rng: &mut SimRng,
+    ) -> Built {
+        let (scene, cells) = statics
+            .cloned()
+            .expect("a world without statics draws its own layout");
+        Built {
+            scene,
+            cells,
+            room: None,
+            corridor_path: None,
+            shape: None,
+        }
+    }
 }
 
 /// One kind of condition atom: how it is written and how it compiles.

@@ -41,16 +41,6 @@ impl World for FixedMap {
         let scene = Scene::new(map.wall_rects(&[]), task.query_margin());
         Some((Arc::new(scene), Some(Arc::new(map.clone()))))
     }
-
-    fn build(
-        &self,
-        _scenario: &Scenario,
-        _task: &TaskConfig,
-        statics: Option<&FixedLayout>,
-        _rng: &mut SimRng,
-    ) -> Built {
-        fixed(statics)
-    }
 }
 
 /// `room = "standalone"`: a generated room, centred, its exit in any wall.
@@ -337,30 +327,6 @@ impl World for Solids {
         // Empty: the scenario's solids are added to every world's (`env::Statics`), and here
         // they are all there is.
         Some((Arc::new(Scene::new(Vec::new(), task.query_margin())), None))
-    }
-
-    fn build(
-        &self,
-        _scenario: &Scenario,
-        _task: &TaskConfig,
-        statics: Option<&FixedLayout>,
-        _rng: &mut SimRng,
-    ) -> Built {
-        fixed(statics)
-    }
-}
-
-/// A fixed world's sample: its statics as they are.
-fn fixed(statics: Option<&FixedLayout>) -> Built {
-    let (scene, cells) = statics
-        .cloned()
-        .expect("statics are built for fixed worlds");
-    Built {
-        scene,
-        cells,
-        room: None,
-        corridor_path: None,
-        shape: None,
     }
 }
 
