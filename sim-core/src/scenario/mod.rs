@@ -45,6 +45,11 @@ pub const MAX_SOLIDS: usize = 1024;
 /// covers the solids' bounding box in 0.1 m cells, which this keeps to a few megabytes.
 pub const MAX_SOLID_COORDINATE: f32 = 50.0;
 
+/// Whether `[x0, y0, x1, y1]` is a rectangle of some area: finite, `x0 < x1` and `y0 < y1`.
+fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
+    x0 < x1 && y0 < y1 && [x0, y0, x1, y1].iter().all(|v| v.is_finite())
+}
+
 /// The scenarios shipped with hevo: the paper's tasks.
 pub const SHIPPED: [(&str, &str); 7] = [
     (
@@ -723,9 +728,9 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
         ));
     }
     let mut solids = Vec::with_capacity(w.solids.len());
-    for (idx, &[x0, y0, x1, y1]) in w.solids.iter().enumerate() {
-        let within = |v: f32| v.is_finite() && v.abs() <= MAX_SOLID_COORDINATE;
-        if !(x0 < x1 && y0 < y1 && [x0, y0, x1, y1].into_iter().all(within)) {
+    for (idx, &rect) in w.solids.iter().enumerate() {
+        let [x0, y0, x1, y1] = rect;
+        if !(is_proper_rect(rect) && rect.iter().all(|v| v.abs() <= MAX_SOLID_COORDINATE)) {
             return Err(error(
                 &format!("world.solids[{idx}]"),
                 format!(
@@ -750,8 +755,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     }
     let mut rect_regions = BTreeMap::new();
     for (name, region) in &file.regions {
-        let [x0, y0, x1, y1] = region.rect;
-        if !(x0 < x1 && y0 < y1) || [x0, y0, x1, y1].iter().any(|v| !v.is_finite()) {
+        if !is_proper_rect(region.rect) {
             return Err(error(
                 &format!("regions.{name}.rect"),
                 "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1: an empty region".into(),
