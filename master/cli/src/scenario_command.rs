@@ -115,7 +115,8 @@ fn first_cycle(task: &TaskConfig, sample: Sample) -> Result<hevo_sim_core::Trace
 /// starts checked on that many worlds.
 fn check(task: &TaskConfig, samples: u32) -> Result<String> {
     let scenario = &task.scenario;
-    Evaluator::new(task.clone())?.check_starts(u64::from(samples))?;
+    let evaluator = Evaluator::new(task.clone())?;
+    evaluator.check_starts(u64::from(samples))?;
     let (low, high) = task.fitness_range();
     let mut text = format!(
         "{}: ok ({} variant(s), {} samples each built)\n  max cycles {}, fitness in [{low}, {high}]",
@@ -129,7 +130,7 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
         text.push_str(&format!("\n  variants: {}", names.join("; ")));
     }
     // The regions of the first sample's world (generators may leave one out of a sample).
-    let env = Evaluator::new(task.clone())?.environment(Sample::seeded(0));
+    let env = evaluator.environment(Sample::seeded(0));
     let regions: Vec<String> = hevo_sim_core::env::regions::named_regions(task, &env)
         .into_iter()
         .map(|region| region.name)
