@@ -666,22 +666,41 @@ fn task_table(task: &str, (what, cells): Breakdown, rows: &[(&NodeResult, &RunSu
     };
     let names: Vec<&str> = first.iter().map(|(name, _)| name.as_str()).collect();
     let mut md = format!(
-        "\nIn `{task}`, per run, {what}:\n\n| controller | run | solved | {} |\n|---|---|---|{}\n",
-        names.join(" | "),
-        "---|".repeat(names.len())
+        "\nIn `{task}`, per run, {what}:\n\n{}",
+        run_table_head(&names)
     );
     for (node, cells, run) in &rows {
         let values: Vec<&str> = cells.iter().map(|(_, value)| value.as_str()).collect();
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} |",
-            node.name,
-            run.run,
-            percent(run.post_evaluation.solve_rate),
-            values.join(" | ")
-        );
+        md.push_str(&run_row(node, run, &values));
     }
     md
+}
+
+/// The head of a table with a row per run ([`run_row`]): controller, run, solve rate, then a
+/// column per name of `columns`.
+fn run_table_head(columns: &[impl AsRef<str>]) -> String {
+    let headers: String = columns
+        .iter()
+        .map(|column| format!(" {} |", column.as_ref()))
+        .collect();
+    format!(
+        "| controller | run | solved |{headers}\n|---|---|---|{}\n",
+        "---|".repeat(columns.len())
+    )
+}
+
+/// One run's row under [`run_table_head`]: its controller, run and solve rate, then `cells`.
+fn run_row(node: &NodeResult, run: &RunSummary, cells: &[impl AsRef<str>]) -> String {
+    let cells: String = cells
+        .iter()
+        .map(|cell| format!(" {} |", cell.as_ref()))
+        .collect();
+    format!(
+        "| {} | {} | {} |{cells}\n",
+        node.name,
+        run.run,
+        percent(run.post_evaluation.solve_rate)
+    )
 }
 
 /// One run's row of a per-variant table with `n_variants` columns: controller, run, solve
@@ -693,13 +712,7 @@ fn variant_row(node: &NodeResult, run: &RunSummary, n_variants: usize) -> String
             *cell = percent(variant.solve_rate);
         }
     }
-    format!(
-        "| {} | {} | {} | {} |\n",
-        node.name,
-        run.run,
-        percent(run.post_evaluation.solve_rate),
-        cells.join(" | ")
-    )
+    run_row(node, run, &cells)
 }
 
 fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String {
@@ -720,9 +733,8 @@ fn variant_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String 
          first and second junction: 0 right then left, 1 right then right, 2 left then right, 3 left \
          then left (for return_room, the start branch, in the same order).\n\n",
     );
-    let headers: String = (0..n_variants).map(|v| format!(" {v} |")).collect();
-    let _ = writeln!(md, "| controller | run | solved |{headers}");
-    let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(n_variants));
+    let columns: Vec<String> = (0..n_variants).map(|v| v.to_string()).collect();
+    md.push_str(&run_table_head(&columns));
     for (node, run) in rows {
         md.push_str(&variant_row(node, run, n_variants));
     }
@@ -760,9 +772,8 @@ fn node_use_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String
             .iter()
             .map(|n| n.node.strip_prefix(&root_prefix).unwrap_or(&n.node))
             .collect();
-        let headers: String = paths.iter().map(|path| format!(" {path} |")).collect();
-        let _ = writeln!(md, "\n| controller | run | solved |{headers}");
-        let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(paths.len()));
+        md.push('\n');
+        md.push_str(&run_table_head(&paths));
         for run in &counted {
             let cells: Vec<String> = run
                 .post_evaluation
@@ -779,14 +790,7 @@ fn node_use_table<'a>(nodes: impl IntoIterator<Item = &'a NodeResult>) -> String
                     )
                 })
                 .collect();
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {} |",
-                node.name,
-                run.run,
-                percent(run.post_evaluation.solve_rate),
-                cells.join(" | ")
-            );
+            md.push_str(&run_row(node, run, &cells));
         }
         if !uncounted.is_empty() {
             let runs: Vec<String> = uncounted.iter().map(|run| run.run.to_string()).collect();
