@@ -11,7 +11,7 @@ use crate::scenario::blocks::{
     self, CycleView, EndView, Motion, SenseView, Sensor, SensorRun, TeammateBehaviour,
     TeammateView, Tracked,
 };
-use crate::scenario::{Scenario, ScenarioError, Trigger, ending_slot};
+use crate::scenario::{Scenario, ScenarioError, Trigger, ending_slot, rect_holds};
 use crate::scene::{Rect, Scene};
 use crate::task::{ConfigError, TaskConfig};
 use crate::trig;
@@ -741,9 +741,7 @@ fn trigger_lights(
                 before.y < row && after.y >= row && after.x.abs() < light.position[0].abs()
             }
             Trigger::AfterCycles(at) => cycle + 1 >= at,
-            Trigger::Entered([x0, y0, x1, y1]) => {
-                (x0..=x1).contains(&after.x) && (y0..=y1).contains(&after.y)
-            }
+            Trigger::Entered(rect) => rect_holds(rect, after.position()),
             Trigger::Always => false,
         };
         if fired {

@@ -50,6 +50,13 @@ fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
     x0 < x1 && y0 < y1 && [x0, y0, x1, y1].iter().all(|v| v.is_finite())
 }
 
+/// Whether the rectangle `[x0, y0, x1, y1]` holds `point`, its edges included: what `in REGION`
+/// and a light triggered by entering a region both test.
+#[inline]
+pub(crate) fn rect_holds([x0, y0, x1, y1]: [f32; 4], [x, y]: [f32; 2]) -> bool {
+    (x0..=x1).contains(&x) && (y0..=y1).contains(&y)
+}
+
 /// The scenarios shipped with hevo: the paper's tasks.
 pub const SHIPPED: [(&str, &str); 7] = [
     (

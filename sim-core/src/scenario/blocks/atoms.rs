@@ -3,6 +3,7 @@
 //! name resolved when the scenario compiles.
 
 use super::{Atom, AtomKind, CycleView, fixed_word};
+use crate::scenario::rect_holds;
 
 /// `in maze`: the robot's centre in a map cell.
 pub const IN_MAZE: AtomKind = AtomKind {
@@ -74,9 +75,7 @@ impl Atom for InRegion {
     fn holds(&self, view: &CycleView<'_>) -> bool {
         let robot = view.robot;
         match &self.0 {
-            RegionTest::Rect([x0, y0, x1, y1]) => {
-                (*x0..=*x1).contains(&robot.x) && (*y0..=*y1).contains(&robot.y)
-            }
+            RegionTest::Rect(rect) => rect_holds(*rect, robot.position()),
             RegionTest::Room => view
                 .ground
                 .room
