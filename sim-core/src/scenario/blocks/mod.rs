@@ -366,6 +366,24 @@ pub struct SenseView<'a> {
     pub teammate: Option<&'a Pose>,
 }
 
+impl<'a> SenseView<'a> {
+    /// What a robot at `robot` sees of `env` with no light lit and no teammate: for the tests
+    /// of one sensor on its own.
+    #[cfg(test)]
+    pub(crate) fn unlit(robot: &'a Pose, env: &'a crate::env::Environment) -> SenseView<'a> {
+        let (sin_heading, cos_heading) = robot.heading.sin_cos();
+        SenseView {
+            robot,
+            sin_heading,
+            cos_heading,
+            scene: &env.scene,
+            lights: &env.lights,
+            lit_mask: 0,
+            teammate: None,
+        }
+    }
+}
+
 /// What a block written as a fixed word (one of `words`) makes of `text`: nothing when the text
 /// is another word, else the block, or the refusal `missing` when the scenario lacks what the
 /// block needs.
@@ -486,18 +504,12 @@ mod doc_examples {
                 y: 0.0,
                 heading,
             };
-            let (sin_heading, cos_heading) = heading.sin_cos();
-            let view = SenseView {
-                robot: &robot,
-                sin_heading,
-                cos_heading,
-                scene: &env.scene,
-                lights: &env.lights,
-                lit_mask: 0,
-                teammate: None,
-            };
             let mut out = [0.0f32; 2];
-            run.read(&view, &mut stream_rng(0, Stream::Noise), &mut out);
+            run.read(
+                &SenseView::unlit(&robot, &env),
+                &mut stream_rng(0, Stream::Noise),
+                &mut out,
+            );
             assert!(
                 (out[0] - expected[0]).abs() < 1e-6 && (out[1] - expected[1]).abs() < 1e-6,
                 "heading {heading}: {out:?}"

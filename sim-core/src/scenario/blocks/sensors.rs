@@ -294,16 +294,8 @@ mod tests {
                 y: env.start.y + offset.1,
                 heading: offset.2,
             };
-            let (sin_heading, cos_heading) = robot.heading.sin_cos();
-            let view = SenseView {
-                robot: &robot,
-                sin_heading,
-                cos_heading,
-                scene: &env.scene,
-                lights: &env.lights,
-                lit_mask: 0,
-                teammate: None,
-            };
+            let view = SenseView::unlit(&robot, &env);
+            let (sin_heading, cos_heading) = (view.sin_heading, view.cos_heading);
             let sensor = IrSensor {
                 cones: ConeLanes::new(&ir_cones_at_rest(&task.ir)),
                 offsets: body_offsets(IR_ANGLES, task.robot.radius),
