@@ -432,9 +432,9 @@ pub(crate) struct SampleRun<'e> {
     judge: Judge<'e>,
     active_cycles: Vec<u32>,
     activations: Vec<u32>,
-    /// Which nodes were active in the previous cycle, to count activations.
-    was_active: Vec<bool>,
-    is_active: Vec<bool>,
+    /// Per node, the last cycle (a `cycles_run`) it was active in, `u32::MAX` before any: a
+    /// node active now whose last cycle is not the one before has been switched on.
+    last_active_cycle: Vec<u32>,
     collided_ever: bool,
     /// Cycles begun, the current one included.
     cycles_run: u32,
@@ -504,8 +504,7 @@ impl<'e> SampleRun<'e> {
             judge,
             active_cycles: vec![0; n_nodes],
             activations: vec![0; n_nodes],
-            was_active: vec![false; n_nodes],
-            is_active: vec![false; n_nodes],
+            last_active_cycle: vec![u32::MAX; n_nodes],
             collided_ever: false,
             cycles_run: 0,
             sub_task_choices: SubTaskChoices::default(),
@@ -567,25 +566,21 @@ impl<'e> SampleRun<'e> {
     /// chose the child the sub-task in force asks for.
     #[inline]
     pub(crate) fn count_decision(&mut self, active_path: &[usize], root_choice: Option<usize>) {
-        self.is_active.fill(false);
+        // Only the path's nodes are touched, so a big tree costs no more than a small one.
+        let cycle = self.cycles_run;
         for &node in active_path {
-            if let (Some(count), Some(active)) = (
+            if let (Some(count), Some(activations), Some(last)) = (
                 self.active_cycles.get_mut(node),
-                self.is_active.get_mut(node),
+                self.activations.get_mut(node),
+                self.last_active_cycle.get_mut(node),
             ) {
                 *count += 1;
-                *active = true;
+                if *last != cycle {
+                    *activations += u32::from(*last != cycle.wrapping_sub(1));
+                    *last = cycle;
+                }
             }
         }
-        for ((count, &now), &before) in self
-            .activations
-            .iter_mut()
-            .zip(&self.is_active)
-            .zip(&self.was_active)
-        {
-            *count += u32::from(now && !before);
-        }
-        std::mem::swap(&mut self.was_active, &mut self.is_active);
         if let Some(sub_task) = self.sub_task {
             self.sub_task_choices.cycles[sub_task as usize] += 1;
             if root_choice == Some(self.judge.phase_child[sub_task as usize]) {
