@@ -439,6 +439,44 @@ pub(crate) struct StepWeights<'a> {
     output_biases: &'a [f32],
 }
 
+impl<'a> StepWeights<'a> {
+    /// Inputs per network.
+    pub(crate) fn n_inputs(&self) -> usize {
+        self.n_inputs
+    }
+
+    /// Hidden neurons per network.
+    pub(crate) fn n_hidden(&self) -> usize {
+        self.n_hidden
+    }
+
+    /// The same weights for a network of exactly `n_inputs`, `n_hidden` and `n_outputs`, every
+    /// slice cut to that shape's length (`None` if this network has another shape). Given
+    /// constants, the compiler knows every loop's length in a step through the result.
+    #[inline(always)]
+    pub(crate) fn with_shape(
+        &self,
+        n_inputs: usize,
+        n_hidden: usize,
+        n_outputs: usize,
+    ) -> Option<StepWeights<'a>> {
+        if (self.n_inputs, self.n_hidden) != (n_inputs, n_hidden) {
+            return None;
+        }
+        Some(StepWeights {
+            n_inputs,
+            n_hidden,
+            hidden_weights: self
+                .hidden_weights
+                .get(..n_hidden * (n_inputs + n_hidden))?,
+            hidden_biases: self.hidden_biases.get(..n_hidden)?,
+            dt_over_taus: self.dt_over_taus.get(..n_hidden)?,
+            output_weights: self.output_weights.get(..n_outputs * n_hidden)?,
+            output_biases: self.output_biases.get(..n_outputs)?,
+        })
+    }
+}
+
 /// One forward-Euler step (see the module docs) on a state of any [`Real`]: `presynaptic` is
 /// `[inputs | firing rates]` and `state` the hidden state, both updated; `outputs` written.
 /// On `f32` this is the reference network; on lanes every lane performs the same operations.

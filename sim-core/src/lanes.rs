@@ -12,6 +12,28 @@ use std::ops::{Add, Mul, Neg, Sub};
 /// AVX register) per operation, and keeps the per-lane state of the widest network in cache.
 pub const LANES: usize = 8;
 
+/// A set of lanes: bit `lane` stands for lane `lane`.
+pub type LaneMask = u32;
+
+/// Every lane.
+pub const ALL_LANES: LaneMask = {
+    assert!(
+        LANES <= LaneMask::BITS as usize,
+        "a lane mask holds every lane"
+    );
+    LaneMask::MAX >> (LaneMask::BITS as usize - LANES)
+};
+
+/// The lanes of `mask`, lowest first.
+#[inline(always)]
+pub fn lanes_of(mut mask: LaneMask) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask.wrapping_sub(1);
+        (lane < LANES).then_some(lane)
+    })
+}
+
 /// What the network code needs of a number: basic IEEE arithmetic, a clamp, and the bit
 /// manipulation of the portable exponential.
 pub trait Real:
@@ -68,11 +90,11 @@ impl Lanes {
         Lanes(std::array::from_fn(|lane| f(self.0[lane], other.0[lane])))
     }
 
-    /// Lane `lane` from `other` where `take[lane]`, else from `self`.
+    /// Lane `lane` from `other` where `take` holds it, else from `self`.
     #[inline(always)]
-    pub fn select(self, take: &[bool; LANES], other: Lanes) -> Lanes {
+    pub fn select(self, take: LaneMask, other: Lanes) -> Lanes {
         Lanes(std::array::from_fn(|lane| {
-            if take[lane] {
+            if take >> lane & 1 != 0 {
                 other.0[lane]
             } else {
                 self.0[lane]
@@ -161,11 +183,27 @@ mod tests {
         same(a.bits_to_scale(3, 127, 23), &|x, _| {
             x.bits_to_scale(3, 127, 23)
         });
-        let take = [true, false, true, false, true, false, true, false];
-        let picked = a.select(&take, b);
-        for (lane, &taken) in take.iter().enumerate() {
-            let expected = if taken { b.0[lane] } else { a.0[lane] };
+        let take: LaneMask = 0b0101_0101;
+        let picked = a.select(take, b);
+        for lane in 0..LANES {
+            let expected = if take >> lane & 1 != 0 {
+                b.0[lane]
+            } else {
+                a.0[lane]
+            };
             assert_eq!(picked.0[lane].to_bits(), expected.to_bits(), "lane {lane}");
         }
+    }
+
+    #[test]
+    fn a_mask_lists_its_lanes_in_order() {
+        assert_eq!(lanes_of(0).count(), 0);
+        assert_eq!(lanes_of(0b1010_0110).collect::<Vec<_>>(), [1, 2, 5, 7]);
+        assert_eq!(
+            lanes_of(ALL_LANES).collect::<Vec<_>>(),
+            Vec::from_iter(0..LANES)
+        );
+        // Bits past the last lane are no lanes.
+        assert_eq!(lanes_of(!0).count(), LANES);
     }
 }

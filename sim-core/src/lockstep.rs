@@ -11,10 +11,11 @@
 use crate::controller::{Controller, NodeKind, arbitrate};
 use crate::ctrnn::{StepWeights, euler_step};
 use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
-use crate::frame::{N_FLAT, SensorFrame};
-use crate::lanes::{LANES, Lanes};
+use crate::frame::N_FLAT;
+use crate::lanes::{LANES, LaneMask, Lanes, lanes_of};
 use crate::robot::Arc;
 use crate::trig;
+use std::ops::Range;
 
 /// [`euler_step`] on lanes, compiled for the baseline CPU and again for AVX2, where one
 /// register holds all [`LANES`] lanes; the CPU the program runs on picks the version once.
@@ -28,7 +29,46 @@ fn step_network(
     state: &mut [Lanes],
     outputs: &mut [Lanes],
 ) {
-    euler_step(weights, inputs, presynaptic, state, outputs);
+    // The paper's shapes (and the single network it compares with), and the shapes
+    // `hevo bench` gives a scenario file's controller (every input), with their sizes as
+    // constants, so the compiler unrolls every loop; any other shape runs the same step with
+    // its sizes read at run time.
+    let shape = (weights.n_inputs(), weights.n_hidden(), outputs.len());
+    let stepped = match shape {
+        (4, 3, 2) => step_fixed::<4, 3, 2>(weights, inputs, presynaptic, state, outputs),
+        (4, 10, 2) => step_fixed::<4, 10, 2>(weights, inputs, presynaptic, state, outputs),
+        (4, 10, 3) => step_fixed::<4, 10, 3>(weights, inputs, presynaptic, state, outputs),
+        (5, 10, 3) => step_fixed::<5, 10, 3>(weights, inputs, presynaptic, state, outputs),
+        (6, 10, 2) => step_fixed::<6, 10, 2>(weights, inputs, presynaptic, state, outputs),
+        (6, 10, 3) => step_fixed::<6, 10, 3>(weights, inputs, presynaptic, state, outputs),
+        (7, 4, 2) => step_fixed::<7, 4, 2>(weights, inputs, presynaptic, state, outputs),
+        (7, 10, 2) => step_fixed::<7, 10, 2>(weights, inputs, presynaptic, state, outputs),
+        _ => None,
+    };
+    if stepped.is_none() {
+        euler_step(weights, inputs, presynaptic, state, outputs);
+    }
+}
+
+/// [`euler_step`] for a network of `I` inputs, `H` hidden neurons and `O` outputs, every
+/// slice cut to its constant length; `None` (nothing stepped) if a slice is too short.
+#[inline(always)]
+fn step_fixed<const I: usize, const H: usize, const O: usize>(
+    weights: &StepWeights<'_>,
+    inputs: &[Lanes],
+    presynaptic: &mut [Lanes],
+    state: &mut [Lanes],
+    outputs: &mut [Lanes],
+) -> Option<()> {
+    let weights = weights.with_shape(I, H, O)?;
+    euler_step(
+        &weights,
+        inputs.get(..I)?,
+        presynaptic.get_mut(..I + H)?,
+        state.get_mut(..H)?,
+        outputs.get_mut(..O)?,
+    );
+    Some(())
 }
 
 /// One network's state in every lane, and the scratch a partial step needs.
@@ -71,6 +111,9 @@ impl LaneNetwork {
 pub struct LaneController {
     controller: Controller,
     networks: Vec<LaneNetwork>,
+    /// Per node: where its inputs lie in a frame, when they lie side by side there (`ir` then
+    /// `light`, say), so a step reads them in place; `None` when they must be gathered.
+    input_ranges: Vec<Option<Range<usize>>>,
     /// Per node and lane: the child position chosen last since the last reset.
     active_child: Vec<[Option<usize>; LANES]>,
     /// Per node and lane: steps the active child has been on.
@@ -78,8 +121,8 @@ pub struct LaneController {
     /// Per lane, the node indices from the root to the primitive of the last step.
     paths: [Vec<usize>; LANES],
     /// Scratch: per node, the lanes in which it is active this step.
-    node_lanes: Vec<[bool; LANES]>,
-    /// Scratch: the current node's inputs.
+    node_lanes: Vec<LaneMask>,
+    /// Scratch: the current node's inputs, when they are gathered.
     inputs: Vec<Lanes>,
     /// Scratch: one lane's outputs of the current arbitrator.
     lane_outputs: Vec<f32>,
@@ -112,6 +155,16 @@ impl LaneController {
                 network
             })
             .collect();
+        let input_ranges = nodes
+            .iter()
+            .map(|node| {
+                let mut groups = node.inputs.iter().map(|group| group.flat_range());
+                let first = groups.next().unwrap_or(0..0);
+                groups.try_fold(first, |joined, next| {
+                    (joined.end == next.start).then_some(joined.start..next.end)
+                })
+            })
+            .collect();
         let max_inputs = nodes
             .iter()
             .map(|node| node.net.topology().n_inputs)
@@ -125,10 +178,11 @@ impl LaneController {
         let n_nodes = nodes.len();
         LaneController {
             networks,
+            input_ranges,
             active_child: vec![[None; LANES]; n_nodes],
             active_for: vec![[0; LANES]; n_nodes],
             paths: std::array::from_fn(|_| Vec::with_capacity(n_nodes)),
-            node_lanes: vec![[false; LANES]; n_nodes],
+            node_lanes: vec![0; n_nodes],
             inputs: vec![Lanes::ZERO; max_inputs],
             lane_outputs: vec![0.0; max_outputs],
             pending_resets: Vec::with_capacity(LANES),
@@ -165,50 +219,47 @@ impl LaneController {
         }
     }
 
-    /// One control cycle in every lane of `live`, each on its own frame: the wheel outputs per
-    /// lane, as [`Controller::step`] gives them (lanes not live get zeros).
-    pub fn step(
-        &mut self,
-        frames: &[SensorFrame; LANES],
-        live: &[bool; LANES],
-    ) -> [[f32; 2]; LANES] {
+    /// One control cycle in every lane of `live`, each lane on its own frame (`frame_lanes`
+    /// holds a frame's inputs lane by lane: input `i` of lane `l` is `frame_lanes[i].0[l]`):
+    /// the wheel outputs per lane, as [`Controller::step`] gives them (lanes not live get
+    /// zeros).
+    pub fn step(&mut self, frame_lanes: &[Lanes; N_FLAT], live: LaneMask) -> [[f32; 2]; LANES] {
         let mut wheels = [[0.0f32; 2]; LANES];
-        // The frames lane by lane, once per step: every node then copies whole lanes.
-        let flat_frames = frames.map(|frame| frame.inputs);
-        let frame_lanes: [Lanes; N_FLAT] = std::array::from_fn(|input| {
-            Lanes(std::array::from_fn(|lane| flat_frames[lane][input]))
-        });
         for path in &mut self.paths {
             path.clear();
         }
-        self.node_lanes.fill([false; LANES]);
+        self.node_lanes.fill(0);
         if let Some(root) = self.node_lanes.first_mut() {
-            *root = *live;
+            *root = live;
         }
         // Pre-order: every node comes after its parent, which has chosen its lanes by then.
         for node_idx in 0..self.networks.len() {
             let lanes = self.node_lanes[node_idx];
-            if !lanes.contains(&true) {
+            if lanes == 0 {
                 continue;
             }
             let node = &self.controller.nodes()[node_idx];
-            let mut n_filled = 0;
-            for group in &node.inputs {
-                for (slot, value) in self.inputs[n_filled..]
-                    .iter_mut()
-                    .zip(&frame_lanes[group.flat_range()])
-                {
-                    *slot = *value;
+            let inputs: &[Lanes] = match &self.input_ranges[node_idx] {
+                Some(range) => frame_lanes.get(range.clone()).unwrap_or_default(),
+                None => {
+                    let mut n_filled = 0;
+                    for group in &node.inputs {
+                        for (slot, value) in self.inputs[n_filled..]
+                            .iter_mut()
+                            .zip(&frame_lanes[group.flat_range()])
+                        {
+                            *slot = *value;
+                        }
+                        n_filled += group.width();
+                    }
+                    &self.inputs[..n_filled.min(self.inputs.len())]
                 }
-                n_filled += group.width();
-            }
+            };
             let network = &mut self.networks[node_idx];
             let weights = node.net.step_weights(&network.dt_over_taus);
-            let inputs = &self.inputs[..n_filled.min(self.inputs.len())];
             // Lanes without a sample may step freely; a lane with one steps only where the node
             // is active, as the scalar controller steps only the active path.
-            let every_live_lane = (0..LANES).all(|lane| lanes[lane] || !live[lane]);
-            if every_live_lane {
+            if live & !lanes == 0 {
                 step_network(
                     &weights,
                     inputs,
@@ -231,7 +282,7 @@ impl LaneController {
                 );
                 let blend = |kept: &mut [Lanes], stepped: &[Lanes]| {
                     for (kept, &stepped) in kept.iter_mut().zip(stepped) {
-                        *kept = kept.select(&lanes, stepped);
+                        *kept = kept.select(lanes, stepped);
                     }
                 };
                 blend(&mut network.presynaptic, &network.scratch_presynaptic);
@@ -239,15 +290,22 @@ impl LaneController {
                 blend(&mut network.outputs, &network.scratch_outputs);
             }
 
-            for lane in (0..LANES).filter(|&lane| lanes[lane]) {
-                self.paths[lane].push(node_idx);
-                match node.kind {
-                    NodeKind::Primitive => {
-                        if let [left, right] = network.outputs[..] {
+            match node.kind {
+                NodeKind::Primitive => {
+                    let pair = match &network.outputs[..] {
+                        [left, right] => Some((left, right)),
+                        _ => None,
+                    };
+                    for lane in lanes_of(lanes) {
+                        self.paths[lane].push(node_idx);
+                        if let Some((left, right)) = pair {
                             wheels[lane] = [left.0[lane], right.0[lane]];
                         }
                     }
-                    NodeKind::Arbitrator => {
+                }
+                NodeKind::Arbitrator => {
+                    for lane in lanes_of(lanes) {
+                        self.paths[lane].push(node_idx);
                         let outputs = &mut self.lane_outputs[..network.outputs.len()];
                         for (value, output) in outputs.iter_mut().zip(&network.outputs) {
                             *value = output.0[lane];
@@ -267,7 +325,7 @@ impl LaneController {
                             let end = self.controller.nodes()[left_node].subtree_end;
                             self.pending_resets.push((left_node, end, lane));
                         }
-                        self.node_lanes[chosen_node][lane] = true;
+                        self.node_lanes[chosen_node] |= 1 << lane;
                     }
                 }
             }
@@ -306,7 +364,8 @@ impl Evaluator {
         let mut outcomes: Vec<Option<Outcome>> = vec![None; samples.len()];
         let mut runs: [Option<(usize, SampleRun<'_>)>; LANES] = std::array::from_fn(|_| None);
         let mut pending = samples.iter().copied().enumerate();
-        let mut frames = [SensorFrame::default(); LANES];
+        // The lanes' frames input by input, as the networks read them.
+        let mut frame_lanes = [Lanes::ZERO; N_FLAT];
         loop {
             for (lane, slot) in runs.iter_mut().enumerate() {
                 if slot.is_none()
@@ -316,8 +375,12 @@ impl Evaluator {
                     *slot = Some((idx, SampleRun::new(self, sample, n_nodes, phase_child)));
                 }
             }
-            let live: [bool; LANES] = std::array::from_fn(|lane| runs[lane].is_some());
-            if !live.contains(&true) {
+            let live = runs
+                .iter()
+                .enumerate()
+                .filter(|(_, slot)| slot.is_some())
+                .fold(0, |mask: LaneMask, (lane, _)| mask | 1 << lane);
+            if live == 0 {
                 break;
             }
             // The sines of every lane's heading at once, then each lane senses.
@@ -325,12 +388,15 @@ impl Evaluator {
                 .each_ref()
                 .map(|slot| slot.as_ref().map_or(0.0, |(_, run)| run.heading()));
             let (sines, cosines) = trig::sin_cos_lanes(&headings);
-            for (lane, (frame, slot)) in frames.iter_mut().zip(&mut runs).enumerate() {
+            for (lane, slot) in runs.iter_mut().enumerate() {
                 if let Some((_, run)) = slot {
-                    *frame = run.sense_at((sines[lane], cosines[lane]));
+                    let frame = run.sense_at((sines[lane], cosines[lane]));
+                    for (input, &value) in frame_lanes.iter_mut().zip(&frame.inputs) {
+                        input.0[lane] = value;
+                    }
                 }
             }
-            let wheels = controller.step(&frames, &live);
+            let wheels = controller.step(&frame_lanes, live);
             // Each lane's arc, the sines of all the arcs at once, then each lane moves and the
             // cycle ends.
             let arcs: [Option<Arc>; LANES] = std::array::from_fn(|lane| {
@@ -365,27 +431,58 @@ mod tests {
     use crate::lanes::Real;
     use proptest::prelude::*;
 
+    /// Every shape `step_network` has unrolled code for, and two it has not.
+    const SHAPES: [(usize, usize, usize); 10] = [
+        (4, 3, 2),
+        (4, 10, 2),
+        (4, 10, 3),
+        (5, 10, 3),
+        (6, 10, 2),
+        (6, 10, 3),
+        (7, 4, 2),
+        (7, 10, 2),
+        (5, 6, 4),
+        (1, 1, 1),
+    ];
+
+    /// A shape of [`SHAPES`], genes for it and eight lanes of inputs.
+    fn network_and_inputs() -> impl Strategy<Value = (CtrnnTopology, Vec<f32>, Vec<f32>)> {
+        prop::sample::select(&SHAPES[..]).prop_flat_map(|(n_inputs, n_hidden, n_outputs)| {
+            let topology = CtrnnTopology::new(n_inputs, n_hidden, n_outputs);
+            (
+                Just(topology),
+                prop::collection::vec(-10.0f32..10.0, topology.n_genes()),
+                prop::collection::vec(0.0f32..1.0, n_inputs * LANES),
+            )
+        })
+    }
+
     proptest! {
-        /// The version the CPU picks (AVX2 where it has it) gives the generic step's bits.
+        /// The version the CPU picks (AVX2 where it has it), with its unrolled code for the
+        /// common shapes, gives the generic step's bits.
         #[test]
         fn dispatched_network_step_matches_the_generic_one_bit_for_bit(
-            genes in prop::collection::vec(-10.0f32..10.0, CtrnnTopology::new(6, 10, 3).n_genes()),
-            inputs in prop::collection::vec(0.0f32..1.0, 6 * LANES),
+            (topology, genes, inputs) in network_and_inputs(),
             n_steps in 1usize..20,
         ) {
-            let net = Ctrnn::new(CtrnnTopology::new(6, 10, 3), &genes).unwrap();
+            let net = Ctrnn::new(topology, &genes).unwrap();
             let dt_over_taus = net.dt_over_taus(0.1);
             let weights = net.step_weights(&dt_over_taus);
             let inputs: Vec<Lanes> = inputs
                 .chunks_exact(LANES)
                 .map(|chunk| Lanes(std::array::from_fn(|lane| chunk[lane])))
                 .collect();
+            let (n_inputs, n_hidden) = (topology.n_inputs, topology.n_hidden);
             let fresh = || {
-                let mut presynaptic = vec![Lanes::ZERO; 16];
-                for (rate, &rest) in presynaptic[6..].iter_mut().zip(net.rest_firing()) {
+                let mut presynaptic = vec![Lanes::ZERO; n_inputs + n_hidden];
+                for (rate, &rest) in presynaptic[n_inputs..].iter_mut().zip(net.rest_firing()) {
                     *rate = Lanes::splat(rest);
                 }
-                (presynaptic, vec![Lanes::ZERO; 10], vec![Lanes::ZERO; 3])
+                (
+                    presynaptic,
+                    vec![Lanes::ZERO; n_hidden],
+                    vec![Lanes::ZERO; topology.n_outputs],
+                )
             };
             let (mut pre_a, mut state_a, mut out_a) = fresh();
             let (mut pre_b, mut state_b, mut out_b) = fresh();
