@@ -112,7 +112,12 @@ impl LightModel {
         let Some(curve) = self.sides.get(side) else {
             return f32::INFINITY;
         };
-        let point = curve.at(distance_to_lit_light_m.unwrap_or(f32::INFINITY));
+        let point = match distance_to_lit_light_m {
+            Some(distance_m) => curve.at(distance_m),
+            // No lit light reads the farthest row: what `at` gives for infinity (a test holds
+            // the two equal, bit for bit), without the interpolation, in most cycles of a run.
+            None => curve.farthest(),
+        };
         point.mean + point.std * standard_normal(rng)
     }
 
@@ -203,6 +208,17 @@ impl FlashDetector {
 mod tests {
     use super::*;
     use crate::rng::{Stream, stream_rng};
+
+    /// `read_raw` takes the farthest row for "no lit light" where it used to interpolate at
+    /// infinity: the two must be the same bits, or the outcomes of every run would move.
+    #[test]
+    fn the_dark_row_is_what_the_curve_gives_at_infinity() {
+        for curve in &LightModel::builtin().sides {
+            let (at_infinity, farthest) = (curve.at(f32::INFINITY), curve.farthest());
+            assert_eq!(at_infinity.mean.to_bits(), farthest.mean.to_bits());
+            assert_eq!(at_infinity.std.to_bits(), farthest.std.to_bits());
+        }
+    }
 
     #[test]
     fn builtin_table_parses_with_the_dark_row_last() {
