@@ -302,15 +302,11 @@ impl Evaluator {
                     ));
                 }
                 if let Some(forbidden) = &scenario.forbidden {
-                    let view = CycleView {
-                        robot: &env.start,
-                        teammate: env
-                            .teammate
-                            .map(|(pose, following)| TeammateView { pose, following }),
-                        ground: &env.ground,
-                        scenario,
-                        task: &self.task,
-                    };
+                    let teammate = env
+                        .teammate
+                        .map(|(pose, following)| TeammateView { pose, following });
+                    let view =
+                        CycleView::new(&env.start, teammate, &env.ground, scenario, &self.task);
                     if forbidden.holds(&view) {
                         return Err(scenario.refusal(
                             "end.forbidden",
@@ -835,13 +831,7 @@ impl<'a> Judge<'a> {
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
-        let view = CycleView {
-            robot: &start,
-            teammate,
-            ground: &ground,
-            scenario,
-            task,
-        };
+        let view = CycleView::new(&start, teammate, &ground, scenario, task);
         let tracked = scenario
             .quantities
             .iter()
@@ -860,13 +850,7 @@ impl<'a> Judge<'a> {
     /// What the blocks see of this cycle.
     #[inline]
     fn view<'v>(&'v self, robot: &'v Pose, teammate: Option<TeammateView>) -> CycleView<'v> {
-        CycleView {
-            robot,
-            teammate,
-            ground: &self.ground,
-            scenario: self.scenario,
-            task: self.task,
-        }
+        CycleView::new(robot, teammate, &self.ground, self.scenario, self.task)
     }
 
     /// The phase of the derived fitness in force, if the scenario has phases.
@@ -888,13 +872,7 @@ impl<'a> Judge<'a> {
     #[inline]
     fn check(&mut self, robot: &Pose, teammate: Option<TeammateView>) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
-        let view = CycleView {
-            robot,
-            teammate,
-            ground: &self.ground,
-            scenario,
-            task,
-        };
+        let view = CycleView::new(robot, teammate, &self.ground, scenario, task);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -906,7 +884,7 @@ impl<'a> Judge<'a> {
         if scenario.wrong_branch
             && (scenario.wrong_branch_ends || task.end_on_wrong_branch)
             && let Some(goal) = &self.ground.goal
-            && let Some(cell) = goal.map.cell_at(robot.position())
+            && let Some(cell) = view.robot_cell(&goal.map)
             && !goal.on_path[cell]
             && (!task.wrong_branch_at_end_only
                 || goal.reached_wrong_end(robot.position(), task.robot.radius))

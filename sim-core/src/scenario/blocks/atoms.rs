@@ -20,7 +20,7 @@ impl Atom for InMaze {
         view.ground
             .cells
             .as_ref()
-            .is_some_and(|cells| cells.cell_at(view.robot.position()).is_some())
+            .is_some_and(|cells| view.robot_cell(cells).is_some())
     }
 }
 
@@ -43,7 +43,7 @@ impl Atom for InGoal {
         view.ground
             .goal
             .as_ref()
-            .is_some_and(|goal| goal.map.cell_at(view.robot.position()) == Some(goal.goal))
+            .is_some_and(|goal| view.robot_cell(&goal.map) == Some(goal.goal))
     }
 }
 
@@ -82,8 +82,7 @@ impl Atom for InRegion {
                 .as_ref()
                 .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
             RegionTest::Cells(mask) => view.ground.cells.as_ref().is_some_and(|cells| {
-                cells
-                    .cell_at(robot.position())
+                view.robot_cell(cells)
                     .is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
             }),
         }

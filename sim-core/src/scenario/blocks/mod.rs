@@ -138,6 +138,44 @@ pub struct CycleView<'a> {
     pub scenario: &'a Scenario,
     /// The task's settings in force.
     pub task: &'a TaskConfig,
+    /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
+    /// found once per view: several blocks of a cycle ask for it, and each finding costs two
+    /// divisions.
+    world_cell: Option<(&'a CellMap, Option<usize>)>,
+}
+
+impl<'a> CycleView<'a> {
+    /// What the blocks see of a cycle with the robot at `robot`.
+    pub fn new(
+        robot: &'a Pose,
+        teammate: Option<TeammateView>,
+        ground: &'a Ground,
+        scenario: &'a Scenario,
+        task: &'a TaskConfig,
+    ) -> CycleView<'a> {
+        let world_map = ground
+            .cells
+            .as_deref()
+            .or(ground.goal.as_ref().map(|goal| &*goal.map));
+        CycleView {
+            robot,
+            teammate,
+            ground,
+            scenario,
+            task,
+            world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
+        }
+    }
+
+    /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
+    /// position, found once per view for the world's own map.
+    #[inline]
+    pub fn robot_cell(&self, map: &CellMap) -> Option<usize> {
+        match self.world_cell {
+            Some((world_map, cell)) if std::ptr::eq(world_map, map) => cell,
+            _ => map.cell_at(self.robot.position()),
+        }
+    }
 }
 
 /// What a quantity sees when the sample ends.
@@ -476,13 +514,7 @@ mod doc_examples {
                 y: 0.0,
                 heading: 0.0,
             };
-            let view = CycleView {
-                robot: &robot,
-                teammate: None,
-                ground: &env.ground,
-                scenario: &task.scenario,
-                task: &task,
-            };
+            let view = CycleView::new(&robot, None, &env.ground, &task.scenario, &task);
             assert_eq!(atom.holds(&view), holds, "x = {x}");
         }
     }
