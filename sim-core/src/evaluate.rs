@@ -476,7 +476,9 @@ impl<'e> SampleRun<'e> {
                 position: spec.position,
                 flashes: spec.flashes,
                 trigger: spec.trigger,
-                triggered: false,
+                always_lit: spec.flashes && spec.trigger == Trigger::Always,
+                // A light of `Always` never fires, so it is never looked at for firing.
+                triggered: spec.trigger == Trigger::Always,
                 lit_cycles_left: 0,
             })
             .collect();
@@ -704,6 +706,9 @@ struct LiveLight {
     position: [f32; 2],
     flashes: bool,
     trigger: Trigger,
+    /// Whether it flashes with the trigger `Always`: lit in every cycle.
+    always_lit: bool,
+    /// Whether its trigger has fired, or never will.
     triggered: bool,
     lit_cycles_left: u32,
 }
@@ -711,7 +716,7 @@ struct LiveLight {
 impl LiveLight {
     #[inline]
     fn lit(&self) -> bool {
-        self.lit_cycles_left > 0 || (self.flashes && self.trigger == Trigger::Always)
+        self.lit_cycles_left > 0 || self.always_lit
     }
 }
 
