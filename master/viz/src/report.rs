@@ -679,28 +679,30 @@ fn task_table(task: &str, (what, cells): Breakdown, rows: &[(&NodeResult, &RunSu
 /// The head of a table with a row per run ([`run_row`]): controller, run, solve rate, then a
 /// column per name of `columns`.
 fn run_table_head(columns: &[impl AsRef<str>]) -> String {
-    let headers: String = columns
-        .iter()
-        .map(|column| format!(" {} |", column.as_ref()))
-        .collect();
     format!(
-        "| controller | run | solved |{headers}\n|---|---|---|{}\n",
+        "| controller | run | solved |{}\n|---|---|---|{}\n",
+        trailing_cells(columns),
         "---|".repeat(columns.len())
     )
 }
 
 /// One run's row under [`run_table_head`]: its controller, run and solve rate, then `cells`.
 fn run_row(node: &NodeResult, run: &RunSummary, cells: &[impl AsRef<str>]) -> String {
-    let cells: String = cells
-        .iter()
-        .map(|cell| format!(" {} |", cell.as_ref()))
-        .collect();
     format!(
-        "| {} | {} | {} |{cells}\n",
+        "| {} | {} | {} |{}\n",
         node.name,
         run.run,
-        percent(run.post_evaluation.solve_rate)
+        percent(run.post_evaluation.solve_rate),
+        trailing_cells(cells)
     )
+}
+
+/// Cells that follow a row's first ones: ` a | b |`, each closed by its bar.
+fn trailing_cells(cells: &[impl AsRef<str>]) -> String {
+    cells
+        .iter()
+        .map(|cell| format!(" {} |", cell.as_ref()))
+        .collect()
 }
 
 /// One run's row of a per-variant table with `n_variants` columns: controller, run, solve
