@@ -27,6 +27,73 @@ mod trig;
 /// an older model are refused instead of being silently continued with a different one.
 pub const MODEL_VERSION: u32 = 4;
 
+/// Whether a test comparing a CPU-specific code path with its reference can run on this CPU
+/// (`present`: the CPU has `feature`). Without it the comparison would pass without comparing
+/// anything, so the test says so on stderr and is skipped; under CI (`CI` set), whose machines
+/// have the feature, it fails instead, as a test whose tool is missing does.
+#[cfg(test)]
+pub(crate) fn cpu_feature_for_test(feature: &str, present: bool, test: &str) -> bool {
+    if present {
+        return true;
+    }
+    let why = format!("{test}: this CPU lacks {feature}, so there is nothing to compare");
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{why} (CI requires {feature})"
+    );
+    eprintln!("SKIPPED {why}");
+    false
+}
+
+/// The model's tasks are part of the model: each shipped scenario's and map's text, as hashed when
+/// [`MODEL_VERSION`] was last set. A paper task travels (and is fingerprinted) by its name, so
+/// an edit to `scenarios/*.toml` would otherwise leave every run fingerprint valid.
+#[cfg(test)]
+mod model_version {
+    use super::MODEL_VERSION;
+    use crate::hash::fnv1a_hex;
+    use crate::scenario::{SHIPPED, SHIPPED_MAPS};
+
+    /// (model version, [(scenario or map, FNV-1a of its text)]).
+    const PINNED: (u32, [(&str, &str); 8]) = (
+        4,
+        [
+            ("exit_room", "d146835303d35f91"),
+            ("follow_wall", "8761a9efdb396143"),
+            ("turn_left", "a070d04f56b0a86e"),
+            ("turn_right", "dfde944d756bad84"),
+            ("solve_maze", "002798383ff4b40c"),
+            ("return_room", "8ca4c4631b61d883"),
+            ("rescue", "1e9366bf444614df"),
+            ("maps/double_t_maze", "e7fa2b47c20f0a7c"),
+        ],
+    );
+
+    #[test]
+    fn shipped_scenarios_are_the_texts_this_model_version_was_measured_with() {
+        let maps = SHIPPED_MAPS.map(|(name, text)| (format!("maps/{name}"), text));
+        let found: Vec<(&str, String)> = SHIPPED
+            .iter()
+            .map(|(name, text)| (*name, *text))
+            .chain(maps.iter().map(|(name, text)| (name.as_str(), *text)))
+            .map(|(name, text)| (name, fnv1a_hex(text.as_bytes())))
+            .collect();
+        let pinned: Vec<(&str, String)> = PINNED
+            .1
+            .iter()
+            .map(|(name, hash)| (*name, hash.to_string()))
+            .collect();
+        assert!(
+            found == pinned && PINNED.0 == MODEL_VERSION,
+            "a shipped scenario changed (or MODEL_VERSION did without these pins): a change to a \
+             paper task changes its trajectories or fitness, so bump MODEL_VERSION, re-measure \
+             the shipped controllers, and pin the new texts here:\n  found {found:?}\n  pinned \
+             {pinned:?} at model version {}",
+            PINNED.0
+        );
+    }
+}
+
 pub use evaluate::{
     Ending, Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle,
 };

@@ -198,6 +198,34 @@ pub fn move_or_collide(pose: &mut Pose, next: Pose, radius: f32, scene: &Scene) 
 mod tests {
     use super::*;
 
+    /// SPEC 1: each cycle each wheel speed is multiplied by (1 + N(0, 0.05)), then clamped to
+    /// +-v_max. The 0.05 here is the paper's, not read from the configuration: the default
+    /// configuration must give it.
+    #[test]
+    fn default_wheel_noise_is_five_percent_multiplicative() {
+        use rand::SeedableRng;
+        let config = RobotConfig::default();
+        let mut rng = SimRng::seed_from_u64(7);
+        let n_draws = 40_000;
+        // Half the top speed: a ratio beyond 2 (20 standard deviations) would be clamped.
+        let speed = 0.05;
+        let ratios: Vec<f64> = (0..n_draws)
+            .map(|_| f64::from(noisy_speed(speed, &config, &mut rng)) / f64::from(speed))
+            .collect();
+        let mean = ratios.iter().sum::<f64>() / f64::from(n_draws);
+        let std = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / f64::from(n_draws - 1))
+            .sqrt();
+        // The standard error of the mean is 0.05 / 200 = 0.00025, of the std about 0.00018.
+        assert!((mean - 1.0).abs() < 0.0015, "mean ratio {mean}");
+        assert!((std - 0.05).abs() < 0.0015, "std of the ratio {std}");
+        // And the clamp: a full-speed command never exceeds v_max = 0.1 m/s.
+        assert_eq!(config.v_max, 0.1);
+        for _ in 0..1000 {
+            let noisy = noisy_speed(0.1, &config, &mut rng);
+            assert!((-0.1..=0.1).contains(&noisy), "{noisy}");
+        }
+    }
+
     #[test]
     fn straight_and_spin_kinematics() {
         let config = RobotConfig::default();

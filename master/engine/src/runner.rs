@@ -889,7 +889,7 @@ runs = 1
         // A fake worker on the dispatcher, recording every genome it is given, by sample.
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let seen: Arc<Mutex<GenomesBySample>> = Arc::default();
-        let worker = tokio::spawn({
+        let mut worker = tokio::spawn({
             let (dispatcher, seen) = (dispatcher.clone(), seen.clone());
             async move {
                 loop {
@@ -922,9 +922,16 @@ runs = 1
             job: "planted".into(),
         };
         let recorder = Recorder::default();
-        let summaries = run_experiment(&experiment, &settings, &dispatcher, &recorder)
-            .await
-            .unwrap();
+        // A panic in the fake worker (its results refused, say) fails the test with the
+        // worker's message instead of leaving the runner waiting for ever; and the run as a
+        // whole is bounded.
+        let run = run_experiment(&experiment, &settings, &dispatcher, &recorder);
+        let summaries = tokio::select! {
+            outcome = tokio::time::timeout(Duration::from_secs(300), run) => outcome,
+            ended = &mut worker => panic!("the fake worker stopped: {ended:?}"),
+        }
+        .expect("the run finished within 300 s")
+        .unwrap();
         worker.abort();
 
         // Each generation's population, as it was sent out, and its fitness.

@@ -286,6 +286,13 @@ mod tests {
             seed in any::<u64>(),
             offset in (-0.3f32..0.3, -0.3f32..0.3, -3.2f32..3.2),
         ) {
+            if !crate::cpu_feature_for_test(
+                "avx2",
+                std::arch::is_x86_feature_detected!("avx2"),
+                "dispatched_ir_reading_matches_the_baseline_one_bit_for_bit",
+            ) {
+                return Ok(());
+            }
             let task = TaskConfig::shipped(["solve_maze", "rescue", "exit_room"][task_idx]).unwrap();
             let evaluator = Evaluator::new(task.clone()).unwrap();
             let env = evaluator.environment(Sample::seeded(seed));
@@ -319,6 +326,43 @@ mod tests {
                 noise_dispatched.random::<u64>(),
                 noise_baseline.random::<u64>()
             );
+        }
+    }
+
+    /// SPEC 2: the near-robot input is 1 when another robot is within 0.15 m (centre to
+    /// centre) and 0 beyond: the paper's range, not read from the configuration, in every
+    /// direction and whatever the noise stream.
+    #[test]
+    fn near_robot_reads_one_within_fifteen_centimetres_and_zero_beyond() {
+        let task = TaskConfig::shipped("rescue").unwrap();
+        let kind = SENSORS
+            .iter()
+            .find(|kind| kind.name == "near_robot")
+            .unwrap();
+        let sensor = (kind.compile)(&task).expect("the rescue has a teammate");
+        let evaluator = Evaluator::new(task.clone()).unwrap();
+        let env = evaluator.environment(Sample::seeded(11));
+        let robot = env.start;
+        let read = |distance: f32, angle: f32| -> f32 {
+            let (sin, cos) = angle.sin_cos();
+            let mate = Pose {
+                x: robot.x + distance * cos,
+                y: robot.y + distance * sin,
+                heading: 0.0,
+            };
+            let mut view = SenseView::unlit(&robot, &env);
+            view.teammate = Some(&mate);
+            let mut run = sensor.start(&mut stream_rng(11, Stream::SensorSetup));
+            let mut out = [0.5f32];
+            run.read(&view, &mut stream_rng(11, Stream::Noise), &mut out);
+            out[0]
+        };
+        for step in 0..16 {
+            let angle = step as f32 * std::f32::consts::TAU / 16.0;
+            assert_eq!(read(0.149, angle), 1.0, "at 0.149 m, angle {angle}");
+            assert_eq!(read(0.151, angle), 0.0, "at 0.151 m, angle {angle}");
+            assert_eq!(read(0.0, angle), 1.0);
+            assert_eq!(read(1.0, angle), 0.0);
         }
     }
 
