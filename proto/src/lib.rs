@@ -21,6 +21,15 @@ pub mod v1 {
     tonic::include_proto!("hevo.v1");
 }
 
+/// Whether a wire job state is final (succeeded, failed or cancelled): the master sends no
+/// more events for such a job, and a client following it stops there.
+pub fn is_final(state: i32) -> bool {
+    matches!(
+        v1::JobState::try_from(state),
+        Ok(v1::JobState::Succeeded | v1::JobState::Failed | v1::JobState::Cancelled)
+    )
+}
+
 /// The encoded file descriptor set of `hevo.v1`, for the server reflection service.
 pub const FILE_DESCRIPTOR_SET: &[u8] =
     include_bytes!(concat!(env!("OUT_DIR"), "/hevo_v1_descriptor.bin"));

@@ -1,12 +1,12 @@
 //! `hevo.Client`: a master's job service from Python, through the client calls `hevo submit`,
-//! `watch`, `jobs`, `fetch` and `cancel` make (`hevo_cli::client`), with the same URL forms,
+//! `watch`, `jobs`, `fetch` and `cancel` make (`hevo_client`), with the same URL forms,
 //! token, TLS and retries. Each call runs on a thread of its own and can be stopped with
 //! Ctrl-C; `watch` is an iterator of the job's events that reconnects when the master
 //! restarts, as `hevo watch` does.
 
 use crate::interrupt::Mailbox;
 use crate::{ClientError, ConfigError};
-use hevo_cli::client as calls;
+use hevo_client as calls;
 use hevo_engine::runner::Overrides;
 use hevo_proto::client::ClientOptions;
 use hevo_proto::v1;

@@ -20,7 +20,35 @@ const RULES: &[Rule] = &[
     Rule {
         package: "hevo-cli",
         forbidden: &["pyo3", "numpy", "hevo-python"],
-        why: "the Python module is built on the command line's client calls, not the other way round",
+        why: "the command line and the Python module are both at the top, beside each other",
+    },
+    Rule {
+        package: "hevo-client",
+        forbidden: &[
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-dashboard",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
+        why: "the client calls are a library over the wire format: no command line, terminal output, store or server",
+    },
+    Rule {
+        package: "hevo-python",
+        forbidden: &[
+            "clap",
+            "indicatif",
+            "hevo-cli",
+            "hevo-service",
+            "hevo-dashboard",
+        ],
+        why: "the Python module builds on the engine and the client calls, not on the command line or the server",
     },
     Rule {
         package: "hevo-sim-core",

@@ -155,7 +155,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 pub fn submit(args: SubmitArgs) -> Result<()> {
     let options = args.master.options()?;
     let settings = args.overrides.overrides();
-    let job = runtime()?.block_on(client::submit(&options, &args.file, settings))?;
+    let job = runtime()?.block_on(hevo_client::submit(&options, &args.file, settings))?;
     crate::outln!("{job}");
     Ok(())
 }
@@ -182,8 +182,8 @@ pub fn jobs(args: MasterArgs) -> Result<()> {
 /// `hevo fetch`.
 pub fn fetch(args: FetchArgs) -> Result<()> {
     let options = args.master.options()?;
-    let (info, files) = runtime()?.block_on(client::fetch(&options, &args.job, &args.out))?;
-    let state = client::state_name(info.state);
+    let (info, files) = runtime()?.block_on(hevo_client::fetch(&options, &args.job, &args.out))?;
+    let state = hevo_client::state_name(info.state);
     if state != "succeeded" {
         eprintln!(
             "warning: job {} is {state}: its results are incomplete",
@@ -201,8 +201,8 @@ pub fn fetch(args: FetchArgs) -> Result<()> {
 /// `hevo cancel`.
 pub fn cancel(args: JobArgs) -> Result<()> {
     let options = args.master.options()?;
-    let info = runtime()?.block_on(client::cancel(&options, &args.job))?;
-    crate::outln!("{}: {}", args.job, client::state_name(info.state));
+    let info = runtime()?.block_on(hevo_client::cancel(&options, &args.job))?;
+    crate::outln!("{}: {}", args.job, hevo_client::state_name(info.state));
     Ok(())
 }
 

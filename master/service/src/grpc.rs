@@ -107,7 +107,7 @@ impl JobService for JobApi {
                     },
                     Err(RecvError::Closed) => return,
                 };
-                let last = matches!(&event.event, Some(v1::job_event::Event::Status(info)) if is_final(info.state));
+                let last = matches!(&event.event, Some(v1::job_event::Event::Status(info)) if hevo_proto::is_final(info.state));
                 if sender.send(Ok(event)).await.is_err() || last {
                     return;
                 }
@@ -169,14 +169,6 @@ impl JobService for JobApi {
             job: Some(job_info(&record)),
         }))
     }
-}
-
-/// Whether a wire job state is final.
-pub fn is_final(state: i32) -> bool {
-    matches!(
-        v1::JobState::try_from(state),
-        Ok(v1::JobState::Succeeded | v1::JobState::Failed | v1::JobState::Cancelled)
-    )
 }
 
 /// Counters the dispatcher does not keep.
