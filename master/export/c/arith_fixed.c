@@ -23,12 +23,13 @@
 /* The logistic of a Q14 value, Q14: the table holds sigma at -RANGE + k / 32. */
 static hevo_value logistic(hevo_value x)
 {
-    const int32_t low = -HEVO_SIGMOID_RANGE * HEVO_ONE;
+    /* int may have 16 bits (the dsPIC's): constants beyond them are built in int32_t. */
+    const int32_t high = (int32_t)HEVO_SIGMOID_RANGE * HEVO_ONE, low = -high;
     int32_t offset, index, fraction, below, above;
     if (x <= low) {
         return hevo_sigmoid_table[0];
     }
-    if (x >= HEVO_SIGMOID_RANGE * HEVO_ONE) {
+    if (x >= high) {
         return hevo_sigmoid_table[HEVO_SIGMOID_ENTRIES];
     }
     offset = x - low;

@@ -144,6 +144,7 @@ int main(int argc, char **argv)
     }
 #ifdef HEVO_QEMU
     uint64_t step_ticks = 0, max_step_ticks = 0, empty_ticks;
+    uint32_t max_stack = 0;
     double per_tick;
     hevo_qemu_timer_start();
     per_tick = hevo_qemu_instructions_per_tick();
@@ -152,7 +153,6 @@ int main(int argc, char **argv)
         uint64_t before = hevo_qemu_ticks();
         empty_ticks = hevo_qemu_ticks() - before;
     }
-    hevo_qemu_paint_stack();
 #endif
     hevo_init(&state);
     for (sample = 0; sample < n_samples; sample++) {
@@ -197,9 +197,16 @@ int main(int argc, char **argv)
 
 #ifdef HEVO_QEMU
             {
-                uint64_t before = hevo_qemu_ticks(), ticks;
+                uint64_t before, ticks;
+                uint32_t stack;
+                hevo_qemu_paint_stack();
+                before = hevo_qemu_ticks();
                 hevo_step(&state, &raw, &wheels);
                 ticks = hevo_qemu_ticks() - before;
+                stack = hevo_qemu_stack_used();
+                if (stack > max_stack) {
+                    max_stack = stack;
+                }
                 ticks = ticks > empty_ticks ? ticks - empty_ticks : 0;
                 step_ticks += ticks;
                 if (ticks > max_step_ticks) {
@@ -257,11 +264,11 @@ int main(int argc, char **argv)
     fclose(vectors);
 #ifdef HEVO_QEMU
     printf("hevo_step: %.0f instructions per control cycle on average, %.0f at most (%lu "
-           "cycles, %.3f instructions per SysTick tick); stack %lu bytes at most; "
+           "cycles, %.3f instructions per SysTick tick); stack at most %lu bytes; "
            "sizeof(hevo_state) %lu bytes\n",
            n_cycles_total ? (double)step_ticks * per_tick / (double)n_cycles_total : 0.0,
            (double)max_step_ticks * per_tick, n_cycles_total, per_tick,
-           (unsigned long)hevo_qemu_stack_used(), (unsigned long)sizeof(hevo_state));
+           (unsigned long)max_stack, (unsigned long)sizeof(hevo_state));
 #else
     printf("sizeof(hevo_state) %lu bytes\n", (unsigned long)sizeof(hevo_state));
 #endif

@@ -88,29 +88,38 @@ double hevo_qemu_instructions_per_tick(void)
 }
 
 #define STACK_PAINT 0xC0FFEE11u
-#define STACK_PAINT_WORDS 2048u
+#define STACK_PAINT_WORDS 1024u
+/* What the painting and measuring calls themselves may use below the stack pointer. */
+#define STACK_MARGIN_WORDS 16u
 
-static uint32_t *painted_from;
+static uint32_t *painted_top;
 
-/* Paints the 8 kB below the caller's stack pointer. */
+static uint32_t *stack_pointer(void)
+{
+    uint32_t *sp;
+    __asm volatile("mov %0, sp" : "=r"(sp));
+    return sp;
+}
+
+/* Paints 4 kB of free stack below the caller's frame, for hevo_qemu_stack_used. */
 void hevo_qemu_paint_stack(void)
 {
-    uint32_t marker = 0, i;
-    uint32_t *below = &marker - 64; /* leave this call's own frame alone */
-    painted_from = below;
-    for (i = 0; i < STACK_PAINT_WORDS; i++) {
-        below[-(int32_t)i] = STACK_PAINT;
+    uint32_t i;
+    painted_top = stack_pointer() - STACK_MARGIN_WORDS;
+    for (i = 1; i <= STACK_PAINT_WORDS; i++) {
+        painted_top[-(int32_t)i] = STACK_PAINT;
     }
 }
 
-/* Bytes of the painted stack used since: the deepest word no longer painted. */
+/* Bytes below the painted top that calls since hevo_qemu_paint_stack used (the deepest word
+ * no longer painted), plus the margin: an upper bound of their stack. */
 uint32_t hevo_qemu_stack_used(void)
 {
     uint32_t i, deepest = 0;
-    for (i = 0; i < STACK_PAINT_WORDS; i++) {
-        if (painted_from[-(int32_t)i] != STACK_PAINT) {
-            deepest = i + 1;
+    for (i = 1; i <= STACK_PAINT_WORDS; i++) {
+        if (painted_top[-(int32_t)i] != STACK_PAINT) {
+            deepest = i;
         }
     }
-    return deepest * 4u + 64u * 4u;
+    return (deepest + STACK_MARGIN_WORDS) * 4u;
 }
