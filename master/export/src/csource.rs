@@ -357,8 +357,8 @@ pub fn readme(
             `-mfpu=fpv4-sp-d16 -mfloat-abi=hard`)."
             .to_string(),
         Target::Fixed => format!(
-            "The fixed target computes in integers only (no FPU, no libm, no 64-bit \
-             arithmetic): values in Q14 (`HEVO_ONE` = 16384 is 1.0), weights in Q11, the \
+            "The fixed target computes in integers only (no FPU, no libm): values in Q16 \
+             (`HEVO_ONE` = 65536 is 1.0), weights in Q11, time step factors in Q30, the \
              logistic from a table of {} entries over [-{}, {}) with linear interpolation. \
              Raw readings are the ADC's integers. The table's largest error against the exact \
              logistic is {:.2e}; the results differ from sim-core's by rounding, and an \

@@ -1,10 +1,10 @@
 //! The fixed-point target: the model in integers for a core without FPU (the e-puck1's
 //! dsPIC30F6014A), and the logistic as a table. Values (inputs, states, firing rates, outputs,
-//! gains) are Q14 (`HEVO_ONE` = 16384 is 1.0), weights and biases Q11 in 16 bits (genes lie in
-//! [-10, 10], so ±20480), the step factors dt/tau Q15, the IR table's means Q4. The table
+//! gains) are Q16 (`HEVO_ONE` = 65536 is 1.0), weights and biases Q11 in 16 bits (genes lie in
+//! [-10, 10], so ±20480), the step factors dt/tau Q30, the IR table's means Q4. The table
 //! holds the logistic at [`SIGMOID_ENTRIES`] + 1 points over [-16, 16] (1/32 apart), read with
-//! linear interpolation; [`sigmoid_q14`] is the C function's twin, so its largest error can be
-//! measured here over every Q14 input rather than estimated.
+//! linear interpolation; [`sigmoid_fixed`] is the C function's twin, so its largest error can
+//! be measured here over every Q16 input rather than estimated.
 
 use std::fmt::Write as _;
 
@@ -13,18 +13,18 @@ use crate::Target;
 use crate::csource::{c_array, input_indices, model_preamble, node_table};
 use crate::model::ExportModel;
 
-/// Q14: one in values.
-pub const ONE: i32 = 1 << 14;
+/// Q16: one in values.
+pub const ONE: i32 = 1 << 16;
 /// Q11: one in weights and biases.
 pub const WEIGHT_ONE: f32 = 2048.0;
-/// Q15: one in the step factors.
-pub const STEP_ONE: f32 = 32768.0;
+/// Q30: one in the step factors.
+pub const STEP_ONE: f64 = (1u32 << 30) as f64;
 /// Intervals of the sigmoid table.
 pub const SIGMOID_ENTRIES: usize = 1024;
 /// The table covers [-SIGMOID_RANGE, SIGMOID_RANGE].
 pub const SIGMOID_RANGE: i32 = 16;
-/// log2 of a table interval in Q14 (32 / 1024 = 1/32, 512 in Q14).
-pub const SIGMOID_STEP_BITS: u32 = 9;
+/// log2 of a table interval in Q16 (32 / 1024 = 1/32, 2048 in Q16).
+pub const SIGMOID_STEP_BITS: u32 = 11;
 
 const _: () = assert!(
     (2 * SIGMOID_RANGE * ONE) as usize == SIGMOID_ENTRIES << SIGMOID_STEP_BITS,
@@ -34,12 +34,12 @@ const _: () = assert!(
 /// The fixed target's types in the header.
 pub const TYPES: &str = "\
 /* The fixed target (e-puck1, dsPIC30F6014A: no FPU): integers only. Values (network inputs,
- * states, firing rates, outputs, IR gains) are Q14: HEVO_ONE is 1.0. Weights and biases are
+ * states, firing rates, outputs, IR gains) are Q16: HEVO_ONE is 1.0. Weights and biases are
  * Q11 in 16 bits. Raw readings are the ADC's integers. Needs arithmetic right shifts of
  * negative numbers (every C compiler for these cores has them). */
 #define HEVO_TARGET_FIXED 1
-#define HEVO_ONE 16384
-typedef int32_t hevo_value;   /* Q14 */
+#define HEVO_ONE 65536L
+typedef int32_t hevo_value;   /* Q16 */
 typedef int16_t hevo_weight;  /* Q11 */
 typedef int16_t hevo_raw;     /* raw sensor readings, ADC units */
 typedef int32_t hevo_ir_mean; /* the IR table's mean raw readings, Q4 (raw * 16) */
@@ -57,20 +57,20 @@ typedef struct {
 } hevo_raw_inputs;
 
 typedef struct {
-    hevo_value left, right;          /* the active primitive's outputs, Q14 in [0, HEVO_ONE] */
+    hevo_value left, right;          /* the active primitive's outputs, Q16 in [0, HEVO_ONE] */
     int16_t left_steps, right_steps; /* (2 output - 1) v_max in motor steps per second,
                                         rounded: e_set_speed_left / e_set_speed_right */
 } hevo_wheel_outputs;";
 
 /// The fixed target's declarations of the sigmoid table.
 pub const MODEL_DECLS: &str = "\
-/* The logistic at -RANGE + k / 32, k = 0 .. ENTRIES, Q14. */
+/* The logistic at -RANGE + k / 32, k = 0 .. ENTRIES, Q16. */
 #define HEVO_SIGMOID_RANGE 16
 #define HEVO_SIGMOID_ENTRIES 1024
-#define HEVO_SIGMOID_STEP_BITS 9
-extern const int16_t hevo_sigmoid_table[HEVO_SIGMOID_ENTRIES + 1];";
+#define HEVO_SIGMOID_STEP_BITS 11
+extern const int32_t hevo_sigmoid_table[HEVO_SIGMOID_ENTRIES + 1];";
 
-/// The sigmoid table: the logistic at -16 + k/32, rounded to Q14.
+/// The sigmoid table: the logistic at -16 + k/32, rounded to Q16.
 pub fn sigmoid_table() -> Vec<i32> {
     (0..=SIGMOID_ENTRIES)
         .map(|k| {
@@ -81,8 +81,8 @@ pub fn sigmoid_table() -> Vec<i32> {
         .collect()
 }
 
-/// The C `logistic` of the fixed target, on a Q14 input.
-pub fn sigmoid_q14(x: i32, table: &[i32]) -> i32 {
+/// The C `logistic` of the fixed target, on a Q16 input.
+pub fn sigmoid_fixed(x: i32, table: &[i32]) -> i32 {
     let low = -SIGMOID_RANGE * ONE;
     if x <= low {
         return table[0];
@@ -97,13 +97,13 @@ pub fn sigmoid_q14(x: i32, table: &[i32]) -> i32 {
     below + (((above - below) * fraction + (1 << (SIGMOID_STEP_BITS - 1))) >> SIGMOID_STEP_BITS)
 }
 
-/// The largest error of [`sigmoid_q14`] against the exact logistic of its input, over every
-/// Q14 input in [-20, 20] (beyond, both saturate further).
+/// The largest error of [`sigmoid_fixed`] against the exact logistic of its input, over every
+/// Q16 input in [-20, 20] (beyond, both saturate further).
 pub fn sigmoid_error(table: &[i32]) -> f64 {
     let mut worst = 0.0f64;
     for x in -20 * ONE..=20 * ONE {
         let exact = 1.0 / (1.0 + (-(f64::from(x) / f64::from(ONE))).exp());
-        let got = f64::from(sigmoid_q14(x, table)) / f64::from(ONE);
+        let got = f64::from(sigmoid_fixed(x, table)) / f64::from(ONE);
         worst = worst.max((got - exact).abs());
     }
     worst
@@ -134,9 +134,9 @@ impl<'m> FixedModel<'m> {
     pub fn new(model: &'m ExportModel) -> Result<FixedModel<'m>, ExportError> {
         for node in &model.nodes {
             for &factor in &node.dt_over_tau {
-                if !(0.0..=2.0).contains(&factor) {
+                if !(0.0..1.99).contains(&factor) {
                     return Err(ExportError::Unsupported(format!(
-                        "{}: the step factor dt/tau = {factor} is outside [0, 2] (Q15)",
+                        "{}: the step factor dt/tau = {factor} is outside [0, 1.99] (Q30)",
                         node.path
                     )));
                 }
@@ -180,13 +180,15 @@ impl<'m> FixedModel<'m> {
             text.push_str(&c_array(
                 &format!("static const int32_t node{idx}_dt_over_tau[]"),
                 &node.dt_over_tau,
-                |v| format!("{}", (v * STEP_ONE).round() as i32),
+                |v| format!("{}", (f64::from(*v) * STEP_ONE).round() as i64),
             ));
             // The rest firing rates as the C logistic computes them from the Q11 biases.
             let rest: Vec<i32> = node
                 .hidden_biases
                 .iter()
-                .map(|&theta| sigmoid_q14(i32::from(weight(theta).unwrap_or(0)) << 3, &self.table))
+                .map(|&theta| {
+                    sigmoid_fixed(i32::from(weight(theta).unwrap_or(0)) << 5, &self.table)
+                })
                 .collect();
             text.push_str(&c_array(
                 &format!("static const int32_t node{idx}_rest_firing[]"),
@@ -205,8 +207,8 @@ impl<'m> FixedModel<'m> {
         let _ = writeln!(
             text,
             "const hevo_value hevo_ir_step = {}, hevo_ir_max_distance = {};",
-            (model.ir.step * ONE as f32).round() as i32,
-            (model.ir.max_distance * ONE as f32).round() as i32
+            (f64::from(model.ir.step) * f64::from(ONE)).round() as i64,
+            (f64::from(model.ir.max_distance) * f64::from(ONE)).round() as i64
         );
         // An integer reading r is below a threshold t exactly when r < ceil(t).
         text.push_str(&c_array(
@@ -220,7 +222,7 @@ impl<'m> FixedModel<'m> {
             },
         ));
         text.push_str(&c_array(
-            "const int16_t hevo_sigmoid_table[HEVO_SIGMOID_ENTRIES + 1]",
+            "const int32_t hevo_sigmoid_table[HEVO_SIGMOID_ENTRIES + 1]",
             &self.table,
             |v| v.to_string(),
         ));
@@ -233,21 +235,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_sigmoid_table_is_accurate_to_a_hundred_thousandth() {
+    fn the_sigmoid_table_is_accurate_to_three_hundred_thousandths() {
         let table = sigmoid_table();
         assert_eq!(table[SIGMOID_ENTRIES / 2], ONE / 2);
         assert_eq!(table[SIGMOID_ENTRIES], ONE);
         assert_eq!(table[0], 0);
         let error = sigmoid_error(&table);
-        assert!(error < 1e-4, "largest error {error}");
+        assert!(error < 3e-5, "largest error {error}");
         assert!(
             error > 1e-6,
-            "an error of {error} is implausibly small for Q14"
+            "an error of {error} is implausibly small for Q16"
         );
         // Monotone: a larger input never gives a smaller output.
-        let mut previous = sigmoid_q14(-20 * ONE, &table);
+        let mut previous = sigmoid_fixed(-20 * ONE, &table);
         for x in -20 * ONE..20 * ONE {
-            let value = sigmoid_q14(x, &table);
+            let value = sigmoid_fixed(x, &table);
             assert!(value >= previous, "at {x}");
             previous = value;
         }

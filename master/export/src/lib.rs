@@ -27,7 +27,7 @@ pub use model::ExportModel;
 pub enum Target {
     /// IEEE single precision (e-puck2, Cortex-M4F): sim-core's results bit for bit.
     Float,
-    /// Integers only (e-puck1, dsPIC30F6014A): Q14 values, Q11 weights, a sigmoid table.
+    /// Integers only (e-puck1, dsPIC30F6014A): Q16 values, Q11 weights, a sigmoid table.
     Fixed,
 }
 
