@@ -51,7 +51,11 @@ fn make(dir: &Path, target: &str) -> (bool, String) {
     let status = proc
         .wait_timeout(Duration::from_secs(600))
         .unwrap_or_else(|| panic!("make {target} in {} did not finish", dir.display()));
-    let text: String = stdout.iter().chain(stderr.iter()).map(|l| l + "\n").collect();
+    let text: String = stdout
+        .iter()
+        .chain(stderr.iter())
+        .map(|l| l + "\n")
+        .collect();
     (status.success(), text)
 }
 
@@ -85,8 +89,15 @@ fn the_exported_c_in_the_loop_solves_what_sim_core_solves() {
         .unwrap_or_else(|| panic!("no closed-loop line in:\n{stdout}"));
     let n = number_after(line, "closed loop, ");
     assert!(n > 0.0, "{line}");
-    assert_eq!(number_after(line, "exported C solved "), number_after(line, "sim-core "), "{line}");
-    assert!(line.ends_with(&format!("{n} of {n} outcomes identical")), "{line}");
+    assert_eq!(
+        number_after(line, "exported C solved "),
+        number_after(line, "sim-core "),
+        "{line}"
+    );
+    assert!(
+        line.ends_with(&format!("{n} of {n} outcomes identical")),
+        "{line}"
+    );
 }
 
 #[test]
@@ -131,8 +142,14 @@ fn the_fixed_rescue_fits_the_e_puck1_ram_on_an_emulated_cortex_m3() {
         .output()
         .expect("arm-none-eabi-objdump runs");
     let disassembly = String::from_utf8_lossy(&objdump.stdout);
-    assert!(!disassembly.contains("\tv"), "a floating-point instruction:\n{disassembly}");
+    assert!(
+        !disassembly.contains("\tv"),
+        "a floating-point instruction:\n{disassembly}"
+    );
     let state = number_after(&output, "sizeof(hevo_state) ");
     let stack = number_after(&output, "stack at most ");
-    assert!(state + stack < 8192.0, "state {state} + stack {stack} bytes:\n{output}");
+    assert!(
+        state + stack < 8192.0,
+        "state {state} + stack {stack} bytes:\n{output}"
+    );
 }

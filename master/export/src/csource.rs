@@ -63,12 +63,15 @@ typedef struct {
                                         e_set_speed_left / e_set_speed_right */
 } hevo_wheel_outputs;";
 
+/// Files by name (relative to the output directory) and content.
+pub type Files = Vec<(String, Vec<u8>)>;
+
 /// Generates every file but the vectors and the README; for the fixed target also the
 /// sigmoid table's largest error.
 pub fn generate(
     model: &ExportModel,
     options: &ExportOptions,
-) -> Result<(Vec<(String, Vec<u8>)>, Option<f64>), ExportError> {
+) -> Result<(Files, Option<f64>), ExportError> {
     let (types, arithmetic, model_c, model_decls, sigmoid_error) = match options.target {
         Target::Float => (
             fill(FLOAT_TYPES, &common_blanks(model))?,

@@ -95,7 +95,7 @@ pub struct Bundle {
     /// The model the files were generated from.
     pub model: ExportModel,
     /// Files by name (relative to the output directory).
-    pub files: Vec<(String, Vec<u8>)>,
+    pub files: csource::Files,
     /// What the vectors hold.
     pub vectors: vectors::VectorSummary,
     /// Fixed target only: the sigmoid table's largest error.

@@ -98,7 +98,11 @@ pub fn ir_raw_for(input: f32, gain: f32) -> Option<f32> {
     // Non-negative floats order like their bits, and the reading does not decrease with the
     // raw value: find the smallest raw whose reading reaches the input.
     let (mut low, mut high) = (0u32, means.first()?.to_bits());
-    if !(reading(f32::from_bits(high)) >= input) {
+    // NaN compares false: no reading reaches it.
+    if reading(f32::from_bits(high))
+        .partial_cmp(&input)
+        .is_none_or(|o| o.is_lt())
+    {
         return None;
     }
     while low < high {
@@ -240,10 +244,10 @@ fn fill_raw(
 ) -> Result<(), String> {
     let [ir_live, light_live, near_live] = model.live;
     for (cycle_idx, cycle) in cycles.iter_mut().enumerate() {
-        for sensor in 0..N_IR {
+        for (sensor, &gain) in ir_gain.iter().enumerate() {
             let input = cycle.inputs[sensor];
             cycle.raw.ir[sensor] = if ir_live {
-                ir_raw_for(input, ir_gain[sensor]).ok_or_else(|| {
+                ir_raw_for(input, gain).ok_or_else(|| {
                     format!("cycle {cycle_idx}: no raw reading gives IR input {sensor} = {input:e}")
                 })?
             } else {
