@@ -285,3 +285,62 @@ fn decode_node(
         depth,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hevo_sim_core::controller::Controller;
+
+    fn shipped(name: &str) -> ControllerFile {
+        let path = format!(
+            "{}/../../controllers/{name}.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        ControllerFile::from_json_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn the_flattened_tree_is_sim_core_s() {
+        let file = shipped("rescue");
+        let task = TaskConfig::shipped("rescue").unwrap();
+        let model = ExportModel::new(&file, &task).unwrap();
+        let controller = Controller::new(&file, None).unwrap();
+        assert_eq!(model.nodes.len(), controller.n_nodes());
+        for (idx, node) in model.nodes.iter().enumerate() {
+            assert_eq!(Some(node.path.as_str()), controller.node_path(idx));
+            assert_eq!(
+                Some(node.children.as_slice()),
+                controller.node_children(idx)
+            );
+            let network = controller.node_network(idx).unwrap();
+            assert_eq!(network.topology().n_hidden, node.n_hidden);
+            assert_eq!(network.topology().n_inputs, node.n_inputs());
+        }
+        assert_eq!(model.live, [true, true, true]);
+        assert_eq!(model.max_path(), 3);
+        assert_eq!(model.n_parameters(), 1001);
+        // exit_room has no light and no teammate: those inputs read 0.
+        let exit = ExportModel::new(
+            &shipped("exit_room"),
+            &TaskConfig::shipped("exit_room").unwrap(),
+        )
+        .unwrap();
+        assert_eq!(exit.live, [true, false, false]);
+    }
+
+    #[test]
+    fn what_cannot_be_exported_is_refused_by_name() {
+        let task = TaskConfig::shipped("solve_maze").unwrap();
+        let mut file = shipped("solve_maze");
+        file.root.children[1].genome = None;
+        let err = ExportModel::new(&file, &task).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "solve_maze/turn_left: the node has no genome; only a complete controller can be exported"
+        );
+        let mut linear = task.clone();
+        linear.ir.mapping = IrMapping::LinearRaw;
+        let err = ExportModel::new(&shipped("solve_maze"), &linear).unwrap_err();
+        assert!(err.to_string().contains("ir.mapping"), "{err}");
+    }
+}
