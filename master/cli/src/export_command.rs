@@ -28,8 +28,9 @@ pub struct ExportArgs {
     /// Samples per variant (light configuration, start branch) the test vectors record.
     #[arg(long, default_value_t = 2)]
     pub vector_samples: u32,
-    /// Then build the exported C (`make hevo_loop`), drive it with the simulator in place of
-    /// the Rust controller and print its solve rate beside sim-core's on the same samples.
+    /// Then run `make check` (the recorded cycles), build the exported C (`make hevo_loop`),
+    /// drive it with the simulator in place of the Rust controller and print its solve rate
+    /// beside sim-core's on the same samples.
     #[arg(long)]
     pub check_closed_loop: bool,
     /// With --check-closed-loop: samples per light configuration / start branch, as `hevo
@@ -95,6 +96,11 @@ pub fn export(args: ExportArgs) -> Result<()> {
         crate::outln!("sigmoid table: largest error {error:.2e} against the exact logistic");
     }
     if args.check_closed_loop {
+        // The recorded cycles first: bit identity (float) or the largest errors (fixed).
+        let check = closed_loop::make(&args.out, "check")?;
+        for line in check.lines().filter(|l| l.starts_with(target.name())) {
+            crate::outln!("make check: {line}");
+        }
         let program = closed_loop::build_program(&args.out)?;
         let samples = post_evaluation::post_evaluation_samples(&task, args.samples, args.seed);
         let threads = default_threads(args.threads);

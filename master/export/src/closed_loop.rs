@@ -23,26 +23,36 @@ use crate::ExportError;
 use crate::model::ExportModel;
 use crate::vectors::{ir_gains, ir_raw_for};
 
-/// Builds the closed-loop program in an export directory with its Makefile; returns its path.
-pub fn build_program(dir: &Path) -> Result<PathBuf, ExportError> {
+/// Runs `make -s -C dir TARGET` (the export's Makefile); its output, or why it failed.
+pub fn make(dir: &Path, target: &str) -> Result<String, ExportError> {
     let output = Command::new("make")
         .arg("-s")
         .arg("-C")
         .arg(dir)
-        .arg("hevo_loop")
+        .arg(target)
+        .stdin(Stdio::null())
         .output()
         .map_err(|source| ExportError::Io {
             path: dir.to_path_buf(),
             source,
         })?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
     if !output.status.success() {
         return Err(ExportError::Unsupported(format!(
-            "`make -C {} hevo_loop` failed: {}{}",
-            dir.display(),
-            String::from_utf8_lossy(&output.stdout),
-            String::from_utf8_lossy(&output.stderr)
+            "`make -C {} {target}` failed: {text}",
+            dir.display()
         )));
     }
+    Ok(text)
+}
+
+/// Builds the closed-loop program in an export directory with its Makefile; returns its path.
+pub fn build_program(dir: &Path) -> Result<PathBuf, ExportError> {
+    make(dir, "hevo_loop")?;
     Ok(dir.join("hevo_loop"))
 }
 
