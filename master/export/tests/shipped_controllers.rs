@@ -214,3 +214,32 @@ fn the_float_export_in_the_loop_gives_sim_core_s_outcomes() {
         "the samples include solved ones"
     );
 }
+
+#[test]
+fn an_activator_with_a_minimum_exports_bit_identical() {
+    if !c_toolchain("an_activator_with_a_minimum_exports_bit_identical") {
+        return;
+    }
+    // No shipped controller keeps a child on for a minimum: the rescue tree with minimums
+    // long enough to hold children the plain activator would have left.
+    let text = std::fs::read_to_string(repo_root().join("controllers/rescue.json")).unwrap();
+    let plain = ControllerFile::from_json_str(&text).unwrap();
+    let mut file = plain.clone();
+    file.root.min_active_cycles = 300;
+    file.root.children[1].min_active_cycles = 50;
+    file.root.children[2].min_active_cycles = 50;
+    let task = task_of("rescue");
+    let samples = vectors::default_samples(&task, 1);
+    let paths = |file: &ControllerFile| -> Vec<Vec<u16>> {
+        let model = hevo_export::ExportModel::new(file, &task).unwrap();
+        vectors::record(file, &task, &model, &samples)
+            .unwrap()
+            .into_iter()
+            .flat_map(|sample| sample.cycles.into_iter().map(|cycle| cycle.path))
+            .collect()
+    };
+    assert_ne!(paths(&plain), paths(&file), "the minimums change nothing");
+    let dir = tempfile::tempdir().unwrap();
+    let output = export_and_make(&file, &task, Target::Float, 1, dir.path(), "check");
+    assert!(output.contains("bit-identical to sim-core"), "{output}");
+}
