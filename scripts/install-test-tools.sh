@@ -26,6 +26,8 @@
 #            Debian's podman, runc and the CNI dnsname plugin (apt, as root), and apt's package
 #            lists, from which deploy/debian-base.sh assembles the image's base: the live
 #            container tests
+#   export   Debian's gcc-arm-none-eabi, libnewlib-arm-none-eabi and qemu-system-arm (apt, as
+#            root) for `make check-qemu` of `hevo export`: scripts/install-export-tools.sh
 #
 # A new step is a function install_NAME plus its name in `steps` below; python_packages takes
 # more PyPI tools, and apt_install Debian packages (as root). The slurm and containers steps
@@ -38,7 +40,7 @@ tools=${HEVO_TEST_TOOLS_DIR:-$repo/.tools}
 bin=$tools/bin
 venv=$tools/venv
 
-steps=(python kubectl browser slurm containers)
+steps=(python kubectl browser slurm containers export)
 
 # Pinned, so that every machine checks with the same rules.
 python_packages=(
@@ -202,6 +204,10 @@ install_containers() {
         log "apt-get update"
         apt-get update -q >/dev/null
     fi
+}
+
+install_export() {
+    bash "$repo/scripts/install-export-tools.sh"
 }
 
 list() {

@@ -87,6 +87,26 @@ const RULES: &[Rule] = &[
         why: "the scripted policies are test support over sim-core alone",
     },
     Rule {
+        package: "hevo-export",
+        forbidden: &[
+            "tokio",
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-proto",
+            "hevo-engine",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-cli",
+            "hevo-worker",
+            "hevo-dashboard",
+        ],
+        why: "the C export reads controllers and sim-core's model alone; the CLI drives it",
+    },
+    Rule {
         package: "hevo-engine",
         forbidden: &[
             "tonic",

@@ -63,6 +63,8 @@ pub enum Command {
     /// fitness curves that grow while a run is in progress, post-evaluation tables and the
     /// best controllers' replays; prints its URL.
     Dashboard(DashboardArgs),
+    /// Export a controller tree as a C library for the e-puck, with test vectors.
+    Export(crate::export_command::ExportArgs),
 }
 
 /// `hevo dashboard`.
@@ -426,6 +428,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Cancel(args) => service::cancel(args),
         Command::Scenario(args) => crate::scenario_command::scenario(args),
         Command::Dashboard(args) => dashboard(args),
+        Command::Export(args) => crate::export_command::export(args),
         Command::Report(args) => {
             let n =
                 hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;

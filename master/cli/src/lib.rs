@@ -4,6 +4,7 @@
 
 pub mod cli;
 pub mod client;
+pub mod export_command;
 pub mod output;
 pub mod progress;
 pub mod scenario_command;

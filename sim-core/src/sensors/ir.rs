@@ -382,6 +382,13 @@ impl IrModel {
         ((above - 1) as f32 + fraction) * self.inverse_step
     }
 
+    /// What [`IrModel::raw_to_distance`] reads: the average curve's means on the grid (made
+    /// non-increasing), the grid step and the grid's farthest distance, metres; for code that
+    /// performs the same mapping elsewhere (`hevo export`).
+    pub fn inverse_table(&self) -> (&[f32], f32, f32) {
+        (&self.inverse_means, self.inverse_step, self.max_distance)
+    }
+
     /// The first grid point whose mean is at or below `raw`, for a reading strictly between
     /// the last and the first mean (the means are non-increasing): what
     /// `inverse_means.partition_point(|&m| m > raw)` gives, found from the bucket's start and
