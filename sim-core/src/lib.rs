@@ -22,6 +22,12 @@ pub mod scene;
 pub mod task;
 mod trig;
 
+pub use evaluate::{
+    Ending, Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle,
+};
+pub use scenario::Scenario;
+pub use task::TaskConfig;
+
 /// Version of the simulation model. Bump it whenever a change alters any trajectory or fitness
 /// (the golden tests catch such changes): run fingerprints include it, so checkpoints written by
 /// an older model are refused instead of being silently continued with a different one.
@@ -93,9 +99,3 @@ mod model_version {
         );
     }
 }
-
-pub use evaluate::{
-    Ending, Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, Trace, TraceCycle,
-};
-pub use scenario::Scenario;
-pub use task::TaskConfig;
