@@ -34,6 +34,7 @@ const RULES: &[Rule] = &[
             "axum",
             "hevo-scripted",
             "hevo-proto",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-service",
             "hevo-viz",
@@ -49,6 +50,7 @@ const RULES: &[Rule] = &[
         forbidden: &[
             "tokio",
             "tonic",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-proto",
             "hevo-service",
@@ -57,6 +59,27 @@ const RULES: &[Rule] = &[
             "hevo-worker",
         ],
         why: "the scripted policies are test support over sim-core alone",
+    },
+    Rule {
+        package: "hevo-evolve",
+        forbidden: &[
+            "tokio",
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-proto",
+            "hevo-engine",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
+        why: "the search strategies are pure: ask, tell and a state, over sim-core's seeds alone",
     },
     Rule {
         package: "hevo-engine",
@@ -101,6 +124,7 @@ const RULES: &[Rule] = &[
         forbidden: &[
             "clap",
             "indicatif",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-service",
             "hevo-viz",
@@ -211,7 +235,7 @@ fn the_listing_sees_transitive_dependencies() {
     for expected in
         NETWORK_AND_COMMAND_LINE
             .iter()
-            .chain(&["hevo-engine", "hevo-sim-core", "tokio"])
+            .chain(&["hevo-engine", "hevo-evolve", "hevo-sim-core", "tokio"])
     {
         assert!(
             cli.contains(*expected),

@@ -3,6 +3,9 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
+use hevo_evolve::StrategySettings;
+use hevo_evolve::ga::GaSettings;
+use hevo_evolve::seeds::VariantDraw;
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::{InputGroup, SensorSet};
 use hevo_sim_core::scenario::Scenario;
@@ -164,16 +167,41 @@ impl TrainingVariants {
 }
 
 impl Default for EvolutionParams {
+    /// The paper's settings (the GA's come from [`GaSettings::default`]).
     fn default() -> Self {
+        let ga = GaSettings::default();
         EvolutionParams {
-            population: 100,
-            elites: 5,
-            mutation_probability: 0.1,
-            mutation_sigma: 1.0,
-            initial_sigma: 2.0,
-            gene_range: [-10.0, 10.0],
+            population: ga.population,
+            elites: ga.elites,
+            mutation_probability: ga.mutation_probability,
+            mutation_sigma: ga.mutation_sigma,
+            initial_sigma: ga.initial_sigma,
+            gene_range: ga.gene_range,
             post_evaluation_samples: 100,
             training_variants: TrainingVariants::Balanced,
+        }
+    }
+}
+
+/// The edge between the file's schema and the search algorithms: what `hevo_evolve` is given.
+impl EvolutionParams {
+    /// The strategy the node is evolved with, and its settings.
+    pub fn strategy_settings(&self) -> StrategySettings {
+        StrategySettings::Ga(GaSettings {
+            population: self.population,
+            elites: self.elites,
+            mutation_probability: self.mutation_probability,
+            mutation_sigma: self.mutation_sigma,
+            initial_sigma: self.initial_sigma,
+            gene_range: self.gene_range,
+        })
+    }
+
+    /// How a generation's samples are given the task's light configurations.
+    pub fn variant_draw(&self) -> VariantDraw {
+        match self.training_variants {
+            TrainingVariants::Balanced => VariantDraw::InTurn,
+            TrainingVariants::Random => VariantDraw::AtRandom,
         }
     }
 }
