@@ -232,11 +232,12 @@ fn no_layer_depends_on_what_it_may_not() {
 #[test]
 fn the_listing_sees_transitive_dependencies() {
     let cli = dependency_names("hevo-cli");
-    for expected in
-        NETWORK_AND_COMMAND_LINE
-            .iter()
-            .chain(&["hevo-engine", "hevo-evolve", "hevo-sim-core", "tokio"])
-    {
+    for expected in NETWORK_AND_COMMAND_LINE.iter().chain(&[
+        "hevo-engine",
+        "hevo-evolve",
+        "hevo-sim-core",
+        "tokio",
+    ]) {
         assert!(
             cli.contains(*expected),
             "hevo-cli without {expected}: {cli:?}"
