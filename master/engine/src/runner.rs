@@ -922,7 +922,9 @@ runs = 1
         // Plant: the first population is the run's own, with one genome replaced, written as
         // the checkpoint of a run that has not evaluated anything yet.
         let planted = vec![PLANTED_GENE; n_genes];
-        let StrategySettings::Ga(ga_settings) = plan.evolution.strategy_settings();
+        let StrategySettings::Ga(ga_settings) = plan.evolution.strategy_settings() else {
+            panic!("the experiment's nodes use the GA");
+        };
         let mut first = initial_population(n_genes, &ga_settings, run_seed);
         assert!(!first.contains(&planted));
         first[PLANTED_AT] = planted.clone();
@@ -1081,10 +1083,12 @@ runs = 1
         files
     }
 
-    #[tokio::test]
-    async fn a_run_paused_under_a_population_only_checkpoint_ends_as_an_uninterrupted_one() {
+    /// Runs the experiment `text` straight, and again stopped once generation 2 is evaluated
+    /// and checkpointed (as a kill would leave it), then, after `meanwhile` has seen (or
+    /// rewritten) the checkpoint, resumed; both must end with the same files, byte for byte.
+    async fn paused_and_resumed_ends_as_straight(text: &str, meanwhile: impl FnOnce(&Path)) {
         let dir = tempfile::tempdir().unwrap();
-        let experiment = Experiment::parse(EXPERIMENT, &dir.path().join("e.toml")).unwrap();
+        let experiment = Experiment::parse(text, &dir.path().join("e.toml")).unwrap();
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
         let settings_for = |out_dir: PathBuf| RunSettings {
@@ -1098,7 +1102,6 @@ runs = 1
             .await
             .unwrap();
 
-        // Stopped once generation 2 is evaluated and checkpointed, as a kill would leave it.
         let paused = settings_for(dir.path().join("paused"));
         let pause = PauseAfter {
             generation: 2,
@@ -1111,22 +1114,7 @@ runs = 1
             }
             () = pause.evaluated.notified() => {}
         }
-        // The checkpoint rewritten as the runner wrote it before strategies had their own
-        // state: format 1, the population alone.
-        let checkpoint_path = run_dir(&paused.out_dir.join("exit_room"), 0).join(CHECKPOINT);
-        let checkpoint: Checkpoint =
-            serde_json::from_str(&std::fs::read_to_string(&checkpoint_path).unwrap()).unwrap();
-        assert_eq!(checkpoint.generation, 3);
-        let StrategyState::Ga(ga_state) = checkpoint.strategy;
-        let population_only = serde_json::json!({
-            "format": rundir::CHECKPOINT_FORMAT_POPULATION,
-            "fingerprint": checkpoint.fingerprint,
-            "generation": checkpoint.generation,
-            "population": ga_state.population,
-            "best": null,
-            "log": checkpoint.log,
-        });
-        write_json_atomic(&checkpoint_path, &population_only).unwrap();
+        meanwhile(&run_dir(&paused.out_dir.join("exit_room"), 0).join(CHECKPOINT));
 
         let recorder = Recorder::default();
         run_experiment(&experiment, &paused, &dispatcher, &recorder)
@@ -1137,6 +1125,50 @@ runs = 1
             message: "exit_room run 0: resuming at generation 3".into()
         }));
         assert_eq!(tree(&paused.out_dir), tree(&straight.out_dir));
+    }
+
+    fn read_checkpoint(path: &Path) -> Checkpoint {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    #[tokio::test]
+    async fn a_run_paused_under_a_population_only_checkpoint_ends_as_an_uninterrupted_one() {
+        paused_and_resumed_ends_as_straight(EXPERIMENT, |checkpoint_path| {
+            // Rewritten as the runner wrote it before strategies had their own state: format
+            // 1, the population alone.
+            let checkpoint = read_checkpoint(checkpoint_path);
+            assert_eq!(checkpoint.generation, 3);
+            let StrategyState::Ga(ga_state) = checkpoint.strategy else {
+                panic!("the run uses the GA");
+            };
+            let population_only = serde_json::json!({
+                "format": rundir::CHECKPOINT_FORMAT_POPULATION,
+                "fingerprint": checkpoint.fingerprint,
+                "generation": checkpoint.generation,
+                "population": ga_state.population,
+                "best": null,
+                "log": checkpoint.log,
+            });
+            write_json_atomic(checkpoint_path, &population_only).unwrap();
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_cmaes_run_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        let cmaes = EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            "post_evaluation_samples = 2\nalgorithm = \"cmaes\"\npopulation = 12",
+        );
+        paused_and_resumed_ends_as_straight(&cmaes, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            assert_eq!(checkpoint.generation, 3);
+            let StrategyState::Cmaes(state) = checkpoint.strategy else {
+                panic!("the run uses CMA-ES");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 12));
+        })
+        .await;
     }
 
     /// The run paused on purpose under `experiments/runs/` (exit room's run 4, stopped at

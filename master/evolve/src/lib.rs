@@ -4,12 +4,14 @@
 //! with the settings it was started with, determines everything it will ever ask for, so a run
 //! saved after any generation and continued gives the genomes an uninterrupted run gives.
 //!
-//! The paper's generational GA ([`ga`]) is the first strategy; [`seeds`] holds every run-level
+//! The paper's generational GA ([`ga`]) is the default strategy, CMA-ES ([`cmaes`]) the
+//! second; [`seeds`] holds every run-level
 //! seed derivation (a run's seed, its algorithm's streams, its samples' seeds and light
 //! configurations). Pure: no async runtime, network, command line or files; every random draw
 //! comes from a run's seed. The engine converts an experiment file's settings into
 //! [`StrategySettings`] and drives whichever strategy they choose.
 
+pub mod cmaes;
 pub mod ga;
 pub mod seeds;
 
@@ -34,7 +36,7 @@ impl Evaluation {
 /// A search algorithm in the ask/tell style. One generation is [`Strategy::ask`], evaluating
 /// every genome asked for, then [`Strategy::tell`] with their results in the same order.
 pub trait Strategy: std::fmt::Debug + Send {
-    /// The algorithm's name as an experiment file writes it (`"ga"`).
+    /// The algorithm's name as an experiment file writes it (`"ga"`, `"cmaes"`).
     fn algorithm(&self) -> &'static str;
 
     /// Generations told so far: the generation the genomes of [`Strategy::ask`] belong to.
@@ -61,6 +63,8 @@ pub trait Strategy: std::fmt::Debug + Send {
 pub enum StrategyState {
     /// The paper's GA.
     Ga(ga::GaState),
+    /// CMA-ES.
+    Cmaes(cmaes::CmaesState),
 }
 
 impl StrategyState {
@@ -68,6 +72,7 @@ impl StrategyState {
     pub fn algorithm(&self) -> &'static str {
         match self {
             StrategyState::Ga(_) => ga::ALGORITHM,
+            StrategyState::Cmaes(_) => cmaes::ALGORITHM,
         }
     }
 }
@@ -77,6 +82,8 @@ impl StrategyState {
 pub enum StrategySettings {
     /// The paper's GA.
     Ga(ga::GaSettings),
+    /// CMA-ES.
+    Cmaes(cmaes::CmaesSettings),
 }
 
 impl StrategySettings {
@@ -84,6 +91,7 @@ impl StrategySettings {
     pub fn algorithm(&self) -> &'static str {
         match self {
             StrategySettings::Ga(_) => ga::ALGORITHM,
+            StrategySettings::Cmaes(_) => cmaes::ALGORITHM,
         }
     }
 
@@ -91,6 +99,7 @@ impl StrategySettings {
     pub fn check(&self) -> Result<(), StrategyError> {
         match self {
             StrategySettings::Ga(settings) => settings.check(),
+            StrategySettings::Cmaes(settings) => settings.check(),
         }
     }
 
@@ -98,6 +107,11 @@ impl StrategySettings {
     pub fn start(&self, n_genes: usize, run_seed: u64) -> Result<Box<dyn Strategy>, StrategyError> {
         match self {
             StrategySettings::Ga(settings) => Ok(Box::new(ga::Ga::start(
+                settings.clone(),
+                n_genes,
+                run_seed,
+            )?)),
+            StrategySettings::Cmaes(settings) => Ok(Box::new(cmaes::Cmaes::start(
                 settings.clone(),
                 n_genes,
                 run_seed,
@@ -116,7 +130,9 @@ impl StrategySettings {
             (StrategySettings::Ga(settings), StrategyState::Ga(state)) => {
                 Ok(Box::new(ga::Ga::resume(settings.clone(), n_genes, state)?))
             }
-            #[allow(unreachable_patterns)]
+            (StrategySettings::Cmaes(settings), StrategyState::Cmaes(state)) => Ok(Box::new(
+                cmaes::Cmaes::resume(settings.clone(), n_genes, state)?,
+            )),
             (settings, state) => Err(StrategyError::State(format!(
                 "the state is of algorithm '{}', the settings are for '{}'",
                 state.algorithm(),
@@ -199,11 +215,18 @@ mod tests {
 
     /// The strategies under test, each small enough for many cases.
     fn every_strategy() -> Vec<StrategySettings> {
-        vec![StrategySettings::Ga(ga::GaSettings {
-            population: 20,
-            elites: 4,
-            ..ga::GaSettings::default()
-        })]
+        vec![
+            StrategySettings::Ga(ga::GaSettings {
+                population: 20,
+                elites: 4,
+                ..ga::GaSettings::default()
+            }),
+            StrategySettings::Cmaes(cmaes::CmaesSettings {
+                population: 12,
+                initial_sigma: 2.0,
+                gene_range: [-10.0, 10.0],
+            }),
+        ]
     }
 
     #[test]
@@ -248,26 +271,33 @@ mod tests {
     }
 
     #[test]
-    fn a_state_of_another_shape_is_refused() {
-        let settings = &every_strategy()[0];
-        let mut strategy = settings.start(4, 9).unwrap();
+    fn a_state_of_another_shape_or_algorithm_is_refused() {
+        let settings = |population| {
+            StrategySettings::Ga(ga::GaSettings {
+                population,
+                elites: 4,
+                ..ga::GaSettings::default()
+            })
+        };
+        let mut strategy = settings(20).start(4, 9).unwrap();
         evolve(strategy.as_mut(), 2);
-        let error = settings.resume(5, strategy.state()).unwrap_err();
+        let error = settings(20).resume(5, strategy.state()).unwrap_err();
         assert!(
             error
                 .to_string()
                 .starts_with("the saved state does not fit: a genome of 4 genes"),
             "{error}"
         );
-        let StrategySettings::Ga(ga_settings) = settings;
-        let bigger = StrategySettings::Ga(ga::GaSettings {
-            population: 40,
-            ..ga_settings.clone()
-        });
-        let error = bigger.resume(4, strategy.state()).unwrap_err();
+        let error = settings(40).resume(4, strategy.state()).unwrap_err();
         assert_eq!(
             error.to_string(),
             "the saved state does not fit: a population of 20 genomes, the settings ask for 40"
+        );
+        let cmaes = &every_strategy()[1];
+        let error = cmaes.resume(4, strategy.state()).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "the saved state does not fit: the state is of algorithm 'ga', the settings are for 'cmaes'"
         );
     }
 

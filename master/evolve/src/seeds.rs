@@ -21,6 +21,8 @@ pub enum RunStream {
     PostEvaluation = 14,
     /// The light configurations of a generation's samples, when drawn at random.
     Variants = 15,
+    /// CMA-ES's samples of generation g.
+    Cmaes = 16,
 }
 
 /// The seed of one run of one node: from the experiment's seed, the node's name and the run
