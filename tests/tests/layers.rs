@@ -62,6 +62,7 @@ const RULES: &[Rule] = &[
             "axum",
             "hevo-scripted",
             "hevo-proto",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-service",
             "hevo-viz",
@@ -77,6 +78,7 @@ const RULES: &[Rule] = &[
         forbidden: &[
             "tokio",
             "tonic",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-proto",
             "hevo-service",
@@ -105,6 +107,27 @@ const RULES: &[Rule] = &[
             "hevo-dashboard",
         ],
         why: "the C export reads controllers and sim-core's model alone; the CLI drives it",
+    },
+    Rule {
+        package: "hevo-evolve",
+        forbidden: &[
+            "tokio",
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-proto",
+            "hevo-engine",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
+        why: "the search strategies are pure: ask, tell and a state, over sim-core's seeds alone",
     },
     Rule {
         package: "hevo-engine",
@@ -149,6 +172,7 @@ const RULES: &[Rule] = &[
         forbidden: &[
             "clap",
             "indicatif",
+            "hevo-evolve",
             "hevo-engine",
             "hevo-service",
             "hevo-viz",
@@ -256,11 +280,12 @@ fn no_layer_depends_on_what_it_may_not() {
 #[test]
 fn the_listing_sees_transitive_dependencies() {
     let cli = dependency_names("hevo-cli");
-    for expected in
-        NETWORK_AND_COMMAND_LINE
-            .iter()
-            .chain(&["hevo-engine", "hevo-sim-core", "tokio"])
-    {
+    for expected in NETWORK_AND_COMMAND_LINE.iter().chain(&[
+        "hevo-engine",
+        "hevo-evolve",
+        "hevo-sim-core",
+        "tokio",
+    ]) {
         assert!(
             cli.contains(*expected),
             "hevo-cli without {expected}: {cli:?}"

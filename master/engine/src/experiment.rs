@@ -3,6 +3,10 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
+use hevo_evolve::cmaes::CmaesSettings;
+use hevo_evolve::ga::GaSettings;
+use hevo_evolve::seeds::VariantDraw;
+use hevo_evolve::{StrategyError, StrategySettings};
 use hevo_sim_core::controller::{ControllerFile, NodeKind};
 use hevo_sim_core::frame::{InputGroup, SensorSet};
 use hevo_sim_core::scenario::Scenario;
@@ -123,15 +127,20 @@ pub struct ExperimentHeader {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EvolutionParams {
-    /// Genomes per generation.
+    /// The search algorithm. Left out of the serialized form when it is the paper's GA, so
+    /// the fingerprints of runs made before there was a choice stay valid.
+    #[serde(default, skip_serializing_if = "Algorithm::is_ga")]
+    pub algorithm: Algorithm,
+    /// Genomes per generation (CMA-ES's lambda).
     pub population: u32,
-    /// Best genomes copied unchanged; each also gets `population / elites - 1` mutated copies.
+    /// GA: best genomes copied unchanged; each also gets `population / elites - 1` mutated
+    /// copies.
     pub elites: u32,
-    /// Probability that a gene of a copy is mutated.
+    /// GA: probability that a gene of a copy is mutated.
     pub mutation_probability: f64,
-    /// Standard deviation of the Gaussian offset added to a mutated gene.
+    /// GA: standard deviation of the Gaussian offset added to a mutated gene.
     pub mutation_sigma: f64,
-    /// Standard deviation of the initial genes (mean 0).
+    /// Standard deviation of the initial genes (mean 0); CMA-ES's initial step size.
     pub initial_sigma: f64,
     /// Genes are clamped to this range.
     pub gene_range: [f64; 2],
@@ -163,17 +172,75 @@ impl TrainingVariants {
     }
 }
 
+/// The search algorithm a node is evolved with (`hevo_evolve`'s strategies).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Algorithm {
+    /// The paper's generational GA.
+    #[default]
+    Ga,
+    /// (mu/mu_w, lambda)-CMA-ES with the standard parameters.
+    Cmaes,
+}
+
+impl Algorithm {
+    fn is_ga(&self) -> bool {
+        *self == Algorithm::Ga
+    }
+
+    /// The name a file writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Algorithm::Ga => hevo_evolve::ga::ALGORITHM,
+            Algorithm::Cmaes => hevo_evolve::cmaes::ALGORITHM,
+        }
+    }
+}
+
 impl Default for EvolutionParams {
+    /// The paper's settings (the GA's come from [`GaSettings::default`]).
     fn default() -> Self {
+        let ga = GaSettings::default();
         EvolutionParams {
-            population: 100,
-            elites: 5,
-            mutation_probability: 0.1,
-            mutation_sigma: 1.0,
-            initial_sigma: 2.0,
-            gene_range: [-10.0, 10.0],
+            algorithm: Algorithm::Ga,
+            population: ga.population,
+            elites: ga.elites,
+            mutation_probability: ga.mutation_probability,
+            mutation_sigma: ga.mutation_sigma,
+            initial_sigma: ga.initial_sigma,
+            gene_range: ga.gene_range,
             post_evaluation_samples: 100,
             training_variants: TrainingVariants::Balanced,
+        }
+    }
+}
+
+/// The edge between the file's schema and the search algorithms: what `hevo_evolve` is given.
+impl EvolutionParams {
+    /// The strategy the node is evolved with, and its settings.
+    pub fn strategy_settings(&self) -> StrategySettings {
+        match self.algorithm {
+            Algorithm::Ga => StrategySettings::Ga(GaSettings {
+                population: self.population,
+                elites: self.elites,
+                mutation_probability: self.mutation_probability,
+                mutation_sigma: self.mutation_sigma,
+                initial_sigma: self.initial_sigma,
+                gene_range: self.gene_range,
+            }),
+            Algorithm::Cmaes => StrategySettings::Cmaes(CmaesSettings {
+                population: self.population,
+                initial_sigma: self.initial_sigma,
+                gene_range: self.gene_range,
+            }),
+        }
+    }
+
+    /// How a generation's samples are given the task's light configurations.
+    pub fn variant_draw(&self) -> VariantDraw {
+        match self.training_variants {
+            TrainingVariants::Balanced => VariantDraw::InTurn,
+            TrainingVariants::Random => VariantDraw::AtRandom,
         }
     }
 }
@@ -182,6 +249,8 @@ impl Default for EvolutionParams {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EvolutionOverrides {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    algorithm: Option<Algorithm>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     population: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -203,6 +272,7 @@ pub struct EvolutionOverrides {
 impl EvolutionOverrides {
     fn apply(&self, base: &EvolutionParams) -> EvolutionParams {
         EvolutionParams {
+            algorithm: self.algorithm.unwrap_or(base.algorithm),
             population: self.population.unwrap_or(base.population),
             elites: self.elites.unwrap_or(base.elites),
             mutation_probability: self
@@ -215,6 +285,23 @@ impl EvolutionOverrides {
                 .post_evaluation_samples
                 .unwrap_or(base.post_evaluation_samples),
             training_variants: self.training_variants.unwrap_or(base.training_variants),
+        }
+    }
+
+    /// The first key set here that only another algorithm than `algorithm` has: a file that
+    /// sets the GA's `elites` for a CMA-ES node is refused rather than silently ignored.
+    fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<&'static str> {
+        let ga_only = [
+            ("elites", self.elites.is_some()),
+            ("mutation_probability", self.mutation_probability.is_some()),
+            ("mutation_sigma", self.mutation_sigma.is_some()),
+        ];
+        match algorithm {
+            Algorithm::Ga => None,
+            Algorithm::Cmaes => ga_only
+                .into_iter()
+                .find(|(_, set)| *set)
+                .map(|(key, _)| key),
         }
     }
 }
@@ -527,6 +614,23 @@ impl Experiment {
         };
 
         let base = parsed.evolution.apply(&EvolutionParams::default());
+        // Each `[evolution]` table sets keys of the algorithm in force where it stands: the
+        // experiment's for the experiment's algorithm, a node's for the node's.
+        let another_algorithm_s = |path: String, algorithm: Algorithm| {
+            invalid(
+                path,
+                format!(
+                    "is a setting of algorithm \"ga\"; the algorithm here is \"{}\"",
+                    algorithm.name()
+                ),
+            )
+        };
+        if let Some(key) = parsed.evolution.key_of_another_algorithm(base.algorithm) {
+            return Err(another_algorithm_s(
+                format!("evolution.{key}"),
+                base.algorithm,
+            ));
+        }
         let name = &parsed.experiment.name;
         if name.trim().is_empty()
             || name.chars().count() > limits::EXPERIMENT_NAME_CHARS
@@ -641,6 +745,16 @@ impl Experiment {
                 .evolution
                 .as_ref()
                 .map_or_else(|| base.clone(), |o| o.apply(&base));
+            if let Some(key) = node
+                .evolution
+                .as_ref()
+                .and_then(|o| o.key_of_another_algorithm(evolution.algorithm))
+            {
+                return Err(another_algorithm_s(
+                    at(&format!("evolution.{key}")),
+                    evolution.algorithm,
+                ));
+            }
             validate_evolution(&evolution).map_err(|(key, message)| {
                 let path = if node.evolution.is_some() {
                     at(&format!("evolution.{key}"))
@@ -947,10 +1061,11 @@ fn one_line(message: &str) -> String {
 
 fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> {
     let fail = |key: &str, message: String| Err((key.to_string(), message));
-    if params.elites == 0
-        || params.population < 2
-        || !params.population.is_multiple_of(params.elites)
-        || params.population == params.elites
+    if params.algorithm == Algorithm::Ga
+        && (params.elites == 0
+            || params.population < 2
+            || !params.population.is_multiple_of(params.elites)
+            || params.population == params.elites)
     {
         return fail(
             "population",
@@ -1008,7 +1123,14 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
     if params.post_evaluation_samples == 0 {
         return fail("post_evaluation_samples", "must be at least 1".into());
     }
-    Ok(())
+    // What the algorithm itself asks of its settings (CMA-ES: a step size above 0).
+    params
+        .strategy_settings()
+        .check()
+        .map_err(|error| match error {
+            StrategyError::Settings { key, message } => (key.to_string(), message),
+            other => ("algorithm".to_string(), other.to_string()),
+        })
 }
 
 /// The node's task configuration: the paper's defaults, the node's `task_config` overrides
@@ -1483,6 +1605,99 @@ runs = 1
             error_of(&GOOD.replace("mutation_sigma = 0.5", "training_variants = \"shuffled\""));
         assert!(
             err.contains("training_variants") && err.contains("shuffled"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn an_algorithm_is_chosen_per_experiment_or_node_with_its_own_keys() {
+        // The GA is the default, and absent from the fingerprinted JSON as before the choice.
+        let experiment = parse(GOOD).unwrap();
+        let maze = experiment.node("maze").unwrap();
+        assert_eq!(maze.evolution.algorithm, Algorithm::Ga);
+        assert!(matches!(
+            maze.evolution.strategy_settings(),
+            StrategySettings::Ga(GaSettings {
+                population: 20,
+                elites: 4,
+                ..
+            })
+        ));
+        let json = serde_json::to_string(&maze.evolution).unwrap();
+        assert!(!json.contains("algorithm"), "{json}");
+
+        // CMA-ES for one node: its population need not be a multiple of the GA's elites, and
+        // the choice is part of the fingerprinted JSON.
+        let cmaes = GOOD.replace(
+            "mutation_sigma = 0.5",
+            "algorithm = \"cmaes\"\npopulation = 18\ninitial_sigma = 0.5",
+        );
+        let experiment = parse(&cmaes).unwrap();
+        let tl = experiment.node("tl").unwrap();
+        assert_eq!(tl.evolution.algorithm, Algorithm::Cmaes);
+        assert_eq!(
+            tl.evolution.strategy_settings(),
+            StrategySettings::Cmaes(CmaesSettings {
+                population: 18,
+                initial_sigma: 0.5,
+                gene_range: [-10.0, 10.0],
+            })
+        );
+        let json = serde_json::to_string(&tl.evolution).unwrap();
+        assert!(json.starts_with("{\"algorithm\":\"cmaes\","), "{json}");
+        assert_eq!(
+            experiment.node("fw").unwrap().evolution.algorithm,
+            Algorithm::Ga
+        );
+
+        // For the whole experiment: the GA's keys are refused in a table of a CMA-ES node, and
+        // in the experiment's own table (a GA node may set them for itself).
+        let everywhere = GOOD
+            .replace(
+                "[evolution]\npopulation = 20\nelites = 4",
+                "[evolution]\nalgorithm = \"cmaes\"\npopulation = 20",
+            )
+            .replace("mutation_sigma = 0.5", "population = 10");
+        assert!(parse(&everywhere).is_ok());
+        let err = error_of(&GOOD.replace(
+            "[evolution]\npopulation = 20",
+            "[evolution]\nalgorithm = \"cmaes\"\npopulation = 20",
+        ));
+        assert!(
+            err.contains("at `evolution.elites`")
+                && err
+                    .contains("is a setting of algorithm \"ga\"; the algorithm here is \"cmaes\""),
+            "{err}"
+        );
+        let err = error_of(&everywhere.replace("population = 10", "mutation_sigma = 0.5"));
+        assert!(err.contains("node[2].evolution.mutation_sigma"), "{err}");
+        let ga_node = parse(&everywhere.replace(
+            "population = 10",
+            "algorithm = \"ga\"\nelites = 5\nmutation_sigma = 0.5",
+        ))
+        .unwrap();
+        assert_eq!(ga_node.node("tl").unwrap().evolution.elites, 5);
+        assert_eq!(
+            ga_node.node("fw").unwrap().evolution.algorithm,
+            Algorithm::Cmaes
+        );
+
+        // CMA-ES's own domain: a step size above 0, a gene range that holds its start at 0.
+        let err = error_of(&everywhere.replace("population = 10", "initial_sigma = 0.0"));
+        assert!(
+            err.contains("node[2].evolution.initial_sigma") && err.contains("must be > 0"),
+            "{err}"
+        );
+        let err = error_of(&everywhere.replace("population = 10", "gene_range = [1.0, 5.0]"));
+        assert!(
+            err.contains("node[2].evolution.gene_range") && err.contains("low <= 0 <= high"),
+            "{err}"
+        );
+        let err = error_of(&everywhere.replace("population = 10", "population = 1"));
+        assert!(err.contains("node[2].evolution.population"), "{err}");
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"novelty\""));
+        assert!(
+            err.contains("algorithm") && err.contains("novelty"),
             "{err}"
         );
     }

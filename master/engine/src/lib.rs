@@ -1,18 +1,17 @@
 //! hevo's engine: everything that evolves and evaluates controller trees, and nothing that
 //! talks to a network, parses a command line or draws. It reads experiment files
-//! ([`experiment`]), runs the paper's evolutionary algorithm ([`ea`]) node by node with
-//! checkpoints ([`runner`]), hands batches of genome evaluations to workers through the
-//! [`dispatch`]er, evaluates them on the [`executor`] (in-process workers: [`local`]; remote
-//! workers run the same executor), post-evaluates the results ([`post_evaluation`]), and owns
-//! the format of run directories ([`rundir`]), written atomically ([`store`]). [`inputs`] reads
-//! the task and controller of a one-off evaluation.
+//! ([`experiment`]), drives each node's search strategy (`hevo_evolve`; the paper's GA by
+//! default) node by node with checkpoints ([`runner`]), hands batches of genome evaluations
+//! to workers through the [`dispatch`]er, evaluates them on the [`executor`] (in-process
+//! workers: [`local`]; remote workers run the same executor), post-evaluates the results
+//! ([`post_evaluation`]), and owns the format of run directories ([`rundir`]), written
+//! atomically ([`store`]). [`inputs`] reads the task and controller of a one-off evaluation.
 //!
 //! The service, the worker, the pictures and the `hevo` command are built on it; it depends on
 //! none of them.
 
 pub mod bench;
 pub mod dispatch;
-pub mod ea;
 pub mod executor;
 pub mod experiment;
 pub mod inputs;

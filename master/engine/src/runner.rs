@@ -4,19 +4,22 @@
 //! becomes the fixed child of the parent nodes. Rerunning the same command resumes where it
 //! stopped and gives exactly the result an uninterrupted run would, because every random draw
 //! derives from (experiment seed, node, run, generation, genome, sample) and checkpoints store
-//! the whole population exactly.
+//! the search strategy's whole state exactly. The runner knows no algorithm: it asks the
+//! node's [`hevo_evolve::Strategy`] for genomes, has them evaluated, and tells it their fitness.
 //!
 //! What it writes, and where, is the run-directory format of [`crate::rundir`].
 
 use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
-use crate::ea;
 use crate::experiment::{Experiment, NodePlan};
 use crate::post_evaluation;
 use crate::rundir::{
     self, BEST, CHECKPOINT, CHECKPOINT_FORMAT, Checkpoint, FITNESS_CSV, FitnessRow, NodeSummary,
-    RunSummary, SUMMARY, run_dir,
+    RunSummary, SUMMARY, parse_checkpoint, run_dir,
 };
-use crate::store::{read_json, remove_leftover_temporaries, write_atomic, write_json_atomic};
+use crate::store::{
+    read_json, read_json_with, remove_leftover_temporaries, write_atomic, write_json_atomic,
+};
+use hevo_evolve::{Evaluation, seeds};
 use hevo_sim_core::Sample;
 use hevo_sim_core::batch::task_content_hash;
 use hevo_sim_core::controller::{ControllerFile, NodeSpec};
@@ -583,64 +586,81 @@ async fn run_one(
         remove_if_present(&checkpoint_path)?;
         return Ok(summary);
     }
-    let run_seed = ea::run_seed(seed, name, run);
+    let run_seed = seeds::run_seed(seed, name, run);
     let n_genes = template
         .free_node_topology()
         .map(|(_, t)| t.n_genes())
         .unwrap_or(0);
-    let mut checkpoint = match read_json::<Checkpoint>(&checkpoint_path)? {
-        Some(found) => {
-            check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint)?;
-            if found.format != CHECKPOINT_FORMAT
-                || found.population.iter().any(|g| g.len() != n_genes)
-            {
-                return Err(io_error(
-                    &checkpoint_path,
-                    "checkpoint is not in the expected format; delete it to restart the run",
-                ));
-            }
-            progress.event(&ProgressEvent::Note {
-                message: format!(
-                    "{name} run {run}: resuming at generation {}",
-                    found.generation
-                ),
-            });
-            found
-        }
-        None => Checkpoint {
-            format: CHECKPOINT_FORMAT.into(),
-            fingerprint: fingerprint.to_string(),
-            generation: 0,
-            population: ea::initial_population(n_genes, &plan.evolution, run_seed),
-            best: None,
-            log: Vec::new(),
-        },
+    let strategy_settings = plan.evolution.strategy_settings();
+    let unusable = |why: String| {
+        io_error(
+            &checkpoint_path,
+            format!(
+                "checkpoint is not in the expected format ({why}); delete it to restart the run"
+            ),
+        )
     };
+    let (mut strategy, mut log) =
+        match read_json_with(&checkpoint_path, |text| parse_checkpoint(text, run_seed))? {
+            Some(found) => {
+                check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint)?;
+                if found.format != CHECKPOINT_FORMAT {
+                    return Err(unusable(format!("format {}", found.format)));
+                }
+                let strategy = strategy_settings
+                    .resume(n_genes, found.strategy)
+                    .map_err(|e| unusable(e.to_string()))?;
+                if strategy.generation() != found.generation
+                    || found.log.len() != found.generation as usize
+                {
+                    return Err(unusable(format!(
+                        "generation {} with a strategy at {} and {} log rows",
+                        found.generation,
+                        strategy.generation(),
+                        found.log.len()
+                    )));
+                }
+                progress.event(&ProgressEvent::Note {
+                    message: format!(
+                        "{name} run {run}: resuming at generation {}",
+                        found.generation
+                    ),
+                });
+                (strategy, found.log)
+            }
+            None => (
+                strategy_settings
+                    .start(n_genes, run_seed)
+                    .map_err(|e| RunError::Invalid(format!("{name}: {e}")))?,
+                Vec::new(),
+            ),
+        };
     std::fs::create_dir_all(run_dir).map_err(|e| io_error(run_dir, e))?;
 
     let shared = Arc::new(RequestShared::new(template.clone(), plan.task.clone()));
     let n_variants = plan.task.scenario.n_variants();
-    while checkpoint.generation < generations {
-        let generation = checkpoint.generation;
+    while strategy.generation() < generations {
+        let generation = strategy.generation();
         // Every genome of a generation meets the same samples; tasks with light
         // configurations get them in equal shares unless the experiment asks for random ones.
-        let variants = ea::generation_variants(
-            plan.evolution.training_variants,
+        let variants = seeds::generation_variants(
+            plan.evolution.variant_draw(),
             run_seed,
             generation,
             plan.decl.samples,
             n_variants,
         );
-        let samples: Arc<[Sample]> = ea::generation_seeds(run_seed, generation, plan.decl.samples)
-            .into_iter()
-            .zip(variants)
-            .map(|(seed, variant)| Sample { seed, variant })
-            .collect();
+        let samples: Arc<[Sample]> =
+            seeds::generation_seeds(run_seed, generation, plan.decl.samples)
+                .into_iter()
+                .zip(variants)
+                .map(|(seed, variant)| Sample { seed, variant })
+                .collect();
         let request = EvaluationRequest {
             job: settings.job.clone(),
             shared: shared.clone(),
-            genomes: checkpoint
-                .population
+            genomes: strategy
+                .ask()
                 .iter()
                 .map(|g| Arc::from(g.as_slice()))
                 .collect(),
@@ -665,26 +685,24 @@ async fn run_one(
             mean: row.mean,
             cycles,
         });
-        checkpoint.log.push(row);
-        if generation + 1 == generations {
-            let best_idx = ea::ranking(&fitness)[0];
-            checkpoint.best = Some(checkpoint.population[best_idx].clone());
-        } else {
-            checkpoint.population = ea::next_generation(
-                &checkpoint.population,
-                &fitness,
-                &plan.evolution,
-                run_seed,
-                generation,
-            );
-        }
-        checkpoint.generation = generation + 1;
-        write_fitness_csv(&run_dir.join(FITNESS_CSV), &checkpoint.log)?;
+        log.push(row);
+        let evaluations: Vec<Evaluation> = fitness.into_iter().map(Evaluation::new).collect();
+        strategy
+            .tell(&evaluations)
+            .map_err(|e| RunError::Invalid(format!("{name} run {run}: {e}")))?;
+        write_fitness_csv(&run_dir.join(FITNESS_CSV), &log)?;
+        let checkpoint = Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            fingerprint: fingerprint.to_string(),
+            generation: strategy.generation(),
+            strategy: strategy.state(),
+            log: log.clone(),
+        };
         write_json_atomic(&checkpoint_path, &checkpoint)
             .map_err(|e| io_error(&checkpoint_path, e))?;
     }
 
-    let best_genes = checkpoint.best.clone().ok_or_else(|| {
+    let best_genes = strategy.best().map(<[f32]>::to_vec).ok_or_else(|| {
         io_error(
             &checkpoint_path,
             "finished checkpoint without a best genome",
@@ -701,7 +719,7 @@ async fn run_one(
     let samples = post_evaluation::post_evaluation_samples(
         &plan.task,
         plan.evolution.post_evaluation_samples,
-        ea::post_evaluation_seeds(run_seed, 1)[0],
+        seeds::post_evaluation_seeds(run_seed, 1)[0],
     );
     let post_evaluation = post_evaluation::evaluate_controller(
         dispatcher,
@@ -717,7 +735,7 @@ async fn run_one(
         fingerprint: fingerprint.to_string(),
         run_seed,
         generations,
-        final_best_fitness: checkpoint.log.last().map_or(0.0, |r| r.best),
+        final_best_fitness: log.last().map_or(0.0, |r| r.best),
         post_evaluation,
     };
     write_json_atomic(&summary_path, &summary).map_err(|e| io_error(&summary_path, e))?;
@@ -769,6 +787,8 @@ mod tests {
 
     use super::*;
     use crate::dispatch::{Batch, DispatchConfig};
+    use hevo_evolve::ga::{GaState, initial_population};
+    use hevo_evolve::{StrategySettings, StrategyState};
     use hevo_sim_core::batch::SampleSummary;
     use std::collections::HashMap;
     use std::sync::Mutex;
@@ -849,6 +869,52 @@ runs = 1
     /// The genomes (index, genes) a worker was given, by the seed of the sample.
     type GenomesBySample = HashMap<u64, Vec<(u32, Vec<f32>)>>;
 
+    /// A fake worker on the dispatcher, recording every genome it is given, by sample.
+    fn spawn_fake_worker(
+        dispatcher: Arc<Dispatcher>,
+        seen: Arc<Mutex<GenomesBySample>>,
+    ) -> tokio::task::JoinHandle<()> {
+        tokio::spawn(async move {
+            loop {
+                let Some(batch) = dispatcher
+                    .lease("fake", 1, Duration::from_millis(200))
+                    .await
+                else {
+                    continue;
+                };
+                {
+                    let mut seen = seen.lock().unwrap();
+                    for sample in batch.samples.iter() {
+                        for (idx, genes) in &batch.genomes {
+                            seen.entry(sample.seed)
+                                .or_default()
+                                .push((*idx, genes.to_vec()));
+                        }
+                    }
+                }
+                let results = fake_results(&batch);
+                dispatcher
+                    .complete(batch.lease_id, batch.batch_id, "fake", results)
+                    .expect("the dispatcher takes the fake results");
+            }
+        })
+    }
+
+    /// Awaits `run` while the fake `worker` serves it: a panic in the worker (its results
+    /// refused, say) fails the test with the worker's message instead of leaving the run
+    /// waiting for ever, and the run is bounded in time.
+    async fn served<T>(
+        run: impl std::future::Future<Output = T>,
+        worker: &mut tokio::task::JoinHandle<()>,
+    ) -> T {
+        tokio::select! {
+            outcome = tokio::time::timeout(Duration::from_secs(300), run) => {
+                outcome.expect("the run finished within 300 s")
+            }
+            ended = worker => panic!("the fake worker stopped: {ended:?}"),
+        }
+    }
+
     #[derive(Default)]
     struct Recorder(Mutex<Vec<ProgressEvent>>);
 
@@ -866,12 +932,15 @@ runs = 1
         let plan = experiment.node("exit_room").unwrap();
         let template = node_template(plan, &out_dir).unwrap();
         let n_genes = template.free_node_topology().unwrap().1.n_genes();
-        let run_seed = ea::run_seed(3, "exit_room", 0);
+        let run_seed = seeds::run_seed(3, "exit_room", 0);
 
         // Plant: the first population is the run's own, with one genome replaced, written as
         // the checkpoint of a run that has not evaluated anything yet.
         let planted = vec![PLANTED_GENE; n_genes];
-        let mut first = ea::initial_population(n_genes, &plan.evolution, run_seed);
+        let StrategySettings::Ga(ga_settings) = plan.evolution.strategy_settings() else {
+            panic!("the experiment's nodes use the GA");
+        };
+        let mut first = initial_population(n_genes, &ga_settings, run_seed);
         assert!(!first.contains(&planted));
         first[PLANTED_AT] = planted.clone();
         let run_dir = run_dir(&rundir::node_dir(&out_dir, "exit_room"), 0);
@@ -880,8 +949,12 @@ runs = 1
             format: CHECKPOINT_FORMAT.into(),
             fingerprint: fingerprint(plan, &template, 3, GENERATIONS),
             generation: 0,
-            population: first.clone(),
-            best: None,
+            strategy: StrategyState::Ga(GaState {
+                run_seed,
+                generation: 0,
+                population: first.clone(),
+                best: None,
+            }),
             log: Vec::new(),
         };
         write_json_atomic(&run_dir.join(CHECKPOINT), &checkpoint).unwrap();
@@ -889,48 +962,18 @@ runs = 1
         // A fake worker on the dispatcher, recording every genome it is given, by sample.
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let seen: Arc<Mutex<GenomesBySample>> = Arc::default();
-        let mut worker = tokio::spawn({
-            let (dispatcher, seen) = (dispatcher.clone(), seen.clone());
-            async move {
-                loop {
-                    let Some(batch) = dispatcher
-                        .lease("fake", 1, Duration::from_millis(200))
-                        .await
-                    else {
-                        continue;
-                    };
-                    {
-                        let mut seen = seen.lock().unwrap();
-                        for sample in batch.samples.iter() {
-                            for (idx, genes) in &batch.genomes {
-                                seen.entry(sample.seed)
-                                    .or_default()
-                                    .push((*idx, genes.to_vec()));
-                            }
-                        }
-                    }
-                    let results = fake_results(&batch);
-                    dispatcher
-                        .complete(batch.lease_id, batch.batch_id, "fake", results)
-                        .expect("the dispatcher takes the fake results");
-                }
-            }
-        });
+        let mut worker = spawn_fake_worker(dispatcher.clone(), seen.clone());
         let settings = RunSettings {
             out_dir: out_dir.clone(),
             overrides: Overrides::default(),
             job: "planted".into(),
         };
         let recorder = Recorder::default();
-        // A panic in the fake worker (its results refused, say) fails the test with the
-        // worker's message instead of leaving the runner waiting for ever; and the run as a
-        // whole is bounded.
-        let run = run_experiment(&experiment, &settings, &dispatcher, &recorder);
-        let summaries = tokio::select! {
-            outcome = tokio::time::timeout(Duration::from_secs(300), run) => outcome,
-            ended = &mut worker => panic!("the fake worker stopped: {ended:?}"),
-        }
-        .expect("the run finished within 300 s")
+        let summaries = served(
+            run_experiment(&experiment, &settings, &dispatcher, &recorder),
+            &mut worker,
+        )
+        .await
         .unwrap();
         worker.abort();
 
@@ -939,7 +982,7 @@ runs = 1
         let mut populations = Vec::new();
         let mut fitness = Vec::new();
         for generation in 0..GENERATIONS {
-            let seeds = ea::generation_seeds(run_seed, generation, SAMPLES);
+            let seeds = seeds::generation_seeds(run_seed, generation, SAMPLES);
             let mut population = vec![None; 100];
             for (idx, genes) in &seen[&seeds[0]] {
                 assert!(population[*idx as usize].replace(genes.clone()).is_none());
@@ -1021,5 +1064,174 @@ runs = 1
         let controller = ControllerFile::from_json_str(&text).unwrap();
         assert_eq!(controller.root.genome.as_deref(), Some(&planted[..]));
         assert!(!run_dir.join(CHECKPOINT).exists());
+    }
+
+    /// Signals once a given generation has been evaluated (the runner writes its checkpoint
+    /// before it next waits).
+    struct PauseAfter {
+        generation: u32,
+        evaluated: tokio::sync::Notify,
+    }
+
+    impl Progress for PauseAfter {
+        fn event(&self, event: &ProgressEvent) {
+            if let ProgressEvent::Generation { generation, .. } = event
+                && *generation == self.generation
+            {
+                self.evaluated.notify_one();
+            }
+        }
+    }
+
+    /// Every file under a directory, by path relative to it, with its bytes.
+    fn tree(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+        let mut files = std::collections::BTreeMap::new();
+        let mut stack = vec![dir.to_path_buf()];
+        while let Some(at) = stack.pop() {
+            for entry in std::fs::read_dir(&at).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    stack.push(path);
+                } else {
+                    let bytes = std::fs::read(&path).unwrap();
+                    files.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);
+                }
+            }
+        }
+        files
+    }
+
+    /// Runs the experiment `text` straight, and again stopped once generation 2 is evaluated
+    /// and checkpointed (as a kill would leave it), then, after `meanwhile` has seen (or
+    /// rewritten) the checkpoint, resumed; both must end with the same files, byte for byte.
+    async fn paused_and_resumed_ends_as_straight(text: &str, meanwhile: impl FnOnce(&Path)) {
+        let dir = tempfile::tempdir().unwrap();
+        let experiment = Experiment::parse(text, &dir.path().join("e.toml")).unwrap();
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
+        let settings_for = |out_dir: PathBuf| RunSettings {
+            out_dir,
+            overrides: Overrides::default(),
+            job: "paused".into(),
+        };
+
+        let straight = settings_for(dir.path().join("straight"));
+        served(
+            run_experiment(&experiment, &straight, &dispatcher, &Recorder::default()),
+            &mut worker,
+        )
+        .await
+        .unwrap();
+
+        let paused = settings_for(dir.path().join("paused"));
+        let pause = PauseAfter {
+            generation: 2,
+            evaluated: tokio::sync::Notify::new(),
+        };
+        let paused_run = async {
+            tokio::select! {
+                biased;
+                _ = run_experiment(&experiment, &paused, &dispatcher, &pause) => {
+                    panic!("the run should have been stopped after generation 2")
+                }
+                () = pause.evaluated.notified() => {}
+            }
+        };
+        served(paused_run, &mut worker).await;
+        meanwhile(&run_dir(&paused.out_dir.join("exit_room"), 0).join(CHECKPOINT));
+
+        let recorder = Recorder::default();
+        served(
+            run_experiment(&experiment, &paused, &dispatcher, &recorder),
+            &mut worker,
+        )
+        .await
+        .unwrap();
+        worker.abort();
+        assert!(recorder.0.lock().unwrap().contains(&ProgressEvent::Note {
+            message: "exit_room run 0: resuming at generation 3".into()
+        }));
+        assert_eq!(tree(&paused.out_dir), tree(&straight.out_dir));
+    }
+
+    fn read_checkpoint(path: &Path) -> Checkpoint {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    #[tokio::test]
+    async fn a_run_paused_under_a_population_only_checkpoint_ends_as_an_uninterrupted_one() {
+        paused_and_resumed_ends_as_straight(EXPERIMENT, |checkpoint_path| {
+            // Rewritten as the runner wrote it before strategies had their own state: format
+            // 1, the population alone.
+            let checkpoint = read_checkpoint(checkpoint_path);
+            assert_eq!(checkpoint.generation, 3);
+            let StrategyState::Ga(ga_state) = checkpoint.strategy else {
+                panic!("the run uses the GA");
+            };
+            let population_only = serde_json::json!({
+                "format": rundir::CHECKPOINT_FORMAT_POPULATION,
+                "fingerprint": checkpoint.fingerprint,
+                "generation": checkpoint.generation,
+                "population": ga_state.population,
+                "best": null,
+                "log": checkpoint.log,
+            });
+            write_json_atomic(checkpoint_path, &population_only).unwrap();
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_cmaes_run_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        let cmaes = EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            "post_evaluation_samples = 2\nalgorithm = \"cmaes\"\npopulation = 12",
+        );
+        paused_and_resumed_ends_as_straight(&cmaes, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            assert_eq!(checkpoint.generation, 3);
+            let StrategyState::Cmaes(state) = checkpoint.strategy else {
+                panic!("the run uses CMA-ES");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 12));
+        })
+        .await;
+    }
+
+    /// The run paused on purpose under `experiments/runs/` (exit room's run 4, stopped at
+    /// generation 79 with a population-only checkpoint) must stay resumable: its fingerprint is
+    /// still the one its experiment gives, and its checkpoint is read as the GA's state.
+    #[test]
+    fn the_paused_run_under_experiments_still_resumes() {
+        let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let experiment = Experiment::load(&repo.join("experiments/rescue.toml")).unwrap();
+        let plan = experiment.node("exit_room").unwrap();
+        let out_dir = repo.join("experiments/runs");
+        let template = node_template(plan, &out_dir).unwrap();
+        let n_genes = template.free_node_topology().unwrap().1.n_genes();
+        let path = run_dir(&out_dir.join("exit_room"), 4).join(CHECKPOINT);
+        let run_seed = seeds::run_seed(experiment.header.seed, "exit_room", 4);
+        let checkpoint = read_json_with(&path, |text| parse_checkpoint(text, run_seed))
+            .unwrap()
+            .expect("the paused run's checkpoint is kept");
+        assert_eq!(
+            checkpoint.fingerprint,
+            fingerprint(
+                plan,
+                &template,
+                experiment.header.seed,
+                plan.decl.generations
+            )
+        );
+        assert_eq!(checkpoint.format, CHECKPOINT_FORMAT);
+        assert_eq!((checkpoint.generation, checkpoint.log.len()), (79, 79));
+        let strategy = plan
+            .evolution
+            .strategy_settings()
+            .resume(n_genes, checkpoint.strategy)
+            .unwrap();
+        assert_eq!(strategy.generation(), 79);
+        assert_eq!(strategy.ask().len(), 100);
+        assert_eq!(strategy.best(), None);
     }
 }

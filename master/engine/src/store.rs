@@ -99,15 +99,21 @@ pub enum ReadJsonError {
 /// Reads a JSON file; `Ok(None)` when it does not exist, an error when it is unreadable or
 /// malformed (never silently ignored: a corrupt checkpoint must be looked at).
 pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<Option<T>, ReadJsonError> {
+    read_json_with(path, |text| serde_json::from_str(text))
+}
+
+/// [`read_json`] with a parser of its own (a format read in more than one way).
+pub fn read_json_with<T>(
+    path: &Path,
+    parse: impl FnOnce(&str) -> Result<T, serde_json::Error>,
+) -> Result<Option<T>, ReadJsonError> {
     match std::fs::read_to_string(path) {
-        Ok(text) => {
-            serde_json::from_str(&text)
-                .map(Some)
-                .map_err(|source| ReadJsonError::Malformed {
-                    path: path.to_path_buf(),
-                    source,
-                })
-        }
+        Ok(text) => parse(&text)
+            .map(Some)
+            .map_err(|source| ReadJsonError::Malformed {
+                path: path.to_path_buf(),
+                source,
+            }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(source) => Err(ReadJsonError::Io {
             path: path.to_path_buf(),

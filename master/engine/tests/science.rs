@@ -8,8 +8,9 @@
 use hevo_engine::dispatch::{Batch, DispatchConfig, Dispatcher};
 use hevo_engine::experiment::{ChildDecl, EvolutionParams, Experiment};
 use hevo_engine::post_evaluation::post_evaluation_samples;
+use hevo_engine::rundir;
 use hevo_engine::runner::{Overrides, Progress, ProgressEvent, RunSettings, run_experiment};
-use hevo_engine::{ea, rundir};
+use hevo_evolve::seeds;
 use hevo_sim_core::batch::SampleSummary;
 use hevo_sim_core::controller::{Controller, ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::ctrnn::CtrnnTopology;
@@ -495,9 +496,9 @@ fn at_the_papers_budget_no_post_evaluation_seed_is_a_training_seed() {
     let seed = experiment.header.seed;
     let mut training = HashSet::new();
     for run in 0..plan.decl.runs {
-        let run_seed = ea::run_seed(seed, "rescue", run);
+        let run_seed = seeds::run_seed(seed, "rescue", run);
         for generation in 0..plan.decl.generations {
-            training.extend(ea::generation_seeds(
+            training.extend(seeds::generation_seeds(
                 run_seed,
                 generation,
                 plan.decl.samples,
@@ -506,11 +507,11 @@ fn at_the_papers_budget_no_post_evaluation_seed_is_a_training_seed() {
     }
     assert_eq!(training.len(), 10 * 1000 * 20);
     for run in 0..plan.decl.runs {
-        let run_seed = ea::run_seed(seed, "rescue", run);
+        let run_seed = seeds::run_seed(seed, "rescue", run);
         let post = post_evaluation_samples(
             &plan.task,
             plan.evolution.post_evaluation_samples,
-            ea::post_evaluation_seeds(run_seed, 1)[0],
+            seeds::post_evaluation_seeds(run_seed, 1)[0],
         );
         assert_eq!(post.len(), 400, "100 per light configuration");
         assert!(
