@@ -1,4 +1,4 @@
-//! The client commands: `hevo submit`, `watch`, `jobs`, `fetch` and `cancel`. Each connects to
+//! The client commands: `hevo submit`, `watch`, `jobs`, `fetch`, `cancel` and `delete`. Each connects to
 //! a master with the shared token (and TLS when the URL is https://), makes its calls and turns
 //! a refusal into one clear line (`INVALID_ARGUMENT: experiment_toml: ...`). `watch` outlives
 //! master restarts: when the stream breaks it reconnects with backoff and carries on.
@@ -360,6 +360,18 @@ pub async fn cancel(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
     response
         .job
         .ok_or_else(|| anyhow!("the master sent no job status"))
+}
+
+/// Deletes a finished job.
+pub async fn delete(options: &ClientOptions, job: &str) -> Result<()> {
+    let mut client = job_client(options.connect().await?);
+    client
+        .delete_job(v1::DeleteJobRequest {
+            job_id: job.to_string(),
+        })
+        .await
+        .map_err(refused)?;
+    Ok(())
 }
 
 /// `YYYY-MM-DD HH:MM:SS` in UTC (days to civil date after H. Hinnant's algorithm).

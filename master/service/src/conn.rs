@@ -5,26 +5,26 @@
 //! lease timeout. The stream wraps each accepted TCP connection; when hyper is done with it
 //! and drops it, its peer address is sent to whoever listens.
 
+use hevo_dashboard::connections::GuardedStream;
 use std::net::SocketAddr;
 use std::pin::Pin;
 use std::task::{Context, Poll};
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
-use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 use tonic::transport::server::{Connected, TcpConnectInfo};
 
 /// A TCP connection that reports its peer on `closed` when it is dropped.
 #[derive(Debug)]
 pub struct TrackedStream {
-    inner: TcpStream,
+    inner: GuardedStream,
     peer: Option<SocketAddr>,
     closed: mpsc::UnboundedSender<SocketAddr>,
 }
 
 impl TrackedStream {
     /// Wraps an accepted connection.
-    pub fn new(inner: TcpStream, closed: mpsc::UnboundedSender<SocketAddr>) -> TrackedStream {
-        let peer = inner.peer_addr().ok();
+    pub fn new(inner: GuardedStream, closed: mpsc::UnboundedSender<SocketAddr>) -> TrackedStream {
+        let peer = inner.tcp().peer_addr().ok();
         TrackedStream {
             inner,
             peer,
@@ -45,7 +45,7 @@ impl Connected for TrackedStream {
     type ConnectInfo = TcpConnectInfo;
 
     fn connect_info(&self) -> TcpConnectInfo {
-        self.inner.connect_info()
+        self.inner.tcp().connect_info()
     }
 }
 
