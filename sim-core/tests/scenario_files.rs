@@ -1188,3 +1188,15 @@ fn a_start_outside_every_open_cell_of_a_map_is_refused() {
         "{error}"
     );
 }
+
+#[test]
+fn a_huge_unknown_key_is_quoted_only_in_part() {
+    let key = "k".repeat(16_000);
+    let error = edit_refusal(
+        T_MAZE,
+        "max_cycles = 500",
+        &format!("max_cycles = 500\n{key} = 1"),
+    );
+    assert!(error.contains("kkkk"), "{error}");
+    assert!(error.len() < 2_000, "{} characters", error.len());
+}

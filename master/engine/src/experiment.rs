@@ -595,8 +595,9 @@ impl Experiment {
             .map_err(|e| syntax(String::new(), bounded_excerpt(&e.to_string())))?;
         let parsed: ExperimentFile =
             serde_path_to_error::deserialize(deserializer).map_err(|e| {
+                // A key path holds the file's own keys, which may be of any length.
                 syntax(
-                    e.path().to_string(),
+                    cut(&e.path().to_string(), MAX_EXCERPT_CHARS),
                     bounded_excerpt(&e.inner().to_string()),
                 )
             })?;
@@ -1656,6 +1657,14 @@ runs = 1
             declared_genes(&parse(&fits).unwrap().nodes[0].decl),
             1_011_002
         );
+    }
+
+    #[test]
+    fn a_huge_unknown_key_is_quoted_only_in_part() {
+        let key = "k".repeat(16_000);
+        let err = error_of(&GOOD.replace("hidden = 10", &format!("hidden = 10\n{key} = 1")));
+        assert!(err.contains("kkkk"), "{err}");
+        assert!(err.len() < 2_000, "{} characters", err.len());
     }
 
     #[test]

@@ -360,8 +360,9 @@ impl Scenario {
         })?;
         let file: ScenarioFile = serde_path_to_error::deserialize(deserializer).map_err(|e| {
             let line = e.inner().span().map(|span| line_of(text, span.start));
+            // A key path holds the file's own keys, which may be of any length.
             error(
-                &e.path().to_string(),
+                &bounded_path(&e.path().to_string()),
                 line,
                 crate::scenario::bounded(e.inner().message()),
             )
@@ -578,6 +579,16 @@ pub fn bounded(message: &str) -> String {
         message.to_string()
     } else {
         format!("{} …", message.chars().take(MAX).collect::<String>())
+    }
+}
+
+/// A key path cut to a bounded length, like a parser's message.
+fn bounded_path(path: &str) -> String {
+    const MAX: usize = 120;
+    if path.chars().count() <= MAX {
+        path.to_string()
+    } else {
+        format!("{} …", path.chars().take(MAX).collect::<String>())
     }
 }
 
