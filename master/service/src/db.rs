@@ -146,7 +146,11 @@ pub struct JobStore {
 /// Runs a store operation, turning a panic inside redb (a damaged page met later, say) into
 /// an error instead of a crash.
 fn guarded<T>(path: &str, body: impl FnOnce() -> Result<T, StoreError>) -> Result<T, StoreError> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)).unwrap_or_else(|panic| {
+    quiet_panics_in_guarded_calls();
+    IN_GUARDED_CALL.with(|flag| flag.set(flag.get() + 1));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(body));
+    IN_GUARDED_CALL.with(|flag| flag.set(flag.get() - 1));
+    outcome.unwrap_or_else(|panic| {
         let what = panic
             .downcast_ref::<String>()
             .map(String::as_str)
@@ -160,6 +164,28 @@ fn guarded<T>(path: &str, body: impl FnOnce() -> Result<T, StoreError>) -> Resul
             ),
         })
     })
+}
+
+thread_local! {
+    /// How deep the current thread is in [`guarded`] calls.
+    static IN_GUARDED_CALL: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Installs, once, a panic hook that keeps a panic inside a [`guarded`] call off stderr: it
+/// becomes the clear error the call returns, and a backtrace before it would only alarm. Any
+/// other panic goes to the hook that was there before.
+fn quiet_panics_in_guarded_calls() {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if IN_GUARDED_CALL.with(std::cell::Cell::get) > 0 {
+                tracing::debug!(%info, "the store library panicked; reported as a damaged store");
+            } else {
+                previous(info);
+            }
+        }));
+    });
 }
 
 const DAMAGED_ADVICE: &str = "Restore it from a backup, or move it aside and start with `--rebuild-store` (rebuilds the job index from jobs/*/job.json), or start with --state-dir elsewhere";
@@ -608,6 +634,22 @@ mod tests {
         assert!(store.list().unwrap().is_empty());
         // Its request id is free again.
         assert!(store.insert_new(Some("req-1"), record).unwrap().1);
+    }
+
+    #[test]
+    fn a_panic_inside_the_store_library_is_an_error_and_others_still_panic() {
+        let error = guarded::<()>("x.redb", || panic!("page 7 is garbage"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("x.redb")
+                && error.contains("page 7 is garbage")
+                && error.contains("damaged"),
+            "{error}"
+        );
+        IN_GUARDED_CALL.with(|depth| assert_eq!(depth.get(), 0));
+        // Outside a guarded call the hook passes a panic on.
+        assert!(std::panic::catch_unwind(|| panic!("elsewhere")).is_err());
     }
 
     #[test]
