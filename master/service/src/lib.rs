@@ -128,13 +128,15 @@ pub fn worker_service(
 
 /// Accepted connections with Nagle's algorithm off (leases and results are small messages
 /// whose latency matters more than packet count), admitted by `gate` (those over its limit are
-/// closed at once), each reporting its peer on `closed` when it closes. A failed accept (out
+/// closed at once), each reporting its peer on `closed` when it closes. With `tls`, a client
+/// that speaks plain text is answered in words and closed. A failed accept (out
 /// of descriptors, say) is logged and retried after a pause, never a busy loop nor the end of
 /// the server.
 pub fn incoming(
     listener: tokio::net::TcpListener,
     gate: Arc<ConnectionGate>,
     closed: tokio::sync::mpsc::UnboundedSender<std::net::SocketAddr>,
+    tls: bool,
 ) -> impl tokio_stream::Stream<Item = std::io::Result<conn::TrackedStream>> {
     let (sender, receiver) = tokio::sync::mpsc::channel(64);
     tokio::spawn(async move {
@@ -149,6 +151,22 @@ pub fn incoming(
                     let Some(guarded) = gate.admit(stream, false) else {
                         continue;
                     };
+                    if tls {
+                        // A client speaking plain text to the TLS port is told so, in words.
+                        let (sender, closed) = (sender.clone(), closed.clone());
+                        let wait = gate.limits().first_request_timeout;
+                        tokio::spawn(async move {
+                            match conn::starts_tls(&guarded, wait).await {
+                                Some(true) => {
+                                    let tracked = conn::TrackedStream::new(guarded, closed);
+                                    let _ = sender.send(Ok(tracked)).await;
+                                }
+                                Some(false) => conn::refuse_plain_text(guarded).await,
+                                None => {}
+                            }
+                        });
+                        continue;
+                    }
                     let tracked = conn::TrackedStream::new(guarded, closed.clone());
                     if sender.send(Ok(tracked)).await.is_err() {
                         return;
@@ -420,8 +438,10 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
                 .await;
         }
     };
-    let serving =
-        router.serve_with_incoming_shutdown(incoming(listener, gate, closed_connections), shutdown);
+    let serving = router.serve_with_incoming_shutdown(
+        incoming(listener, gate, closed_connections, config.tls.is_some()),
+        shutdown,
+    );
     tokio::pin!(serving);
     tokio::select! {
         result = &mut serving => result.context("the server failed")?,

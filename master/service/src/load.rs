@@ -132,7 +132,7 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
                     ),
                 ))
                 .serve_with_incoming_shutdown(
-                    incoming(listener, gate, closed_connections),
+                    incoming(listener, gate, closed_connections, false),
                     async move {
                         let _ = stopped.wait_for(|&s| s).await;
                     },
