@@ -155,3 +155,41 @@ fn idle_and_trickling_connections_cannot_starve_a_master_of_descriptors() {
     drop(trickling);
     assert_eq!(health_status(&runtime, &grpc, ""), Ok(SERVING));
 }
+
+#[test]
+fn watch_streams_beyond_the_cap_are_refused() {
+    use hevo_tests::service::{CLIENT_TOKEN, SMALL, jobs, master_with_roles, submission};
+    let scratch = Scratch::new("service-streams");
+    let master = master_with_roles(&scratch, &["--max-event-streams", "2"]);
+    let runtime = hevo_tests::service::runtime();
+    runtime.block_on(async {
+        let mut client = jobs(&master.url, CLIENT_TOKEN);
+        let job_id = client
+            .submit_job(submission(SMALL))
+            .await
+            .unwrap()
+            .into_inner()
+            .job_id;
+        let watch = || hevo_proto::v1::WatchJobRequest {
+            job_id: job_id.clone(),
+        };
+        // No worker runs the job, so its watches stay open.
+        let first = client.watch_job(watch()).await.expect("a first watch");
+        let second = client.watch_job(watch()).await.expect("a second watch");
+        let status = client.watch_job(watch()).await.unwrap_err();
+        assert_eq!(status.code(), tonic::Code::ResourceExhausted, "{status:?}");
+        assert!(status.message().contains("2 watch streams"), "{status:?}");
+        drop(first);
+        // Its place comes free once the master sees the stream gone.
+        let mut third = None;
+        for _ in 0..100 {
+            if let Ok(stream) = client.watch_job(watch()).await {
+                third = Some(stream);
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        assert!(third.is_some(), "no place came free");
+        drop(second);
+    });
+}

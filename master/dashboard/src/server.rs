@@ -938,4 +938,34 @@ mod tests {
             assert_eq!(headers["x-content-type-options"], "nosniff", "{uri}");
         }
     }
+
+    #[tokio::test]
+    async fn event_streams_beyond_the_cap_are_refused_until_one_closes() {
+        let dashboard = dashboard(Access::Open);
+        dashboard.set_max_streams(1);
+        let open = |dashboard: Dashboard| async move {
+            dashboard
+                .router()
+                .oneshot(
+                    Request::builder()
+                        .uri("/jobs/runs-wide-turn-starts/events")
+                        .body(Body::empty())
+                        .unwrap(),
+                )
+                .await
+                .unwrap()
+        };
+        let first = open(dashboard.clone()).await;
+        assert_eq!(first.status(), StatusCode::OK);
+        let second = open(dashboard.clone()).await;
+        assert_eq!(second.status(), StatusCode::SERVICE_UNAVAILABLE);
+        drop(first);
+        for _ in 0..200 {
+            if dashboard.open_streams() == 0 {
+                break;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+        }
+        assert_eq!(open(dashboard.clone()).await.status(), StatusCode::OK);
+    }
 }

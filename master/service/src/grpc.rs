@@ -121,6 +121,8 @@ impl JobService for JobApi {
                     event = events.recv() => event,
                     // The master is stopping: end the stream; the client reconnects later.
                     _ = stopping.wait_for(|&s| s) => return,
+                    // The client went away: free the stream's place now, not at the next event.
+                    () = sender.closed() => return,
                 };
                 let event = match event {
                     Ok(event) => event,
