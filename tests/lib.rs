@@ -280,10 +280,27 @@ pub fn start_master(args: &[&str], log: &Path) -> Master {
 
 /// [`start_master`] on a given address (a master restarted where its workers look for it).
 pub fn start_master_listening(listen: &str, args: &[&str], log: &Path) -> Master {
+    start_master_with(Command::new(&binaries().hevo), listen, args, log)
+}
+
+/// [`start_master`] with its open-file limit, soft and hard, held to `open_files` (by
+/// util-linux's `prlimit`), as a small machine or container would hold it.
+pub fn start_master_with_open_files(open_files: u64, args: &[&str], log: &Path) -> Master {
+    let mut command = Command::new("prlimit");
+    command
+        .arg(format!("--nofile={open_files}:{open_files}"))
+        .arg("--")
+        .arg(&binaries().hevo);
+    start_master_with(command, "127.0.0.1:0", args, log)
+}
+
+/// Starts `command` (the `hevo` binary, or a command that runs it) with `serve --listen
+/// LISTEN ARGS`.
+fn start_master_with(mut command: Command, listen: &str, args: &[&str], log: &Path) -> Master {
     let stderr = std::fs::File::create(log).expect("cannot create the master's log");
     let mut proc = Proc::spawn(
         "hevo serve",
-        Command::new(&binaries().hevo)
+        command
             .args(["serve", "--listen", listen])
             .args(args)
             .env_remove("HEVO_TOKEN")

@@ -241,6 +241,23 @@ pub struct Evaluator {
     sensors: [Option<Box<dyn Sensor>>; N_GROUPS],
 }
 
+/// Why a start lies outside its world, if it does: not a finite point, or in a map world
+/// outside every open cell (a map has walls only between open and solid cells, so a start in
+/// a solid cell touches none and would run every sample to its limit).
+fn start_outside_the_world(scenario: &Scenario, [x, y]: [f32; 2]) -> Option<&'static str> {
+    if !(x.is_finite() && y.is_finite()) {
+        return Some("at no point");
+    }
+    let map = scenario
+        .map
+        .as_ref()
+        .filter(|_| scenario.world.is_map_alone())?;
+    map.map
+        .cell_at([x, y])
+        .is_none()
+        .then_some("outside every open cell of the map")
+}
+
 impl Evaluator {
     /// Validates the task and builds what all its samples share; refuses a scenario whose
     /// robot starts touching a solid in the worlds of the first seeds ([`Evaluator::check_starts`]).
@@ -268,7 +285,8 @@ impl Evaluator {
         })
     }
 
-    /// Refuses a scenario whose robot starts touching a solid or in a region it forbids: it
+    /// Refuses a scenario whose robot starts outside its world, touching a solid or in a
+    /// region it forbids: it
     /// would end in its first cycle, every sample, and evolution would go on regardless.
     /// Checked on the worlds of seeds `0..seeds` of every variant, as the task (with its
     /// overrides) builds them.
@@ -298,6 +316,17 @@ impl Evaluator {
                              wall or obstacle (`hevo scenario draw --variant {variant} --seed \
                              {seed}` shows it)",
                             start.x, start.y
+                        ),
+                    ));
+                }
+                if let Some(why) = start_outside_the_world(scenario, env.start.position()) {
+                    return Err(scenario.refusal(
+                        "place",
+                        format!(
+                            "the robot starts {why}: at ({:.3}, {:.3}) m in variant {variant}, \
+                             seed {seed} (`hevo scenario draw --variant {variant} --seed {seed}` \
+                             shows it)",
+                            env.start.x, env.start.y
                         ),
                     ));
                 }

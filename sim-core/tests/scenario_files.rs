@@ -1080,3 +1080,123 @@ fn conditions_naming_undrawable_generator_regions_are_refused() {
         "{message}"
     );
 }
+
+/// A scenario on an open square map of `side` x `side` cells of `cell_size` metres.
+fn open_map(side: usize, cell_size: &str) -> String {
+    let row = ".".repeat(side);
+    let grid: Vec<&str> = std::iter::repeat_n(row.as_str(), side).collect();
+    format!(
+        "schema = \"hevo.scenario/1\"\nname = \"open\"\nmax_cycles = 100\n\n[world]\n\
+         map = {{ cell_size = {cell_size}, wall_thickness = 0.10, origin = [0, 0], grid = \"\"\"\n\
+         S{}\n{}\n\"\"\", legend = {{ \".\" = \"open\", S = \"home\" }} }}\n\n\
+         [place]\nat = \"home\"\nfacing = \"up\"\n\n[end]\nsolved = \"always\"\n\n\
+         [fitness]\nsolved = \"1\"\notherwise = \"0\"\n",
+        &row[1..],
+        grid[1..].join("\n")
+    )
+}
+
+#[test]
+fn a_map_too_large_or_too_far_out_is_refused_before_its_cells_are_built() {
+    // Open maps up to the limit compile (in time linear in their cells).
+    Scenario::parse(&open_map(100, "0.30"), "mine.toml").expect("a 100 x 100 map");
+    Scenario::parse(&open_map(128, "0.30"), "mine.toml").expect("a 128 x 128 map");
+    let error = refusal(&open_map(1000, "0.30"));
+    assert!(
+        error.contains("at `world.map.grid`")
+            && error.contains("1000 rows x 1000 columns")
+            && error.contains("at most 16384"),
+        "{error}"
+    );
+    let error = refusal(&open_map(3, "1e9"));
+    assert!(
+        error.contains("at `world.map.cell_size`") && error.contains("at most 10"),
+        "{error}"
+    );
+    let error = refusal(&open_map(100, "1.0"));
+    assert!(
+        error.contains("at `world.map.origin`") && error.contains("at most 50 m"),
+        "{error}"
+    );
+    let huge = format!("{T_MAZE}\n# {}\n", "x".repeat(1024 * 1024));
+    assert!(refusal(&huge).contains("bytes, at most 1048576"));
+}
+
+#[test]
+fn numbers_that_are_not_finite_or_out_of_range_are_refused_naming_the_key() {
+    for (from, to, key) in [
+        ("timeout = \"0\"", "timeout = \"nan\"", "fitness.timeout"),
+        ("timeout = \"0\"", "timeout = \"inf\"", "fitness.timeout"),
+        ("timeout = \"0\"", "timeout = \"1e40\"", "fitness.timeout"),
+        (
+            "solved = \"1 + time_bonus\"",
+            "solved = \"1 + time_bonus / 1e-40\"",
+            "fitness.solved",
+        ),
+        ("cell = [-0.33, 1.0]", "cell = [nan, 1.0]", "light[0].cell"),
+        ("cell = [0.33, 1.0]", "cell = [0.33, inf]", "light[1].cell"),
+        ("cell = [0.33, 1.0]", "cell = [0.33, 1e6]", "light[1].cell"),
+        (
+            "facing = \"up\"",
+            "facing = \"up\"\nahead_m = nan",
+            "place.ahead_m",
+        ),
+        (
+            "facing = \"up\"",
+            "facing = \"up\"\nahead_m = 1e30",
+            "place.ahead_m",
+        ),
+        (
+            "wrong_branch = \"off path\"",
+            "wrong_branch = \"off path\"\nnear_m = -0.1",
+            "end.near_m",
+        ),
+    ] {
+        let error = edit_refusal(T_MAZE, from, to);
+        assert!(error.contains(&format!("at `{key}`")), "{to}: {error}");
+    }
+    let room = Scenario::shipped("exit_room").unwrap().source.replace(
+        "name = \"exit_room\"\nlegacy = \"exit_room\"\n",
+        "name = \"my_room\"\n",
+    );
+    // The room's numbers are the task's, checked when a task is made from the scenario.
+    let huge_room = room.replace("[world]", "[room]\nmax_side = 1e9\n\n[world]");
+    let scenario = Arc::new(Scenario::parse(&huge_room, "mine.toml").expect("it compiles"));
+    let error = Evaluator::new(TaskConfig::from_scenario(scenario))
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        error.contains("room.max_side") && error.contains("at most 20 m"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_start_outside_every_open_cell_of_a_map_is_refused() {
+    // The start cell's centre moved a cell and a half ahead: into the solid cells beside the
+    // stem's end, where no wall is near (walls lie only between open and solid cells).
+    let text = T_MAZE.replace(
+        "at = \"entrance\"\nfacing = \"up\"",
+        "at = \"entrance\"\nfacing = \"right\"\nahead_m = 0.6",
+    );
+    let scenario = Arc::new(Scenario::parse(&text, "mine.toml").expect("it compiles"));
+    let error = Evaluator::new(TaskConfig::from_scenario(scenario))
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        error.contains("at `place`: the robot starts outside every open cell of the map"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_huge_unknown_key_is_quoted_only_in_part() {
+    let key = "k".repeat(16_000);
+    let error = edit_refusal(
+        T_MAZE,
+        "max_cycles = 500",
+        &format!("max_cycles = 500\n{key} = 1"),
+    );
+    assert!(error.contains("kkkk"), "{error}");
+    assert!(error.len() < 2_000, "{} characters", error.len());
+}

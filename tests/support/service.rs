@@ -181,3 +181,30 @@ pub fn metric(text: &str, name: &str) -> f64 {
         .and_then(|value| value.trim().parse().ok())
         .unwrap_or_else(|| panic!("no metric {name} in:\n{text}"))
 }
+
+/// The status the master at `address` (`127.0.0.1:PORT`, plain gRPC) gives `service` on the
+/// standard health service, asked without a token; an error names what failed. Each attempt
+/// is bounded by 5 s.
+pub fn health_status(
+    runtime: &tokio::runtime::Runtime,
+    address: &str,
+    service: &str,
+) -> Result<i32, String> {
+    runtime.block_on(async {
+        let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))
+            .map_err(|e| e.to_string())?
+            .connect_timeout(Duration::from_secs(5))
+            .timeout(Duration::from_secs(5))
+            .connect()
+            .await
+            .map_err(|e| e.to_string())?;
+        let mut client = tonic_health::pb::health_client::HealthClient::new(channel);
+        let response = client
+            .check(tonic_health::pb::HealthCheckRequest {
+                service: service.to_string(),
+            })
+            .await
+            .map_err(|status| format!("{}: {}", status.code(), status.message()))?;
+        Ok(response.into_inner().status)
+    })
+}

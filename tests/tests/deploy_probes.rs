@@ -11,6 +11,7 @@
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
 
 use hevo_tests::deploy::{Analysis, DeployFiles};
+use hevo_tests::service::health_status;
 use hevo_tests::{Proc, Scratch, binaries, http_get, lines_of};
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -108,30 +109,6 @@ impl Master {
             .wait_timeout(Duration::from_secs(30))
             .expect("hevo serve did not exit within 30 s of SIGTERM")
     }
-}
-
-fn health_status(
-    runtime: &tokio::runtime::Runtime,
-    address: &str,
-    service: &str,
-) -> Result<i32, String> {
-    runtime.block_on(async {
-        let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))
-            .map_err(|e| e.to_string())?
-            .connect_timeout(Duration::from_secs(5))
-            .timeout(Duration::from_secs(5))
-            .connect()
-            .await
-            .map_err(|e| e.to_string())?;
-        let mut client = tonic_health::pb::health_client::HealthClient::new(channel);
-        let response = client
-            .check(tonic_health::pb::HealthCheckRequest {
-                service: service.to_string(),
-            })
-            .await
-            .map_err(|status| format!("{}: {}", status.code(), status.message()))?;
-        Ok(response.into_inner().status)
-    })
 }
 
 /// A `hevo-worker` with `token` against the master, its stderr in `log`.

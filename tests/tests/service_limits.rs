@@ -1,7 +1,7 @@
 //! What a submission may not do: ask for more than the limits allow (refused with the field
 //! named, before anything is allocated), use node names that are not plain identifiers, get a
-//! huge input quoted back at it, send bytes that are not a protobuf message, or make a second
-//! job by retrying.
+//! huge input quoted back at it, send bytes that are not a protobuf message, make a second
+//! job by retrying, or reuse a retry's request id for another submission.
 
 use hevo_proto::v1;
 use hevo_tests::Scratch;
@@ -64,6 +64,44 @@ fn oversized_jobs_and_bad_names_are_refused_naming_the_field() {
     request.runs = Some(0);
     let status = refusal(&master.url, request);
     assert!(status.message().starts_with("runs:"), "{status:?}");
+    let mut request = submission(SMALL);
+    request.request_id = "r".repeat(65);
+    let status = refusal(&master.url, request);
+    assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
+    assert!(status.message().starts_with("request_id:"), "{status:?}");
+}
+
+/// Within every other limit, a generation of 100,000 genomes of a million genes each (a
+/// master once accepted it and ran out of memory, again on every restart).
+#[test]
+fn a_generation_too_large_for_memory_is_refused_and_the_master_lives_on() {
+    let scratch = Scratch::new("limits-memory");
+    let master = master_with_roles(&scratch, &[]);
+    let huge = SMALL
+        .replace("population = 6", "population = 100000")
+        .replace("elites = 2", "elites = 1")
+        .replace(
+            "inputs = [\"ir\"]",
+            "inputs = [\"ir\", \"light\", \"near_robot\"]",
+        )
+        .replace("hidden = 2", "hidden = 1000");
+    let status = refusal(&master.url, submission(&huge));
+    assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
+    assert!(
+        status.message().contains("node[0].evolution.population")
+            && status.message().contains("1011002 genes")
+            && status.message().contains("at most 1024 MiB"),
+        "{}",
+        status.message()
+    );
+    runtime().block_on(async {
+        let listed = jobs(&master.url, CLIENT_TOKEN)
+            .list_jobs(v1::ListJobsRequest {})
+            .await
+            .expect("the master still answers")
+            .into_inner();
+        assert!(listed.jobs.is_empty());
+    });
 }
 
 #[test]
@@ -114,6 +152,18 @@ fn a_retried_submission_returns_the_same_job() {
             .into_inner()
             .job_id;
         assert_ne!(first, other);
+        // The same id with another experiment is refused, not answered with the first job.
+        let mut reused = submission(&SMALL.replace("seed = 3", "seed = 4"));
+        reused.request_id = "4d2c0a4e-0000-4000-8000-000000000001".into();
+        let status = client.submit_job(reused).await.unwrap_err();
+        assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
+        assert!(
+            status.message().starts_with("request_id:")
+                && status.message().contains("another submission")
+                && status.message().contains(&first),
+            "{}",
+            status.message()
+        );
         let listed = client
             .list_jobs(v1::ListJobsRequest {})
             .await

@@ -59,6 +59,10 @@ fn assert_refused_before_listening(output: &std::process::Output, store: &Path, 
     assert!(!output.status.success(), "it served: {stdout}");
     assert_ne!(output.status.code(), Some(101), "a panic: {stderr}");
     assert!(
+        !stderr.contains("panicked at") && !stderr.contains("stack backtrace"),
+        "a panic of the store library reached stderr before the clear error: {stderr}"
+    );
+    assert!(
         !stdout.contains("listening on"),
         "it said it listens: {stdout}"
     );

@@ -55,6 +55,8 @@ pub enum Command {
     Fetch(service::FetchArgs),
     /// Cancel a job.
     Cancel(service::JobArgs),
+    /// Delete a finished job from the master: its record, its results and its files.
+    Delete(service::JobArgs),
     /// Write REPRODUCTION.md (paper versus hevo) from run output directories.
     Report(ReportArgs),
     /// Check a scenario file (a task as data) and draw its world.
@@ -426,6 +428,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Jobs(args) => service::jobs(args),
         Command::Fetch(args) => service::fetch(args),
         Command::Cancel(args) => service::cancel(args),
+        Command::Delete(args) => service::delete(args),
         Command::Scenario(args) => crate::scenario_command::scenario(args),
         Command::Dashboard(args) => dashboard(args),
         Command::Export(args) => crate::export_command::export(args),
@@ -540,8 +543,16 @@ fn describe_plan(
     use std::fmt::Write as _;
     let mut speeds: std::collections::BTreeMap<String, f64> = Default::default();
     let mut text = format!(
-        "{:<14} {:<12} {:>5} {:>6} {:>10} {:<24} {:>14} {:>10}\n",
-        "node", "task", "runs", "gens", "evals/gen", "done", "cycles (max)", "time (max)"
+        "{:<14} {:<12} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14} {:>10}\n",
+        "node",
+        "task",
+        "runs",
+        "gens",
+        "evals/gen",
+        "mem/gen",
+        "done",
+        "cycles (max)",
+        "time (max)"
     );
     let mut total_seconds = 0.0;
     for status in statuses {
@@ -560,31 +571,41 @@ fn describe_plan(
         let seconds = if cycles == 0 {
             0.0
         } else {
+            // Measured with the node's own network over its children's, so a large network
+            // or a robot without some sensor is timed as it will run.
             let task = experiment.named_node(&status.node)?.task.clone();
-            let speed = match speeds.get(&status.task) {
+            let speed = match speeds.get(&status.node) {
                 Some(&speed) => speed,
                 None => {
-                    let report = bench::simulator(
+                    let report = bench::simulator_with(
+                        bench::node_controller(experiment, &status.node, 1),
                         task,
                         threads,
                         PLAN_BENCH_SECONDS,
                         EvaluatorKind::default(),
                     )?;
-                    speeds.insert(status.task.clone(), report.cycles_per_second);
+                    speeds.insert(status.node.clone(), report.cycles_per_second);
                     report.cycles_per_second
                 }
             };
             cycles as f64 / speed.max(1.0)
         };
         total_seconds += seconds;
+        let plan = experiment.named_node(&status.node)?;
+        let memory = hevo_engine::experiment::generation_bytes(
+            plan.evolution.population,
+            hevo_engine::experiment::declared_genes(&plan.decl),
+            plan.decl.samples,
+        );
         let _ = writeln!(
             text,
-            "{:<14} {:<12} {:>5} {:>6} {:>10} {:<24} {:>14.3e} {:>10}",
+            "{:<14} {:<12} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14.3e} {:>10}",
             status.node,
             status.task,
             status.runs,
             status.generations,
             status.evaluations_per_generation,
+            format!("{:.1} MiB", memory as f64 / (1024.0 * 1024.0)),
             done,
             cycles as f64,
             human_duration(seconds)
@@ -832,9 +853,14 @@ fn dashboard(args: DashboardArgs) -> Result<()> {
         let source = Arc::new(source);
         source.watch_for_changes();
         let board = hevo_dashboard::Dashboard::new(source, access);
-        hevo_dashboard::serve(listener, board, async {
-            let _ = tokio::signal::ctrl_c().await;
-        })
+        hevo_dashboard::serve(
+            listener,
+            board,
+            hevo_dashboard::ConnectionLimits::DEFAULT,
+            async {
+                let _ = tokio::signal::ctrl_c().await;
+            },
+        )
         .await
         .context("the dashboard server failed")
     })

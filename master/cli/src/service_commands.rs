@@ -1,5 +1,5 @@
 //! The `hevo` subcommands of the service: `serve`, `submit`, `watch`, `jobs`, `fetch`,
-//! `cancel`, and the dispatch load benchmark behind `hevo bench --dispatch-load`. Their
+//! `cancel`, `delete`, and the dispatch load benchmark behind `hevo bench --dispatch-load`. Their
 //! arguments live here (flattened into `cli.rs`'s command enum) so the service's command line
 //! is one module. Every client command takes the master's URL, the token (`--token`,
 //! `--token-file` or `HEVO_TOKEN`) and `--tls-ca`: the flags of `hevo_proto`'s [`MasterArgs`],
@@ -68,6 +68,26 @@ pub struct ServeArgs {
     /// (after the store was lost or damaged; the old file is moved aside), then serve.
     #[arg(long)]
     pub rebuild_store: bool,
+    /// The most connections the gRPC port keeps open at once; one more is closed as soon as
+    /// it is accepted. Both ports' limits are lowered to fit the open-file limit (raised to its
+    /// hard limit at start), with 64 descriptors to spare.
+    #[arg(long, default_value_t = 1024)]
+    pub max_connections: usize,
+    /// The most connections the dashboard's port keeps open at once.
+    #[arg(long, default_value_t = 256)]
+    pub http_max_connections: usize,
+    /// A connection (on either port) that has made no request this long after it was accepted
+    /// is closed: an idle or slow client, or a TLS handshake never finished.
+    #[arg(long, default_value_t = 10)]
+    pub first_request_timeout_seconds: u64,
+    /// A connection (on either port) with no traffic for this long is closed.
+    #[arg(long, default_value_t = 120)]
+    pub idle_timeout_seconds: u64,
+    /// The most event streams open at once, per port: `hevo watch` streams on the gRPC port,
+    /// the job pages' live updates on the dashboard's. One more is refused (gRPC
+    /// RESOURCE_EXHAUSTED, HTTP 503).
+    #[arg(long, default_value_t = 256)]
+    pub max_event_streams: usize,
 }
 
 /// `hevo submit`.
@@ -137,6 +157,19 @@ pub fn serve(args: ServeArgs) -> Result<()> {
             worker_token_file: args.worker_token_file.clone(),
         }),
     };
+    if args.max_connections == 0 || args.http_max_connections == 0 || args.max_event_streams == 0 {
+        bail!(
+            "--max-connections, --http-max-connections and --max-event-streams must be at least 1"
+        );
+    }
+    if args.first_request_timeout_seconds == 0 || args.idle_timeout_seconds == 0 {
+        bail!("--first-request-timeout-seconds and --idle-timeout-seconds must be at least 1");
+    }
+    let connection_limits = |max_connections: usize| hevo_service::ConnectionLimits {
+        max_connections,
+        first_request_timeout: Duration::from_secs(args.first_request_timeout_seconds),
+        idle_timeout: Duration::from_secs(args.idle_timeout_seconds),
+    };
     let config = hevo_service::ServeConfig {
         listen: args.listen,
         state_dir: args.state_dir,
@@ -147,9 +180,20 @@ pub fn serve(args: ServeArgs) -> Result<()> {
         lease: Duration::from_secs(args.lease_seconds),
         max_lease: Duration::from_secs(args.max_lease_seconds),
         rebuild_store: args.rebuild_store,
+        grpc_limits: connection_limits(args.max_connections),
+        http_limits: connection_limits(args.http_max_connections),
+        max_event_streams: args.max_event_streams,
     };
-    runtime()?.block_on(hevo_service::serve(config))
+    let runtime = runtime()?;
+    let served = runtime.block_on(hevo_service::serve(config));
+    // Work still on a blocking thread (a submission being checked, say) must not keep a
+    // stopped master alive: what it would have stored is stored again by the retry.
+    runtime.shutdown_timeout(SHUTDOWN_GRACE);
+    served
 }
+
+/// How long a stopping master waits for work still on its blocking threads.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(1);
 
 /// `hevo submit`: prints the job id alone.
 pub fn submit(args: SubmitArgs) -> Result<()> {
@@ -203,6 +247,14 @@ pub fn cancel(args: JobArgs) -> Result<()> {
     let options = args.master.options()?;
     let info = runtime()?.block_on(hevo_client::cancel(&options, &args.job))?;
     crate::outln!("{}: {}", args.job, hevo_client::state_name(info.state));
+    Ok(())
+}
+
+/// `hevo delete`.
+pub fn delete(args: JobArgs) -> Result<()> {
+    let options = args.master.options()?;
+    runtime()?.block_on(hevo_client::delete(&options, &args.job))?;
+    crate::outln!("{}: deleted", args.job);
     Ok(())
 }
 

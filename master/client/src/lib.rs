@@ -1,6 +1,6 @@
 //! The client side of hevo's service: submit an experiment with the files it reads, follow a
 //! job's events (outliving master restarts: when the stream breaks it reconnects with backoff
-//! and carries on), list, fetch and cancel jobs. Each call connects to a master with the shared
+//! and carries on), list, fetch, cancel and delete jobs. Each call connects to a master with the shared
 //! token (and TLS when the URL is https://) and turns a refusal into one clear error
 //! (`INVALID_ARGUMENT: experiment_toml: ...`). It prints nothing and parses no command line: the
 //! `hevo` command (`hevo submit`, `watch`, `jobs`, `fetch`, `cancel`) and the Python module's
@@ -204,6 +204,18 @@ pub async fn cancel(options: &ClientOptions, job: &str) -> Result<v1::JobInfo> {
     response
         .job
         .ok_or_else(|| anyhow!("the master sent no job status"))
+}
+
+/// Deletes a finished job: its record, files and memory on the master.
+pub async fn delete(options: &ClientOptions, job: &str) -> Result<()> {
+    let mut client = job_client(options.connect().await?);
+    client
+        .delete_job(v1::DeleteJobRequest {
+            job_id: job.to_string(),
+        })
+        .await
+        .map_err(refused)?;
+    Ok(())
 }
 
 /// `YYYY-MM-DD HH:MM:SS` in UTC (days to civil date after H. Hinnant's algorithm).

@@ -11,6 +11,7 @@
 //! ([`auth`]). Bad requests get a plain page with a 400 or 404 naming what was wrong.
 
 pub mod auth;
+pub mod connections;
 pub mod html;
 pub mod pages;
 pub mod replay;
@@ -26,6 +27,7 @@ use std::future::Future;
 use std::pin::Pin;
 
 pub use auth::Access;
+pub use connections::ConnectionLimits;
 pub use server::{Dashboard, serve};
 
 /// What the pages say about one job (for run directories: one directory).

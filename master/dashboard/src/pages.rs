@@ -279,8 +279,9 @@ pub fn node_section(
     out
 }
 
-/// The top of a job's page: its state, times and the cancel button.
-pub fn job_header(job: &JobOverview, seed: u64) -> String {
+/// The top of a job's page: its state, times and the cancel button, whose form carries the
+/// session's CSRF token `csrf` when a browser is signed in.
+pub fn job_header(job: &JobOverview, seed: u64, csrf: Option<&str>) -> String {
     let mut out = format!(
         "<h1>{name}</h1>\n<div class=\"job\" data-job=\"{id}\" data-finished=\"{finished}\" data-events=\"/jobs/{id}/events\">\n<table class=\"job-facts\"><tbody>\n<tr><th>job</th><td>{id}</td></tr>\n<tr><th>state</th><td class=\"job-state\">{state}</td></tr>\n<tr><th>progress</th><td class=\"job-progress\">{progress}</td></tr>\n<tr><th>submitted</th><td>{created}</td></tr>\n<tr><th>finished</th><td class=\"job-finished\">{finished_at}</td></tr>\n<tr><th>files</th><td><code>{location}</code></td></tr>\n<tr><th>replay seed</th><td>{seed} (<a href=\"?seed={next_seed}\">another sample</a>)</td></tr>\n",
         name = escape(&job.name),
@@ -304,8 +305,13 @@ pub fn job_header(job: &JobOverview, seed: u64) -> String {
     if job.cancellable && !job.finished {
         let _ = writeln!(
             out,
-            "<form class=\"cancel\" method=\"post\" action=\"/jobs/{}/cancel\"><button type=\"submit\">Cancel job</button></form>",
-            escape(&job.id)
+            "<form class=\"cancel\" method=\"post\" action=\"/jobs/{}/cancel\">{}<button type=\"submit\">Cancel job</button></form>",
+            escape(&job.id),
+            csrf.map(|token| format!(
+                "<input type=\"hidden\" name=\"csrf\" value=\"{}\">",
+                escape(token)
+            ))
+            .unwrap_or_default()
         );
     }
     out.push_str("</div>\n");
@@ -346,9 +352,13 @@ mod tests {
     #[test]
     fn a_running_job_can_be_cancelled_and_a_finished_one_not() {
         let mut job = overview();
-        assert!(job_header(&job, 1).contains("Cancel job"));
+        assert!(job_header(&job, 1, None).contains("Cancel job"));
+        assert!(
+            job_header(&job, 1, Some("abc123"))
+                .contains("<input type=\"hidden\" name=\"csrf\" value=\"abc123\">")
+        );
         job.finished = true;
-        assert!(!job_header(&job, 1).contains("Cancel job"));
+        assert!(!job_header(&job, 1, None).contains("Cancel job"));
     }
 
     #[test]

@@ -13,9 +13,13 @@
 //! | `GET`, `POST /login`; `POST /logout` | the sign-in form; signing out |
 //! | `GET /assets/...` | the stylesheet and the script |
 
-use crate::auth::{Access, safe_next, sign_in_cookie, sign_out_cookie};
+use crate::auth::{
+    Access, Sessions, safe_next, same_origin, same_secret, sign_in_cookie, sign_out_cookie,
+};
+use crate::connections::{ConnectionGate, ConnectionLimits, GatedListener};
 use crate::html::{SCRIPT, SCRIPT_PATH, STYLE, STYLE_PATH, error_page, page};
 use crate::replay::{ReplayFigure, replays};
+use crate::stream::StreamGuard;
 use crate::stream::{OpenStreams, job_events};
 use crate::{Source, SourceError, pages};
 use axum::extract::rejection::{FormRejection, QueryRejection};
@@ -28,6 +32,7 @@ use axum::routing::{get, post};
 use axum::{Router, middleware};
 use std::collections::HashMap;
 use std::future::Future;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use tokio::sync::watch;
 
@@ -50,7 +55,38 @@ struct Shared {
     open_streams: Arc<OpenStreams>,
     replays: ReplayCache,
     stopping: watch::Sender<bool>,
+    max_streams: AtomicUsize,
+    sessions: Sessions,
+    secure_cookies: std::sync::atomic::AtomicBool,
 }
+
+/// Who is making a request, as the guard found out.
+#[derive(Debug, Clone)]
+enum Caller {
+    /// Anyone: the dashboard needs no token.
+    Open,
+    /// A script with the token in its `Authorization` header (no browser sends one by itself).
+    Bearer,
+    /// A signed-in browser, with its session's CSRF token.
+    Session(String),
+}
+
+/// The headers every answer carries: nothing from elsewhere runs or loads, and no other site
+/// may frame a page (clickjacking the cancel button).
+const SECURITY_HEADERS: [(&str, &str); 5] = [
+    (
+        "content-security-policy",
+        "default-src 'self'; img-src 'self' data:; object-src 'none'; base-uri 'none'; \
+         form-action 'self'; frame-ancestors 'none'",
+    ),
+    ("x-frame-options", "DENY"),
+    ("x-content-type-options", "nosniff"),
+    ("referrer-policy", "same-origin"),
+    ("cross-origin-opener-policy", "same-origin"),
+];
+
+/// The most event streams a dashboard serves at once unless told otherwise.
+pub const DEFAULT_MAX_STREAMS: usize = 256;
 
 /// A dashboard over a source, behind an access rule. Cheap to clone.
 #[derive(Clone)]
@@ -77,8 +113,28 @@ impl Dashboard {
                 open_streams: Arc::default(),
                 replays: Mutex::new(Vec::new()),
                 stopping: watch::channel(false).0,
+                max_streams: AtomicUsize::new(DEFAULT_MAX_STREAMS),
+                sessions: Sessions::default(),
+                secure_cookies: std::sync::atomic::AtomicBool::new(false),
             }),
         }
+    }
+
+    /// Marks session cookies `Secure`: the dashboard is reached over TLS (a master with TLS,
+    /// its dashboard behind a TLS proxy). A request that says it came through a TLS proxy
+    /// (`X-Forwarded-Proto: https`) gets a `Secure` cookie either way.
+    pub fn set_secure_cookies(&self, secure: bool) {
+        self.shared.secure_cookies.store(secure, Ordering::Relaxed);
+    }
+
+    /// Sets the most event streams served at once; one more is answered 503.
+    pub fn set_max_streams(&self, max: usize) {
+        self.shared.max_streams.store(max, Ordering::Relaxed);
+    }
+
+    /// The most event streams served at once.
+    pub fn max_streams(&self) -> usize {
+        self.shared.max_streams.load(Ordering::Relaxed)
     }
 
     /// Event streams open now.
@@ -105,6 +161,7 @@ impl Dashboard {
             .route(SCRIPT_PATH, get(script))
             .fallback(not_found)
             .layer(middleware::from_fn_with_state(self.clone(), guard))
+            .layer(middleware::map_response(with_security_headers))
             .with_state(self.clone())
     }
 }
@@ -114,9 +171,11 @@ impl Dashboard {
 pub async fn serve(
     listener: tokio::net::TcpListener,
     dashboard: Dashboard,
+    limits: ConnectionLimits,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
     let router = dashboard.router();
+    let listener = GatedListener::new(listener, ConnectionGate::new("http", limits));
     axum::serve(listener, router)
         .with_graceful_shutdown(async move {
             shutdown.await;
@@ -127,10 +186,27 @@ pub async fn serve(
 
 /// Lets a request through when it is signed in, or needs no sign-in (the login form, the
 /// assets); otherwise a page gets the login form and anything else a bare 401.
-async fn guard(State(dashboard): State<Dashboard>, request: Request, next: Next) -> Response {
+async fn guard(State(dashboard): State<Dashboard>, mut request: Request, next: Next) -> Response {
     let path = request.uri().path();
     let public = path == "/login" || path.starts_with("/assets/");
-    if public || dashboard.shared.access.allows(request.headers()) {
+    let caller = dashboard.caller(request.headers());
+    // A browser's state-changing request must come from this site's own pages (the bearer
+    // header is a script's, which no other site can make a browser send).
+    if request.method() == Method::POST
+        && !matches!(caller, Some(Caller::Bearer))
+        && !same_origin(request.headers())
+    {
+        tracing::warn!(path, "refused a request from another site's page");
+        return error_page(
+            StatusCode::FORBIDDEN,
+            "refused: the request comes from another site's page",
+        );
+    }
+    if let Some(caller) = caller {
+        request.extensions_mut().insert(caller);
+        return next.run(request).await;
+    }
+    if public {
         return next.run(request).await;
     }
     let wants_page =
@@ -149,6 +225,37 @@ async fn guard(State(dashboard): State<Dashboard>, request: Request, next: Next)
         .map_or("/", |p| p.as_str())
         .to_string();
     login_response(StatusCode::UNAUTHORIZED, &next_path, None)
+}
+
+async fn with_security_headers(mut response: Response) -> Response {
+    let headers = response.headers_mut();
+    for (name, value) in SECURITY_HEADERS {
+        headers.insert(name, axum::http::HeaderValue::from_static(value));
+    }
+    response
+}
+
+impl Dashboard {
+    /// Who makes a request with these headers, if anyone the dashboard lets in.
+    fn caller(&self, headers: &HeaderMap) -> Option<Caller> {
+        let access = &self.shared.access;
+        if !access.needs_token() {
+            return Some(Caller::Open);
+        }
+        if access.allows_bearer(headers) {
+            return Some(Caller::Bearer);
+        }
+        self.shared.sessions.csrf_of(headers).map(Caller::Session)
+    }
+
+    /// Whether a session cookie set in answer to a request with these headers is `Secure`.
+    fn secure_cookie(&self, headers: &HeaderMap) -> bool {
+        self.shared.secure_cookies.load(Ordering::Relaxed)
+            || headers
+                .get("x-forwarded-proto")
+                .and_then(|value| value.to_str().ok())
+                .is_some_and(|proto| proto.eq_ignore_ascii_case("https"))
+    }
 }
 
 fn login_response(status: StatusCode, next: &str, message: Option<&str>) -> Response {
@@ -277,8 +384,13 @@ fn cached_replays(dashboard: &Dashboard, id: &str, node: &str, seed: u64) -> Opt
 async fn job_page(
     State(dashboard): State<Dashboard>,
     Path(id): Path<String>,
+    caller: Option<axum::Extension<Caller>>,
     query: Result<Query<JobQuery>, QueryRejection>,
 ) -> Response {
+    let csrf = match caller {
+        Some(axum::Extension(Caller::Session(csrf))) => Some(csrf),
+        _ => None,
+    };
     if let Err(response) = check_job_id(&id) {
         return *response;
     }
@@ -291,7 +403,7 @@ async fn job_page(
         let source = &reader.shared.source;
         let job = source.job(&id).map_err(source_refusal)?;
         let nodes = source.nodes(&id).map_err(source_refusal)?;
-        let mut body = pages::job_header(&job, seed);
+        let mut body = pages::job_header(&job, seed, csrf.as_deref());
         for node in &nodes {
             let replays = node
                 .finished()
@@ -335,13 +447,27 @@ async fn events(State(dashboard): State<Dashboard>, Path(id): Path<String>) -> R
     if let Err(response) = checked {
         return *response;
     }
+    let max_streams = dashboard.max_streams();
+    let Some(guard) = StreamGuard::try_new(dashboard.shared.open_streams.clone(), max_streams)
+    else {
+        tracing::warn!(
+            max_streams,
+            "event stream limit reached: a stream was refused"
+        );
+        return (
+            StatusCode::SERVICE_UNAVAILABLE,
+            [(CACHE_CONTROL, "no-store")],
+            format!("{max_streams} event streams are open, the most this dashboard serves; try again later\n"),
+        )
+            .into_response();
+    };
     (
         [(CACHE_CONTROL, "no-store")],
         job_events(
             dashboard.shared.source.clone(),
             id,
             dashboard.shared.stopping.subscribe(),
-            dashboard.shared.open_streams.clone(),
+            guard,
         ),
     )
         .into_response()
@@ -390,9 +516,33 @@ async fn plot(
     }
 }
 
-async fn cancel(State(dashboard): State<Dashboard>, Path(id): Path<String>) -> Response {
+/// The cancel form's fields.
+#[derive(Debug, Default, serde::Deserialize)]
+struct CancelForm {
+    #[serde(default)]
+    csrf: String,
+}
+
+async fn cancel(
+    State(dashboard): State<Dashboard>,
+    Path(id): Path<String>,
+    caller: Option<axum::Extension<Caller>>,
+    form: Result<Form<CancelForm>, FormRejection>,
+) -> Response {
     if let Err(response) = check_job_id(&id) {
         return *response;
+    }
+    // A signed-in browser's cancel must carry its session's token, which only this site's
+    // own page holds.
+    if let Some(axum::Extension(Caller::Session(csrf))) = &caller {
+        let sent = form.map(|Form(form)| form.csrf).unwrap_or_default();
+        if !same_secret(&sent, csrf) {
+            tracing::warn!(job = %id, "refused a cancel without the session's CSRF token");
+            return error_page(
+                StatusCode::FORBIDDEN,
+                "refused: the request lacks this session's form token; reload the job's page and try again",
+            );
+        }
     }
     match dashboard.shared.source.cancel(&id).await {
         Ok(()) => (StatusCode::SEE_OTHER, [(LOCATION, format!("/jobs/{id}"))]).into_response(),
@@ -418,6 +568,7 @@ struct LoginForm {
 
 async fn login(
     State(dashboard): State<Dashboard>,
+    request_headers: HeaderMap,
     form: Result<Form<LoginForm>, FormRejection>,
 ) -> Response {
     let Ok(Form(form)) = form else {
@@ -434,15 +585,18 @@ async fn login(
     if let Ok(value) = safe_next(&form.next).parse() {
         headers.insert(LOCATION, value);
     }
-    if dashboard.shared.access.needs_token()
-        && let Ok(value) = sign_in_cookie(&form.token).parse()
-    {
-        headers.insert(SET_COOKIE, value);
+    if dashboard.shared.access.needs_token() {
+        let session = dashboard.shared.sessions.start();
+        let secure = dashboard.secure_cookie(&request_headers);
+        if let Ok(value) = sign_in_cookie(&session, secure).parse() {
+            headers.insert(SET_COOKIE, value);
+        }
     }
     (StatusCode::SEE_OTHER, headers).into_response()
 }
 
-async fn logout() -> Response {
+async fn logout(State(dashboard): State<Dashboard>, request_headers: HeaderMap) -> Response {
+    dashboard.shared.sessions.end(&request_headers);
     let mut headers = HeaderMap::new();
     headers.insert(LOCATION, "/login".parse().expect("a valid header"));
     if let Ok(value) = sign_out_cookie().parse() {
@@ -585,5 +739,233 @@ mod tests {
             tokio::time::sleep(std::time::Duration::from_millis(10)).await;
         }
         assert_eq!(dashboard.open_streams(), 0);
+    }
+
+    /// Sends a request; returns its status, headers and body.
+    async fn send(
+        dashboard: &Dashboard,
+        method: &str,
+        uri: &str,
+        headers: &[(&str, &str)],
+        body: &str,
+    ) -> (StatusCode, HeaderMap, String) {
+        let mut request = Request::builder().method(method).uri(uri);
+        for (name, value) in headers {
+            request = request.header(*name, *value);
+        }
+        let response = dashboard
+            .router()
+            .oneshot(request.body(Body::from(body.to_string())).unwrap())
+            .await
+            .unwrap();
+        let (status, headers) = (response.status(), response.headers().clone());
+        let bytes = axum::body::to_bytes(response.into_body(), 1 << 24)
+            .await
+            .unwrap();
+        (
+            status,
+            headers,
+            String::from_utf8_lossy(&bytes).into_owned(),
+        )
+    }
+
+    const FORM: (&str, &str) = ("content-type", "application/x-www-form-urlencoded");
+    const HOST: (&str, &str) = ("host", "127.0.0.1:8080");
+    const JOB: &str = "/jobs/runs-wide-turn-starts";
+
+    /// Signs in with token `t`; returns the `Cookie` header value of the session.
+    async fn sign_in(dashboard: &Dashboard) -> String {
+        let (status, headers, _) = send(
+            dashboard,
+            "POST",
+            "/login",
+            &[FORM, HOST, ("origin", "http://127.0.0.1:8080")],
+            "token=t&next=%2F",
+        )
+        .await;
+        assert_eq!(status, StatusCode::SEE_OTHER);
+        let cookie = headers[SET_COOKIE].to_str().unwrap().to_string();
+        assert!(cookie.starts_with("hevo_session="), "{cookie}");
+        assert!(
+            !cookie.contains("=t;"),
+            "the cookie holds no token: {cookie}"
+        );
+        cookie.split(';').next().unwrap().to_string()
+    }
+
+    #[tokio::test]
+    async fn a_session_cookie_signs_in_and_signing_out_ends_it() {
+        let dashboard = dashboard(Access::tokens(vec!["t".into()]));
+        let cookie = sign_in(&dashboard).await;
+        let (status, _, body) = send(&dashboard, "GET", "/", &[("cookie", &cookie)], "").await;
+        assert_eq!(status, StatusCode::OK);
+        assert!(body.contains("runs-wide-turn-starts"));
+        // The raw token as a cookie is no session.
+        let (status, _, _) =
+            send(&dashboard, "GET", "/", &[("cookie", "hevo_session=t")], "").await;
+        assert_eq!(status, StatusCode::UNAUTHORIZED);
+        let (status, _, _) = send(
+            &dashboard,
+            "POST",
+            "/logout",
+            &[HOST, ("cookie", &cookie)],
+            "",
+        )
+        .await;
+        assert_eq!(status, StatusCode::SEE_OTHER);
+        let (status, _, _) = send(&dashboard, "GET", "/", &[("cookie", &cookie)], "").await;
+        assert_eq!(status, StatusCode::UNAUTHORIZED, "the session ended");
+    }
+
+    #[tokio::test]
+    async fn session_cookies_are_secure_under_tls() {
+        let dashboard = dashboard(Access::tokens(vec!["t".into()]));
+        let login = |headers: &'static [(&'static str, &'static str)]| {
+            let dashboard = dashboard.clone();
+            async move {
+                let (_, headers, _) = send(&dashboard, "POST", "/login", headers, "token=t").await;
+                headers[SET_COOKIE].to_str().unwrap().to_string()
+            }
+        };
+        assert!(!login(&[FORM]).await.contains("Secure"));
+        assert!(
+            login(&[FORM, ("x-forwarded-proto", "https")])
+                .await
+                .ends_with("; Secure")
+        );
+        dashboard.set_secure_cookies(true);
+        assert!(login(&[FORM]).await.ends_with("; Secure"));
+    }
+
+    #[tokio::test]
+    async fn a_cancel_needs_this_sites_origin_and_the_sessions_form_token() {
+        let dashboard = dashboard(Access::tokens(vec!["t".into()]));
+        let cookie = sign_in(&dashboard).await;
+        let (_, _, page) = send(&dashboard, "GET", JOB, &[("cookie", &cookie)], "").await;
+        let csrf = dashboard
+            .shared
+            .sessions
+            .csrf_of(&{
+                let mut headers = HeaderMap::new();
+                headers.insert("cookie", cookie.parse().unwrap());
+                headers
+            })
+            .unwrap();
+        let cancel = |headers: Vec<(&'static str, String)>, body: String| {
+            let dashboard = dashboard.clone();
+            async move {
+                let headers: Vec<(&str, &str)> =
+                    headers.iter().map(|(n, v)| (*n, v.as_str())).collect();
+                send(
+                    &dashboard,
+                    "POST",
+                    &format!("{JOB}/cancel"),
+                    &headers,
+                    &body,
+                )
+                .await
+                .0
+            }
+        };
+        let base = |origin: &str| {
+            vec![
+                ("content-type", FORM.1.to_string()),
+                ("host", HOST.1.to_string()),
+                ("cookie", cookie.clone()),
+                ("origin", origin.to_string()),
+            ]
+        };
+        // Another site's page, even with the cookie and the token: refused.
+        assert_eq!(
+            cancel(base("http://evil.example"), format!("csrf={csrf}")).await,
+            StatusCode::FORBIDDEN
+        );
+        // This site, but no token or a wrong one: refused.
+        assert_eq!(
+            cancel(base("http://127.0.0.1:8080"), String::new()).await,
+            StatusCode::FORBIDDEN
+        );
+        assert_eq!(
+            cancel(base("http://127.0.0.1:8080"), "csrf=0000".into()).await,
+            StatusCode::FORBIDDEN
+        );
+        // This site with the session's token gets through to the source (which cannot
+        // cancel a run directory: 409).
+        assert_eq!(
+            cancel(base("http://127.0.0.1:8080"), format!("csrf={csrf}")).await,
+            StatusCode::CONFLICT
+        );
+        // A script with the bearer token needs neither.
+        assert_eq!(
+            cancel(vec![("authorization", "Bearer t".into())], String::new()).await,
+            StatusCode::CONFLICT
+        );
+        // An open dashboard still refuses another site's page.
+        let open = super::tests::dashboard(Access::Open);
+        let (status, _, _) = send(
+            &open,
+            "POST",
+            &format!("{JOB}/cancel"),
+            &[HOST, ("origin", "http://evil.example")],
+            "",
+        )
+        .await;
+        assert_eq!(status, StatusCode::FORBIDDEN);
+        // The page carries the token only for its own session, hidden in the form (the run
+        // directory is finished, so the form itself is absent; the header test is in pages).
+        assert!(!page.contains(&cookie));
+    }
+
+    #[tokio::test]
+    async fn every_answer_forbids_framing_and_foreign_content() {
+        let dashboard = dashboard(Access::tokens(vec!["t".into()]));
+        for (uri, auth) in [
+            ("/", true),
+            ("/login", false),
+            ("/nothing", true),
+            (JOB, false),
+        ] {
+            let headers: &[(&str, &str)] = if auth {
+                &[("authorization", "Bearer t")]
+            } else {
+                &[]
+            };
+            let (_, headers, _) = send(&dashboard, "GET", uri, headers, "").await;
+            let csp = headers["content-security-policy"].to_str().unwrap();
+            assert!(csp.contains("frame-ancestors 'none'"), "{uri}: {csp}");
+            assert!(csp.contains("default-src 'self'"), "{uri}: {csp}");
+            assert_eq!(headers["x-frame-options"], "DENY", "{uri}");
+            assert_eq!(headers["x-content-type-options"], "nosniff", "{uri}");
+        }
+    }
+
+    #[tokio::test]
+    async fn event_streams_beyond_the_cap_are_refused_until_one_closes() {
+        let dashboard = dashboard(Access::Open);
+        dashboard.set_max_streams(1);
+        let open = |dashboard: Dashboard| async move {
+            dashboard
+                .router()
+                .oneshot(
+                    Request::builder()
+                        .uri("/jobs/runs-wide-turn-starts/events")
+                        .body(Body::empty())
+                        .unwrap(),
+                )
+                .await
+                .unwrap()
+        };
+        let first = open(dashboard.clone()).await;
+        assert_eq!(first.status(), StatusCode::OK);
+        let second = open(dashboard.clone()).await;
+        assert_eq!(second.status(), StatusCode::SERVICE_UNAVAILABLE);
+        drop(first);
+        for _ in 0..200 {
+            if dashboard.open_streams() == 0 {
+                break;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+        }
+        assert_eq!(open(dashboard.clone()).await.status(), StatusCode::OK);
     }
 }

@@ -32,12 +32,19 @@ impl OpenStreams {
     }
 }
 
-struct StreamGuard(Arc<OpenStreams>);
+/// A stream's place among the open ones, held while it runs.
+#[derive(Debug)]
+pub struct StreamGuard(Arc<OpenStreams>);
 
 impl StreamGuard {
-    fn new(open: Arc<OpenStreams>) -> StreamGuard {
-        open.0.fetch_add(1, Ordering::SeqCst);
-        StreamGuard(open)
+    /// Takes a place, unless `max` streams are open already.
+    pub fn try_new(open: Arc<OpenStreams>, max: usize) -> Option<StreamGuard> {
+        open.0
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |count| {
+                (count < max).then_some(count + 1)
+            })
+            .ok()?;
+        Some(StreamGuard(open))
     }
 }
 
@@ -92,17 +99,18 @@ fn events_for(sent: &mut Sent, job: &JobOverview, nodes: &[NodeView]) -> Vec<Eve
     events
 }
 
-/// The stream of job `id`. The caller has checked that the job exists.
+/// The stream of job `id`, holding its place `guard` while it runs. The caller has checked
+/// that the job exists.
 pub fn job_events(
     source: Arc<dyn Source>,
     id: String,
     mut stopping: watch::Receiver<bool>,
-    open: Arc<OpenStreams>,
+    guard: StreamGuard,
 ) -> axum::response::Response {
     let (sender, receiver) = mpsc::channel::<Result<Event, Infallible>>(64);
     let mut changes = source.changes();
     tokio::spawn(async move {
-        let _guard = StreamGuard::new(open);
+        let _guard = guard;
         let mut sent = Sent::default();
         loop {
             changes.borrow_and_update();

@@ -4,6 +4,7 @@
 //! `hevo run`, in evaluations per second), so the scaling from 1 to N threads can be measured.
 
 use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
+use crate::experiment::Experiment;
 use crate::local::LocalPool;
 use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
 use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
@@ -125,7 +126,8 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
             )
         }
         _ => {
-            let all_inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
+            // Every input group the scenario's robot carries (a network may read no other).
+            let all_inputs: Vec<InputGroup> = scenario.sensors.groups().collect();
             let primitive = |name: &str, rng: &mut SimRng| {
                 node(
                     name,
@@ -205,9 +207,53 @@ pub enum BenchError {
 /// the same calls, so both measure the same work.
 pub const SIMULATOR_BATCH: usize = 16;
 
+/// The controller a node of an experiment evolves, with random genes: its own network over
+/// its children's, each as declared (a fixed child from elsewhere as it is), so that a
+/// measurement with it costs per cycle what the node's evaluations will.
+pub fn node_controller(experiment: &Experiment, name: &str, seed: u64) -> ControllerFile {
+    fn spec(experiment: &Experiment, name: &str, rng: &mut SimRng) -> NodeSpec {
+        let Some(plan) = experiment.node(name) else {
+            return NodeSpec::primitive(name, vec![InputGroup::IR], 1);
+        };
+        let decl = &plan.decl;
+        let children = decl
+            .children
+            .iter()
+            .enumerate()
+            .map(
+                |(child_idx, child)| match plan.fixed_children.get(&child_idx) {
+                    Some(fixed) => fixed.root.clone(),
+                    None => spec(experiment, &child.to_string(), rng),
+                },
+            )
+            .collect();
+        node(
+            &decl.name,
+            decl.kind,
+            decl.inputs.clone(),
+            decl.hidden,
+            children,
+            rng,
+        )
+    }
+    ControllerFile::new(spec(experiment, name, &mut SimRng::seed_from_u64(seed)))
+}
+
 /// Raw simulator throughput: `threads` threads evaluate batches of [`SIMULATOR_BATCH`] samples
 /// with the paper's controller for `seconds`, with the evaluator `kind`.
 pub fn simulator(
+    task: TaskConfig,
+    threads: usize,
+    seconds: f64,
+    kind: EvaluatorKind,
+) -> Result<BenchReport, BenchError> {
+    let controller = paper_controller(&task, 1);
+    simulator_with(controller, task, threads, seconds, kind)
+}
+
+/// [`simulator`] with a controller of the caller's (complete, every node with genes).
+pub fn simulator_with(
+    controller: ControllerFile,
     mut task: TaskConfig,
     threads: usize,
     seconds: f64,
@@ -217,7 +263,7 @@ pub fn simulator(
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
     let name = task.name().to_string();
-    let evaluator = BatchEvaluator::new(paper_controller(&task, 1), task)?.with_kind(kind);
+    let evaluator = BatchEvaluator::new(controller, task)?.with_kind(kind);
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
     let samples = AtomicU64::new(0);

@@ -242,6 +242,8 @@ struct BatchEntry {
     /// The current lease, if out.
     lease: Option<u64>,
     done: bool,
+    /// The last refusal of a result for it, and how many refusals in a row said the same.
+    refusals: Option<(String, usize)>,
 }
 
 #[derive(Debug)]
@@ -360,6 +362,7 @@ impl Dispatcher {
                         sample_range,
                         lease: None,
                         done: false,
+                        refusals: None,
                     },
                 );
                 state
@@ -675,6 +678,23 @@ impl Dispatcher {
         };
         if let Some(message) = problem {
             state.stats.malformed_results += 1;
+            if same_refusal_again(&mut state, batch_id, &message) >= MAX_SAME_REFUSALS {
+                // Evaluation is deterministic: a batch refused for the same reason this often
+                // would be refused for ever (a task whose fitness is not a number, say).
+                tracing::warn!(batch_id, worker, %message, "refused a malformed result again; the evaluation fails");
+                state.leases.remove(&lease_id);
+                state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
+                if let Some(request_id) = state.batches.get(&batch_id).map(|b| b.request_id) {
+                    finish_request(
+                        &mut state,
+                        request_id,
+                        Err(DispatchError::Failed(format!(
+                            "the results of a batch were refused {MAX_SAME_REFUSALS} times for the same reason: {message}"
+                        ))),
+                    );
+                }
+                return Err(CompleteError::Malformed { batch_id, message });
+            }
             tracing::warn!(batch_id, worker, %message, "refused a malformed result; batch re-queued");
             revoke(&mut state, lease_id);
             state.stats.lease_revocations = state.stats.lease_revocations.saturating_sub(1);
@@ -764,6 +784,24 @@ impl Dispatcher {
             ..state.stats.clone()
         }
     }
+}
+
+/// How many times in a row a batch's results may be refused for the same reason before its
+/// request fails with that reason. Evaluation is deterministic, so the same refusal again means
+/// any worker would give the same result; a refusal for another reason starts the count anew.
+pub const MAX_SAME_REFUSALS: usize = 3;
+
+/// Counts a refusal of a batch's result: how many refusals in a row have given `message`.
+fn same_refusal_again(state: &mut State, batch_id: u64, message: &str) -> usize {
+    let Some(entry) = state.batches.get_mut(&batch_id) else {
+        return 0;
+    };
+    let count = match &entry.refusals {
+        Some((last, count)) if last == message => count + 1,
+        _ => 1,
+    };
+    entry.refusals = Some((message.to_string(), count));
+    count
 }
 
 /// Takes a live lease back before its deadline and queues its batch again at the front.
@@ -1120,6 +1158,46 @@ mod tests {
         let results = pending.try_result().expect("complete").unwrap();
         assert_eq!(results[1][1].fitness, expected_fitness(1.0, 1));
         assert_eq!(dispatcher.stats(now).malformed_results, 2);
+    }
+
+    #[test]
+    fn a_batch_refused_for_the_same_reason_again_and_again_fails_its_request() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 1, 1), now);
+        // Refusals for different reasons do not count towards each other.
+        let batch = dispatcher.try_lease("w", 1, now).unwrap();
+        let mut short = fake(&batch);
+        short[0].pop();
+        assert!(
+            dispatcher
+                .complete(batch.lease_id, batch.batch_id, "w", short)
+                .is_err()
+        );
+        for attempt in 1..=MAX_SAME_REFUSALS {
+            assert!(
+                pending.try_result().is_none(),
+                "failed after {attempt} refusals"
+            );
+            let batch = dispatcher.try_lease("w", 1, now).expect("re-queued");
+            let mut nan = fake(&batch);
+            nan[0][0].fitness = f32::NAN;
+            assert!(
+                dispatcher
+                    .complete(batch.lease_id, batch.batch_id, "w", nan)
+                    .is_err()
+            );
+        }
+        match pending.try_result() {
+            Some(Err(DispatchError::Failed(message))) => {
+                assert!(message.contains("refused 3 times"), "{message}");
+                assert!(message.contains("fitness NaN"), "{message}");
+            }
+            other => panic!("expected the request to fail, got {other:?}"),
+        }
+        assert!(dispatcher.try_lease("w", 1, now).is_none());
+        assert_eq!(dispatcher.stats(now).leased_batches, 0);
+        assert_eq!(dispatcher.stats(now).queued_batches, 0);
     }
 
     #[test]

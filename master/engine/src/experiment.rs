@@ -37,6 +37,86 @@ pub mod limits {
     pub const NODE_NAME_CHARS: usize = 64;
     /// Characters of the experiment's name.
     pub const EXPERIMENT_NAME_CHARS: usize = 128;
+    /// Bytes one node's generation may hold in memory, as [`super::generation_bytes`]
+    /// estimates them.
+    pub const GENERATION_BYTES: u64 = 1 << 30;
+    /// Bytes one gene costs while a generation is evaluated: the population, the copy sent
+    /// for evaluation and the next generation hold it as an `f32` each, and the checkpoint
+    /// writes it as decimal text (up to 16 characters).
+    pub const BYTES_PER_GENE: u64 = 3 * 4 + 16;
+    /// Bytes one (genome, sample) result costs while its generation is evaluated: the summary,
+    /// its node use, and its copy in the message that carries it.
+    pub const BYTES_PER_RESULT: u64 = 256;
+}
+
+/// What a generation of `population` genomes of `n_genes` genes, each evaluated on `samples`
+/// samples, holds in memory at once, about: the genes ([`limits::BYTES_PER_GENE`] each) and
+/// the results ([`limits::BYTES_PER_RESULT`] each). Shared by validation and `--dry-run`.
+pub fn generation_bytes(population: u32, n_genes: usize, samples: u32) -> u64 {
+    let genomes = u64::from(population);
+    genomes
+        .saturating_mul(n_genes as u64)
+        .saturating_mul(limits::BYTES_PER_GENE)
+        .saturating_add(
+            genomes
+                .saturating_mul(u64::from(samples))
+                .saturating_mul(limits::BYTES_PER_RESULT),
+        )
+}
+
+/// The genes of a node's network, as declared: its inputs, hidden neurons and outputs (two
+/// for a primitive, one per child for an arbitrator).
+pub fn declared_genes(node: &NodeDecl) -> usize {
+    let n_inputs = node.inputs.iter().map(|group| group.width()).sum();
+    let n_outputs = match node.kind {
+        NodeKind::Primitive => hevo_sim_core::controller::PRIMITIVE_OUTPUTS,
+        NodeKind::Arbitrator => node.children.len(),
+    };
+    hevo_sim_core::ctrnn::CtrnnTopology::new(n_inputs, node.hidden, n_outputs).n_genes()
+}
+
+/// Refuses a node whose work would cost more than the limits allow, before anything is
+/// allocated: evaluations per generation and per post-evaluation, and the memory of a
+/// generation. The error is (key, message), the key relative to the node.
+fn check_node_cost(
+    node: &NodeDecl,
+    evolution: &EvolutionParams,
+    scenario: &Scenario,
+) -> Result<(), (String, String)> {
+    let per_generation = u64::from(evolution.population) * u64::from(node.samples);
+    let post_evaluation =
+        u64::from(evolution.post_evaluation_samples) * u64::from(scenario.n_variants());
+    for (key, evaluations) in [
+        ("samples", per_generation),
+        ("evolution.post_evaluation_samples", post_evaluation),
+    ] {
+        if evaluations > limits::EVALUATIONS_PER_GENERATION {
+            return Err((
+                key.to_string(),
+                format!(
+                    "{evaluations} evaluations at once (population x samples, or post-evaluation samples x variants), at most {}",
+                    limits::EVALUATIONS_PER_GENERATION
+                ),
+            ));
+        }
+    }
+    let n_genes = declared_genes(node);
+    let bytes = generation_bytes(evolution.population, n_genes, node.samples);
+    if bytes > limits::GENERATION_BYTES {
+        const MIB: u64 = 1024 * 1024;
+        return Err((
+            "evolution.population".to_string(),
+            format!(
+                "a generation of {} genomes of {n_genes} genes (hidden {}), each on {} samples, holds about {} MiB, at most {} MiB are accepted: lower the population, hidden or samples",
+                evolution.population,
+                node.hidden,
+                node.samples,
+                bytes.div_ceil(MIB),
+                limits::GENERATION_BYTES / MIB
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Whether `name` can name a node: a plain identifier (ASCII letters, digits, `_` and `-`,
@@ -602,8 +682,9 @@ impl Experiment {
             .map_err(|e| syntax(String::new(), bounded_excerpt(&e.to_string())))?;
         let parsed: ExperimentFile =
             serde_path_to_error::deserialize(deserializer).map_err(|e| {
+                // A key path holds the file's own keys, which may be of any length.
                 syntax(
-                    e.path().to_string(),
+                    cut(&e.path().to_string(), MAX_EXCERPT_CHARS),
                     bounded_excerpt(&e.inner().to_string()),
                 )
             })?;
@@ -763,6 +844,8 @@ impl Experiment {
                 };
                 invalid(path, message)
             })?;
+            check_node_cost(node, &evolution, &scenario)
+                .map_err(|(key, message)| invalid(at(&key), message))?;
             if scenario.has_phases() {
                 // The names the composed controller's root will know its children by.
                 let children: Vec<String> = node
@@ -795,23 +878,6 @@ impl Experiment {
             // What an evaluator refuses (a start touching a solid) is refused here, before
             // anything runs, naming the scenario file's key as well as the node.
             Evaluator::new(task.clone()).map_err(|error| invalid(at("task"), error.to_string()))?;
-            let per_generation = u64::from(evolution.population) * u64::from(node.samples);
-            let post_evaluation =
-                u64::from(evolution.post_evaluation_samples) * u64::from(scenario.n_variants());
-            for (what, evaluations) in [
-                ("samples", per_generation),
-                ("evolution.post_evaluation_samples", post_evaluation),
-            ] {
-                if evaluations > limits::EVALUATIONS_PER_GENERATION {
-                    return Err(invalid(
-                        at(what),
-                        format!(
-                            "{evaluations} evaluations at once (population x samples, or post-evaluation samples x variants), at most {}",
-                            limits::EVALUATIONS_PER_GENERATION
-                        ),
-                    ));
-                }
-            }
             plans[node_idx] = Some(NodePlan {
                 decl: node.clone(),
                 evolution,
@@ -1764,6 +1830,56 @@ runs = 1
             "inputs = [\"ir\", \"lidar\"]",
         ));
         assert!(err.contains("node[0].inputs"), "{err}");
+    }
+
+    /// The job that crashed a master (issue 48): within every other limit, a generation of
+    /// 100,000 genomes of a million genes each.
+    const HUGE_GENERATION: &str = r#"
+[experiment]
+name = "huge"
+
+[evolution]
+population = 100000
+elites = 1
+
+[[node]]
+name = "big"
+kind = "primitive"
+inputs = ["ir", "light", "near_robot"]
+hidden = 1000
+task = "exit_room"
+samples = 1
+generations = 1
+runs = 1
+"#;
+
+    #[test]
+    fn a_generation_too_large_for_memory_is_refused_naming_the_key() {
+        let err = error_of(HUGE_GENERATION);
+        assert!(err.contains("node[0].evolution.population"), "{err}");
+        assert!(err.contains("100000 genomes of 1011002 genes"), "{err}");
+        assert!(err.contains("at most 1024 MiB"), "{err}");
+        // The same network in a population the memory bound allows is accepted.
+        let fits = HUGE_GENERATION
+            .replace("population = 100000", "population = 10")
+            .replace("elites = 1", "elites = 5");
+        parse(&fits).unwrap();
+        assert!(
+            generation_bytes(10, 1_011_002, 1) <= limits::GENERATION_BYTES,
+            "the estimate of a population of ten"
+        );
+        assert_eq!(
+            declared_genes(&parse(&fits).unwrap().nodes[0].decl),
+            1_011_002
+        );
+    }
+
+    #[test]
+    fn a_huge_unknown_key_is_quoted_only_in_part() {
+        let key = "k".repeat(16_000);
+        let err = error_of(&GOOD.replace("hidden = 10", &format!("hidden = 10\n{key} = 1")));
+        assert!(err.contains("kkkk"), "{err}");
+        assert!(err.len() < 2_000, "{} characters", err.len());
     }
 
     #[test]

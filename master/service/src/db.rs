@@ -21,6 +21,17 @@ use std::path::Path;
 const JOBS: TableDefinition<'_, &str, &str> = TableDefinition::new("jobs");
 /// Submission request id -> job id: a retried submission returns the job it made.
 const REQUESTS: TableDefinition<'_, &str, &str> = TableDefinition::new("requests");
+/// Job id -> its latest progress, newer than the record's own: progress is written often, and
+/// must not rewrite the record's submitted text (megabytes, perhaps) every time.
+const PROGRESS: TableDefinition<'_, &str, &str> = TableDefinition::new("progress");
+
+/// A job's progress, as stored apart from its record.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct StoredProgress {
+    generations_done: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    last_event: Option<ProgressEvent>,
+}
 
 /// Where a job is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -135,7 +146,11 @@ pub struct JobStore {
 /// Runs a store operation, turning a panic inside redb (a damaged page met later, say) into
 /// an error instead of a crash.
 fn guarded<T>(path: &str, body: impl FnOnce() -> Result<T, StoreError>) -> Result<T, StoreError> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)).unwrap_or_else(|panic| {
+    quiet_panics_in_guarded_calls();
+    IN_GUARDED_CALL.with(|flag| flag.set(flag.get() + 1));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(body));
+    IN_GUARDED_CALL.with(|flag| flag.set(flag.get() - 1));
+    outcome.unwrap_or_else(|panic| {
         let what = panic
             .downcast_ref::<String>()
             .map(String::as_str)
@@ -149,6 +164,28 @@ fn guarded<T>(path: &str, body: impl FnOnce() -> Result<T, StoreError>) -> Resul
             ),
         })
     })
+}
+
+thread_local! {
+    /// How deep the current thread is in [`guarded`] calls.
+    static IN_GUARDED_CALL: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Installs, once, a panic hook that keeps a panic inside a [`guarded`] call off stderr: it
+/// becomes the clear error the call returns, and a backtrace before it would only alarm. Any
+/// other panic goes to the hook that was there before.
+fn quiet_panics_in_guarded_calls() {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if IN_GUARDED_CALL.with(std::cell::Cell::get) > 0 {
+                tracing::debug!(%info, "the store library panicked; reported as a damaged store");
+            } else {
+                previous(info);
+            }
+        }));
+    });
 }
 
 const DAMAGED_ADVICE: &str = "Restore it from a backup, or move it aside and start with `--rebuild-store` (rebuilds the job index from jobs/*/job.json), or start with --state-dir elsewhere";
@@ -228,6 +265,7 @@ impl JobStore {
         store.write(Durability::Immediate, |txn| {
             txn.open_table(JOBS)?;
             txn.open_table(REQUESTS)?;
+            txn.open_table(PROGRESS)?;
             Ok(())
         })?;
         // Every record must read back: a damaged value is found now, not by a client later.
@@ -249,7 +287,7 @@ impl JobStore {
 
     /// Builds a new store at `path` from the records kept in `jobs_dir/<id>/job.json`; the
     /// file at `path`, if any, is moved aside to `<path>.damaged-<unix seconds>` first.
-    pub fn rebuild(path: &Path, jobs_dir: &Path) -> Result<(JobStore, usize), StoreError> {
+    pub fn rebuild(path: &Path, jobs_dir: &Path) -> Result<Rebuilt, StoreError> {
         let path_text = path.display().to_string();
         let error = |message: String| StoreError {
             path: path_text.clone(),
@@ -265,17 +303,20 @@ impl JobStore {
             tracing::warn!(from = %path_text, to = %aside.display(), "old job store moved aside");
         }
         let mut records = Vec::new();
+        let mut skipped = Vec::new();
         let entries =
             std::fs::read_dir(jobs_dir).map(|e| e.filter_map(Result::ok).collect::<Vec<_>>());
-        for entry in entries.unwrap_or_default() {
+        let mut entries = entries.unwrap_or_default();
+        entries.sort_by_key(|entry| entry.file_name());
+        for entry in entries {
             let file = entry.path().join(RECORD_FILE);
-            let Ok(text) = std::fs::read_to_string(&file) else {
-                tracing::warn!(job = %entry.path().display(), "no job.json: not rebuilt");
-                continue;
-            };
-            let record: JobRecord = serde_json::from_str(&text)
-                .map_err(|e| error(format!("{}: unreadable record: {e}", file.display())))?;
-            records.push(record);
+            match read_record_copy(&entry.file_name().to_string_lossy(), &file) {
+                Ok(record) => records.push(record),
+                Err(why) => {
+                    tracing::warn!(record = %file.display(), %why, "record skipped: not rebuilt");
+                    skipped.push(format!("{}: {why}", file.display()));
+                }
+            }
         }
         let store = guarded(&path_text, || {
             let db = Database::create(path).map_err(|e| error(e.to_string()))?;
@@ -284,6 +325,7 @@ impl JobStore {
                 path: path_text.clone(),
             };
             store.write(Durability::Immediate, |txn| {
+                txn.open_table(PROGRESS)?;
                 let mut jobs = txn.open_table(JOBS)?;
                 let mut requests = txn.open_table(REQUESTS)?;
                 for record in &records {
@@ -298,7 +340,11 @@ impl JobStore {
             })?;
             Ok(store)
         })?;
-        Ok((store, records.len()))
+        Ok(Rebuilt {
+            store,
+            jobs: records.len(),
+            skipped,
+        })
     }
 
     fn error(&self, error: impl std::fmt::Display) -> StoreError {
@@ -354,7 +400,7 @@ impl JobStore {
         })
     }
 
-    /// Replaces a job's record; `durable` waits for the disk.
+    /// Replaces a job's record (its progress included); `durable` waits for the disk.
     pub fn put(&self, record: &JobRecord, durable: bool) -> Result<(), StoreError> {
         let json = serde_json::to_string(record).map_err(|e| self.error(e))?;
         let durability = if durable {
@@ -365,6 +411,38 @@ impl JobStore {
         self.write(durability, |txn| {
             txn.open_table(JOBS)?
                 .insert(record.id.as_str(), json.as_str())?;
+            txn.open_table(PROGRESS)?.remove(record.id.as_str())?;
+            Ok(())
+        })
+    }
+
+    /// Stores a job's progress alone, without waiting for the disk (it is recomputed on
+    /// resume): a small write, whatever the size of the job's submitted text.
+    pub fn put_progress(
+        &self,
+        id: &str,
+        generations_done: u64,
+        last_event: Option<&ProgressEvent>,
+    ) -> Result<(), StoreError> {
+        let json = serde_json::to_string(&StoredProgress {
+            generations_done,
+            last_event: last_event.cloned(),
+        })
+        .map_err(|e| self.error(e))?;
+        self.write(Durability::None, |txn| {
+            txn.open_table(PROGRESS)?.insert(id, json.as_str())?;
+            Ok(())
+        })
+    }
+
+    /// Removes a job's record, progress and request id, durably.
+    pub fn delete(&self, record: &JobRecord) -> Result<(), StoreError> {
+        self.write(Durability::Immediate, |txn| {
+            txn.open_table(JOBS)?.remove(record.id.as_str())?;
+            txn.open_table(PROGRESS)?.remove(record.id.as_str())?;
+            if let Some(request_id) = &record.request_id {
+                txn.open_table(REQUESTS)?.remove(request_id.as_str())?;
+            }
             Ok(())
         })
     }
@@ -374,12 +452,28 @@ impl JobStore {
         guarded(&self.path, || {
             let txn = self.db.begin_read().map_err(|e| self.error(e))?;
             let table = txn.open_table(JOBS).map_err(|e| self.error(e))?;
+            // A store written before progress had a table of its own has none.
+            let progress = match txn.open_table(PROGRESS) {
+                Ok(progress) => Some(progress),
+                Err(redb::TableError::TableDoesNotExist(_)) => None,
+                Err(e) => return Err(self.error(e)),
+            };
             let mut records = Vec::new();
             for entry in table.iter().map_err(|e| self.error(e))? {
                 let (key, value) = entry.map_err(|e| self.error(e))?;
-                let record: JobRecord = serde_json::from_str(value.value()).map_err(|e| {
+                let mut record: JobRecord = serde_json::from_str(value.value()).map_err(|e| {
                     self.error(format!("job {}: unreadable record: {e}", key.value()))
                 })?;
+                if let Some(progress) = &progress
+                    && let Some(stored) = progress.get(key.value()).map_err(|e| self.error(e))?
+                {
+                    let stored: StoredProgress =
+                        serde_json::from_str(stored.value()).map_err(|e| {
+                            self.error(format!("job {}: unreadable progress: {e}", key.value()))
+                        })?;
+                    record.generations_done = stored.generations_done;
+                    record.last_event = stored.last_event;
+                }
                 records.push(record);
             }
             Ok(records)
@@ -392,6 +486,49 @@ pub const RECORD_FILE: &str = "job.json";
 
 /// A fresh job id: `job-` and a UUID version 7 (milliseconds since the epoch, then random
 /// bits), so ids sort by submission time and never repeat, even across lost stores.
+/// What `--rebuild-store` made: the store, how many jobs it holds, and the records it left
+/// out (each `path: why`).
+#[derive(Debug)]
+pub struct Rebuilt {
+    /// The rebuilt store.
+    pub store: JobStore,
+    /// Jobs in it.
+    pub jobs: usize,
+    /// Records left out, and why.
+    pub skipped: Vec<String>,
+}
+
+/// Whether `id` is a job id as [`new_job_id`] makes them: `job-` and 32 lowercase hex digits.
+/// An id is a directory name under the state directory, so nothing else is trusted as one.
+pub fn is_job_id(id: &str) -> bool {
+    id.strip_prefix("job-").is_some_and(|hex| {
+        hex.len() == 32
+            && hex
+                .bytes()
+                .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+    })
+}
+
+/// Reads the copy of a record kept in `jobs/<dir_name>/job.json`, refusing one whose id is not
+/// a job id or not its directory's name (a copy written elsewhere, or edited to point outside
+/// the state directory).
+fn read_record_copy(dir_name: &str, file: &Path) -> Result<JobRecord, String> {
+    let text = std::fs::read_to_string(file).map_err(|e| format!("cannot read it ({e})"))?;
+    let record: JobRecord = serde_json::from_str(&text).map_err(|e| {
+        format!(
+            "unreadable record: {}",
+            hevo_engine::experiment::cut(&e.to_string(), 200)
+        )
+    })?;
+    if !is_job_id(&record.id) || record.id != dir_name {
+        return Err(format!(
+            "its id '{}' is not a job id naming its own directory",
+            hevo_engine::experiment::cut(&record.id.escape_default().to_string(), 80)
+        ));
+    }
+    Ok(record)
+}
+
 pub fn new_job_id() -> String {
     format!("job-{}", uuid::Uuid::now_v7().simple())
 }
@@ -462,6 +599,60 @@ mod tests {
     }
 
     #[test]
+    fn progress_is_stored_apart_and_a_deleted_job_is_gone() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("hevo.redb");
+        let jobs_dir = dir.path().join("jobs");
+        let store = JobStore::open(&path, &jobs_dir).unwrap();
+        let (job, _) = store
+            .insert_new(Some("req-1"), |id| JobRecord {
+                experiment_toml: "x".repeat(1 << 20),
+                ..record(id)
+            })
+            .unwrap();
+        let before = std::fs::metadata(&path).unwrap().len();
+        for done in 1..=200 {
+            store.put_progress(&job.id, done, None).unwrap();
+        }
+        let grown = std::fs::metadata(&path)
+            .unwrap()
+            .len()
+            .saturating_sub(before);
+        assert!(
+            grown < 4 << 20,
+            "200 progress updates grew the store by {grown} bytes (the record is 1 MiB)"
+        );
+        let listed = store.list().unwrap();
+        assert_eq!(listed[0].generations_done, 200);
+        assert_eq!(listed[0].experiment_toml.len(), 1 << 20);
+        // A change of state writes the whole record, progress included, and it stays.
+        let mut finished = listed[0].clone();
+        finished.state = JobState::Succeeded;
+        store.put(&finished, true).unwrap();
+        assert_eq!(store.list().unwrap(), std::slice::from_ref(&finished));
+        store.delete(&finished).unwrap();
+        assert!(store.list().unwrap().is_empty());
+        // Its request id is free again.
+        assert!(store.insert_new(Some("req-1"), record).unwrap().1);
+    }
+
+    #[test]
+    fn a_panic_inside_the_store_library_is_an_error_and_others_still_panic() {
+        let error = guarded::<()>("x.redb", || panic!("page 7 is garbage"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("x.redb")
+                && error.contains("page 7 is garbage")
+                && error.contains("damaged"),
+            "{error}"
+        );
+        IN_GUARDED_CALL.with(|depth| assert_eq!(depth.get(), 0));
+        // Outside a guarded call the hook passes a panic on.
+        assert!(std::panic::catch_unwind(|| panic!("elsewhere")).is_err());
+    }
+
+    #[test]
     fn a_retried_submission_returns_its_job() {
         let dir = tempfile::tempdir().unwrap();
         let store =
@@ -507,8 +698,30 @@ mod tests {
                 "{error}"
             );
         }
-        let (store, n) = JobStore::rebuild(&path, &jobs_dir).unwrap();
-        assert_eq!(n, 1);
+        // Damaged and hostile copies beside it are skipped and listed, not fatal.
+        let outside = record("../../../outside".into());
+        for (dir, text) in [
+            ("job-broken", "{ not json".to_string()),
+            ("job-escape", serde_json::to_string(&outside).unwrap()),
+            (
+                "job-0000000000000000000000000000000a",
+                serde_json::to_string(&record(job.id.clone())).unwrap(),
+            ),
+        ] {
+            std::fs::create_dir_all(jobs_dir.join(dir)).unwrap();
+            std::fs::write(jobs_dir.join(dir).join(RECORD_FILE), text).unwrap();
+        }
+        let Rebuilt {
+            store,
+            jobs,
+            skipped,
+        } = JobStore::rebuild(&path, &jobs_dir).unwrap();
+        assert_eq!(jobs, 1);
+        assert_eq!(skipped.len(), 3, "{skipped:?}");
+        assert!(skipped[0].contains("job-0000") && skipped[0].contains("not a job id naming"));
+        assert!(skipped[1].contains("job-broken") && skipped[1].contains("unreadable"));
+        assert!(skipped[2].contains("job-escape") && skipped[2].contains("../../../outside"));
+        assert!(!dir.path().parent().unwrap().join("outside").exists());
         assert_eq!(store.list().unwrap(), std::slice::from_ref(&job));
         // The request index came back too.
         assert!(!store.insert_new(Some("req-1"), record).unwrap().1);

@@ -27,6 +27,7 @@ fn job_status(error: JobError) -> Status {
     match error {
         JobError::Invalid { .. } => Status::invalid_argument(error.to_string()),
         JobError::NotFound(_) => Status::not_found(error.to_string()),
+        JobError::NotFinished(_) => Status::failed_precondition(error.to_string()),
         JobError::ShuttingDown => Status::unavailable(error.to_string()),
         JobError::Store(_) | JobError::Io(_) => {
             tracing::error!(%error, "job request failed");
@@ -39,12 +40,19 @@ fn job_status(error: JobError) -> Status {
 #[derive(Debug, Clone)]
 pub struct JobApi {
     manager: JobManager,
+    /// Places for open watch streams.
+    watches: Arc<tokio::sync::Semaphore>,
+    max_watches: usize,
 }
 
 impl JobApi {
-    /// Serves the manager's jobs.
-    pub fn new(manager: JobManager) -> JobApi {
-        JobApi { manager }
+    /// Serves the manager's jobs, with at most `max_watches` watch streams open at once.
+    pub fn new(manager: JobManager, max_watches: usize) -> JobApi {
+        JobApi {
+            manager,
+            watches: Arc::new(tokio::sync::Semaphore::new(max_watches)),
+            max_watches,
+        }
     }
 }
 
@@ -68,11 +76,16 @@ impl JobService for JobApi {
             },
         };
         let manager = self.manager.clone();
-        // Parsing and the durable commit block; keep them off the async threads.
-        let record = tokio::task::spawn_blocking(move || manager.submit(submission))
-            .await
-            .map_err(|e| Status::internal(format!("submission task failed: {e}")))?
-            .map_err(job_status)?;
+        let mut stopping = self.manager.stopping();
+        // Parsing and the durable commit block; keep them off the async threads, and do not
+        // hold a stopping master's drain up for them.
+        let work = tokio::task::spawn_blocking(move || manager.submit(submission));
+        let record = tokio::select! {
+            done = work => done
+                .map_err(|e| Status::internal(format!("submission task failed: {e}")))?
+                .map_err(job_status)?,
+            _ = stopping.wait_for(|&s| s) => return Err(job_status(JobError::ShuttingDown)),
+        };
         Ok(Response::new(v1::SubmitJobResponse { job_id: record.id }))
     }
 
@@ -83,11 +96,22 @@ impl JobService for JobApi {
         request: Request<v1::WatchJobRequest>,
     ) -> Result<Response<Self::WatchJobStream>, Status> {
         let id = request.into_inner().job_id;
+        let Ok(place) = self.watches.clone().try_acquire_owned() else {
+            tracing::warn!(
+                max_watches = self.max_watches,
+                "watch stream limit reached: a watch was refused"
+            );
+            return Err(Status::resource_exhausted(format!(
+                "{} watch streams are open, the most this master serves; try again later",
+                self.max_watches
+            )));
+        };
         let (mut events, mut stopping) = self.manager.subscribe(&id).map_err(job_status)?;
         let record = self.manager.get(&id).map_err(job_status)?;
         let (sender, receiver) = tokio::sync::mpsc::channel(64);
         let manager = self.manager.clone();
         tokio::spawn(async move {
+            let _place = place;
             let finished = record.state.is_final();
             if sender.send(Ok(status_event(&record))).await.is_err() || finished {
                 return;
@@ -97,6 +121,8 @@ impl JobService for JobApi {
                     event = events.recv() => event,
                     // The master is stopping: end the stream; the client reconnects later.
                     _ = stopping.wait_for(|&s| s) => return,
+                    // The client went away: free the stream's place now, not at the next event.
+                    () = sender.closed() => return,
                 };
                 let event = match event {
                     Ok(event) => event,
@@ -168,6 +194,20 @@ impl JobService for JobApi {
         Ok(Response::new(v1::CancelJobResponse {
             job: Some(job_info(&record)),
         }))
+    }
+
+    async fn delete_job(
+        &self,
+        request: Request<v1::DeleteJobRequest>,
+    ) -> Result<Response<v1::DeleteJobResponse>, Status> {
+        let manager = self.manager.clone();
+        let id = request.into_inner().job_id;
+        // Removing a job's files is blocking work.
+        tokio::task::spawn_blocking(move || manager.delete(&id))
+            .await
+            .map_err(|e| Status::internal(format!("delete task failed: {e}")))?
+            .map_err(job_status)?;
+        Ok(Response::new(v1::DeleteJobResponse {}))
     }
 }
 

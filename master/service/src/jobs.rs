@@ -32,6 +32,8 @@ pub mod limits {
     pub const FILE_NAME_CHARS: usize = 255;
     /// Job id length accepted in requests.
     pub const JOB_ID_CHARS: usize = 64;
+    /// Submission request id length.
+    pub const REQUEST_ID_CHARS: usize = 64;
 }
 
 /// Why a request about jobs failed.
@@ -48,6 +50,9 @@ pub enum JobError {
     /// No such job.
     #[error("no job {0}")]
     NotFound(String),
+    /// The job has not finished, and the request needs it finished.
+    #[error("job {0} has not finished: cancel it first")]
+    NotFinished(String),
     /// The master is stopping.
     #[error("the master is shutting down")]
     ShuttingDown,
@@ -207,7 +212,7 @@ impl JobManager {
                     id,
                     request_id: None,
                     experiment_name: experiment.header.name.clone(),
-                    file_name,
+                    file_name: file_name.clone(),
                     experiment_toml: submission.experiment_toml.clone(),
                     files: submission.files.clone(),
                     settings: submission.settings.clone(),
@@ -220,6 +225,25 @@ impl JobManager {
                     last_event: None,
                 })?;
         if !new {
+            // The same request id must mean the same submission: a client that reuses an id
+            // for another experiment would otherwise get the first job back without a word.
+            let same = record.experiment_toml == submission.experiment_toml
+                && record.files == submission.files
+                && record.settings == submission.settings
+                && record.file_name == file_name;
+            if !same {
+                return Err(invalid(
+                    "request_id",
+                    format!(
+                        "'{}' was used for another submission (job {}); use a new request id for a new submission",
+                        hevo_engine::experiment::cut(
+                            submission.request_id.as_deref().unwrap_or_default(),
+                            limits::REQUEST_ID_CHARS
+                        ),
+                        record.id
+                    ),
+                ));
+            }
             tracing::info!(job = %record.id, "a retried submission: its job already exists");
             return Ok(record);
         }
@@ -282,6 +306,27 @@ impl JobManager {
         Ok(record)
     }
 
+    /// Forgets a finished job: its record and request id in the store, its memory here, and
+    /// its directory (outputs and the record's copy). Its watchers' streams end.
+    pub fn delete(&self, id: &str) -> Result<(), JobError> {
+        let record = self.get(id)?;
+        if !record.state.is_final() {
+            return Err(JobError::NotFinished(id.to_string()));
+        }
+        self.inner.store.delete(&record)?;
+        lock(&self.inner.records).remove(id);
+        lock(&self.inner.live).remove(id);
+        let dir = job_dir(&self.inner.state_dir, id);
+        if let Err(error) = std::fs::remove_dir_all(&dir)
+            && error.kind() != std::io::ErrorKind::NotFound
+        {
+            tracing::warn!(job = %id, %error, "cannot remove the job's directory");
+        }
+        self.inner.changes.send_modify(|n| *n = n.wrapping_add(1));
+        tracing::info!(job = %id, "job deleted");
+        Ok(())
+    }
+
     /// Subscribes to a job's events (before reading its status, so nothing is missed).
     pub fn subscribe(
         &self,
@@ -290,6 +335,11 @@ impl JobManager {
         self.get(id)?;
         let receiver = self.sender(id).subscribe();
         Ok((receiver, self.inner.stopping.subscribe()))
+    }
+
+    /// Turns true when the master starts stopping.
+    pub fn stopping(&self) -> watch::Receiver<bool> {
+        self.inner.stopping.subscribe()
     }
 
     /// A counter that moves whenever any job changes: submitted, progressed or finished.
@@ -392,14 +442,26 @@ impl JobManager {
             }
         };
         self.publish(&id, status_event(&record));
-        let experiment = match Experiment::parse_with(
-            &record.experiment_toml,
-            Path::new(&record.file_name),
-            &record.files,
-        ) {
+        // Compiling the experiment's scenarios and checking its starts is blocking work.
+        let parsed = {
+            let record = record.clone();
+            tokio::task::spawn_blocking(move || {
+                Experiment::parse_with(
+                    &record.experiment_toml,
+                    Path::new(&record.file_name),
+                    &record.files,
+                )
+                .map_err(|error| error.to_string())
+            })
+            .await
+            .unwrap_or_else(|join_error| {
+                Err(format!("checking the experiment failed: {join_error}"))
+            })
+        };
+        let experiment = match parsed {
             Ok(experiment) => experiment,
             Err(error) => {
-                let _ = self.finish(&id, JobState::Failed, Some(error.to_string()));
+                let _ = self.finish(&id, JobState::Failed, Some(error));
                 return;
             }
         };
@@ -444,8 +506,13 @@ impl JobManager {
             record.generations_done = done;
         }
         record.last_event = Some(event.clone());
-        // Progress is recomputed on resume, so it need not wait for the disk.
-        if let Err(error) = self.inner.store.put(record, false) {
+        // Progress is recomputed on resume, so it need not wait for the disk; it is stored
+        // apart from the record, whose submitted text stays where it is.
+        if let Err(error) =
+            self.inner
+                .store
+                .put_progress(id, record.generations_done, record.last_event.as_ref())
+        {
             tracing::warn!(job = %id, %error, "cannot store progress");
         }
         Some(event_to_proto(
@@ -537,6 +604,18 @@ pub fn validate(
             ),
         ));
     }
+    if let Some(request_id) = &submission.request_id
+        && (request_id.chars().count() > limits::REQUEST_ID_CHARS
+            || request_id.chars().any(char::is_control))
+    {
+        return Err(invalid(
+            "request_id",
+            format!(
+                "must be at most {} characters without control characters",
+                limits::REQUEST_ID_CHARS
+            ),
+        ));
+    }
     let text = &submission.experiment_toml;
     if text.trim().is_empty() {
         return Err(invalid("experiment_toml", "is empty"));
@@ -567,6 +646,20 @@ pub fn validate(
     }
     let experiment = Experiment::parse_with(text, Path::new(&file_name), &submission.files)
         .map_err(|e| invalid("experiment_toml", e.to_string()))?;
+    // A job keeps what it was sent for its whole life: only the files it reads are kept.
+    let read: std::collections::BTreeSet<String> =
+        hevo_engine::experiment::external_files(&experiment)
+            .into_iter()
+            .collect();
+    if let Some(unread) = submission.files.keys().find(|path| !read.contains(*path)) {
+        return Err(invalid(
+            "files",
+            format!(
+                "'{}' is not read by the experiment; send only the files it names (a scenario or a child from elsewhere)",
+                hevo_engine::experiment::cut(&unread.escape_default().to_string(), 200)
+            ),
+        ));
+    }
     let settings = &submission.settings;
     settings
         .validate()

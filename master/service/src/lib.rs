@@ -18,6 +18,8 @@ pub mod load;
 pub mod metrics;
 
 use anyhow::{Context, Result, bail};
+pub use hevo_dashboard::ConnectionLimits;
+use hevo_dashboard::connections::ConnectionGate;
 use hevo_engine::dispatch::{DispatchConfig, Dispatcher};
 use hevo_proto::auth::{Role, Roles, ServerAuth, TokenSet};
 use hevo_proto::v1::job_service_server::JobServiceServer;
@@ -26,7 +28,6 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio_stream::StreamExt;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Identity, Server, ServerTlsConfig};
 
@@ -53,6 +54,49 @@ pub struct ServeConfig {
     /// Rebuild the job store from `jobs/*/job.json` before starting (the old file is moved
     /// aside).
     pub rebuild_store: bool,
+    /// Connection limits of the gRPC port.
+    pub grpc_limits: ConnectionLimits,
+    /// Connection limits of the dashboard's port.
+    pub http_limits: ConnectionLimits,
+    /// The most event streams open at once, per port (gRPC watches, the dashboard's pages).
+    pub max_event_streams: usize,
+}
+
+/// File descriptors kept for the master's own use beyond its connections: the store, the
+/// listeners, the runtime, job files being written.
+pub const RESERVED_DESCRIPTORS: u64 = 64;
+
+/// Raises the process's open-file limit to its hard limit, and lowers the two ports'
+/// connection limits, in proportion, until they fit under it with
+/// [`RESERVED_DESCRIPTORS`] to spare: a master out of descriptors can neither accept a health
+/// check nor open its store. Returns the descriptor limit in force.
+pub fn fit_connections_to_descriptors(
+    grpc: &mut ConnectionLimits,
+    http: Option<&mut ConnectionLimits>,
+) -> u64 {
+    let limit = match rlimit::increase_nofile_limit(u64::MAX) {
+        Ok(limit) => limit,
+        Err(error) => {
+            tracing::warn!(%error, "cannot read or raise the open-file limit");
+            return u64::MAX;
+        }
+    };
+    let available = limit.saturating_sub(RESERVED_DESCRIPTORS).max(2);
+    let http_wanted = http.as_ref().map_or(0, |h| h.max_connections as u64);
+    let wanted = grpc.max_connections as u64 + http_wanted;
+    if wanted > available {
+        let grpc_share = (grpc.max_connections as u64 * available / wanted).max(1);
+        tracing::warn!(
+            open_file_limit = limit,
+            wanted,
+            "connection limits lowered to fit the open-file limit"
+        );
+        grpc.max_connections = grpc_share as usize;
+        if let Some(http) = http {
+            http.max_connections = (available - grpc_share).max(1) as usize;
+        }
+    }
+    limit
 }
 
 /// The two roles' tokens, and the files they came from (re-read on SIGHUP, for a rotation).
@@ -83,17 +127,84 @@ pub fn worker_service(
 }
 
 /// Accepted connections with Nagle's algorithm off (leases and results are small messages
-/// whose latency matters more than packet count), each reporting its peer on `closed` when it
-/// closes.
+/// whose latency matters more than packet count), admitted by `gate` (those over its limit are
+/// closed at once), each reporting its peer on `closed` when it closes. With `tls`, a client
+/// that speaks plain text is answered in words and closed. A failed accept (out
+/// of descriptors, say) is logged and retried after a pause, never a busy loop nor the end of
+/// the server.
 pub fn incoming(
     listener: tokio::net::TcpListener,
+    gate: Arc<ConnectionGate>,
     closed: tokio::sync::mpsc::UnboundedSender<std::net::SocketAddr>,
+    tls: bool,
 ) -> impl tokio_stream::Stream<Item = std::io::Result<conn::TrackedStream>> {
-    tokio_stream::wrappers::TcpListenerStream::new(listener).map(move |stream| {
-        stream.map(|stream| {
-            let _ = stream.set_nodelay(true);
-            conn::TrackedStream::new(stream, closed.clone())
-        })
+    let (sender, receiver) = tokio::sync::mpsc::channel(64);
+    tokio::spawn(async move {
+        loop {
+            let accepted = tokio::select! {
+                accepted = listener.accept() => accepted,
+                () = sender.closed() => return,
+            };
+            match accepted {
+                Ok((stream, _)) => {
+                    let _ = stream.set_nodelay(true);
+                    let Some(guarded) = gate.admit(stream, false) else {
+                        continue;
+                    };
+                    if tls {
+                        // A client speaking plain text to the TLS port is told so, in words.
+                        let (sender, closed) = (sender.clone(), closed.clone());
+                        let wait = gate.limits().first_request_timeout;
+                        tokio::spawn(async move {
+                            match conn::starts_tls(&guarded, wait).await {
+                                Some(true) => {
+                                    let tracked = conn::TrackedStream::new(guarded, closed);
+                                    let _ = sender.send(Ok(tracked)).await;
+                                }
+                                Some(false) => conn::refuse_plain_text(guarded).await,
+                                None => {}
+                            }
+                        });
+                        continue;
+                    }
+                    let tracked = conn::TrackedStream::new(guarded, closed.clone());
+                    if sender.send(Ok(tracked)).await.is_err() {
+                        return;
+                    }
+                }
+                Err(error) => {
+                    tracing::debug!(%error, "accept failed");
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                }
+            }
+        }
+    });
+    tokio_stream::wrappers::ReceiverStream::new(receiver)
+}
+
+/// A request layer that marks the connection a request came on as having made one, for its
+/// gate's first-request timeout.
+pub fn mark_served_layer(
+    gate: Arc<ConnectionGate>,
+) -> tower::util::MapRequestLayer<
+    impl Fn(http::Request<tonic::body::Body>) -> http::Request<tonic::body::Body> + Clone,
+> {
+    tower::util::MapRequestLayer::new(move |request: http::Request<tonic::body::Body>| {
+        let extensions = request.extensions();
+        let peer = extensions
+            .get::<tonic::transport::server::TcpConnectInfo>()
+            .and_then(|info| info.remote_addr())
+            .or_else(|| {
+                extensions
+                    .get::<tonic::transport::server::TlsConnectInfo<
+                        tonic::transport::server::TcpConnectInfo,
+                    >>()
+                    .and_then(|info| info.get_ref().remote_addr())
+            });
+        if let Some(peer) = peer {
+            gate.mark_served(peer);
+        }
+        request
     })
 }
 
@@ -135,6 +246,12 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     if config.max_lease < config.lease {
         bail!("--max-lease-seconds must be at least --lease-seconds");
     }
+    let mut grpc_limits = config.grpc_limits;
+    let mut http_limits = config.http_limits;
+    let open_files = fit_connections_to_descriptors(
+        &mut grpc_limits,
+        config.http_listen.is_some().then_some(&mut http_limits),
+    );
     std::fs::create_dir_all(&config.state_dir).with_context(|| {
         format!(
             "cannot create the state directory {}",
@@ -144,9 +261,17 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     let store_path = config.state_dir.join("hevo.redb");
     let jobs_dir = jobs::jobs_dir(&config.state_dir);
     let store = if config.rebuild_store {
-        let (store, n_jobs) = db::JobStore::rebuild(&store_path, &jobs_dir)?;
-        tracing::warn!(jobs = n_jobs, store = %store_path.display(), "job store rebuilt from jobs/*/job.json");
-        store
+        let rebuilt = db::JobStore::rebuild(&store_path, &jobs_dir)?;
+        tracing::warn!(
+            jobs = rebuilt.jobs,
+            skipped = rebuilt.skipped.len(),
+            store = %store_path.display(),
+            "job store rebuilt from jobs/*/job.json"
+        );
+        for skipped in &rebuilt.skipped {
+            tracing::warn!("not rebuilt: {skipped}");
+        }
+        rebuilt.store
     } else {
         db::JobStore::open(&store_path, &jobs_dir)?
     };
@@ -228,7 +353,7 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
     let job_service = InterceptedService::new(
-        JobServiceServer::new(grpc::JobApi::new(manager.clone()))
+        JobServiceServer::new(grpc::JobApi::new(manager.clone(), config.max_event_streams))
             .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
             .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES),
         auth_for(Role::Client),
@@ -263,9 +388,12 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
             Arc::new(dashboard::JobsSource::new(manager.clone())),
             access,
         );
+        board.set_max_streams(config.max_event_streams);
+        // A master with TLS is reached over TLS; its dashboard, behind a TLS proxy, too.
+        board.set_secure_cookies(config.tls.is_some());
         let stopped = until_stopped(stopped.clone());
         tokio::spawn(async move {
-            if let Err(error) = hevo_dashboard::serve(listener, board, stopped).await {
+            if let Err(error) = hevo_dashboard::serve(listener, board, http_limits, stopped).await {
                 tracing::error!(%error, "dashboard server failed");
             }
         });
@@ -279,13 +407,23 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
             .tls_config(tls)
             .context("invalid TLS certificate or key")?;
     }
+    let gate = ConnectionGate::new("grpc", grpc_limits);
     let router = builder
+        .layer(mark_served_layer(gate.clone()))
         .add_service(health_service)
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)
         .add_service(job_service)
         .add_service(worker_service(worker_api, auth_for(Role::Worker)));
-    tracing::info!(%address, state_dir = %config.state_dir.display(), tls = config.tls.is_some(), "master started");
+    tracing::info!(
+        %address,
+        state_dir = %config.state_dir.display(),
+        tls = config.tls.is_some(),
+        open_files,
+        max_connections = grpc_limits.max_connections,
+        http_max_connections = http_limits.max_connections,
+        "master started"
+    );
 
     let shutdown_manager = manager.clone();
     let shutdown = {
@@ -300,8 +438,10 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
                 .await;
         }
     };
-    let serving =
-        router.serve_with_incoming_shutdown(incoming(listener, closed_connections), shutdown);
+    let serving = router.serve_with_incoming_shutdown(
+        incoming(listener, gate, closed_connections, config.tls.is_some()),
+        shutdown,
+    );
     tokio::pin!(serving);
     tokio::select! {
         result = &mut serving => result.context("the server failed")?,

@@ -114,8 +114,13 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
     let (stop, stopped) = tokio::sync::watch::channel(false);
     let server = {
         let mut stopped = stopped.clone();
+        let gate = hevo_dashboard::connections::ConnectionGate::new(
+            "grpc",
+            crate::ConnectionLimits::DEFAULT,
+        );
         tokio::spawn(
             tonic::transport::Server::builder()
+                .layer(crate::mark_served_layer(gate.clone()))
                 .add_service(worker_service(
                     api,
                     ServerAuth::for_role(
@@ -126,9 +131,12 @@ pub async fn run(config: LoadConfig) -> Result<LoadReport, LoadError> {
                         },
                     ),
                 ))
-                .serve_with_incoming_shutdown(incoming(listener, closed_connections), async move {
-                    let _ = stopped.wait_for(|&s| s).await;
-                }),
+                .serve_with_incoming_shutdown(
+                    incoming(listener, gate, closed_connections, false),
+                    async move {
+                        let _ = stopped.wait_for(|&s| s).await;
+                    },
+                ),
         )
     };
 

@@ -67,6 +67,34 @@ impl Default for RoomConfig {
 impl RoomConfig {
     /// Checks ranges; names the offending key.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        // Every length finite and room-sized: a scene's lookup table covers the room in 0.1 m
+        // cells, so an unbounded side would be an unbounded allocation.
+        for (key, metres) in [
+            ("room.min_side", self.min_side),
+            ("room.max_side", self.max_side),
+            ("room.obstacle_min_side", self.obstacle_min_side),
+            ("room.obstacle_max_side", self.obstacle_max_side),
+            ("room.exit_width", self.exit_width),
+            ("room.wall_thickness", self.wall_thickness),
+            ("room.start_offset", self.start_offset),
+            ("room.obstacle_clearance", self.obstacle_clearance),
+            ("room.start_clearance", self.start_clearance),
+            ("room.exit_clearance", self.exit_clearance),
+            ("room.exit_corridor_length", self.exit_corridor_length),
+            (
+                "room.three_obstacles_above_area",
+                self.three_obstacles_above_area.sqrt(),
+            ),
+        ] {
+            if !(metres.is_finite() && metres <= MAX_ROOM_METRES) {
+                return Err(invalid(
+                    key,
+                    format!(
+                        "must be a finite number of at most {MAX_ROOM_METRES} m (m² for an area)"
+                    ),
+                ));
+            }
+        }
         let checks = [
             (
                 self.min_side > 0.3 && self.min_side <= self.max_side,
@@ -120,6 +148,9 @@ impl RoomConfig {
         }
     }
 }
+
+/// The longest length a room's numbers may give, metres.
+pub const MAX_ROOM_METRES: f32 = 20.0;
 
 /// A generated room, in world coordinates.
 #[derive(Debug, Clone)]

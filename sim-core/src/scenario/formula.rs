@@ -67,10 +67,8 @@ impl Formula {
             let (base, scale) = match raw.split_once(['/', '*']) {
                 Some((base, number)) => {
                     let divide = raw[base.len()..].starts_with('/');
-                    let value: f32 = number
-                        .trim()
-                        .parse()
-                        .map_err(|_| format!("'{raw}': '{}' is not a number", number.trim()))?;
+                    let value = formula_number(number.trim())
+                        .map_err(|why| format!("'{raw}': '{}' {why}", number.trim()))?;
                     if divide && value == 0.0 {
                         return Err(format!("'{raw}': division by zero"));
                     }
@@ -89,8 +87,10 @@ impl Formula {
                     compiled.map_err(|why| format!("'{raw}': {why}"))?,
                 ));
                 TermBase::Quantity(quantities.len() - 1)
-            } else if let Ok(value) = base.parse::<f32>() {
-                TermBase::Number(value)
+            } else if base.parse::<f32>().is_ok() {
+                TermBase::Number(
+                    formula_number(base).map_err(|why| format!("'{raw}': '{base}' {why}"))?,
+                )
             } else {
                 return Err(format!(
                     "'{raw}': expected a number, {}",
@@ -137,6 +137,22 @@ impl Formula {
             };
             (low + a.min(b), high + a.max(b))
         })
+    }
+}
+
+/// The largest number a formula may write, in magnitude: fitness must stay a finite `f32`
+/// whatever the formula adds up, and no task needs more.
+pub const MAX_FORMULA_NUMBER: f32 = 1e6;
+
+/// A number of a formula: finite and at most [`MAX_FORMULA_NUMBER`] in magnitude (`nan`,
+/// `inf` and `1e40` parse as `f32`s, and would make every sample's fitness one).
+fn formula_number(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(value) if value.is_finite() && value.abs() <= MAX_FORMULA_NUMBER => Ok(value),
+        Ok(_) => Err(format!(
+            "is not a finite number of at most {MAX_FORMULA_NUMBER:e} in magnitude"
+        )),
+        Err(_) => Err("is not a number".into()),
     }
 }
 
@@ -249,6 +265,11 @@ mod tests {
             ("1 +", "a term is missing"),
             ("progress / zero", "'zero' is not a number"),
             ("progress / 0", "division by zero"),
+            ("nan", "'nan' is not a finite number"),
+            ("1 + inf", "'inf' is not a finite number"),
+            ("1e40", "'1e40' is not a finite number"),
+            ("progress * -1e7", "'-1e7' is not a finite number"),
+            ("progress / NaN", "'NaN' is not a finite number"),
             (
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \

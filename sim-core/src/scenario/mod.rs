@@ -45,6 +45,22 @@ pub const MAX_SOLIDS: usize = 1024;
 /// covers the solids' bounding box in 0.1 m cells, which this keeps to a few megabytes.
 pub const MAX_SOLID_COORDINATE: f32 = 50.0;
 
+/// The largest scenario file, bytes: the text travels with every job and to every worker.
+pub const MAX_SCENARIO_BYTES: usize = 1024 * 1024;
+
+/// The most cells a map's grid may span (its rows times its widest row): a cell's index is a
+/// `u16`, and the walls of any grid this size stay fewer than 65,536 (a scene's solid index).
+pub const MAX_MAP_CELLS: usize = 16_384;
+
+/// The largest side of a map cell, metres.
+pub const MAX_CELL_SIZE: f32 = 10.0;
+
+/// The most `[regions]` rectangles, and the most regions a map's legend may name.
+pub const MAX_REGIONS: usize = 256;
+
+/// The most `[[variant]]`s: every variant's starts are built and checked when a task is made.
+pub const MAX_VARIANTS: usize = 256;
+
 /// Whether `[x0, y0, x1, y1]` is a rectangle of some area: finite, `x0 < x1` and `y0 < y1`.
 fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
     x0 < x1 && y0 < y1 && [x0, y0, x1, y1].iter().all(|v| v.is_finite())
@@ -325,6 +341,16 @@ impl Scenario {
             line,
             message,
         };
+        if text.len() > MAX_SCENARIO_BYTES {
+            return Err(error(
+                "",
+                None,
+                format!(
+                    "is {} bytes, at most {MAX_SCENARIO_BYTES} are accepted",
+                    text.len()
+                ),
+            ));
+        }
         let deserializer = toml::Deserializer::parse(text).map_err(|e| {
             error(
                 "",
@@ -334,8 +360,9 @@ impl Scenario {
         })?;
         let file: ScenarioFile = serde_path_to_error::deserialize(deserializer).map_err(|e| {
             let line = e.inner().span().map(|span| line_of(text, span.start));
+            // A key path holds the file's own keys, which may be of any length.
             error(
-                &e.path().to_string(),
+                &bounded_path(&e.path().to_string()),
                 line,
                 crate::scenario::bounded(e.inner().message()),
             )
@@ -555,6 +582,16 @@ pub fn bounded(message: &str) -> String {
     }
 }
 
+/// A key path cut to a bounded length, like a parser's message.
+fn bounded_path(path: &str) -> String {
+    const MAX: usize = 120;
+    if path.chars().count() <= MAX {
+        path.to_string()
+    } else {
+        format!("{} …", path.chars().take(MAX).collect::<String>())
+    }
+}
+
 /// A shipped map, by name.
 fn shipped_map(name: &str) -> Option<&'static str> {
     SHIPPED_MAPS
@@ -563,12 +600,57 @@ fn shipped_map(name: &str) -> Option<&'static str> {
         .map(|(_, text)| *text)
 }
 
+/// Refuses a map whose size alone is too much, before any cell is built: its cell size, how
+/// many cells its grid spans ([`MAX_MAP_CELLS`]), and how far from the origin its cells reach
+/// (the scene's lookup table covers them in 0.1 m cells, as for `world.solids`).
+fn check_map_size(file: &MapFile) -> Result<(), (String, String)> {
+    let bad = |path: &str, message: String| Err((path.to_string(), message));
+    if !(file.cell_size > 0.0 && file.cell_size <= MAX_CELL_SIZE) {
+        return bad(
+            "cell_size",
+            format!("must be a positive number of metres, at most {MAX_CELL_SIZE}"),
+        );
+    }
+    let rows = || {
+        file.grid
+            .lines()
+            .map(str::trim_end)
+            .filter(|row| !row.is_empty())
+    };
+    let n_rows = rows().count();
+    let widest = rows().map(|row| row.chars().count()).max();
+    let spanned = n_rows.saturating_mul(widest.unwrap_or(0));
+    if spanned > MAX_MAP_CELLS {
+        return bad(
+            "grid",
+            format!(
+                "spans {n_rows} rows x {} columns = {spanned} cells, at most {MAX_MAP_CELLS} \
+                 are accepted",
+                widest.unwrap_or(0)
+            ),
+        );
+    }
+    // The farthest cell centre, in cells, on either axis.
+    let reach = |origin: i32, extent: usize| {
+        (f64::from(origin).abs()).max((f64::from(origin) + extent as f64).abs())
+    };
+    let farthest = reach(file.origin[0], widest.unwrap_or(0)).max(reach(file.origin[1], n_rows))
+        * f64::from(file.cell_size);
+    if farthest > f64::from(MAX_SOLID_COORDINATE) {
+        return bad(
+            "origin",
+            format!(
+                "the map's cells reach {farthest:.1} m from the origin, at most {MAX_SOLID_COORDINATE} m"
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// Builds the cells and regions of a map drawn as text.
 pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
     let bad = |path: &str, message: String| Err((path.to_string(), message));
-    if !(file.cell_size > 0.0 && file.cell_size.is_finite()) {
-        return bad("cell_size", "must be a positive number".into());
-    }
+    check_map_size(file)?;
     if !(file.wall_thickness > 0.0 && file.wall_thickness < file.cell_size) {
         return bad(
             "wall_thickness",
@@ -625,7 +707,8 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
     if open.is_empty() {
         return bad("grid", "has no open cell".into());
     }
-    let is_open = |at: [i32; 2]| open.iter().any(|(cell, _)| *cell == at);
+    let open_cells: std::collections::HashSet<[i32; 2]> = open.iter().map(|(at, _)| *at).collect();
+    let is_open = |at: [i32; 2]| open_cells.contains(&at);
     let cells: Vec<Cell> = open
         .iter()
         .map(|(at, _)| Cell {
@@ -636,6 +719,9 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
             }),
         })
         .collect();
+    if meaning.values().flatten().filter(|n| !n.is_empty()).count() > MAX_REGIONS {
+        return bad("legend", format!("names more than {MAX_REGIONS} regions"));
+    }
     let mut regions: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for (cell_idx, (_, region)) in open.iter().enumerate() {
         if let Some(region) = region {
@@ -654,6 +740,57 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
         map: CellMap::new(cells, file.cell_size, file.wall_thickness),
         regions,
     })
+}
+
+/// Refuses a position that is not a finite point within [`MAX_SOLID_COORDINATE`] of the
+/// origin, where every world lies.
+fn check_point([x, y]: [f32; 2]) -> Result<(), String> {
+    if [x, y]
+        .iter()
+        .all(|v| v.is_finite() && v.abs() <= MAX_SOLID_COORDINATE)
+    {
+        Ok(())
+    } else {
+        Err(format!(
+            "({x}, {y}) m is not a point within {MAX_SOLID_COORDINATE} m of the origin"
+        ))
+    }
+}
+
+/// Refuses a distance, metres, that is not a finite number within a world's size
+/// ([`MAX_SOLID_COORDINATE`]), or, when `non_negative`, that is below 0.
+fn check_distance(metres: f32, non_negative: bool) -> Result<(), String> {
+    let low = if non_negative {
+        0.0
+    } else {
+        -MAX_SOLID_COORDINATE
+    };
+    if metres.is_finite() && (low..=MAX_SOLID_COORDINATE).contains(&metres) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{metres} is not a distance in [{low}, {MAX_SOLID_COORDINATE}] metres"
+        ))
+    }
+}
+
+/// Refuses a formula that can be other than a finite number: its value over every quantity's
+/// range (the evaluator's own arithmetic, so a huge product or a tiny divisor shows here).
+fn check_formula_range(
+    formula: &Formula,
+    quantities: &Quantities,
+    n_phases: usize,
+) -> Result<(), String> {
+    let (low, high) = formula.range(&|idx| quantities[idx].1.range(n_phases));
+    if low.is_finite() && high.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "can be [{low}, {high}], not a finite number; keep its numbers and their products \
+             and quotients within ±{:e}",
+            formula::MAX_FORMULA_NUMBER
+        ))
+    }
 }
 
 /// Turns a parsed file into a scenario, checking that its parts fit together.
@@ -760,12 +897,30 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
     if world.has_corridor() {
         region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
     }
+    if file.regions.len() > MAX_REGIONS {
+        return Err(error(
+            "regions",
+            format!("{} rectangles, at most {MAX_REGIONS}", file.regions.len()),
+        ));
+    }
+    if file.variants.len() > MAX_VARIANTS {
+        return Err(error(
+            "variant",
+            format!("{} variants, at most {MAX_VARIANTS}", file.variants.len()),
+        ));
+    }
     let mut rect_regions = BTreeMap::new();
     for (name, region) in &file.regions {
         if !is_proper_rect(region.rect) {
             return Err(error(
                 &format!("regions.{name}.rect"),
                 "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1: an empty region".into(),
+            ));
+        }
+        if region.rect.iter().any(|v| v.abs() > MAX_SOLID_COORDINATE) {
+            return Err(error(
+                &format!("regions.{name}.rect"),
+                format!("must lie within {MAX_SOLID_COORDINATE} m of the origin"),
             ));
         }
         rect_regions.insert(name.clone(), region.rect);
@@ -841,16 +996,17 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 format!("'{}' is declared twice", light.name),
             ));
         }
-        let position = match (light.cell, light.at) {
+        let (key, position) = match (light.cell, light.at) {
             (Some([x, y]), None) => {
                 let Some(map) = &map else {
                     return Err(error(&at("cell"), "cell units need a map world".into()));
                 };
-                [x * map.map.cell_size, y * map.map.cell_size]
+                ("cell", [x * map.map.cell_size, y * map.map.cell_size])
             }
-            (None, Some(p)) => p,
+            (None, Some(p)) => ("at", p),
             _ => return Err(error(&at("at"), "give either `cell` or `at`".into())),
         };
+        check_point(position).map_err(|message| error(&at(key), message))?;
         let trigger = match &light.trigger {
             TriggerDecl::Named(name) if name == "passed" => Trigger::Passed,
             TriggerDecl::Named(name) if name == "always" => Trigger::Always,
@@ -1025,6 +1181,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             ));
         }
     };
+    check_distance(place_decl.ahead_m, false).map_err(|message| error("place.ahead_m", message))?;
     let place = Place {
         at,
         facing,
@@ -1094,6 +1251,8 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
             behaviour
                 .check(t.following)
                 .map_err(|why| error("teammate.following", why))?;
+            check_distance(t.behind_m, true)
+                .map_err(|message| error("teammate.behind_m", message))?;
             let regions_named = region.is_some()
                 || variants.iter().all(|v| {
                     if at_goal {
@@ -1122,6 +1281,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
 
     // What the blocks may rely on.
     let end = &file.end;
+    check_distance(end.near_m, true).map_err(|message| error("end.near_m", message))?;
     let goals_in_cells =
         world.has_corridor() || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
     let facts = Facts {
@@ -1184,10 +1344,12 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 ));
             }
         };
-        fitness.push(
-            Formula::parse(text, &facts, &mut quantities)
-                .map_err(|message| error(&format!("fitness.{key}"), message))?,
-        );
+        let formula = Formula::parse(text, &facts, &mut quantities)
+            .and_then(|formula| {
+                check_formula_range(&formula, &quantities, file.phases.len()).map(|()| formula)
+            })
+            .map_err(|message| error(&format!("fitness.{key}"), message))?;
+        fitness.push(formula);
     }
     let fitness: [Formula; 4] = fitness.try_into().expect("one formula per ending");
 

@@ -1,0 +1,92 @@
+//! What a job keeps, and for how long: a submission carries only the files its experiment
+//! reads (a file it never reads is refused, not kept for the job's life), and `hevo delete`
+//! forgets a finished job, its record and its files, while a job that has not finished is
+//! refused until it is cancelled.
+
+use hevo_proto::v1;
+use hevo_tests::service::{CLIENT_TOKEN, SMALL, jobs, master_with_roles, runtime, submission};
+use hevo_tests::{Scratch, hevo};
+use std::time::Duration;
+
+#[test]
+fn a_file_the_experiment_does_not_read_is_refused() {
+    let scratch = Scratch::new("delete-files");
+    let master = master_with_roles(&scratch, &[]);
+    let status = runtime().block_on(async {
+        let mut request = submission(SMALL);
+        request
+            .files
+            .insert("padding.bin".into(), "x".repeat(1 << 20));
+        jobs(&master.url, CLIENT_TOKEN)
+            .submit_job(request)
+            .await
+            .unwrap_err()
+    });
+    assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
+    assert!(
+        status.message().starts_with("files:")
+            && status
+                .message()
+                .contains("'padding.bin' is not read by the experiment"),
+        "{}",
+        status.message()
+    );
+}
+
+#[test]
+fn a_finished_job_can_be_deleted_and_a_running_one_not() {
+    let scratch = Scratch::new("delete-job");
+    let master = master_with_roles(&scratch, &[]);
+    let job = runtime().block_on(async {
+        jobs(&master.url, CLIENT_TOKEN)
+            .submit_job(submission(SMALL))
+            .await
+            .unwrap()
+            .into_inner()
+            .job_id
+    });
+    let job_dir = scratch.join("state").join("jobs").join(&job);
+    assert!(job_dir.is_dir());
+    let delete = |expect_ok: bool| {
+        let output = hevo(
+            &["delete", "--master", &master.url, &job],
+            Some(CLIENT_TOKEN),
+            Duration::from_secs(30),
+        );
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert_eq!(output.status.success(), expect_ok, "{stderr}");
+        stderr
+    };
+    // No worker runs it, so it is still queued or running: refused, and kept.
+    let refused = delete(false);
+    assert!(
+        refused.contains("FAILED_PRECONDITION") || refused.contains("cancel it first"),
+        "{refused}"
+    );
+    assert!(job_dir.is_dir());
+    let cancelled = hevo(
+        &["cancel", "--master", &master.url, &job],
+        Some(CLIENT_TOKEN),
+        Duration::from_secs(30),
+    );
+    assert!(cancelled.status.success(), "{cancelled:?}");
+    delete(true);
+    assert!(!job_dir.exists(), "its directory is gone");
+    runtime().block_on(async {
+        let mut client = jobs(&master.url, CLIENT_TOKEN);
+        let status = client
+            .get_job(v1::GetJobRequest {
+                job_id: job.clone(),
+                include_files: false,
+            })
+            .await
+            .unwrap_err();
+        assert_eq!(status.code(), tonic::Code::NotFound, "{status:?}");
+        let listed = client
+            .list_jobs(v1::ListJobsRequest {})
+            .await
+            .unwrap()
+            .into_inner();
+        assert!(listed.jobs.is_empty());
+    });
+}
