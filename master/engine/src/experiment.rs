@@ -3,10 +3,10 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
-use hevo_sim_core::controller::{ControllerFile, NodeKind};
-use hevo_sim_core::frame::{InputGroup, SensorSet};
-use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::Scenario;
+use hevo_sim_core::{ControllerFile, NodeKind};
 use hevo_sim_core::{Evaluator, TaskConfig};
+use hevo_sim_core::{InputGroup, SensorSet};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -1173,7 +1173,7 @@ mutation_sigma = 0.5
             .collect();
         assert_eq!(names, ["fw", "tl", "maze"]);
         let fw = experiment.node("fw").unwrap();
-        assert_eq!(fw.task.robot.v_max, 0.12);
+        assert_eq!(fw.task.params.robot.v_max, 0.12);
         assert_eq!(fw.task.max_cycles(), 300);
         assert_eq!(fw.evolution.population, 20);
         assert_eq!(experiment.node("tl").unwrap().evolution.mutation_sigma, 0.5);
@@ -1219,7 +1219,7 @@ runs = 1
             .unwrap()
     }
 
-    use hevo_sim_core::controller::NodeSpec;
+    use hevo_sim_core::NodeSpec;
 
     #[test]
     fn children_may_come_from_controller_files_and_other_run_directories() {

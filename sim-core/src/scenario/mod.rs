@@ -17,10 +17,12 @@ pub mod blocks;
 pub mod file;
 pub mod formula;
 
-use crate::env::cells::{Cell, CellMap};
-use crate::frame::{InputGroup, SensorSet};
-use crate::hash::fnv1a_hex;
-use crate::scene::{Rect, RectKind};
+use crate::geometry::cells::{Cell, CellMap};
+use crate::geometry::scene::{Rect, RectKind};
+use crate::math::hash::fnv1a_hex;
+use crate::sensors::SensedWorld;
+use crate::sensors::frame::{InputGroup, SensorSet};
+use crate::world::lights::Trigger;
 use blocks::atoms::RegionTest;
 use blocks::{Facts, TeammateBehaviour, World};
 use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
@@ -32,7 +34,7 @@ use std::sync::{Arc, OnceLock};
 pub const SCHEMA: &str = "hevo.scenario/1";
 
 /// The most phases a derived fitness may have.
-pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
+pub const MAX_PHASES: usize = crate::outcome::N_SUB_TASKS;
 
 /// The most lights a scenario may hold: a cycle's lit lights are one bit each of a `u32`, in
 /// traces too.
@@ -48,13 +50,6 @@ pub const MAX_SOLID_COORDINATE: f32 = 50.0;
 /// Whether `[x0, y0, x1, y1]` is a rectangle of some area: finite, `x0 < x1` and `y0 < y1`.
 fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
     x0 < x1 && y0 < y1 && [x0, y0, x1, y1].iter().all(|v| v.is_finite())
-}
-
-/// Whether the rectangle `[x0, y0, x1, y1]` holds `point`, its edges included: what `in REGION`
-/// and a light triggered by entering a region both test.
-#[inline]
-pub(crate) fn rect_holds([x0, y0, x1, y1]: [f32; 4], [x, y]: [f32; 2]) -> bool {
-    (x0..=x1).contains(&x) && (y0..=y1).contains(&y)
 }
 
 /// The scenarios shipped with hevo: the paper's tasks.
@@ -145,21 +140,6 @@ pub struct LightDef {
     pub position: [f32; 2],
     /// When it lights.
     pub trigger: Trigger,
-}
-
-/// When a light lights.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Trigger {
-    /// Once, when the robot's centre first crosses its row going up within its distance from
-    /// the centre line.
-    Passed,
-    /// Always (a beacon).
-    Always,
-    /// Once, at this cycle.
-    AfterCycles(u32),
-    /// Once, when the robot's centre is first inside this rectangle `[x0, y0, x1, y1]` after
-    /// a move.
-    Entered([f32; 4]),
 }
 
 /// A variant, compiled.
@@ -452,6 +432,14 @@ impl Scenario {
         !self.phases.is_empty()
     }
 
+    /// What its world holds that the robot's sensors may sense.
+    pub fn sensed_world(&self) -> SensedWorld {
+        SensedWorld {
+            has_lights: !self.lights.is_empty(),
+            has_teammate: self.teammate.is_some(),
+        }
+    }
+
     /// A content hash of the scenario's text.
     pub fn content_hash(&self) -> String {
         fnv1a_hex(self.source.as_bytes())
@@ -630,7 +618,7 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
         .iter()
         .map(|(at, _)| Cell {
             at: *at,
-            walls: crate::env::cells::Side::ALL.map(|side| {
+            walls: crate::geometry::cells::Side::ALL.map(|side| {
                 let [dx, dy] = side.offset();
                 !is_open([at[0] + dx, at[1] + dy])
             }),
@@ -1230,7 +1218,7 @@ fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, Sce
                 else {
                     continue;
                 };
-                if crate::env::cells::path_between(&map.map, from[0], to[0]).is_none() {
+                if crate::geometry::cells::path_between(&map.map, from[0], to[0]).is_none() {
                     return Err(error(
                         &format!("variant[{idx}].goal"),
                         format!("no start can reach the goal '{goal}' from '{start}'"),

@@ -3,199 +3,26 @@
 //! threads; each call owns its own world and random streams, so results depend only on
 //! (policy, task, seed, variant). A second entry point records a per-cycle trace for replays.
 
-use crate::env::{self, Environment, Ground, Statics};
-use crate::frame::{InputGroup, N_GROUPS, SensorFrame};
-use crate::rng::{SimRng, Stream, stream_rng};
-use crate::robot::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
-use crate::scenario::blocks::{
-    self, CycleView, EndView, Motion, SenseView, Sensor, SensorRun, TeammateBehaviour,
-    TeammateView, Tracked,
+use super::setup::{self, Statics};
+use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
+use crate::config::ConfigError;
+use crate::geometry::scene::Scene;
+use crate::math::rng::{SimRng, Stream, stream_rng};
+use crate::math::trig;
+use crate::network::Policy;
+use crate::outcome::{
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
 };
-use crate::scenario::{Scenario, ScenarioError, Trigger, ending_slot, rect_holds};
-use crate::scene::{Rect, Scene};
-use crate::task::{ConfigError, TaskConfig};
-use crate::trig;
-use serde::{Deserialize, Serialize};
-
-/// Anything that drives the robot: an evolved controller tree or a scripted reference policy.
-pub trait Policy {
-    /// Clears all internal state; called at the start of every sample.
-    fn reset(&mut self);
-    /// One control cycle: the wheel outputs (left, right), each in [0, 1].
-    fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2];
-    /// The root arbitrator's chosen child in the last step, for the derived fitness.
-    fn root_choice(&self) -> Option<usize> {
-        None
-    }
-    /// Node indices active in the last step, root first.
-    fn active_path(&self) -> &[usize] {
-        &[0]
-    }
-    /// Number of nodes, for counting active cycles per node.
-    fn n_nodes(&self) -> usize {
-        1
-    }
-    /// The output index of the root's child named `name`, for a derived fitness whose phases
-    /// name their children; `None` when the policy has no such names (a phase then asks for
-    /// the child at its own position).
-    fn root_child_index(&self, name: &str) -> Option<usize> {
-        let _ = name;
-        None
-    }
-}
-
-/// One sample: its seed, and optionally a fixed variant (light configuration or start branch)
-/// instead of one drawn from the seed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Sample {
-    /// The sample's seed: every random choice of the sample derives from it.
-    pub seed: u64,
-    /// Light configuration (maze, rescue) or branch (return to room); drawn when `None`.
-    pub variant: Option<u32>,
-}
-
-impl Sample {
-    /// A sample whose variant is drawn from its seed.
-    pub fn seeded(seed: u64) -> Sample {
-        Sample {
-            seed,
-            variant: None,
-        }
-    }
-}
-
-/// Why a sample ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Ending {
-    /// The task's goal was reached.
-    Solved,
-    /// The robot touched a wall or obstacle and the task ends on collisions.
-    Collision,
-    /// The robot entered a branch off the correct path, or a region the scenario forbids.
-    WrongBranch,
-    /// The cycle limit ran out.
-    Timeout,
-}
-
-/// The result of one sample.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Outcome {
-    /// The task's fitness.
-    pub fitness: f32,
-    /// Whether the goal was reached (for rescue: the teammate brought back into the room).
-    pub solved: bool,
-    /// Whether the robot touched a wall or obstacle at any time.
-    pub collided: bool,
-    /// Why the sample ended.
-    pub ending: Ending,
-    /// Cycles run.
-    pub cycles: u32,
-    /// Furthest stage reached: rescue 0 none, 1 left the room, 2 found the teammate, 3 brought
-    /// it back; other tasks 1 when solved, else 0.
-    pub stage: u8,
-    /// The variant the sample ran (light configuration or start branch; 0 for other tasks,
-    /// except corridors: the turn's shape, 0 for an L-bend (and every straight corridor), 1
-    /// for a T-end, 2 for a side junction).
-    pub variant: u32,
-    /// How long and how often each controller node drove, indexed like the policy's nodes.
-    pub node_use: NodeUse,
-    /// Rescue only: how the root chose in each sub-task (all zero for other tasks).
-    pub sub_task_choices: SubTaskChoices,
-}
-
-/// How a controller's nodes took turns in one sample, per node in pre-order (the root first):
-/// the cycles each was active and how often it was switched on (active in a cycle but not in
-/// the one before). An arbitrator that keeps a child on for hundreds of cycles and one that
-/// flicks between two children every few cycles can score alike; these counts tell them apart.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct NodeUse {
-    /// Cycles each node was active.
-    pub active_cycles: Vec<u32>,
-    /// How often each node became active; never more than its active cycles.
-    pub activations: Vec<u32>,
-}
-
-/// Rescue's sub-tasks, in the order of the rescue arbitrator's children: exit the room, solve
-/// the maze, return to the room.
-pub const N_SUB_TASKS: usize = 6;
-
-/// How often the rescue arbitrator chose the sub-controller that the environment's ground truth
-/// asks for, per sub-task: the raw counts behind the derived fitness f3.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SubTaskChoices {
-    /// Cycles spent in each sub-task.
-    pub cycles: [u32; N_SUB_TASKS],
-    /// Of those, cycles in which the root chose that sub-task's child.
-    pub correct: [u32; N_SUB_TASKS],
-}
-
-impl SubTaskChoices {
-    /// Each sub-task's share of correct choices; `None` for a sub-task the sample never
-    /// reached (the teammate never found, say), which f3 leaves out of its sum.
-    pub fn shares(&self) -> [Option<f32>; N_SUB_TASKS] {
-        std::array::from_fn(|s| {
-            (self.cycles[s] > 0).then(|| self.correct[s] as f32 / self.cycles[s] as f32)
-        })
-    }
-
-    /// f3, the derived fitness: the sum of the shares of the sub-tasks reached (at most 3).
-    pub fn derived_fitness(&self) -> f32 {
-        self.shares().into_iter().flatten().sum()
-    }
-}
-
-/// A sensor cone for drawing: sensor position, the two boundary ray directions, the range.
-pub type IrCone = ([f32; 2], [f32; 2], [f32; 2], f32);
-
-/// One cycle of a trace.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TraceCycle {
-    /// Robot pose at the start of the cycle (when the sensors were read).
-    pub robot: Pose,
-    /// Teammate pose, if the task has one.
-    pub teammate: Option<Pose>,
-    /// The inputs the controller read.
-    pub frame: SensorFrame,
-    /// The controller's wheel outputs, in [0, 1].
-    pub wheels: [f32; 2],
-    /// Active node indices, root first.
-    pub active_path: Vec<u16>,
-    /// Whether the move of this cycle was undone by a collision.
-    pub collided: bool,
-    /// Bit i set when light i was lit this cycle.
-    pub lit_lights: u32,
-    /// The rescue sub-task in force (0 exit room, 1 solve maze, 2 return), else 0.
-    pub sub_task: u8,
-}
-
-/// What a replay needs to draw a sample: the world and every cycle.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Trace {
-    /// The scenario's name.
-    pub scenario: String,
-    /// The variant's name as reports show it, if the scenario has several.
-    pub variant_label: Option<String>,
-    /// Whether the scenario has a derived fitness whose last phase is the way back (the path
-    /// is drawn twice: out, and back over it).
-    pub has_phases: bool,
-    /// The sample.
-    pub sample: Sample,
-    /// Walls and obstacles.
-    pub rects: Vec<Rect>,
-    /// Stem lights: position and whether they flash in this sample.
-    pub lights: Vec<([f32; 2], bool)>,
-    /// Centre of the goal cell, for cell tasks and rescue (the teammate's branch end).
-    pub goal: Option<[f32; 2]>,
-    /// Exit of the room: centre on the inner face, outward unit vector.
-    pub exit: Option<([f32; 2], [f32; 2])>,
-    /// The cycles, in order.
-    pub cycles: Vec<TraceCycle>,
-    /// The final pose of the robot.
-    pub final_robot: Pose,
-    /// The outcome.
-    pub outcome: Outcome,
-}
+use crate::scenario::blocks::{
+    self, CycleView, EndView, Motion, TeammateBehaviour, TeammateView, Tracked,
+};
+use crate::scenario::{Scenario, ScenarioError, ending_slot};
+use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
+use crate::sensors::kinds::ir_cones;
+use crate::sensors::{IrCone, SenseView, Sensor, SensorRun};
+use crate::task::TaskConfig;
+use crate::world::lights::{LiveLight, trigger_lights};
+use crate::world::{Environment, Ground};
 
 /// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
 trait Recorder {
@@ -255,10 +82,11 @@ impl Evaluator {
     pub fn for_drawing(task: TaskConfig) -> Result<Evaluator, TaskError> {
         task.validate()?;
         let carried = task.scenario.sensors;
+        let sensed_world = task.scenario.sensed_world();
         let sensors = InputGroup::ALL.map(|group| {
             carried
                 .carries(group)
-                .then(|| (group.kind().compile)(&task))
+                .then(|| (group.kind().compile)(&task.params, &sensed_world))
                 .flatten()
         });
         Ok(Evaluator {
@@ -274,7 +102,7 @@ impl Evaluator {
     /// overrides) builds them.
     pub fn check_starts(&self, seeds: u64) -> Result<(), ScenarioError> {
         let scenario = &self.task.scenario;
-        let radius = self.task.robot.radius;
+        let radius = self.task.params.robot.radius;
         for variant in 0..scenario.n_variants() {
             for seed in 0..seeds {
                 let sample = Sample {
@@ -305,8 +133,14 @@ impl Evaluator {
                     let teammate = env
                         .teammate
                         .map(|(pose, following)| TeammateView { pose, following });
-                    let view =
-                        CycleView::new(&env.start, teammate, &env.ground, scenario, &self.task);
+                    let view = CycleView::new(
+                        &env.start,
+                        teammate,
+                        &env.ground,
+                        scenario,
+                        &self.task.params,
+                        self.task.max_cycles(),
+                    );
                     if forbidden.holds(&view) {
                         return Err(scenario.refusal(
                             "end.forbidden",
@@ -363,13 +197,13 @@ impl Evaluator {
     /// builds it: for pictures of a scenario (its named regions, `env::regions`).
     pub fn environment(&self, sample: Sample) -> Environment {
         let mut env_rng = stream_rng(sample.seed, Stream::Environment);
-        env::build(&self.task, &self.statics, sample.variant, &mut env_rng)
+        setup::build(&self.task, &self.statics, sample.variant, &mut env_rng)
     }
 
     /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
     /// boundary rays, and the range; for drawing.
     pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
-        blocks::sensors::ir_cones(&self.task, pose)
+        ir_cones(&self.task.params, pose)
     }
 
     fn run<R: Recorder>(
@@ -378,7 +212,7 @@ impl Evaluator {
         sample: Sample,
         recorder: &mut R,
     ) -> (Outcome, Environment, Pose) {
-        let dt = self.task.robot.cycle_seconds;
+        let dt = self.task.params.robot.cycle_seconds;
         policy.reset();
         let mut run = SampleRun::new(
             self,
@@ -425,6 +259,8 @@ pub(crate) struct SampleRun<'e> {
     robot: Pose,
     teammate: Option<Teammate>,
     lights: Vec<LiveLight>,
+    /// Each light's position, by index: what the light sensor sees of the lights.
+    light_positions: Vec<[f32; 2]>,
     judge: Judge<'e>,
     active_cycles: Vec<u32>,
     activations: Vec<u32>,
@@ -469,19 +305,8 @@ impl<'e> SampleRun<'e> {
         let teammate = env.teammate.map(|(pose, following)| {
             Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
         });
-        let lights: Vec<LiveLight> = env
-            .lights
-            .iter()
-            .map(|spec| LiveLight {
-                position: spec.position,
-                flashes: spec.flashes,
-                trigger: spec.trigger,
-                always_lit: spec.flashes && spec.trigger == Trigger::Always,
-                // A light of `Always` never fires, so it is never looked at for firing.
-                triggered: spec.trigger == Trigger::Always,
-                lit_cycles_left: 0,
-            })
-            .collect();
+        let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
+        let light_positions = env.lights.iter().map(|spec| spec.position).collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
         let ground = std::mem::take(&mut env.ground);
         let judge = Judge::new(
@@ -499,6 +324,7 @@ impl<'e> SampleRun<'e> {
             robot,
             teammate,
             lights,
+            light_positions,
             judge,
             active_cycles: vec![0; n_nodes],
             activations: vec![0; n_nodes],
@@ -534,14 +360,14 @@ impl<'e> SampleRun<'e> {
             if light.lit() {
                 lit_mask |= 1 << light_idx;
             }
-            light.lit_cycles_left = light.lit_cycles_left.saturating_sub(1);
+            light.count_down();
         }
         let view = SenseView {
             robot: &robot,
             sin_heading,
             cos_heading,
             scene: &self.env.scene,
-            lights: &self.env.lights,
+            lights: &self.light_positions,
             lit_mask,
             teammate: self.teammate.as_ref().map(|mate| &mate.pose),
         };
@@ -600,7 +426,7 @@ impl<'e> SampleRun<'e> {
     /// here) and the arc they drive, up to its sines.
     #[inline]
     pub(crate) fn plan_move(&mut self, wheels: [f32; 2]) -> Arc {
-        let robot_config = &self.evaluator.task.robot;
+        let robot_config = &self.evaluator.task.params.robot;
         let left = noisy_speed(
             wheel_speed(wheels[0], robot_config.v_max),
             robot_config,
@@ -623,7 +449,7 @@ impl<'e> SampleRun<'e> {
         sin_half_turn: f32,
         mid: (f32, f32),
     ) -> (Pose, bool) {
-        let robot_config = &self.evaluator.task.robot;
+        let robot_config = &self.evaluator.task.params.robot;
         let before = self.robot;
         let next = arc.end_pose(&self.robot, sin_half_turn, mid);
         let collided = move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene);
@@ -636,14 +462,14 @@ impl<'e> SampleRun<'e> {
     #[inline]
     pub(crate) fn finish_cycle(&mut self, before: &Pose, collided: bool) -> Option<Ending> {
         let task = &self.evaluator.task;
-        let robot_config = &task.robot;
+        let robot_config = &task.params.robot;
         let cycle = self.cycles_run - 1;
         trigger_lights(
             &mut self.lights,
             before,
             &self.robot,
             cycle,
-            task.light.flash_cycles,
+            task.params.light.flash_cycles,
         );
         if let Some(mate) = self.teammate.as_mut() {
             mate.update(
@@ -694,58 +520,6 @@ impl<'e> SampleRun<'e> {
         };
         env.ground = judge.ground;
         (outcome, env, self.robot)
-    }
-}
-
-/// A light's state during a sample: a row light flashes once, when the robot first drives past
-/// it; a beacon is always lit; a timed light flashes once at its cycle; a region's light once,
-/// when the robot first enters the region. Only the lights of the
-/// sample's variant light at all.
-#[derive(Debug)]
-struct LiveLight {
-    position: [f32; 2],
-    flashes: bool,
-    trigger: Trigger,
-    /// Whether it flashes with the trigger `Always`: lit in every cycle.
-    always_lit: bool,
-    /// Whether its trigger has fired, or never will.
-    triggered: bool,
-    lit_cycles_left: u32,
-}
-
-impl LiveLight {
-    #[inline]
-    fn lit(&self) -> bool {
-        self.lit_cycles_left > 0 || self.always_lit
-    }
-}
-
-/// A light row is passed when the robot's centre crosses the light's y going up the stem,
-/// within the stem (|x| below the light's x). A timed light lights at its cycle; a region's
-/// light when the robot's centre is in the region after a move.
-fn trigger_lights(
-    lights: &mut [LiveLight],
-    before: &Pose,
-    after: &Pose,
-    cycle: u32,
-    flash_cycles: u32,
-) {
-    for light in lights.iter_mut().filter(|l| !l.triggered) {
-        let fired = match light.trigger {
-            Trigger::Passed => {
-                let row = light.position[1];
-                before.y < row && after.y >= row && after.x.abs() < light.position[0].abs()
-            }
-            Trigger::AfterCycles(at) => cycle + 1 >= at,
-            Trigger::Entered(rect) => rect_holds(rect, after.position()),
-            Trigger::Always => false,
-        };
-        if fired {
-            light.triggered = true;
-            if light.flashes {
-                light.lit_cycles_left = flash_cycles;
-            }
-        }
     }
 }
 
@@ -801,6 +575,8 @@ impl Teammate {
 struct Judge<'a> {
     task: &'a TaskConfig,
     scenario: &'a Scenario,
+    /// The task's cycle limit, found once.
+    max_cycles: u32,
     /// The sample's ground truth, owned for the sample's length.
     ground: Ground,
     /// What each of the scenario's quantities keeps, by index.
@@ -836,7 +612,15 @@ impl<'a> Judge<'a> {
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
-        let view = CycleView::new(&start, teammate, &ground, scenario, task);
+        let max_cycles = task.max_cycles();
+        let view = CycleView::new(
+            &start,
+            teammate,
+            &ground,
+            scenario,
+            &task.params,
+            max_cycles,
+        );
         let tracked = scenario
             .quantities
             .iter()
@@ -845,6 +629,7 @@ impl<'a> Judge<'a> {
         Judge {
             task,
             scenario,
+            max_cycles,
             ground,
             tracked,
             reached: [false; 8],
@@ -855,7 +640,14 @@ impl<'a> Judge<'a> {
     /// What the blocks see of this cycle.
     #[inline]
     fn view<'v>(&'v self, robot: &'v Pose, teammate: Option<TeammateView>) -> CycleView<'v> {
-        CycleView::new(robot, teammate, &self.ground, self.scenario, self.task)
+        CycleView::new(
+            robot,
+            teammate,
+            &self.ground,
+            self.scenario,
+            &self.task.params,
+            self.max_cycles,
+        )
     }
 
     /// The phase of the derived fitness in force, if the scenario has phases.
@@ -877,7 +669,14 @@ impl<'a> Judge<'a> {
     #[inline]
     fn check(&mut self, robot: &Pose, teammate: Option<TeammateView>) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
-        let view = CycleView::new(robot, teammate, &self.ground, scenario, task);
+        let view = CycleView::new(
+            robot,
+            teammate,
+            &self.ground,
+            scenario,
+            &task.params,
+            self.max_cycles,
+        );
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -892,7 +691,7 @@ impl<'a> Judge<'a> {
             && let Some(cell) = view.robot_cell(&goal.map)
             && !goal.on_path[cell]
             && (!task.wrong_branch_at_end_only
-                || goal.reached_wrong_end(robot.position(), task.robot.radius))
+                || goal.reached_wrong_end(robot.position(), task.params.robot.radius))
         {
             return Some(Ending::WrongBranch);
         }
@@ -931,7 +730,7 @@ impl<'a> Judge<'a> {
         let fitness = self.scenario.fitness[slot].eval(&value_of);
         // The authors' code rewards finishing: a solved derived fitness earns the time bonus.
         if self.task.rescue_time_bonus && ending == Ending::Solved {
-            fitness + blocks::quantities::time_bonus(cycles, self.task.max_cycles())
+            fitness + blocks::quantities::time_bonus(cycles, self.max_cycles)
         } else {
             fitness
         }
@@ -954,8 +753,8 @@ impl<'a> Judge<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::CellGoal;
-    use crate::env::cells::{Cell, CellMap};
+    use crate::geometry::cells::{Cell, CellMap};
+    use crate::world::{self, CellGoal};
     use std::sync::Arc;
 
     /// Walls on top, right, bottom, left.
@@ -1161,8 +960,8 @@ mod tests {
 
     /// A 1.0 m square room centred on the origin with its exit 0.5 m up, on the inner face of
     /// the top wall, opening upwards. Nothing of it is generated.
-    fn square_room() -> env::room::Room {
-        env::room::Room {
+    fn square_room() -> world::room::Room {
+        world::room::Room {
             rects: Vec::new(),
             center: [0.0, 0.0],
             exit_center: [0.0, 0.5],
