@@ -13,7 +13,7 @@ pub enum CurveChoice {
     #[default]
     Any,
     /// One of the two measured robots is picked per sample and each sensor uses that robot's
-    /// curve for the matching physical sensor (see [`crate::sensors::ir::SAME_ROBOT_CURVES`]).
+    /// curve for the matching physical sensor (see `SAME_ROBOT_CURVES` in the IR model).
     SameRobot,
     /// Every sensor uses the average curve; no per-sensor variety.
     Mean,

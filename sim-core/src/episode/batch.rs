@@ -48,13 +48,13 @@ pub fn controller_fits(controller: &ControllerFile, scenario: &Scenario) -> Resu
 
 /// Which evaluator runs a batch's samples. Both give bit-identical outcomes (a property test
 /// holds them to it); the scalar one is the reference, one sample after another, and the
-/// lockstep one ([`crate::episode::lockstep`]) advances several samples of a genome together.
+/// lockstep one (`episode::lockstep`) advances several samples of a genome together.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EvaluatorKind {
     /// One sample at a time: [`Evaluator::evaluate`].
     Scalar,
-    /// [`crate::math::lanes::LANES`] samples in lockstep: [`Evaluator::evaluate_lockstep`].
+    /// `LANES` (eight) samples in lockstep: [`Evaluator::evaluate_lockstep`].
     #[default]
     Lockstep,
 }

@@ -352,7 +352,7 @@ impl LaneController {
 }
 
 impl Evaluator {
-    /// Runs every sample with `controller`, [`LANES`] at a time in lockstep, and returns the
+    /// Runs every sample with `controller`, `LANES` (eight) at a time in lockstep, and returns the
     /// outcomes in sample order: the same, bit for bit, as [`Evaluator::evaluate`] gives for
     /// the controller it was built from.
     pub fn evaluate_lockstep(

@@ -41,7 +41,7 @@ pub const PATH_SEPARATOR: char = '/';
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerFile {
-    /// Must be [`CONTROLLER_SCHEMA`].
+    /// Must be `CONTROLLER_SCHEMA` (`hevo.controller/1`).
     pub schema: String,
     /// The top of the tree.
     pub root: NodeSpec,

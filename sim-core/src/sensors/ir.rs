@@ -58,7 +58,7 @@ pub const IR_CURVE_NAMES: [&str; N_MEASURED_IR_CURVES] = [
 /// Number of measured IR curves in the calibration table.
 pub const N_MEASURED_IR_CURVES: usize = 8;
 
-/// Curve index of the average of the measured curves (see [`MeasuredCurve::pooled`]). Any
+/// Curve index of the average of the measured curves (see `MeasuredCurve::pooled`). Any
 /// curve index at or above it also selects the average curve.
 pub const MEAN_IR_CURVE: u8 = N_MEASURED_IR_CURVES as u8;
 

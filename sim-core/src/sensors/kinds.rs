@@ -267,7 +267,7 @@ impl SensorRun for NearRobot {
 
 #[cfg(test)]
 mod tests {
-    use super::super::registry::SENSORS;
+    use super::super::SENSORS;
     use super::*;
     use crate::episode::evaluator::Evaluator;
     use crate::math::rng::{Stream, stream_rng};

@@ -1,21 +1,14 @@
-//! The one place the robot's sensors are registered, and what a sensor is: a kind
-//! ([`SensorKind`]: its name, its inputs, how it compiles with the task's numbers), a compiled
-//! sensor all samples of an evaluator share ([`Sensor`]) and one sample's reading of it
-//! ([`SensorRun`]), which turns what a cycle shows ([`SenseView`]) into its inputs. A new
-//! sensor is one file beside [`kinds`](super::kinds) and one line in [`SENSORS`].
+//! What a sensor is: a kind ([`SensorKind`]: its name, its inputs, how it compiles with the
+//! task's numbers), a compiled sensor all samples of an evaluator share ([`Sensor`]) and one
+//! sample's reading of it ([`SensorRun`]), which turns what a cycle shows ([`SenseView`]) into
+//! its inputs. The registered kinds are [`SENSORS`](super::SENSORS); a new sensor is one file
+//! beside [`kinds`](super::kinds) and one line there.
 
-use super::kinds;
 use crate::body::Pose;
 use crate::config::Params;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use std::fmt::Debug;
-
-/// The robot's sensors, in frame order: a frame holds each one's inputs in this order, and a
-/// cycle reads them (and draws their noise) in this order, so a new one goes last. A
-/// scenario's robot carries those its `sensors` key names, or else those carried by default;
-/// each one's name is also the input group a network lists.
-pub const SENSORS: &[SensorKind] = &[kinds::IR, kinds::LIGHT, kinds::NEAR_ROBOT];
 
 /// What a task's world holds that a sensor may need before it is built: whether anything in
 /// it can excite the sensor at all.
