@@ -9,7 +9,8 @@
 //! ends takes the next sample at once, so samples that end early leave no lane idle.
 
 use crate::body::Arc;
-use crate::episode::evaluator::{Evaluator, SampleRun, phase_children};
+use crate::episode::evaluator::{Evaluator, SampleRun};
+use crate::episode::judge::phase_children;
 use crate::math::lanes::{LANES, LaneMask, Lanes, lanes_of};
 use crate::math::trig;
 use crate::network::controller::{Controller, NodeKind, arbitrate};

@@ -4,6 +4,7 @@
 
 pub mod batch;
 pub mod evaluator;
+pub mod judge;
 pub mod lockstep;
 pub mod regions;
 pub mod setup;
