@@ -6,11 +6,11 @@
 //! (a stage above 255, a hash that does not match) is an error, never a silent truncation.
 
 use crate::v1;
+use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Sample;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::batch::{SampleSummary, task_content_hash};
-use hevo_sim_core::controller::ControllerFile;
-use hevo_sim_core::evaluate::{N_SUB_TASKS, NodeUse, SubTaskChoices};
+use hevo_sim_core::{N_SUB_TASKS, NodeUse, SubTaskChoices};
+use hevo_sim_core::{SampleSummary, task_content_hash};
 
 /// Why a message could not be turned into sim-core values.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -255,8 +255,8 @@ pub fn cache_key(template_hash: &str, task_hash: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::controller::NodeSpec;
-    use hevo_sim_core::frame::InputGroup;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::NodeSpec;
 
     fn template(genes: Option<Vec<f32>>) -> ControllerFile {
         ControllerFile::new(NodeSpec {
@@ -287,7 +287,7 @@ mod tests {
                 .zip(&back_genes)
                 .all(|(a, b)| a.to_bits() == b.to_bits())
         );
-        for name in hevo_sim_core::scenario::SHIPPED_NAMES {
+        for name in hevo_sim_core::SHIPPED_NAMES {
             let task = TaskConfig::shipped(name).unwrap();
             let hash = task_content_hash(&task);
             assert_eq!(task_from_json(&task_to_json(&task), &hash).unwrap(), task);

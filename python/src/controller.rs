@@ -4,7 +4,7 @@
 //! each genome. Every change is checked as loading a file is, so a saved controller always loads.
 
 use crate::ControllerError;
-use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
+use hevo_sim_core::{ControllerFile, NodeKind, NodeSpec};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

@@ -223,7 +223,7 @@ pub fn evaluate(
     }
     hevo_sim_core::Evaluator::new(task.clone())
         .map_err(|error| crate::ConfigError::new_err(crate::message(&error)))?;
-    hevo_sim_core::batch::controller_fits(&template, &task.scenario)
+    hevo_sim_core::controller_fits(&template, &task.scenario)
         .map_err(|problem| ControllerError::new_err(format!("the template {problem}")))?;
     let rows: Vec<Arc<[f32]>> = genomes
         .as_array()
@@ -257,8 +257,7 @@ pub fn evaluate(
                 let mut columns = Columns::with_capacity(n);
                 let mut in_flight = VecDeque::new();
                 let reduce =
-                    |columns: &mut Columns,
-                     results: Vec<Vec<hevo_sim_core::batch::SampleSummary>>| {
+                    |columns: &mut Columns, results: Vec<Vec<hevo_sim_core::SampleSummary>>| {
                         for summaries in results {
                             columns.push(&post_evaluation::report(&task, &summaries, &node_paths));
                         }

@@ -149,7 +149,7 @@ pub(crate) fn python_to_json(value: &Bound<'_, PyAny>) -> PyResult<serde_json::V
 /// The names of the shipped scenarios: what `Task(name)` takes besides a scenario file.
 #[pyfunction]
 fn shipped_tasks() -> Vec<String> {
-    hevo_sim_core::scenario::Scenario::shipped_names()
+    hevo_sim_core::Scenario::shipped_names()
         .into_iter()
         .map(str::to_string)
         .collect()

@@ -7,8 +7,8 @@
 use crate::controller::Controller;
 use crate::task::Task;
 use crate::{ConfigError, ControllerError, RunError};
-use hevo_sim_core::controller::Controller as Network;
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::Controller as Network;
+use hevo_sim_core::SensorFrame;
 use hevo_sim_core::{Evaluator, Sample};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{PyArray1, PyArray2, PyArray3};
@@ -28,7 +28,7 @@ impl Trace {
     fn column<T: numpy::Element + Copy>(
         &self,
         py: Python<'_>,
-        pick: impl Fn(&hevo_sim_core::evaluate::TraceCycle) -> T,
+        pick: impl Fn(&hevo_sim_core::TraceCycle) -> T,
     ) -> Py<PyArray1<T>> {
         let values: Vec<T> = self.trace.cycles.iter().map(pick).collect();
         PyArray1::from_vec(py, values).unbind()
@@ -37,7 +37,7 @@ impl Trace {
     fn rows<T: numpy::Element + Copy, const N: usize>(
         &self,
         py: Python<'_>,
-        pick: impl Fn(&hevo_sim_core::evaluate::TraceCycle) -> [T; N],
+        pick: impl Fn(&hevo_sim_core::TraceCycle) -> [T; N],
     ) -> PyResult<Py<PyArray2<T>>> {
         let values: Vec<T> = self.trace.cycles.iter().flat_map(pick).collect();
         let array = Array2::from_shape_vec((self.trace.cycles.len(), N), values)
@@ -222,7 +222,7 @@ impl Trace {
             rays_at_cycles: rays,
             animate,
             title: None,
-            robot_radius: self.evaluator.task().robot.radius,
+            robot_radius: self.evaluator.task().params.robot.radius,
             caption: None,
         };
         let svg =
@@ -314,7 +314,7 @@ pub fn trace(
             n_variants - 1
         )));
     }
-    hevo_sim_core::batch::controller_fits(&file, &task.scenario)
+    hevo_sim_core::controller_fits(&file, &task.scenario)
         .map_err(|problem| ControllerError::new_err(format!("the controller {problem}")))?;
     let mut network = Network::new(&file, None)
         .map_err(|error| ControllerError::new_err(crate::message(&error)))?;

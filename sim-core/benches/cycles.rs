@@ -6,10 +6,10 @@
 //! within one run, so their ratio is a paired comparison.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
-use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::rng::SimRng;
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::SimRng;
+use hevo_sim_core::{BatchEvaluator, EvaluatorKind};
+use hevo_sim_core::{ControllerFile, NodeSpec};
 use hevo_sim_core::{Sample, TaskConfig};
 use rand::{RngExt, SeedableRng};
 

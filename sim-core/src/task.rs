@@ -4,79 +4,13 @@
 //! override any of them (`[node.task_config]`). Everything the paper leaves open is a
 //! documented config value here.
 
-use crate::env::corridor::MAZE_CELL_SIZE;
-use crate::env::room::RoomConfig;
-use crate::robot::RobotConfig;
+use crate::config::{
+    ConfigError, CorridorConfig, IrConfig, LightConfig, Params, RobotConfig, RoomConfig,
+    StartConfig, invalid,
+};
 use crate::scenario::Scenario;
-use crate::sensors::ir::IrConfig;
-use crate::sensors::light::LightConfig;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-
-/// Corridor shapes for the maze primitives.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CorridorConfig {
-    /// Straight corridor length range, in 0.30 m cells, inclusive.
-    pub straight_cells: [u32; 2],
-    /// Cells before the turn, inclusive range (the turn cell included).
-    pub cells_before_turn: [u32; 2],
-    /// Cells after the turn, inclusive range.
-    pub cells_after_turn: [u32; 2],
-    /// Share of turn samples whose turn is a T-junction with a wrong arm, not an L-bend.
-    pub junction_share: f32,
-    /// Share of turn samples whose turn is a side opening with the corridor going on straight
-    /// past it (a wrong branch), as on the way back out of the maze. The turning tasks use
-    /// 0.4; absent means 0, which leaves the content hash of every other task, and so the
-    /// fingerprints of runs evolved before this option existed, unchanged.
-    #[serde(skip_serializing_if = "is_zero")]
-    pub side_junction_share: f32,
-    /// The robot starts a uniform random distance of up to this many metres further along the
-    /// corridor than the centre of its first cell. An arbitrator activates a primitive, freshly
-    /// reset, wherever the robot happens to be, often beside the opening it must take; a turning
-    /// primitive that only ever started a whole cell or more before its junction never learns
-    /// to turn from there (see `docs/decisions/0016-turn-starts-up-to-the-junction.md`). The
-    /// turning tasks use one cell, 0.30 m, so starts cover every distance up to the junction's
-    /// centre; absent means 0, which leaves the other tasks' draws and content hashes unchanged.
-    #[serde(skip_serializing_if = "is_zero")]
-    pub start_advance: f32,
-}
-
-fn is_zero(value: &f32) -> bool {
-    *value == 0.0
-}
-
-impl Default for CorridorConfig {
-    fn default() -> Self {
-        CorridorConfig {
-            straight_cells: [3, 8],
-            cells_before_turn: [2, 4],
-            cells_after_turn: [2, 4],
-            junction_share: 0.5,
-            side_junction_share: 0.0,
-            start_advance: 0.0,
-        }
-    }
-}
-
-/// How a robot is placed at a corridor or maze start.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct StartConfig {
-    /// Uniform sideways offset from the corridor's centre line, metres, up to this much.
-    pub lateral_offset: f32,
-    /// Uniform heading jitter, degrees, up to this much either way.
-    pub heading_jitter_deg: f32,
-}
-
-impl Default for StartConfig {
-    fn default() -> Self {
-        StartConfig {
-            lateral_offset: 0.02,
-            heading_jitter_deg: 10.0,
-        }
-    }
-}
 
 /// Everything that defines a task's samples: the scenario and the numbers in force.
 #[derive(Debug, Clone)]
@@ -101,18 +35,8 @@ pub struct TaskConfig {
     /// the robot's bounding box meets the central half of another branch's end cell, as in the
     /// authors' code (`TMazeEnvironment`'s forbidden squares). Off: any cell off the path.
     pub wrong_branch_at_end_only: bool,
-    /// Robot body and motors.
-    pub robot: RobotConfig,
-    /// IR proximity sensors.
-    pub ir: IrConfig,
-    /// Light-flash sensing.
-    pub light: LightConfig,
-    /// The room generator.
-    pub room: RoomConfig,
-    /// The corridor generator.
-    pub corridor: CorridorConfig,
-    /// Start placement in corridors and the maze.
-    pub start: StartConfig,
+    /// The robot's, its sensors' and the generators' numbers.
+    pub params: Params,
 }
 
 impl PartialEq for TaskConfig {
@@ -198,12 +122,14 @@ impl<'de> Deserialize<'de> for TaskConfig {
             end_on_wrong_branch: wire.end_on_wrong_branch,
             rescue_time_bonus: wire.rescue_time_bonus,
             wrong_branch_at_end_only: wire.wrong_branch_at_end_only,
-            robot: wire.robot,
-            ir: wire.ir,
-            light: wire.light,
-            room: wire.room,
-            corridor: wire.corridor,
-            start: wire.start,
+            params: Params {
+                robot: wire.robot,
+                ir: wire.ir,
+                light: wire.light,
+                room: wire.room,
+                corridor: wire.corridor,
+                start: wire.start,
+            },
         })
     }
 }
@@ -218,12 +144,7 @@ impl TaskConfig {
             end_on_wrong_branch: false,
             rescue_time_bonus: false,
             wrong_branch_at_end_only: false,
-            robot: file.robot.clone(),
-            ir: file.ir,
-            light: file.light,
-            room: file.room.clone(),
-            corridor: file.corridor.clone(),
-            start: file.start.clone(),
+            params: file.params(),
             scenario,
         }
     }
@@ -243,6 +164,14 @@ impl TaskConfig {
             Some(kind) => (Some(kind.to_string()), None),
             None => (None, Some(self.scenario.source.clone())),
         };
+        let Params {
+            robot,
+            ir,
+            light,
+            room,
+            corridor,
+            start,
+        } = self.params.clone();
         TaskWire {
             kind,
             scenario,
@@ -251,12 +180,12 @@ impl TaskConfig {
             end_on_wrong_branch: self.end_on_wrong_branch,
             rescue_time_bonus: self.rescue_time_bonus,
             wrong_branch_at_end_only: self.wrong_branch_at_end_only,
-            robot: self.robot.clone(),
-            ir: self.ir,
-            light: self.light,
-            room: self.room.clone(),
-            corridor: self.corridor.clone(),
-            start: self.start.clone(),
+            robot,
+            ir,
+            light,
+            room,
+            corridor,
+            start,
         }
     }
 
@@ -285,16 +214,12 @@ impl TaskConfig {
         (low, high)
     }
 
-    /// How far around a grid cell the scene must list solids: the body, the IR range and a
-    /// cycle of movement.
-    pub fn query_margin(&self) -> f32 {
-        self.robot.radius + self.ir.range_m + self.robot.v_max * self.robot.cycle_seconds + 0.02
-    }
-
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.robot.validate()?;
-        self.room.validate()?;
+        // In the order the keys have always been checked, so a task with several mistakes
+        // gets the message it got before.
+        self.params.robot.validate()?;
+        self.params.room.validate()?;
         if self.max_cycles() == 0 {
             return Err(invalid("max_cycles", "must be at least 1".into()));
         }
@@ -332,100 +257,17 @@ impl TaskConfig {
                 ),
             ));
         }
-        if !(self.ir.range_m > 0.0 && self.ir.range_m <= 0.5) {
-            return Err(invalid(
-                "ir.range_m",
-                format!("must be in (0, 0.5], got {}", self.ir.range_m),
-            ));
-        }
-        if !(self.ir.cone_deg >= 0.0 && self.ir.cone_deg < 180.0) {
-            return Err(invalid(
-                "ir.cone_deg",
-                format!("must be in [0, 180), got {}", self.ir.cone_deg),
-            ));
-        }
-        let c = &self.corridor;
-        for (name, range, min) in [
-            ("corridor.straight_cells", c.straight_cells, 1),
-            ("corridor.cells_before_turn", c.cells_before_turn, 1),
-            ("corridor.cells_after_turn", c.cells_after_turn, 1),
-        ] {
-            if range[0] < min || range[0] > range[1] || range[1] > 50 {
-                return Err(invalid(
-                    name,
-                    format!("must be [low, high] with {min} <= low <= high <= 50, got {range:?}"),
-                ));
-            }
-        }
-        for (name, share) in [
-            ("corridor.junction_share", c.junction_share),
-            ("corridor.side_junction_share", c.side_junction_share),
-        ] {
-            if !(0.0..=1.0).contains(&share) {
-                return Err(invalid(name, format!("must be in [0, 1], got {share}")));
-            }
-        }
-        if c.junction_share + c.side_junction_share > 1.0 {
-            return Err(invalid(
-                "corridor.side_junction_share",
-                format!(
-                    "plus corridor.junction_share must be at most 1, got {} + {}",
-                    c.side_junction_share, c.junction_share
-                ),
-            ));
-        }
-        // One cell at most, and never from a one-cell corridor, so the advanced start is still
-        // inside the start cell's corridor and never past the junction's centre.
-        if !(0.0..=MAZE_CELL_SIZE).contains(&c.start_advance) {
-            return Err(invalid(
-                "corridor.start_advance",
-                format!(
-                    "must be in [0, {MAZE_CELL_SIZE}] metres, got {}",
-                    c.start_advance
-                ),
-            ));
-        }
-        if c.start_advance > 0.0 && (c.straight_cells[0] < 2 || c.cells_before_turn[0] < 2) {
-            return Err(invalid(
-                "corridor.start_advance",
-                format!(
-                    "{} needs corridor.straight_cells and corridor.cells_before_turn to start at 2 cells or more, got {:?} and {:?}",
-                    c.start_advance, c.straight_cells, c.cells_before_turn
-                ),
-            ));
-        }
-        if !(self.start.lateral_offset >= 0.0 && self.start.lateral_offset <= 0.05) {
-            return Err(invalid(
-                "start.lateral_offset",
-                format!("must be in [0, 0.05], got {}", self.start.lateral_offset),
-            ));
-        }
-        if !(self.start.heading_jitter_deg >= 0.0 && self.start.heading_jitter_deg <= 180.0) {
-            return Err(invalid(
-                "start.heading_jitter_deg",
-                format!("must be in [0, 180], got {}", self.start.heading_jitter_deg),
-            ));
-        }
-        Ok(())
+        self.params.ir.validate()?;
+        self.params.corridor.validate()?;
+        self.params.start.validate()
     }
 }
 
-/// A value of a task configuration that is out of range, or an option where it does not apply.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{key} {message}")]
-pub struct ConfigError {
-    /// The key, as in the configuration: `robot.v_max`, `corridor.start_advance`.
-    pub key: String,
-    /// What is wrong: `must be in [0, 1], got 2`.
-    pub message: String,
-}
-
-/// A [`ConfigError`] for `key`.
-pub(crate) fn invalid(key: &str, message: String) -> ConfigError {
-    ConfigError {
-        key: key.to_string(),
-        message,
-    }
+/// A stable content hash of a task configuration (FNV-1a over its canonical JSON), so workers
+/// can cache evaluators by (template hash, task hash).
+pub fn task_content_hash(task: &TaskConfig) -> String {
+    let json = serde_json::to_string(task).unwrap_or_default();
+    crate::math::hash::fnv1a_hex(json.as_bytes())
 }
 
 #[cfg(test)]
@@ -507,7 +349,7 @@ mod tests {
             ("rescue", "3bbfbfe762587df1"),
         ] {
             assert_eq!(
-                crate::batch::task_content_hash(&shipped(name)),
+                task_content_hash(&shipped(name)),
                 hash,
                 "{name}: {}",
                 serde_json::to_string(&shipped(name)).unwrap()
@@ -547,8 +389,8 @@ mod tests {
         assert_eq!(back, task);
         assert_eq!(back.name(), "my_room");
         assert_ne!(
-            crate::batch::task_content_hash(&task),
-            crate::batch::task_content_hash(&shipped("exit_room"))
+            task_content_hash(&task),
+            task_content_hash(&shipped("exit_room"))
         );
     }
 
@@ -579,11 +421,11 @@ mod tests {
     #[test]
     fn a_start_advance_must_stay_inside_the_corridor() {
         let mut task = shipped("turn_left");
-        task.corridor.start_advance = 0.5;
+        task.params.corridor.start_advance = 0.5;
         let error = task.validate().unwrap_err();
         assert_eq!(error.key, "corridor.start_advance", "{error}");
-        task.corridor.start_advance = 0.2;
-        task.corridor.cells_before_turn = [1, 3];
+        task.params.corridor.start_advance = 0.2;
+        task.params.corridor.cells_before_turn = [1, 3];
         let error = task.validate().unwrap_err();
         assert_eq!(error.key, "corridor.start_advance", "{error}");
         assert!(error.message.contains("cells_before_turn"), "{error}");

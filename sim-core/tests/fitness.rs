@@ -13,9 +13,9 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::{InputGroup, SensorFrame};
-use hevo_sim_core::scene::RectKind;
+use hevo_sim_core::RectKind;
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
+use hevo_sim_core::{InputGroup, SensorFrame};
 use std::collections::BTreeSet;
 
 /// Side of a corridor cell, metres (docs/model.md 5.1).
@@ -483,7 +483,7 @@ fn room_centre_and_exit_distance(task: &TaskConfig, trace: &Trace) -> ([f32; 2],
             .map(|c| c[axis])
             .fold(f32::NEG_INFINITY, f32::max)
     };
-    let stub = task.room.exit_corridor_length;
+    let stub = task.params.room.exit_corridor_length;
     let centre = [
         0.5 * (min(0) + max(0)) - 0.5 * stub * outward[0],
         0.5 * (min(1) + max(1)) - 0.5 * stub * outward[1],
@@ -491,7 +491,7 @@ fn room_centre_and_exit_distance(task: &TaskConfig, trace: &Trace) -> ([f32; 2],
     // The exit's centre lies on the exit wall's inner face: half the interior's depth out.
     let extent = [max(0) - min(0), max(1) - min(1)];
     let depth = (extent[0] * outward[0]).abs() + (extent[1] * outward[1]).abs()
-        - 2.0 * task.room.wall_thickness
+        - 2.0 * task.params.room.wall_thickness
         - stub;
     let out = (exit[0] - centre[0]) * outward[0] + (exit[1] - centre[1]) * outward[1];
     assert!(
@@ -524,7 +524,7 @@ fn f1_is_five_plus_the_time_left_or_the_share_of_the_way_to_the_exit() {
                 // Solved: the centre a body radius beyond the wall's outer face.
                 assert!(
                     beyond(trace.final_robot.position())
-                        > task.room.wall_thickness + task.robot.radius,
+                        > task.params.room.wall_thickness + task.params.robot.radius,
                     "{sample:?}"
                 );
                 5.0 + (max - o.cycles as f32) / max
@@ -649,7 +649,7 @@ fn f3_is_the_sum_of_each_sub_tasks_share_of_correct_choices() {
         };
         for sample in samples(0..4, None) {
             let trace = traced(&task, &mut policy, sample);
-            let truth = ground_truth(&trace, task.robot.near_robot_range);
+            let truth = ground_truth(&trace, task.params.robot.near_robot_range);
             let mut cycles = [0u32; 3];
             let mut correct = [0u32; 3];
             for (&sub_task, &chosen) in truth.iter().zip(&policy.reported) {

@@ -3,8 +3,8 @@
 //! changed, cut and spliced. Reading, validating and building a runnable controller must
 //! never panic; a file that is accepted must also run. The case count bounds the time.
 
-use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::frame::SensorFrame;
+use hevo_sim_core::SensorFrame;
+use hevo_sim_core::{Controller, ControllerFile};
 use proptest::prelude::*;
 
 const SHIPPED: [&str; 3] = [

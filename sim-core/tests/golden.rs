@@ -22,10 +22,9 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::controller::{Controller, ControllerFile, NodeSpec};
-use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::robot::Pose;
-use hevo_sim_core::scenario::SHIPPED_NAMES;
+use hevo_sim_core::Pose;
+use hevo_sim_core::SHIPPED_NAMES;
+use hevo_sim_core::{Controller, ControllerFile, InputGroup, NodeSpec};
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
 
 /// A pose as the bit patterns of x, y and heading.

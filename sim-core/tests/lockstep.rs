@@ -5,11 +5,11 @@
 //! for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
 //! lanes left empty.
 
-use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
-use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::rng::{SimRng, mix64};
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::{BatchEvaluator, EvaluatorKind};
+use hevo_sim_core::{ControllerFile, NodeSpec};
 use hevo_sim_core::{Outcome, Sample, Scenario, TaskConfig};
+use hevo_sim_core::{SimRng, mix64};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use std::sync::Arc;

@@ -2,8 +2,8 @@
 //! files say, and every kind of mistake is refused with the file, the key path and, where the
 //! parser knows it, the line.
 
-use hevo_sim_core::scenario::{SHIPPED, Scenario};
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
+use hevo_sim_core::{SHIPPED, Scenario};
 use std::sync::Arc;
 
 const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
@@ -76,7 +76,7 @@ struct StraightOn;
 impl Policy for StraightOn {
     fn reset(&mut self) {}
 
-    fn step(&mut self, _frame: &hevo_sim_core::frame::SensorFrame, _dt: f32) -> [f32; 2] {
+    fn step(&mut self, _frame: &hevo_sim_core::SensorFrame, _dt: f32) -> [f32; 2] {
         [1.0, 1.0]
     }
 }
@@ -127,15 +127,14 @@ fn a_sensor_the_robot_lacks_reads_zero_and_the_rest_still_sense() {
     };
     // Driving straight up the stem, the robot passes the flashing light and meets the wall.
     let all = trace(t_maze());
-    let max_of = |trace: &hevo_sim_core::Trace,
-                  input: fn(&hevo_sim_core::frame::SensorFrame) -> f32| {
+    let max_of = |trace: &hevo_sim_core::Trace, input: fn(&hevo_sim_core::SensorFrame) -> f32| {
         trace
             .cycles
             .iter()
             .map(|cycle| input(&cycle.frame))
             .fold(0.0, f32::max)
     };
-    use hevo_sim_core::frame::{InputGroup, SensorFrame};
+    use hevo_sim_core::{InputGroup, SensorFrame};
     let ir = |frame: &SensorFrame| {
         let values = frame.values(InputGroup::IR);
         values.iter().copied().fold(0.0, f32::max)
@@ -164,9 +163,9 @@ fn a_sensor_the_robot_lacks_reads_zero_and_the_rest_still_sense() {
 
 #[test]
 fn a_controller_reading_a_sensor_the_robot_lacks_is_refused() {
-    use hevo_sim_core::batch::BatchEvaluator;
-    use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-    use hevo_sim_core::frame::InputGroup;
+    use hevo_sim_core::BatchEvaluator;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::{ControllerFile, NodeSpec};
     let leaf = |name: &str, inputs: Vec<InputGroup>| {
         let spec = NodeSpec::primitive(name, inputs, 2);
         let genes = vec![0.5; spec.topology().n_genes()];
@@ -312,9 +311,9 @@ fn references_to_missing_things_are_named() {
 
 #[test]
 fn a_controller_lacking_a_child_a_phase_asks_for_is_refused() {
-    use hevo_sim_core::batch::{BatchEvaluator, controller_fits};
-    use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
-    use hevo_sim_core::frame::InputGroup;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::{BatchEvaluator, controller_fits};
+    use hevo_sim_core::{ControllerFile, NodeKind, NodeSpec};
     let rescue = TaskConfig::shipped("rescue").unwrap();
     let leaf = |name: &str| {
         let spec = NodeSpec::primitive(name, vec![InputGroup::IR], 2);
@@ -394,9 +393,9 @@ fn t_maze_starting_in_the_wall() -> String {
 
 #[test]
 fn a_start_touching_a_solid_is_refused_before_any_evaluation() {
-    use hevo_sim_core::batch::BatchEvaluator;
-    use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-    use hevo_sim_core::frame::InputGroup;
+    use hevo_sim_core::BatchEvaluator;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::{ControllerFile, NodeSpec};
     let text = t_maze_starting_in_the_wall();
     // It compiles: only building its worlds shows the start in the wall.
     let scenario = Arc::new(Scenario::parse(&text, "mine.toml").expect("it compiles"));
@@ -522,7 +521,7 @@ fn yard_evaluator(place: &str) -> Evaluator {
 fn a_start_anywhere_in_a_rectangle_is_uniform_clear_and_turned_as_asked() {
     let evaluator =
         yard_evaluator("at = \"middle\"\nfacing = \"up\"\nanywhere = true\nturn_deg = [-180, 180]");
-    let radius = evaluator.task().robot.radius;
+    let radius = evaluator.task().params.robot.radius;
     let (mut xs, mut ys, mut headings) = (Vec::new(), Vec::new(), Vec::new());
     for seed in 0..300 {
         let env = evaluator.environment(Sample::seeded(seed));
@@ -578,7 +577,10 @@ fn a_start_anywhere_in_a_map_region_lands_in_each_of_its_cells_facing_within_its
             .position(|&c| c == cell)
             .expect("a cell of the bay");
         in_cell[idx] += 1;
-        assert!(!env.scene.disc_hits(start.position(), task.robot.radius));
+        assert!(
+            !env.scene
+                .disc_hits(start.position(), task.params.robot.radius)
+        );
         let down = -std::f32::consts::FRAC_PI_2;
         assert!(
             (start.heading - down).abs() <= 30f32.to_radians() + 1e-6,
@@ -634,7 +636,7 @@ struct Spin;
 impl Policy for Spin {
     fn reset(&mut self) {}
 
-    fn step(&mut self, _frame: &hevo_sim_core::frame::SensorFrame, _dt: f32) -> [f32; 2] {
+    fn step(&mut self, _frame: &hevo_sim_core::SensorFrame, _dt: f32) -> [f32; 2] {
         [0.0, 1.0]
     }
 }
@@ -754,7 +756,7 @@ fn t_maze_with_a_zone_light(entered: &str) -> String {
 fn a_light_triggered_by_a_region_lights_when_the_robot_enters_it() {
     let text = t_maze_with_a_zone_light("zone");
     let task = TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, "z.toml").unwrap()));
-    let flash_cycles = task.light.flash_cycles as usize;
+    let flash_cycles = task.params.light.flash_cycles as usize;
     let evaluator = Evaluator::new(task).unwrap();
     let trace = evaluator.evaluate_traced(
         &mut StraightOn,
@@ -801,7 +803,7 @@ fn more_lights_than_a_cycle_can_mark_are_refused_and_the_most_compile() {
             .collect();
         T_MAZE.replacen("[[light]]", &format!("{extra}[[light]]"), 1)
     };
-    let most = hevo_sim_core::scenario::MAX_LIGHTS;
+    let most = hevo_sim_core::MAX_LIGHTS;
     Scenario::parse(&with_lights(most), "mine.toml").expect("the most lights compile");
     let error = refusal(&with_lights(most + 1));
     assert!(error.starts_with("mine.toml"), "{error}");
@@ -854,67 +856,6 @@ fn a_huge_value_is_quoted_back_bounded() {
     let long = "x".repeat(100_000);
     let error = refusal(&T_MAZE.replace("name = \"t_maze\"", &format!("name = \"{long}\"")));
     assert!(error.len() < 2_000, "{} bytes", error.len());
-}
-
-mod formulas {
-    use hevo_sim_core::scenario::blocks::Facts;
-    use hevo_sim_core::scenario::formula::{Formula, Quantities};
-    use proptest::prelude::*;
-
-    /// A term as a file writes it: a number or a quantity, perhaps scaled.
-    fn term() -> impl Strategy<Value = String> {
-        let base = prop_oneof![
-            (0u32..20).prop_map(|n| n.to_string()),
-            Just("time_bonus".to_string()),
-            Just("progress".to_string()),
-            Just("derived".to_string()),
-            Just("approach room.exit".to_string()),
-        ];
-        let scale = prop_oneof![
-            Just(String::new()),
-            (1u32..9).prop_map(|n| format!(" / {n}")),
-            (1u32..9).prop_map(|n| format!(" * {n}")),
-        ];
-        (base, scale).prop_map(|(base, scale)| format!("{base}{scale}"))
-    }
-
-    proptest! {
-        /// Whatever the formula and wherever each quantity lies in its range, the value lies
-        /// in the range the checks of remote results use.
-        #[test]
-        fn a_formula_stays_inside_its_range(
-            terms in prop::collection::vec(term(), 1..5),
-            values in prop::array::uniform4(0.0f32..=1.0),
-            derived in 0.0f32..=3.0,
-        ) {
-            let text = terms.join(" + ");
-            let facts = Facts {
-                lights: &[],
-                region: &|name| Err(format!("no region '{name}'")),
-                has_room: true,
-                goals_in_cells: true,
-                has_teammate: true,
-                has_phases: true,
-                near_m: 0.1,
-            };
-            let mut quantities = Quantities::new();
-            let formula = Formula::parse(&text, &facts, &mut quantities).unwrap();
-            // Each quantity's own range, for a scenario of three phases.
-            let range_of = |idx: usize| quantities[idx].1.range(3);
-            let value_of = |idx: usize| match quantities[idx].0.as_str() {
-                "time_bonus" => values[0],
-                "progress" => values[1],
-                "approach room.exit" => values[2],
-                "derived" => derived,
-                _ => values[3],
-            };
-            let (low, high) = formula.range(&range_of);
-            let value = formula.eval(&value_of);
-            // f32 sums in another order than the range's: allow a rounding step.
-            let slack = 1e-4 * (1.0 + high.abs());
-            prop_assert!(value >= low - slack && value <= high + slack, "{text}: {value} outside [{low}, {high}]");
-        }
-    }
 }
 
 #[test]
@@ -995,7 +936,8 @@ fn a_room_joins_a_corridor_below_its_first_cell() {
         assert!((room.exit_center[1] - exit_y).abs() < 1e-5, "seed {seed}");
         assert_eq!(room.exit_outward, [0.0, 1.0]);
         assert!(
-            !env.scene.disc_hits(env.start.position(), task.robot.radius),
+            !env.scene
+                .disc_hits(env.start.position(), task.params.robot.radius),
             "seed {seed}: the start touches a solid"
         );
         assert!(

@@ -22,9 +22,9 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::{InputGroup, SensorFrame};
-use hevo_sim_core::sensors::IrMapping;
+use hevo_sim_core::IrMapping;
 use hevo_sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, Trace};
+use hevo_sim_core::{InputGroup, SensorFrame};
 
 /// Samples per task (per light configuration for the maze).
 const SEEDS: u64 = 200;
@@ -32,7 +32,7 @@ const SEEDS: u64 = 200;
 /// The paper's task with the specification-conforming IR mapping (see the top of the file).
 fn spec_task(kind: &'static str) -> TaskConfig {
     let mut task = TaskConfig::shipped(kind).unwrap();
-    task.ir.mapping = IrMapping::LinearRaw;
+    task.params.ir.mapping = IrMapping::LinearRaw;
     task
 }
 
@@ -400,7 +400,7 @@ fn exit_room_is_solved_by_the_room_exiter() {
             panic!("the room's trace names its exit")
         };
         let beyond = distance_beyond(trace.final_robot.position(), exit);
-        let needed = task.room.wall_thickness + task.robot.radius;
+        let needed = task.params.room.wall_thickness + task.params.robot.radius;
         assert_eq!(
             trace.outcome.solved,
             beyond > needed,
@@ -476,9 +476,9 @@ fn rescue_is_solved_by_the_rescuer_and_its_stages_are_counted() {
         let Some(mate) = trace.cycles.last().and_then(|c| c.teammate) else {
             panic!("the rescue has a teammate")
         };
-        let step = task.robot.v_max * task.robot.cycle_seconds;
+        let step = task.params.robot.v_max * task.params.robot.cycle_seconds;
         assert!(
-            distance_beyond(mate.position(), exit) < -task.robot.radius + step + 1e-4,
+            distance_beyond(mate.position(), exit) < -task.params.robot.radius + step + 1e-4,
             "seed {seed}: teammate at {mate:?}"
         );
     }
@@ -669,7 +669,7 @@ fn light_runs(trace: &Trace) -> Vec<(usize, usize, usize, bool)> {
 #[test]
 fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
     let evaluator = evaluator("solve_maze");
-    let hold = spec_task("solve_maze").light.hold_cycles as usize;
+    let hold = spec_task("solve_maze").params.light.hold_cycles as usize;
     assert_eq!(hold, 15, "the paper holds a flash for 15 cycles");
     // The shipped layout: configurations 0 and 1 flash on the right in the first row, 2 and 3
     // on the left; in the second row 1 and 2 on the right, 0 and 3 on the left.

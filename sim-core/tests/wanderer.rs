@@ -3,9 +3,9 @@
 //! seed and differs between seeds, and once the robot meets it, it stops wandering and
 //! follows.
 
-use hevo_sim_core::frame::SensorFrame;
-use hevo_sim_core::robot::Pose;
-use hevo_sim_core::scene::Scene;
+use hevo_sim_core::Pose;
+use hevo_sim_core::Scene;
+use hevo_sim_core::SensorFrame;
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, Scenario, TaskConfig, Trace};
 use std::sync::Arc;
 
@@ -45,10 +45,10 @@ fn the_wanderer_moves_and_never_touches_a_solid() {
         let trace = traced(&task, seed);
         let path = teammate_path(&trace);
         assert_eq!(path.len(), trace.cycles.len());
-        let scene = Scene::new(trace.rects.clone(), task.query_margin());
+        let scene = Scene::new(trace.rects.clone(), task.params.query_margin());
         for (cycle, pose) in path.iter().enumerate() {
             assert!(
-                !scene.disc_hits(pose.position(), task.robot.radius),
+                !scene.disc_hits(pose.position(), task.params.robot.radius),
                 "seed {seed}: the wanderer touches a solid at cycle {cycle}: {pose:?}"
             );
         }
@@ -72,7 +72,7 @@ fn the_wanderer_moves_and_never_touches_a_solid() {
             .windows(2)
             .map(|w| w[0].distance_to(w[1].position()))
             .fold(0.0f32, f32::max);
-        let allowed = 0.5 * task.robot.v_max * task.robot.cycle_seconds;
+        let allowed = 0.5 * task.params.robot.v_max * task.params.robot.cycle_seconds;
         assert!(longest <= allowed * 1.0001 + 1e-6, "a step of {longest} m");
     }
 }
@@ -103,7 +103,7 @@ fn a_met_wanderer_follows_and_the_sample_is_solved() {
     let mut task = task();
     // With the near-robot range larger than the room, the wanderer is met in the first cycle
     // wherever it is.
-    task.robot.near_robot_range = 5.0;
+    task.params.robot.near_robot_range = 5.0;
     let evaluator = Evaluator::new(task.clone()).unwrap();
     let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(1));
     assert_eq!(outcome.ending, Ending::Solved);
@@ -134,7 +134,7 @@ fn a_robot_that_stands_still_scores_its_closest_approach() {
         // `approach teammate / 2`: half the share of the first distance the closest covered;
         // the judge also sees the pose after the last move, so allow for one more step.
         let expected = 0.5 * (first - closest) / first;
-        let step = 0.5 * task.robot.v_max * task.robot.cycle_seconds;
+        let step = 0.5 * task.params.robot.v_max * task.params.robot.cycle_seconds;
         assert!(
             trace.outcome.fitness >= expected - 1e-6
                 && trace.outcome.fitness <= expected + 0.5 * step / first + 1e-6,
@@ -144,6 +144,6 @@ fn a_robot_that_stands_still_scores_its_closest_approach() {
         assert!(trace.outcome.fitness > 0.0);
     } else {
         assert_eq!(trace.outcome.ending, Ending::Solved);
-        assert!(closest < task.robot.near_robot_range + 0.05);
+        assert!(closest < task.params.robot.near_robot_range + 0.05);
     }
 }

@@ -17,15 +17,15 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::frame::{InputGroup, SensorFrame};
-use hevo_sim_core::rng::{Stream, stream_rng};
-use hevo_sim_core::robot::Pose;
-use hevo_sim_core::scenario::{SHIPPED_NAMES, Scenario};
-use hevo_sim_core::scene::Rect;
-use hevo_sim_core::sensors::IrMapping;
-use hevo_sim_core::sensors::N_IR;
-use hevo_sim_core::sensors::ir::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
+use hevo_sim_core::IrMapping;
+use hevo_sim_core::N_IR;
+use hevo_sim_core::Pose;
+use hevo_sim_core::Rect;
 use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig, Trace};
+use hevo_sim_core::{IR_CURVE_NAMES, IrModel, IrSensorSetup, N_MEASURED_IR_CURVES};
+use hevo_sim_core::{InputGroup, SensorFrame};
+use hevo_sim_core::{SHIPPED_NAMES, Scenario};
+use hevo_sim_core::{Stream, stream_rng};
 use proptest::prelude::*;
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
@@ -169,7 +169,7 @@ proptest! {
 
     #[test]
     fn robots_never_enter_walls_or_obstacles(kind in task_kind(), seed in any::<u64>(), segments in segments()) {
-        let radius = TaskConfig::shipped(kind).unwrap().robot.radius;
+        let radius = TaskConfig::shipped(kind).unwrap().params.robot.radius;
         let evaluator = evaluator(kind, Some(1500), false);
         let trace = evaluator.evaluate_traced(&mut Wander::new(segments), Sample::seeded(seed));
         assert_never_inside(&trace, radius);
@@ -233,7 +233,7 @@ fn wandering_does_press_against_walls() {
 fn the_scripted_policies_never_enter_walls_either() {
     // They drive close to walls on purpose (the room exiter at about 2 cm).
     for kind in SHIPPED_NAMES {
-        let radius = TaskConfig::shipped(kind).unwrap().robot.radius;
+        let radius = TaskConfig::shipped(kind).unwrap().params.robot.radius;
         let evaluator = evaluator(kind, None, false);
         for seed in 0..12 {
             assert_never_inside(
@@ -248,7 +248,7 @@ fn the_scripted_policies_never_enter_walls_either() {
 fn every_start_pose_is_free() {
     for kind in SHIPPED_NAMES {
         let task = TaskConfig::shipped(kind).unwrap();
-        let radius = task.robot.radius;
+        let radius = task.params.robot.radius;
         let evaluator = evaluator(kind, Some(1), true);
         let seeds = if matches!(kind, "exit_room" | "rescue") {
             0..1500
@@ -367,9 +367,9 @@ fn ir_inputs_meet_the_spec_with_the_default_mapping() {
 /// (obstacles kept 0.4 m from the room's centre): each must be about 0.
 fn empty_room_start_readings(mapping: IrMapping) -> Vec<String> {
     let mut task = TaskConfig::shipped("exit_room").unwrap();
-    task.ir.mapping = mapping;
-    task.room.start_clearance = 0.4;
-    let reach = task.robot.radius + task.ir.range_m;
+    task.params.ir.mapping = mapping;
+    task.params.room.start_clearance = 0.4;
+    let reach = task.params.robot.radius + task.params.ir.range_m;
     let evaluator = Evaluator::new(task).expect("a valid configuration");
     let mut bad = Vec::new();
     for seed in 0..200 {
@@ -652,7 +652,7 @@ otherwise = "progress / 3"
 /// Whether a disc of `radius` can move along the straight segment `from` -> `to` without
 /// touching a solid, tested every centimetre.
 fn segment_is_clear(
-    scene: &hevo_sim_core::scene::Scene,
+    scene: &hevo_sim_core::Scene,
     from: [f32; 2],
     to: [f32; 2],
     radius: f32,
@@ -708,7 +708,7 @@ proptest! {
         let evaluator = wandering_evaluator(Scenario::parse(&text, "random_map.toml").unwrap());
         let sample = Sample::seeded(seed);
         let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
-        assert_never_inside(&trace, evaluator.task().robot.radius);
+        assert_never_inside(&trace, evaluator.task().params.robot.radius);
         let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
         prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
     }
@@ -737,7 +737,7 @@ proptest! {
         let evaluator = wandering_evaluator(scenario);
         let sample = Sample::seeded(seed);
         let trace = evaluator.evaluate_traced(&mut Wander::new(segments.clone()), sample);
-        assert_never_inside(&trace, evaluator.task().robot.radius);
+        assert_never_inside(&trace, evaluator.task().params.robot.radius);
         let again = evaluator.evaluate_traced(&mut Wander::new(segments), sample);
         prop_assert_eq!(&trace.outcome, &again.outcome, "same seed, same outcome");
     }
@@ -772,7 +772,7 @@ proptest! {
         }
         let evaluator = Evaluator::new(TaskConfig { end_on_collision: false, ..task })
             .expect("a valid task");
-        let radius = evaluator.task().robot.radius;
+        let radius = evaluator.task().params.robot.radius;
         let sample = Sample::seeded(seed);
         let env = evaluator.environment(sample);
         let goal = env.ground.goal.as_ref().expect("a corridor has a goal in cells");

@@ -464,15 +464,15 @@ mod tests {
 
     #[test]
     fn the_sim_executor_evaluates_and_refuses_what_it_cannot_trust() {
-        use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-        use hevo_sim_core::frame::InputGroup;
+        use hevo_sim_core::InputGroup;
+        use hevo_sim_core::{ControllerFile, NodeSpec};
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 2));
         let mut task = hevo_sim_core::TaskConfig::shipped("follow_wall").unwrap();
         task.max_cycles = Some(30);
         let n = template.root.topology().n_genes();
         let mut batch = v1::Batch {
             template_hash: template.content_hash(),
-            task_hash: hevo_sim_core::batch::task_content_hash(&task),
+            task_hash: hevo_sim_core::task_content_hash(&task),
             template_json: convert::template_to_json(&template),
             task_json: convert::task_to_json(&task),
             genomes: (0..3)

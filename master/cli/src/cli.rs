@@ -12,9 +12,9 @@ use hevo_engine::runner::{self, Overrides, RunSettings};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
-use hevo_sim_core::batch::EvaluatorKind;
-use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::EvaluatorKind;
+use hevo_sim_core::Scenario;
+use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -444,7 +444,7 @@ pub fn execute(cli: Cli) -> Result<()> {
 /// Refuses a controller that reads a sensor the task's robot lacks (it would read zeros), or
 /// lacks a child a phase of the task's derived fitness asks for (it would score by position).
 fn check_fits(path: &Path, controller: &ControllerFile, task: &TaskConfig) -> Result<()> {
-    hevo_sim_core::batch::controller_fits(controller, &task.scenario)
+    hevo_sim_core::controller_fits(controller, &task.scenario)
         .map_err(|problem| anyhow::anyhow!("{}: the controller {problem}", path.display()))
 }
 
@@ -799,7 +799,7 @@ fn replay(args: ReplayArgs) -> Result<()> {
             rays_at_cycles: args.rays.clone(),
             animate: args.animate,
             title: None,
-            robot_radius: evaluator.task().robot.radius,
+            robot_radius: evaluator.task().params.robot.radius,
             caption: None,
         };
         let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));

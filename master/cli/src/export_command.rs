@@ -58,7 +58,7 @@ pub enum TargetArg {
 pub fn export(args: ExportArgs) -> Result<()> {
     let task = args.task.task_config()?;
     let controller = hevo_engine::inputs::read_complete_controller(&args.controller)?;
-    hevo_sim_core::batch::controller_fits(&controller, &task.scenario).map_err(|problem| {
+    hevo_sim_core::controller_fits(&controller, &task.scenario).map_err(|problem| {
         anyhow::anyhow!("{}: the controller {problem}", args.controller.display())
     })?;
     if args.vector_samples == 0 || args.vector_samples > 1000 {

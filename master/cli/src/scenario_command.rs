@@ -6,10 +6,10 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use hevo_sim_core::ctrnn::CtrnnTopology;
-use hevo_sim_core::frame::{InputGroup, SensorFrame};
-use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::CtrnnTopology;
+use hevo_sim_core::Scenario;
 use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig};
+use hevo_sim_core::{InputGroup, SensorFrame};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -131,7 +131,7 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
     }
     // The regions of the first sample's world (generators may leave one out of a sample).
     let env = evaluator.environment(Sample::seeded(0));
-    let regions: Vec<String> = hevo_sim_core::env::regions::named_regions(task, &env)
+    let regions: Vec<String> = hevo_sim_core::named_regions(task, &env)
         .into_iter()
         .map(|region| region.name)
         .collect();
@@ -157,10 +157,10 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
             .phases
             .iter()
             .map(|phase| match &phase.child {
-                hevo_sim_core::scenario::file::ChildRef::Name(child) => {
+                hevo_sim_core::ChildRef::Name(child) => {
                     format!("{} (child {child})", phase.name)
                 }
-                hevo_sim_core::scenario::file::ChildRef::Index(idx) => {
+                hevo_sim_core::ChildRef::Index(idx) => {
                     format!("{} (child {idx})", phase.name)
                 }
             })
@@ -197,7 +197,7 @@ fn endings_summary(task: &TaskConfig) -> String {
 /// The robot's sensors, the inputs a network over all of them reads, and the genome such a
 /// network needs (the sizes `hevo run` evolves: a primitive drives two wheels, an arbitrator
 /// has an output per child).
-fn inputs_summary(scenario: &hevo_sim_core::scenario::Scenario) -> String {
+fn inputs_summary(scenario: &hevo_sim_core::Scenario) -> String {
     let groups: Vec<InputGroup> = scenario.sensors.groups().collect();
     let n_inputs: usize = groups.iter().map(|group| group.width()).sum();
     let sensors: Vec<String> = groups
@@ -261,7 +261,7 @@ fn draw(args: &DrawArgs) -> Result<()> {
         });
     let options = hevo_viz::ReplayOptions {
         title: Some(format!("Scenario: {} · seed {}", task.name(), args.seed)),
-        robot_radius: task.robot.radius,
+        robot_radius: task.params.robot.radius,
         caption: Some([
             format!("{} · seed {}{variant_name}", task.name(), args.seed),
             format!(
@@ -273,7 +273,7 @@ fn draw(args: &DrawArgs) -> Result<()> {
     };
     // The regions of the very world the trace ran in: the same sample, so the same draws.
     let env = Evaluator::for_drawing(task.clone())?.environment(sample);
-    let regions = hevo_sim_core::env::regions::named_regions(&task, &env);
+    let regions = hevo_sim_core::named_regions(&task, &env);
     let svg = hevo_viz::scenario_svg(&trace, &options, &regions);
     hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;

@@ -21,8 +21,8 @@ pub mod stream;
 
 use hevo_engine::post_evaluation::EvalReport;
 use hevo_engine::rundir::{FitnessRow, NodeSummary, RunSummary};
+use hevo_sim_core::ControllerFile;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::controller::ControllerFile;
 use std::future::Future;
 use std::pin::Pin;
 

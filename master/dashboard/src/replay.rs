@@ -5,7 +5,7 @@
 
 use crate::BestController;
 use crate::html::escape;
-use hevo_sim_core::controller::Controller;
+use hevo_sim_core::Controller;
 use hevo_sim_core::{Evaluator, Sample};
 use hevo_viz::svg::num_with;
 
@@ -38,7 +38,7 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
     for variant in variants {
         let mut controller = Controller::new(&best.file, None).map_err(|e| e.to_string())?;
         let trace = evaluator.evaluate_traced(&mut controller, Sample { seed, variant });
-        let radius_m = evaluator.task().robot.radius;
+        let radius_m = evaluator.task().params.robot.radius;
         let title = match variant {
             Some(k) => format!("{node}: light configuration {k}, seed {seed}"),
             None => format!("{node}: seed {seed}"),

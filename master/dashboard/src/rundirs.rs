@@ -7,8 +7,8 @@
 use crate::{BestController, BoxFuture, JobOverview, NodeView, RunView, Source, SourceError};
 use hevo_engine::rundir::{self, NodeSummary, RunSummary};
 use hevo_engine::store::read_json;
+use hevo_sim_core::ControllerFile;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::controller::ControllerFile;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -110,7 +110,7 @@ pub fn read_best(
 /// A fingerprint of what the pages show of a run directory: the size and modification time of
 /// every log and summary.
 fn signature(out_dir: &Path) -> u64 {
-    let mut hash = hevo_sim_core::hash::Fnv1a::new();
+    let mut hash = hevo_sim_core::Fnv1a::new();
     for name in node_names(out_dir) {
         let node_dir = rundir::node_dir(out_dir, &name);
         let mut files = vec![node_dir.join(rundir::SUMMARY)];

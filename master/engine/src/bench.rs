@@ -6,10 +6,10 @@
 use crate::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, RequestShared};
 use crate::experiment::Experiment;
 use crate::local::LocalPool;
-use hevo_sim_core::batch::{BatchEvaluator, EvaluatorKind};
-use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
-use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::rng::SimRng;
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::SimRng;
+use hevo_sim_core::{BatchEvaluator, EvaluatorKind};
+use hevo_sim_core::{ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::{Sample, TaskConfig};
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
@@ -144,8 +144,8 @@ pub fn paper_controller(task: &TaskConfig, seed: u64) -> ControllerFile {
                     .iter()
                     .enumerate()
                     .map(|(idx, phase)| match &phase.child {
-                        hevo_sim_core::scenario::file::ChildRef::Name(name) => primitive(name, rng),
-                        hevo_sim_core::scenario::file::ChildRef::Index(_) => {
+                        hevo_sim_core::ChildRef::Name(name) => primitive(name, rng),
+                        hevo_sim_core::ChildRef::Index(_) => {
                             primitive(&format!("child_{idx}"), rng)
                         }
                     })
@@ -196,7 +196,7 @@ pub struct BenchReport {
 pub enum BenchError {
     /// The benchmark's controller or task is invalid (a bug: both are built here).
     #[error(transparent)]
-    Setup(#[from] hevo_sim_core::batch::BatchError),
+    Setup(#[from] hevo_sim_core::BatchError),
     /// The dispatcher stopped.
     #[error(transparent)]
     Dispatch(#[from] crate::dispatch::DispatchError),

@@ -17,10 +17,10 @@
 //! points, [`Dispatcher::evaluate`] and the long-polling [`Dispatcher::lease`], are the edge
 //! where the clock is read.
 
+use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Sample;
+use hevo_sim_core::SampleSummary;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::batch::SampleSummary;
-use hevo_sim_core::controller::ControllerFile;
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -51,7 +51,7 @@ impl RequestShared {
     pub fn new(template: ControllerFile, task: TaskConfig) -> RequestShared {
         RequestShared {
             template_hash: template.content_hash(),
-            task_hash: hevo_sim_core::batch::task_content_hash(&task),
+            task_hash: hevo_sim_core::task_content_hash(&task),
             n_nodes: template.node_paths().len(),
             n_genes: template
                 .free_node_topology()
@@ -969,9 +969,9 @@ fn split(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::NodeSpec;
     use hevo_sim_core::TaskConfig;
-    use hevo_sim_core::controller::NodeSpec;
-    use hevo_sim_core::frame::InputGroup;
 
     fn request(job: &str, n_genomes: usize, n_samples: usize) -> EvaluationRequest {
         let template = ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 1));

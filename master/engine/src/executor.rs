@@ -6,10 +6,10 @@
 //! or on which thread ran what: a sample's outcome depends only on the genome and the sample's
 //! seed.
 
+use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Sample;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::batch::{BatchEvaluator, SampleSummary};
-use hevo_sim_core::controller::ControllerFile;
+use hevo_sim_core::{BatchEvaluator, SampleSummary};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -183,8 +183,8 @@ pub fn evaluate_genomes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::controller::NodeSpec;
-    use hevo_sim_core::frame::InputGroup;
+    use hevo_sim_core::InputGroup;
+    use hevo_sim_core::NodeSpec;
 
     fn template() -> ControllerFile {
         ControllerFile::new(NodeSpec::primitive("p", vec![InputGroup::IR], 3))

@@ -7,10 +7,10 @@ use hevo_evolve::cmaes::CmaesSettings;
 use hevo_evolve::ga::GaSettings;
 use hevo_evolve::seeds::VariantDraw;
 use hevo_evolve::{StrategyError, StrategySettings};
-use hevo_sim_core::controller::{ControllerFile, NodeKind};
-use hevo_sim_core::frame::{InputGroup, SensorSet};
-use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::Scenario;
+use hevo_sim_core::{ControllerFile, NodeKind};
 use hevo_sim_core::{Evaluator, TaskConfig};
+use hevo_sim_core::{InputGroup, SensorSet};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -69,10 +69,10 @@ pub fn generation_bytes(population: u32, n_genes: usize, samples: u32) -> u64 {
 pub fn declared_genes(node: &NodeDecl) -> usize {
     let n_inputs = node.inputs.iter().map(|group| group.width()).sum();
     let n_outputs = match node.kind {
-        NodeKind::Primitive => hevo_sim_core::controller::PRIMITIVE_OUTPUTS,
+        NodeKind::Primitive => hevo_sim_core::PRIMITIVE_OUTPUTS,
         NodeKind::Arbitrator => node.children.len(),
     };
-    hevo_sim_core::ctrnn::CtrnnTopology::new(n_inputs, node.hidden, n_outputs).n_genes()
+    hevo_sim_core::CtrnnTopology::new(n_inputs, node.hidden, n_outputs).n_genes()
 }
 
 /// Refuses a node whose work would cost more than the limits allow, before anything is
@@ -1361,7 +1361,7 @@ mutation_sigma = 0.5
             .collect();
         assert_eq!(names, ["fw", "tl", "maze"]);
         let fw = experiment.node("fw").unwrap();
-        assert_eq!(fw.task.robot.v_max, 0.12);
+        assert_eq!(fw.task.params.robot.v_max, 0.12);
         assert_eq!(fw.task.max_cycles(), 300);
         assert_eq!(fw.evolution.population, 20);
         assert_eq!(experiment.node("tl").unwrap().evolution.mutation_sigma, 0.5);
@@ -1407,7 +1407,7 @@ runs = 1
             .unwrap()
     }
 
-    use hevo_sim_core::controller::NodeSpec;
+    use hevo_sim_core::NodeSpec;
 
     #[test]
     fn children_may_come_from_controller_files_and_other_run_directories() {

@@ -4,9 +4,9 @@
 //! line and Python refuse the same inputs with the same messages (file, key, what was expected).
 
 use crate::experiment::with_task_overrides;
+use hevo_sim_core::ControllerFile;
+use hevo_sim_core::Scenario;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::controller::ControllerFile;
-use hevo_sim_core::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -101,7 +101,7 @@ pub enum ControllerInputError {
         /// The file.
         file: PathBuf,
         /// What is wrong, naming the node.
-        reason: hevo_sim_core::controller::ControllerError,
+        reason: hevo_sim_core::ControllerError,
     },
     /// A node has no genome where a complete controller is needed.
     #[error("{}: node '{node}' has no genome; a controller to evaluate must be complete", .file.display())]
@@ -162,7 +162,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(shorter.max_cycles, Some(77));
-        assert_eq!(shorter.robot.v_max, 0.08);
+        assert_eq!(shorter.params.robot.v_max, 0.08);
         let typo = task_with_overrides(
             task.clone(),
             serde_json::json!({"robot": {"vmax": 0.1}}),
@@ -200,9 +200,9 @@ mod tests {
         let invalid = read_controller(&broken).unwrap_err().to_string();
         assert!(invalid.contains("invalid controller file"), "{invalid}");
         let free = dir.path().join("free.json");
-        let template = ControllerFile::new(hevo_sim_core::controller::NodeSpec::primitive(
+        let template = ControllerFile::new(hevo_sim_core::NodeSpec::primitive(
             "p",
-            vec![hevo_sim_core::frame::InputGroup::IR],
+            vec![hevo_sim_core::InputGroup::IR],
             2,
         ));
         std::fs::write(&free, template.to_json_pretty().unwrap()).unwrap();

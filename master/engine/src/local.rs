@@ -11,7 +11,7 @@
 
 use crate::dispatch::{Batch, DispatchConfig, Dispatcher};
 use crate::executor::{EvaluatorCache, ExecError, evaluate_genomes};
-use hevo_sim_core::batch::{BatchEvaluator, SampleSummary};
+use hevo_sim_core::{BatchEvaluator, SampleSummary};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;

@@ -7,9 +7,9 @@
 //! over every worker like a generation does.
 
 use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShared};
-use hevo_sim_core::batch::SampleSummary;
-use hevo_sim_core::controller::ControllerFile;
-use hevo_sim_core::rng::derive_seed;
+use hevo_sim_core::ControllerFile;
+use hevo_sim_core::SampleSummary;
+use hevo_sim_core::derive_seed;
 use hevo_sim_core::{Sample, TaskConfig};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;

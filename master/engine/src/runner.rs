@@ -21,8 +21,8 @@ use crate::store::{
 };
 use hevo_evolve::{Evaluation, seeds};
 use hevo_sim_core::Sample;
-use hevo_sim_core::batch::task_content_hash;
-use hevo_sim_core::controller::{ControllerFile, NodeSpec};
+use hevo_sim_core::task_content_hash;
+use hevo_sim_core::{ControllerFile, NodeSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -374,7 +374,7 @@ fn fingerprint(plan: &NodePlan, template: &ControllerFile, seed: u64, generation
         "task": task_content_hash(&plan.task),
         "template": template.content_hash(),
     });
-    hevo_sim_core::hash::fnv1a_hex(material.to_string().as_bytes())
+    hevo_sim_core::fnv1a_hex(material.to_string().as_bytes())
 }
 
 async fn run_node(
@@ -789,7 +789,7 @@ mod tests {
     use crate::dispatch::{Batch, DispatchConfig};
     use hevo_evolve::ga::{GaState, initial_population};
     use hevo_evolve::{StrategySettings, StrategyState};
-    use hevo_sim_core::batch::SampleSummary;
+    use hevo_sim_core::SampleSummary;
     use std::collections::HashMap;
     use std::sync::Mutex;
     use std::time::Duration;
@@ -824,7 +824,7 @@ runs = 1
     fn unit(seed: u64, genes: &[f32]) -> f32 {
         let mut bytes = seed.to_le_bytes().to_vec();
         bytes.extend(genes.iter().flat_map(|g| g.to_le_bytes()));
-        (hevo_sim_core::hash::fnv1a(&bytes) % 1000) as f32 / 1000.0
+        (hevo_sim_core::fnv1a(&bytes) % 1000) as f32 / 1000.0
     }
 
     /// A sample's fake fitness, inside exit_room's range [0, 6] (the dispatcher refuses any

@@ -11,10 +11,10 @@ use hevo_engine::post_evaluation::post_evaluation_samples;
 use hevo_engine::rundir;
 use hevo_engine::runner::{Overrides, Progress, ProgressEvent, RunSettings, run_experiment};
 use hevo_evolve::seeds;
-use hevo_sim_core::batch::SampleSummary;
-use hevo_sim_core::controller::{Controller, ControllerFile, NodeKind, NodeSpec};
-use hevo_sim_core::ctrnn::CtrnnTopology;
-use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::CtrnnTopology;
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::SampleSummary;
+use hevo_sim_core::{Controller, ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -239,7 +239,7 @@ fn every_paper_task_models_the_papers_robot_and_sensors() {
     ];
     for (name, max_cycles) in cycles {
         let task = TaskConfig::shipped(name).unwrap();
-        let robot = &task.robot;
+        let robot = &task.params.robot;
         assert_eq!(
             robot.radius, 0.0375,
             "{name}: body radius (diameter 0.075 m)"
@@ -249,10 +249,16 @@ fn every_paper_task_models_the_papers_robot_and_sensors() {
         assert_eq!(robot.wheel_noise, 0.05, "{name}: wheel noise");
         assert_eq!(robot.cycle_seconds, 0.1, "{name}: control cycle");
         assert_eq!(robot.near_robot_range, 0.15, "{name}: near-robot range");
-        assert_eq!(task.light.hold_cycles, 15, "{name}: flash hold, cycles");
-        assert_eq!(task.ir.offset_fraction, 0.05, "{name}: IR offset noise");
-        assert_eq!(task.ir.range_m, 0.14, "{name}: IR range");
-        assert_eq!(task.ir.cone_deg, 70.0, "{name}: IR cone opening");
+        assert_eq!(
+            task.params.light.hold_cycles, 15,
+            "{name}: flash hold, cycles"
+        );
+        assert_eq!(
+            task.params.ir.offset_fraction, 0.05,
+            "{name}: IR offset noise"
+        );
+        assert_eq!(task.params.ir.range_m, 0.14, "{name}: IR range");
+        assert_eq!(task.params.ir.cone_deg, 70.0, "{name}: IR cone opening");
         assert_eq!(task.max_cycles(), max_cycles, "{name}: cycle limit");
     }
 }

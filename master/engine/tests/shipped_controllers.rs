@@ -13,8 +13,8 @@
 //! measured on other samples: rescue 88.0 % here, 87.8-88.8 % there.)
 
 use hevo_engine::post_evaluation::{post_evaluation_samples, report};
-use hevo_sim_core::batch::SampleSummary;
-use hevo_sim_core::controller::{Controller, ControllerFile};
+use hevo_sim_core::SampleSummary;
+use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, TaskConfig};
 use std::path::PathBuf;
 
@@ -157,8 +157,8 @@ fn task_of(floor: &Floor) -> TaskConfig {
     }
     let text = std::fs::read_to_string(repo_root().join(floor.task))
         .unwrap_or_else(|e| panic!("{}: {e}", floor.task));
-    let scenario = hevo_sim_core::scenario::Scenario::parse(&text, floor.task)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let scenario =
+        hevo_sim_core::Scenario::parse(&text, floor.task).unwrap_or_else(|e| panic!("{e}"));
     TaskConfig::from_scenario(std::sync::Arc::new(scenario))
 }
 
@@ -218,7 +218,7 @@ fn measure(file: &str, task: &TaskConfig) -> Counts {
         },
         stages: (task.name() == "rescue")
             .then(|| [1, 2, 3].map(|stage| count(&|s| s.stage >= stage))),
-        solved_samples: hevo_sim_core::hash::fnv1a_hex(
+        solved_samples: hevo_sim_core::fnv1a_hex(
             &summaries
                 .iter()
                 .map(|s| if s.solved { b'1' } else { b'0' })

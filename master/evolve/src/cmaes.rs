@@ -567,7 +567,7 @@ mod tests {
             cmaes.tell(&results).unwrap();
         }
         let bytes: Vec<u8> = bits.iter().flat_map(|b| b.to_le_bytes()).collect();
-        assert_eq!(hevo_sim_core::hash::fnv1a(&bytes), 0xfba0_626c_3d8c_9b73);
+        assert_eq!(hevo_sim_core::fnv1a(&bytes), 0xfba0_626c_3d8c_9b73);
     }
 
     #[test]

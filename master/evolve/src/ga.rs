@@ -451,7 +451,7 @@ mod tests {
             .flatten()
             .flat_map(|g| g.to_bits().to_le_bytes())
             .collect();
-        hevo_sim_core::hash::fnv1a(&bytes)
+        hevo_sim_core::fnv1a(&bytes)
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! Stored runs were evolved from these derivations: a change here would silently make resumed
 //! and repeated runs differ from the stored ones, so the tests pin their values.
 
-use hevo_sim_core::rng::{SimRng, derive_seed};
+use hevo_sim_core::{SimRng, derive_seed};
 use rand::{RngExt, SeedableRng};
 
 /// Tags that keep the random streams of one run apart.
@@ -28,7 +28,7 @@ pub enum RunStream {
 /// The seed of one run of one node: from the experiment's seed, the node's name and the run
 /// index, never from where or when it runs.
 pub fn run_seed(experiment_seed: u64, node_name: &str, run: u32) -> u64 {
-    let name_hash = hevo_sim_core::hash::fnv1a(node_name.as_bytes());
+    let name_hash = hevo_sim_core::fnv1a(node_name.as_bytes());
     derive_seed(experiment_seed, &[name_hash, u64::from(run)])
 }
 

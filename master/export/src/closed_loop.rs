@@ -14,10 +14,10 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 
-use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::frame::SensorFrame;
-use hevo_sim_core::sensors::{N_IR, N_LIGHT};
+use hevo_sim_core::SensorFrame;
+use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, Outcome, Policy, Sample, TaskConfig};
+use hevo_sim_core::{N_IR, N_LIGHT};
 
 use crate::ExportError;
 use crate::model::ExportModel;

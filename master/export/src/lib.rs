@@ -17,7 +17,7 @@ pub mod vectors;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use hevo_sim_core::controller::{ControllerError, ControllerFile};
+use hevo_sim_core::{ControllerError, ControllerFile};
 use hevo_sim_core::{Sample, TaskConfig};
 
 pub use model::ExportModel;

@@ -5,10 +5,10 @@
 //! input side's constants (the IR inverse table, the flash thresholds, which groups are live).
 
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::controller::{ControllerFile, NodeKind, NodeSpec};
-use hevo_sim_core::ctrnn::{logistic, tau_from_gene};
-use hevo_sim_core::frame::{InputGroup, N_FLAT};
-use hevo_sim_core::sensors::{IrMapping, IrModel, LightModel, N_IR, N_LIGHT};
+use hevo_sim_core::{ControllerFile, NodeKind, NodeSpec};
+use hevo_sim_core::{InputGroup, N_FLAT};
+use hevo_sim_core::{IrMapping, IrModel, LightModel, N_IR, N_LIGHT};
+use hevo_sim_core::{logistic, tau_from_gene};
 
 use crate::ExportError;
 
@@ -100,13 +100,13 @@ impl ExportModel {
             return Err(ExportError::FreeNode { path });
         }
         check_frame_layout()?;
-        if task.ir.mapping != IrMapping::AverageTable {
+        if task.params.ir.mapping != IrMapping::AverageTable {
             return Err(ExportError::Unsupported(format!(
                 "the task's ir.mapping is {:?}; only the default average_table is exported",
-                task.ir.mapping
+                task.params.ir.mapping
             )));
         }
-        let dt = task.robot.cycle_seconds;
+        let dt = task.params.robot.cycle_seconds;
         let mut nodes: Vec<NodeModel> = Vec::new();
         // Pre-order with an explicit stack, children pushed in reverse: node indices as
         // sim-core's `Controller` numbers them (checked against `node_paths` below).
@@ -148,24 +148,25 @@ impl ExportModel {
         let light_model = LightModel::builtin();
         let dark = |side: usize| light_model.dark(side).map_or(f32::INFINITY, |d| d.mean);
         let live = [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT].map(|group| {
-            task.scenario.sensors.carries(group) && (group.kind().compile)(task).is_some()
+            task.scenario.sensors.carries(group)
+                && (group.kind().compile)(&task.params, &task.scenario.sensed_world()).is_some()
         });
         Ok(ExportModel {
             controller_name: file.root.name.clone(),
             task_name: task.name().to_string(),
             nodes,
             dt,
-            v_max: task.robot.v_max,
-            near_robot_range: task.robot.near_robot_range,
+            v_max: task.params.robot.v_max,
+            near_robot_range: task.params.robot.near_robot_range,
             live,
             ir: IrSide {
                 means: means.to_vec(),
                 step,
                 max_distance,
             },
-            light_threshold: task.light.threshold_raw,
+            light_threshold: task.params.light.threshold_raw,
             light_dark: [dark(0), dark(1)],
-            light_hold: task.light.hold_cycles,
+            light_hold: task.params.light.hold_cycles,
         })
     }
 
@@ -289,7 +290,7 @@ fn decode_node(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::controller::Controller;
+    use hevo_sim_core::Controller;
 
     fn shipped(name: &str) -> ControllerFile {
         let path = format!(
@@ -339,7 +340,7 @@ mod tests {
             "solve_maze/turn_left: the node has no genome; only a complete controller can be exported"
         );
         let mut linear = task.clone();
-        linear.ir.mapping = IrMapping::LinearRaw;
+        linear.params.ir.mapping = IrMapping::LinearRaw;
         let err = ExportModel::new(&shipped("solve_maze"), &linear).unwrap_err();
         assert!(err.to_string().contains("ir.mapping"), "{err}");
     }

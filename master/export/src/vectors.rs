@@ -11,13 +11,13 @@
 //! where a run outlasts one hold), and sim-core's `FlashDetector` is run over the result to
 //! check it gives the recorded inputs. Both are checked here, so a vector that exists is exact.
 
-use hevo_sim_core::controller::{Controller, ControllerFile};
-use hevo_sim_core::frame::{N_FLAT, SensorFrame};
-use hevo_sim_core::rng::{Stream, stream_rng};
-use hevo_sim_core::robot::wheel_speed;
-use hevo_sim_core::sensors::ir::MEAN_IR_CURVE;
-use hevo_sim_core::sensors::{FlashDetector, IrMapping, IrModel, N_IR, N_LIGHT};
+use hevo_sim_core::MEAN_IR_CURVE;
+use hevo_sim_core::wheel_speed;
+use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, Outcome, Policy, Sample, TaskConfig};
+use hevo_sim_core::{FlashDetector, IrMapping, IrModel, N_IR, N_LIGHT};
+use hevo_sim_core::{N_FLAT, SensorFrame};
+use hevo_sim_core::{Stream, stream_rng};
 
 use crate::ExportError;
 use crate::model::ExportModel;
@@ -82,6 +82,7 @@ pub struct VectorSummary {
 /// sample's sensor-setup stream (the IR sensor is the registry's first).
 pub fn ir_gains(task: &TaskConfig, seed: u64) -> [f32; N_IR] {
     let setup = task
+        .params
         .ir
         .draw_setup(&mut stream_rng(seed, Stream::SensorSetup));
     setup.offset.map(|offset| 1.0 + offset)

@@ -14,8 +14,8 @@ use std::process::Command;
 use std::sync::Arc;
 
 use hevo_export::{ExportOptions, Target, closed_loop, vectors};
-use hevo_sim_core::controller::ControllerFile;
-use hevo_sim_core::scenario::Scenario;
+use hevo_sim_core::ControllerFile;
+use hevo_sim_core::Scenario;
 use hevo_sim_core::{Sample, TaskConfig};
 
 fn repo_root() -> PathBuf {

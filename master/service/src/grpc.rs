@@ -446,7 +446,7 @@ impl WorkerService for WorkerApi {
         // itself. If they are fine, the worker is at fault (say, an older version) and the
         // batch goes to another worker.
         let check = tokio::task::spawn_blocking(move || {
-            hevo_sim_core::batch::BatchEvaluator::new(shared.template.clone(), shared.task.clone())
+            hevo_sim_core::BatchEvaluator::new(shared.template.clone(), shared.task.clone())
                 .map(|_| ())
                 .map_err(|e| e.to_string())
         })

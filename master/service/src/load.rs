@@ -12,8 +12,8 @@ use hevo_engine::dispatch::{DispatchConfig, Dispatcher, EvaluationRequest, Reque
 use hevo_proto::auth::{Role, Roles, ServerAuth, TokenSet};
 use hevo_proto::client::{ClientOptions, worker_client};
 use hevo_proto::v1;
-use hevo_sim_core::controller::{ControllerFile, NodeSpec};
-use hevo_sim_core::frame::InputGroup;
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::{ControllerFile, NodeSpec};
 use hevo_sim_core::{Sample, TaskConfig};
 use serde::Serialize;
 use std::sync::Arc;

@@ -7,16 +7,16 @@
 //! simulator.
 
 use crate::svg::{INK, PathData, SvgDocument, Tag, num_with, palette_colour, text_width};
-use hevo_sim_core::env::regions::NamedRegion;
-use hevo_sim_core::frame::InputGroup;
-use hevo_sim_core::robot::Pose;
-use hevo_sim_core::scene::RectKind;
+use hevo_sim_core::InputGroup;
+use hevo_sim_core::NamedRegion;
+use hevo_sim_core::Pose;
+use hevo_sim_core::RectKind;
 use hevo_sim_core::{Ending, Trace};
 use std::collections::BTreeMap;
 
 /// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
 /// directions of its first and last ray (unit vectors, world frame) and the range, metres.
-pub use hevo_sim_core::evaluate::IrCone;
+pub use hevo_sim_core::IrCone;
 
 /// What to draw besides the trace itself.
 #[derive(Debug, Clone, PartialEq)]
@@ -431,7 +431,7 @@ pub fn replay_svg(
 
 /// Draws a scenario's world as one traced sample starts in it (`hevo scenario draw`): the
 /// replay's picture with every named region shaded under the walls and labelled by name,
-/// to scale (`regions` from `hevo_sim_core::env::regions::named_regions` for the same sample).
+/// to scale (`regions` from `hevo_sim_core::named_regions` for the same sample).
 /// The world is fitted to hold the regions too, so a rectangle outside the walls is seen.
 pub fn scenario_svg(trace: &Trace, options: &ReplayOptions, regions: &[NamedRegion]) -> String {
     render(trace, options, regions, &|_| Vec::new())
@@ -1562,7 +1562,7 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
 mod tests {
     use super::*;
     use crate::svg::read_back::{Element, parse, with_class};
-    use hevo_sim_core::frame::SensorFrame;
+    use hevo_sim_core::SensorFrame;
     use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig};
     use std::collections::BTreeSet;
 
@@ -1668,8 +1668,7 @@ mod tests {
             let evaluator = Evaluator::new(task.clone()).unwrap();
             let sample = Sample::seeded(seed);
             let trace = evaluator.evaluate_traced(&mut Circler, sample);
-            let regions =
-                hevo_sim_core::env::regions::named_regions(&task, &evaluator.environment(sample));
+            let regions = hevo_sim_core::named_regions(&task, &evaluator.environment(sample));
             assert!(regions.len() >= 2, "{name}: {regions:?}");
             let svg = scenario_svg(&trace, &ReplayOptions::default(), &regions);
             let elements = parse(&svg).unwrap();

@@ -4,8 +4,8 @@
 //! happened. The Python module's `hevo.trace` gives the same values as numpy arrays.
 
 use hevo_sim_core::Trace;
-use hevo_sim_core::evaluate::TraceCycle;
-use hevo_sim_core::frame::{N_FLAT, SensorFrame};
+use hevo_sim_core::TraceCycle;
+use hevo_sim_core::{N_FLAT, SensorFrame};
 use std::fmt::Write as _;
 
 /// The columns before the sensor inputs.
@@ -61,7 +61,7 @@ enum Cell {
 /// nodes by index (the active node is the last of the cycle's active path).
 fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
     let number = Cell::Number;
-    let teammate = |pick: fn(&hevo_sim_core::robot::Pose) -> f32| {
+    let teammate = |pick: fn(&hevo_sim_core::Pose) -> f32| {
         cycle
             .teammate
             .as_ref()
@@ -159,7 +159,7 @@ pub fn trace_json(trace: &Trace, node_paths: &[String]) -> Result<String, serde_
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::controller::Controller;
+    use hevo_sim_core::Controller;
     use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 
     #[test]

@@ -17,12 +17,13 @@
 //! rectangular obstacles at least 0.10 m from everything else); `for_task` adapts them to a
 //! task configuration's robot (size, speed) and IR mapping.
 
-use hevo_sim_core::evaluate::Policy;
-use hevo_sim_core::frame::{InputGroup, SensorFrame};
-use hevo_sim_core::robot::RobotConfig;
-use hevo_sim_core::sensors::ir::{IrMapping, IrModel, MEAN_IR_CURVE};
-use hevo_sim_core::sensors::{N_IR, N_LIGHT};
-use hevo_sim_core::task::TaskConfig;
+use hevo_sim_core::IrMapping;
+use hevo_sim_core::Policy;
+use hevo_sim_core::RobotConfig;
+use hevo_sim_core::TaskConfig;
+use hevo_sim_core::{InputGroup, SensorFrame};
+use hevo_sim_core::{IrModel, MEAN_IR_CURVE};
+use hevo_sim_core::{N_IR, N_LIGHT};
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -277,7 +278,7 @@ impl Driver {
     }
 
     fn for_task(task: &TaskConfig) -> Driver {
-        Driver::new(&task.robot, task.ir.mapping)
+        Driver::new(&task.params.robot, task.params.ir.mapping)
     }
 
     fn new(robot: &RobotConfig, mapping: IrMapping) -> Driver {

@@ -2,12 +2,10 @@
 //! is an error), and the map file format. Nothing here checks that the parts fit together;
 //! compiling it ([`super::Scenario::parse`]) does.
 
-use crate::env::room::RoomConfig;
-use crate::frame::InputGroup;
-use crate::robot::RobotConfig;
-use crate::sensors::ir::IrConfig;
-use crate::sensors::light::LightConfig;
-use crate::task::{CorridorConfig, StartConfig};
+use crate::config::{
+    CorridorConfig, IrConfig, LightConfig, Params, RobotConfig, RoomConfig, StartConfig,
+};
+use crate::sensors::frame::InputGroup;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -83,6 +81,20 @@ pub struct ScenarioFile {
     /// The stages post-evaluation reports, in order; a solved sample has passed them all.
     #[serde(default, rename = "stage", skip_serializing_if = "Vec::is_empty")]
     pub stages: Vec<StageDecl>,
+}
+
+impl ScenarioFile {
+    /// The file's six tables of numbers, as a task's defaults.
+    pub fn params(&self) -> Params {
+        Params {
+            robot: self.robot.clone(),
+            ir: self.ir,
+            light: self.light,
+            room: self.room.clone(),
+            corridor: self.corridor.clone(),
+            start: self.start.clone(),
+        }
+    }
 }
 
 fn default_true() -> bool {

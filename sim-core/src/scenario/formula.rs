@@ -322,4 +322,65 @@ mod tests {
             assert!(error.contains(wanted), "{text}: {error}");
         }
     }
+
+    mod ranges {
+        use super::super::{Formula, Quantities};
+        use crate::scenario::blocks::Facts;
+        use proptest::prelude::*;
+
+        /// A term as a file writes it: a number or a quantity, perhaps scaled.
+        fn term() -> impl Strategy<Value = String> {
+            let base = prop_oneof![
+                (0u32..20).prop_map(|n| n.to_string()),
+                Just("time_bonus".to_string()),
+                Just("progress".to_string()),
+                Just("derived".to_string()),
+                Just("approach room.exit".to_string()),
+            ];
+            let scale = prop_oneof![
+                Just(String::new()),
+                (1u32..9).prop_map(|n| format!(" / {n}")),
+                (1u32..9).prop_map(|n| format!(" * {n}")),
+            ];
+            (base, scale).prop_map(|(base, scale)| format!("{base}{scale}"))
+        }
+
+        proptest! {
+            /// Whatever the formula and wherever each quantity lies in its range, the value lies
+            /// in the range the checks of remote results use.
+            #[test]
+            fn a_formula_stays_inside_its_range(
+                terms in prop::collection::vec(term(), 1..5),
+                values in prop::array::uniform4(0.0f32..=1.0),
+                derived in 0.0f32..=3.0,
+            ) {
+                let text = terms.join(" + ");
+                let facts = Facts {
+                    lights: &[],
+                    region: &|name| Err(format!("no region '{name}'")),
+                    has_room: true,
+                    goals_in_cells: true,
+                    has_teammate: true,
+                    has_phases: true,
+                    near_m: 0.1,
+                };
+                let mut quantities = Quantities::new();
+                let formula = Formula::parse(&text, &facts, &mut quantities).unwrap();
+                // Each quantity's own range, for a scenario of three phases.
+                let range_of = |idx: usize| quantities[idx].1.range(3);
+                let value_of = |idx: usize| match quantities[idx].0.as_str() {
+                    "time_bonus" => values[0],
+                    "progress" => values[1],
+                    "approach room.exit" => values[2],
+                    "derived" => derived,
+                    _ => values[3],
+                };
+                let (low, high) = formula.range(&range_of);
+                let value = formula.eval(&value_of);
+                // f32 sums in another order than the range's: allow a rounding step.
+                let slack = 1e-4 * (1.0 + high.abs());
+                prop_assert!(value >= low - slack && value <= high + slack, "{text}: {value} outside [{low}, {high}]");
+            }
+        }
+    }
 }

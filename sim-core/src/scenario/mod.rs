@@ -14,16 +14,18 @@
 //! blocks, each a small type behind a trait, registered in [`blocks`].
 
 pub mod blocks;
+mod compile;
 pub mod file;
 pub mod formula;
 
-use crate::env::cells::{Cell, CellMap};
-use crate::frame::{InputGroup, SensorSet};
-use crate::hash::fnv1a_hex;
-use crate::scene::{Rect, RectKind};
-use blocks::atoms::RegionTest;
-use blocks::{Facts, TeammateBehaviour, World};
-use file::{ChildRef, MapFile, MapRef, ScenarioFile, TriggerDecl};
+use crate::geometry::cells::{Cell, CellMap};
+use crate::geometry::scene::Rect;
+use crate::math::hash::fnv1a_hex;
+use crate::sensors::SensedWorld;
+use crate::sensors::frame::{InputGroup, SensorSet};
+use crate::world::lights::Trigger;
+use blocks::{TeammateBehaviour, World};
+use file::{ChildRef, MapFile, ScenarioFile};
 use formula::{Condition, Formula, Quantities};
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
@@ -32,7 +34,7 @@ use std::sync::{Arc, OnceLock};
 pub const SCHEMA: &str = "hevo.scenario/1";
 
 /// The most phases a derived fitness may have.
-pub const MAX_PHASES: usize = crate::evaluate::N_SUB_TASKS;
+pub const MAX_PHASES: usize = crate::outcome::N_SUB_TASKS;
 
 /// The most lights a scenario may hold: a cycle's lit lights are one bit each of a `u32`, in
 /// traces too.
@@ -64,13 +66,6 @@ pub const MAX_VARIANTS: usize = 256;
 /// Whether `[x0, y0, x1, y1]` is a rectangle of some area: finite, `x0 < x1` and `y0 < y1`.
 fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
     x0 < x1 && y0 < y1 && [x0, y0, x1, y1].iter().all(|v| v.is_finite())
-}
-
-/// Whether the rectangle `[x0, y0, x1, y1]` holds `point`, its edges included: what `in REGION`
-/// and a light triggered by entering a region both test.
-#[inline]
-pub(crate) fn rect_holds([x0, y0, x1, y1]: [f32; 4], [x, y]: [f32; 2]) -> bool {
-    (x0..=x1).contains(&x) && (y0..=y1).contains(&y)
 }
 
 /// The scenarios shipped with hevo: the paper's tasks.
@@ -161,21 +156,6 @@ pub struct LightDef {
     pub position: [f32; 2],
     /// When it lights.
     pub trigger: Trigger,
-}
-
-/// When a light lights.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Trigger {
-    /// Once, when the robot's centre first crosses its row going up within its distance from
-    /// the centre line.
-    Passed,
-    /// Always (a beacon).
-    Always,
-    /// Once, at this cycle.
-    AfterCycles(u32),
-    /// Once, when the robot's centre is first inside this rectangle `[x0, y0, x1, y1]` after
-    /// a move.
-    Entered([f32; 4]),
 }
 
 /// A variant, compiled.
@@ -284,7 +264,7 @@ pub struct Scenario {
     pub origin: String,
     /// The input groups the robot's sensors give.
     pub sensors: SensorSet,
-    /// How the world is made, a registered world ([`blocks::WORLDS`]).
+    /// How the world is made, a registered world (`blocks::WORLDS`).
     pub world: Box<dyn World>,
     /// The map, for map worlds.
     pub map: Option<Arc<CompiledMap>>,
@@ -367,7 +347,7 @@ impl Scenario {
                 crate::scenario::bounded(e.inner().message()),
             )
         })?;
-        compile(file, text, origin)
+        compile::compile(file, text, origin)
     }
 
     /// A shipped scenario by name (or alias), compiled once per process.
@@ -477,6 +457,14 @@ impl Scenario {
     /// Whether it has a derived fitness (an arbitrator's scenario).
     pub fn has_phases(&self) -> bool {
         !self.phases.is_empty()
+    }
+
+    /// What its world holds that the robot's sensors may sense.
+    pub fn sensed_world(&self) -> SensedWorld {
+        SensedWorld {
+            has_lights: !self.lights.is_empty(),
+            has_teammate: self.teammate.is_some(),
+        }
     }
 
     /// A content hash of the scenario's text.
@@ -713,7 +701,7 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
         .iter()
         .map(|(at, _)| Cell {
             at: *at,
-            walls: crate::env::cells::Side::ALL.map(|side| {
+            walls: crate::geometry::cells::Side::ALL.map(|side| {
                 let [dx, dy] = side.offset();
                 !is_open([at[0] + dx, at[1] + dy])
             }),
@@ -739,691 +727,6 @@ pub fn compile_map(file: &MapFile) -> Result<CompiledMap, (String, String)> {
     Ok(CompiledMap {
         map: CellMap::new(cells, file.cell_size, file.wall_thickness),
         regions,
-    })
-}
-
-/// Refuses a position that is not a finite point within [`MAX_SOLID_COORDINATE`] of the
-/// origin, where every world lies.
-fn check_point([x, y]: [f32; 2]) -> Result<(), String> {
-    if [x, y]
-        .iter()
-        .all(|v| v.is_finite() && v.abs() <= MAX_SOLID_COORDINATE)
-    {
-        Ok(())
-    } else {
-        Err(format!(
-            "({x}, {y}) m is not a point within {MAX_SOLID_COORDINATE} m of the origin"
-        ))
-    }
-}
-
-/// Refuses a distance, metres, that is not a finite number within a world's size
-/// ([`MAX_SOLID_COORDINATE`]), or, when `non_negative`, that is below 0.
-fn check_distance(metres: f32, non_negative: bool) -> Result<(), String> {
-    let low = if non_negative {
-        0.0
-    } else {
-        -MAX_SOLID_COORDINATE
-    };
-    if metres.is_finite() && (low..=MAX_SOLID_COORDINATE).contains(&metres) {
-        Ok(())
-    } else {
-        Err(format!(
-            "{metres} is not a distance in [{low}, {MAX_SOLID_COORDINATE}] metres"
-        ))
-    }
-}
-
-/// Refuses a formula that can be other than a finite number: its value over every quantity's
-/// range (the evaluator's own arithmetic, so a huge product or a tiny divisor shows here).
-fn check_formula_range(
-    formula: &Formula,
-    quantities: &Quantities,
-    n_phases: usize,
-) -> Result<(), String> {
-    let (low, high) = formula.range(&|idx| quantities[idx].1.range(n_phases));
-    if low.is_finite() && high.is_finite() {
-        Ok(())
-    } else {
-        Err(format!(
-            "can be [{low}, {high}], not a finite number; keep its numbers and their products \
-             and quotients within ±{:e}",
-            formula::MAX_FORMULA_NUMBER
-        ))
-    }
-}
-
-/// Turns a parsed file into a scenario, checking that its parts fit together.
-fn compile(file: ScenarioFile, text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
-    let error = |path: &str, message: String| ScenarioError {
-        origin: origin.to_string(),
-        path: path.to_string(),
-        line: line_of_path(text, path),
-        message,
-    };
-    if file.schema != SCHEMA {
-        return Err(error(
-            "schema",
-            format!(
-                "'{}' is not {SCHEMA}",
-                crate::scenario::bounded(&file.schema)
-            ),
-        ));
-    }
-    // A legacy name makes the task travel as that paper task's name, so workers would run
-    // the shipped file instead of this one: only the shipped texts themselves may carry it.
-    if file.legacy.is_some() && !SHIPPED.iter().any(|(_, shipped)| *shipped == text) {
-        return Err(error(
-            "legacy",
-            "is reserved for the scenarios shipped with hevo; leave it out".into(),
-        ));
-    }
-    if file.name.trim().is_empty() || file.name.len() > 64 {
-        return Err(error("name", "must be 1 to 64 characters".into()));
-    }
-    // Captions and reports speak of the paper's tasks by these names, so a file of one's own
-    // (a modified copy of a shipped one, say) takes a name of its own.
-    if file.legacy.is_none() && Scenario::shipped_names().contains(&file.name.as_str()) {
-        return Err(error(
-            "name",
-            format!(
-                "'{}' is the name of a scenario shipped with hevo; give yours a name of its own",
-                file.name
-            ),
-        ));
-    }
-    if file.max_cycles == 0 || file.max_cycles > 1_000_000 {
-        return Err(error("max_cycles", "must be between 1 and 1000000".into()));
-    }
-
-    // The world.
-    let w = &file.world;
-    let map = match &w.map {
-        None => None,
-        Some(MapRef::Shipped(name)) => {
-            let text = shipped_map(name).ok_or_else(|| {
-                error(
-                    "world.map",
-                    format!(
-                        "no shipped map is named '{name}'; shipped: {}",
-                        SHIPPED_MAPS.map(|(n, _)| n).join(", ")
-                    ),
-                )
-            })?;
-            let map_file: MapFile = toml::from_str(text)
-                .map_err(|e| error("world.map", format!("shipped map '{name}': {e}")))?;
-            Some(
-                compile_map(&map_file)
-                    .map_err(|(path, message)| error(&format!("world.map.{path}"), message))?,
-            )
-        }
-        Some(MapRef::Inline(map_file)) => Some(
-            compile_map(map_file)
-                .map_err(|(path, message)| error(&format!("world.map.{path}"), message))?,
-        ),
-    }
-    .map(Arc::new);
-    let world = blocks::worlds::compile(w, map.as_deref())
-        .map_err(|(path, message)| error(path, message))?;
-    if w.solids.len() > MAX_SOLIDS {
-        return Err(error(
-            "world.solids",
-            format!("{} rectangles, at most {MAX_SOLIDS}", w.solids.len()),
-        ));
-    }
-    let mut solids = Vec::with_capacity(w.solids.len());
-    for (idx, &rect) in w.solids.iter().enumerate() {
-        let [x0, y0, x1, y1] = rect;
-        if !(is_proper_rect(rect) && rect.iter().all(|v| v.abs() <= MAX_SOLID_COORDINATE)) {
-            return Err(error(
-                &format!("world.solids[{idx}]"),
-                format!(
-                    "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1, within \
-                     {MAX_SOLID_COORDINATE} m of the origin"
-                ),
-            ));
-        }
-        solids.push(Rect::from_corners(RectKind::Obstacle, x0, y0, x1, y1));
-    }
-
-    // Regions: the map's, the generators', and rectangles.
-    let mut region_names: Vec<String> = map
-        .as_ref()
-        .map(|m| m.regions.keys().cloned().collect())
-        .unwrap_or_default();
-    if world.has_room() {
-        region_names.extend(["room".to_string(), "room.exit".to_string()]);
-    }
-    if world.has_corridor() {
-        region_names.extend(["corridor.start".to_string(), "corridor.end".to_string()]);
-    }
-    if file.regions.len() > MAX_REGIONS {
-        return Err(error(
-            "regions",
-            format!("{} rectangles, at most {MAX_REGIONS}", file.regions.len()),
-        ));
-    }
-    if file.variants.len() > MAX_VARIANTS {
-        return Err(error(
-            "variant",
-            format!("{} variants, at most {MAX_VARIANTS}", file.variants.len()),
-        ));
-    }
-    let mut rect_regions = BTreeMap::new();
-    for (name, region) in &file.regions {
-        if !is_proper_rect(region.rect) {
-            return Err(error(
-                &format!("regions.{name}.rect"),
-                "must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1: an empty region".into(),
-            ));
-        }
-        if region.rect.iter().any(|v| v.abs() > MAX_SOLID_COORDINATE) {
-            return Err(error(
-                &format!("regions.{name}.rect"),
-                format!("must lie within {MAX_SOLID_COORDINATE} m of the origin"),
-            ));
-        }
-        rect_regions.insert(name.clone(), region.rect);
-        region_names.push(name.clone());
-    }
-    let has_region = |name: &str| region_names.iter().any(|r| r == name);
-    // The generators' exit and corridor ends are drawn, and places may name them, but the
-    // judge does not test a position against them: a condition naming one is refused rather
-    // than silently never holding.
-    // The order of the tests is the judge's: a rectangle, then the room, then the map's cells.
-    let judged_region = |name: &str| -> Result<RegionTest, String> {
-        if let Some(rect) = rect_regions.get(name) {
-            return Ok(RegionTest::Rect(*rect));
-        }
-        match name {
-            _ if !has_region(name) => Err(format!("no region is named '{name}'")),
-            "room.exit" | "corridor.start" | "corridor.end" => Err(format!(
-                "conditions cannot test '{name}' (only the map's regions, 'room' and [regions] \
-                 rectangles); draw the area as a [regions] rectangle"
-            )),
-            "room" => Ok(RegionTest::Room),
-            _ => {
-                let map = map
-                    .as_ref()
-                    .ok_or_else(|| format!("'{name}' is not a map region"))?;
-                let cells = &map.regions[name];
-                let mut mask = vec![false; map.map.cells.len()];
-                for &cell in cells {
-                    mask[cell] = true;
-                }
-                Ok(RegionTest::Cells(mask))
-            }
-        }
-    };
-    let cell_region = |name: &str| map.as_ref().is_some_and(|m| m.regions.contains_key(name));
-
-    // The robot's sensors.
-    let sensors = match &file.sensors {
-        None => SensorSet::DEFAULT,
-        Some(groups) => {
-            if groups.is_empty() {
-                let names: Vec<&str> = InputGroup::ALL.into_iter().map(InputGroup::name).collect();
-                return Err(error(
-                    "sensors",
-                    format!("name at least one of {}", names.join(", ")),
-                ));
-            }
-            for (idx, group) in groups.iter().enumerate() {
-                if groups[..idx].contains(group) {
-                    return Err(error(
-                        &format!("sensors[{idx}]"),
-                        format!("'{}' is listed twice", group.name()),
-                    ));
-                }
-            }
-            SensorSet::of(groups)
-        }
-    };
-
-    // Lights.
-    let mut lights = Vec::new();
-    for (idx, light) in file.lights.iter().enumerate() {
-        let at = |key: &str| format!("light[{idx}].{key}");
-        if idx >= MAX_LIGHTS {
-            return Err(error(
-                &at("name"),
-                format!("a scenario holds at most {MAX_LIGHTS} lights"),
-            ));
-        }
-        if lights.iter().any(|l: &LightDef| l.name == light.name) {
-            return Err(error(
-                &at("name"),
-                format!("'{}' is declared twice", light.name),
-            ));
-        }
-        let (key, position) = match (light.cell, light.at) {
-            (Some([x, y]), None) => {
-                let Some(map) = &map else {
-                    return Err(error(&at("cell"), "cell units need a map world".into()));
-                };
-                ("cell", [x * map.map.cell_size, y * map.map.cell_size])
-            }
-            (None, Some(p)) => ("at", p),
-            _ => return Err(error(&at("at"), "give either `cell` or `at`".into())),
-        };
-        check_point(position).map_err(|message| error(&at(key), message))?;
-        let trigger = match &light.trigger {
-            TriggerDecl::Named(name) if name == "passed" => Trigger::Passed,
-            TriggerDecl::Named(name) if name == "always" => Trigger::Always,
-            TriggerDecl::AfterCycles { after_cycles } => Trigger::AfterCycles(*after_cycles),
-            TriggerDecl::Entered { entered } => match rect_regions.get(entered) {
-                Some(rect) => Trigger::Entered(*rect),
-                None => {
-                    return Err(error(
-                        &at("trigger.entered"),
-                        format!("'{entered}' is not a [regions] rectangle"),
-                    ));
-                }
-            },
-            TriggerDecl::Named(other) => {
-                return Err(error(
-                    &at("trigger"),
-                    format!(
-                        "'{other}' is not passed, always, {{ after_cycles = N }} or \
-                         {{ entered = \"REGION\" }}"
-                    ),
-                ));
-            }
-        };
-        lights.push(LightDef {
-            name: light.name.clone(),
-            position,
-            trigger,
-        });
-    }
-    let light_index = |name: &str| lights.iter().position(|l| l.name == name);
-
-    // Variants.
-    let mut variants = Vec::new();
-    for (idx, variant) in file.variants.iter().enumerate() {
-        let at = |key: &str| format!("variant[{idx}].{key}");
-        let mut flashes = vec![false; lights.len()];
-        for name in &variant.flash {
-            let light = light_index(name)
-                .ok_or_else(|| error(&at("flash"), format!("no light is named '{name}'")))?;
-            flashes[light] = true;
-        }
-        for (key, region) in [("goal", &variant.goal), ("start", &variant.start)] {
-            if let Some(region) = region
-                && !cell_region(region)
-            {
-                return Err(error(
-                    &at(key),
-                    format!("'{region}' is not a region of the map"),
-                ));
-            }
-        }
-        variants.push(Variant {
-            name: variant.name.clone(),
-            flashes,
-            goal: variant.goal.clone(),
-            start: variant.start.clone(),
-        });
-    }
-    if variants.is_empty() {
-        // Without variants every light behaves as its trigger says.
-        variants.push(Variant {
-            name: String::new(),
-            flashes: vec![true; lights.len()],
-            goal: None,
-            start: None,
-        });
-    }
-    // A light that flashes in no variant, with a trigger that only matters for flashes,
-    // is probably a mistake in the variants.
-    for (light_idx, light) in lights.iter().enumerate() {
-        if matches!(light.trigger, Trigger::Passed | Trigger::Entered(_))
-            && file.variants.len() > 1
-            && !variants.iter().any(|v| v.flashes[light_idx])
-        {
-            return Err(error(
-                &format!("light[{light_idx}]"),
-                format!("'{}' flashes in no variant", light.name),
-            ));
-        }
-    }
-
-    // Start.
-    let place_decl = &file.place;
-    let at = match place_decl.at.as_str() {
-        "room.start" if world.has_room() => PlaceAt::RoomStart,
-        "corridor.start" if world.has_corridor() => PlaceAt::CorridorStart,
-        "start" => {
-            if variants.iter().any(|v| v.start.is_none()) {
-                return Err(error(
-                    "place.at",
-                    "'start' is the variant's start region, but a variant has none".into(),
-                ));
-            }
-            PlaceAt::VariantStart
-        }
-        region if cell_region(region) => PlaceAt::Region(region.to_string()),
-        region if rect_regions.contains_key(region) => PlaceAt::Rect(rect_regions[region]),
-        other => {
-            return Err(error(
-                "place.at",
-                format!(
-                    "'{other}' is no start here: use room.start, corridor.start, start, or a \
-                     region of the map or of [regions]"
-                ),
-            ));
-        }
-    };
-    let facing = match place_decl.facing.as_deref() {
-        None => None,
-        Some("up") => Some(Facing::Heading(std::f32::consts::FRAC_PI_2)),
-        Some("down") => Some(Facing::Heading(-std::f32::consts::FRAC_PI_2)),
-        Some("right") => Some(Facing::Heading(0.0)),
-        Some("left") => Some(Facing::Heading(std::f32::consts::PI)),
-        Some("path") => Some(Facing::Path),
-        Some(other) => {
-            return Err(error(
-                "place.facing",
-                format!("'{other}' is not up, down, left, right or path"),
-            ));
-        }
-    };
-    if (at == PlaceAt::RoomStart) == facing.is_some() {
-        return Err(error(
-            "place.facing",
-            if at == PlaceAt::RoomStart {
-                "the room's start draws its own heading: leave facing out".into()
-            } else {
-                "say which way the robot faces: up, down, left, right or path".into()
-            },
-        ));
-    }
-    if place_decl.advance && !world.advances() {
-        return Err(error(
-            "place.advance",
-            "advancing the start is for corridors".into(),
-        ));
-    }
-    if matches!(at, PlaceAt::Rect(_)) && facing == Some(Facing::Path) {
-        return Err(error(
-            "place.facing",
-            "a rectangle's start faces a fixed way: up, down, left or right".into(),
-        ));
-    }
-    if place_decl.anywhere {
-        let why = match at {
-            PlaceAt::RoomStart | PlaceAt::CorridorStart => {
-                Some("is for a region: give its name, or `start`, as `at`")
-            }
-            _ if place_decl.ahead_m != 0.0 => Some("leaves no centre for `ahead_m` to move"),
-            _ if place_decl.advance => Some("does not advance along a corridor"),
-            _ => None,
-        };
-        if let Some(why) = why {
-            return Err(error("place.anywhere", format!("starting anywhere {why}")));
-        }
-    }
-    let turn = match place_decl.turn_deg {
-        None => None,
-        Some(_) if at == PlaceAt::RoomStart => {
-            return Err(error(
-                "place.turn_deg",
-                "the room's start draws its own heading: leave turn_deg out".into(),
-            ));
-        }
-        Some([from, to]) if from.is_finite() && to.is_finite() && from <= to => {
-            Some([from.to_radians(), to.to_radians()])
-        }
-        Some([from, to]) => {
-            return Err(error(
-                "place.turn_deg",
-                format!("[{from}, {to}] is not a range of degrees [from, to] with from <= to"),
-            ));
-        }
-    };
-    check_distance(place_decl.ahead_m, false).map_err(|message| error("place.ahead_m", message))?;
-    let place = Place {
-        at,
-        facing,
-        ahead_m: place_decl.ahead_m,
-        advance: place_decl.advance,
-        anywhere: place_decl.anywhere,
-        turn,
-    };
-
-    // Teammate.
-    let teammate = match &file.teammate {
-        None => None,
-        Some(t) => {
-            let (at_goal, region) = match t.at.as_str() {
-                "goal" => (true, None),
-                "start" => (false, None),
-                region if cell_region(region) => (false, Some(region.to_string())),
-                other => {
-                    return Err(error(
-                        "teammate.at",
-                        format!("'{other}' is not goal, start or a region of the map"),
-                    ));
-                }
-            };
-            let (branch_end, centre) = match t.placement.as_deref() {
-                None => (false, false),
-                Some("branch_end") => (true, false),
-                Some("centre") => (false, true),
-                Some(other) => {
-                    return Err(error(
-                        "teammate.placement",
-                        format!("'{other}' is not branch_end or centre"),
-                    ));
-                }
-            };
-            if region.is_some() && !centre {
-                return Err(error(
-                    "teammate.placement",
-                    format!(
-                        "a teammate at the region '{}' stands at its centre: say \
-                         `placement = \"centre\"`",
-                        t.at
-                    ),
-                ));
-            }
-            if branch_end && !at_goal {
-                return Err(error(
-                    "teammate.placement",
-                    "'branch_end' is the goal's dead end: it needs `at = \"goal\"`".into(),
-                ));
-            }
-            let behaviour = match t.behaviour.as_deref() {
-                None => blocks::BEHAVIOURS[0],
-                Some(name) => *blocks::BEHAVIOURS
-                    .iter()
-                    .find(|b| b.name() == name)
-                    .ok_or_else(|| {
-                        error(
-                            "teammate.behaviour",
-                            format!(
-                                "'{name}' is not {}",
-                                blocks::listed(blocks::BEHAVIOURS.iter().map(|b| b.name()))
-                            ),
-                        )
-                    })?,
-            };
-            behaviour
-                .check(t.following)
-                .map_err(|why| error("teammate.following", why))?;
-            check_distance(t.behind_m, true)
-                .map_err(|message| error("teammate.behind_m", message))?;
-            let regions_named = region.is_some()
-                || variants.iter().all(|v| {
-                    if at_goal {
-                        v.goal.is_some()
-                    } else {
-                        v.start.is_some()
-                    }
-                });
-            if !regions_named {
-                return Err(error(
-                    "teammate.at",
-                    format!("'{}': a variant has no {} region", t.at, t.at),
-                ));
-            }
-            Some(TeammatePlan {
-                at_goal,
-                branch_end,
-                centre,
-                region,
-                behind_m: t.behind_m,
-                following: t.following,
-                behaviour,
-            })
-        }
-    };
-
-    // What the blocks may rely on.
-    let end = &file.end;
-    check_distance(end.near_m, true).map_err(|message| error("end.near_m", message))?;
-    let goals_in_cells =
-        world.has_corridor() || (map.is_some() && variants.iter().all(|v| v.goal.is_some()));
-    let facts = Facts {
-        lights: &lights,
-        region: &judged_region,
-        has_room: world.has_room(),
-        goals_in_cells,
-        has_teammate: teammate.is_some(),
-        has_phases: !file.phases.is_empty(),
-        near_m: end.near_m,
-    };
-    let condition = |path: &str, text: &str| {
-        Condition::parse(text, &facts).map_err(|message| error(path, message))
-    };
-
-    // Endings.
-    let solved = condition("end.solved", &end.solved)?;
-    let wrong_branch = match end.wrong_branch.as_deref() {
-        None => false,
-        Some("off path") => {
-            if !goals_in_cells {
-                return Err(error(
-                    "end.wrong_branch",
-                    "'off path' needs a corridor, or a map and a goal in every variant".into(),
-                ));
-            }
-            true
-        }
-        Some(other) => {
-            return Err(error(
-                "end.wrong_branch",
-                format!("'{other}' is not 'off path'"),
-            ));
-        }
-    };
-
-    let forbidden = end
-        .forbidden
-        .as_deref()
-        .map(|text| condition("end.forbidden", text))
-        .transpose()?;
-
-    // Fitness.
-    let f = &file.fitness;
-    let mut quantities = Quantities::new();
-    let mut fitness = Vec::with_capacity(4);
-    for (key, own) in [
-        ("solved", Some(&f.solved)),
-        ("wrong_branch", f.wrong_branch.as_ref()),
-        ("collision", f.collision.as_ref()),
-        ("timeout", f.timeout.as_ref()),
-    ] {
-        let (key, text) = match (own, &f.otherwise) {
-            (Some(text), _) => (key, text),
-            (None, Some(text)) => ("otherwise", text),
-            (None, None) => {
-                return Err(error(
-                    &format!("fitness.{key}"),
-                    "give it, or `otherwise` for every ending but solved".into(),
-                ));
-            }
-        };
-        let formula = Formula::parse(text, &facts, &mut quantities)
-            .and_then(|formula| {
-                check_formula_range(&formula, &quantities, file.phases.len()).map(|()| formula)
-            })
-            .map_err(|message| error(&format!("fitness.{key}"), message))?;
-        fitness.push(formula);
-    }
-    let fitness: [Formula; 4] = fitness.try_into().expect("one formula per ending");
-
-    // Phases and stages.
-    if file.phases.len() > MAX_PHASES {
-        return Err(error(
-            "phase",
-            format!("{} phases, at most {MAX_PHASES}", file.phases.len()),
-        ));
-    }
-    let mut phases = Vec::new();
-    for (idx, phase) in file.phases.iter().enumerate() {
-        phases.push(Phase {
-            name: phase.name.clone(),
-            child: phase.child.clone(),
-            when: condition(&format!("phase[{idx}].when"), &phase.when)?,
-        });
-    }
-    let mut stages = Vec::new();
-    for (idx, stage) in file.stages.iter().enumerate() {
-        stages.push(Stage {
-            name: stage.name.clone(),
-            reached: condition(&format!("stage[{idx}].reached"), &stage.reached)?,
-        });
-    }
-    if stages.len() > 8 {
-        return Err(error("stage", "at most 8 stages".into()));
-    }
-    // Goals reachable from starts, in map worlds.
-    if let Some(map) = &map {
-        for (idx, variant) in variants.iter().enumerate() {
-            let start = match &place.at {
-                PlaceAt::VariantStart => variant.start.clone(),
-                PlaceAt::Region(region) => Some(region.clone()),
-                PlaceAt::Rect(_) => None,
-                _ => map.regions.get("entrance").map(|_| "entrance".to_string()),
-            };
-            if let (Some(start), Some(goal)) = (start, &variant.goal) {
-                let (Some(from), Some(to)) = (map.regions.get(&start), map.regions.get(goal))
-                else {
-                    continue;
-                };
-                if crate::env::cells::path_between(&map.map, from[0], to[0]).is_none() {
-                    return Err(error(
-                        &format!("variant[{idx}].goal"),
-                        format!("no start can reach the goal '{goal}' from '{start}'"),
-                    ));
-                }
-            }
-        }
-    }
-
-    Ok(Scenario {
-        source: text.to_string(),
-        origin: origin.to_string(),
-        sensors,
-        world,
-        map,
-        rect_regions,
-        lights,
-        variants,
-        solids,
-        place,
-        teammate,
-        solved,
-        wrong_branch,
-        wrong_branch_ends: end.wrong_branch_ends,
-        forbidden,
-        near_m: end.near_m,
-        fitness,
-        quantities,
-        phases,
-        stages,
-        file,
     })
 }
 

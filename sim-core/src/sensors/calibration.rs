@@ -273,11 +273,13 @@ impl CalibrationTable {
     }
 
     /// The measured distances, in centimetres, strictly increasing.
+    #[cfg(test)]
     pub fn distances_cm(&self) -> &[f64] {
         &self.distances_cm
     }
 
     /// All curves, in the order of their `mean_` columns in the header.
+    #[cfg(test)]
     pub fn curves(&self) -> &[MeasuredCurve] {
         &self.curves
     }
@@ -476,6 +478,7 @@ impl ResampledCurve {
     }
 
     /// The farthest distance of the grid, in metres.
+    #[cfg(test)]
     pub fn max_distance_m(&self) -> f32 {
         self.last_position / self.inv_step
     }

@@ -35,7 +35,8 @@ use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
 use super::calibration::{CalibrationError, CalibrationTable, MeasuredCurve, ResampledCurve};
-use crate::rng::{SimRng, standard_normal};
+use crate::config::{CurveChoice, IrConfig, IrMapping};
+use crate::math::rng::{SimRng, standard_normal};
 
 /// Number of infrared proximity sensors: front-left (+17 deg), left (+90 deg), right (-90 deg),
 /// front-right (-17 deg), in input order.
@@ -57,7 +58,7 @@ pub const IR_CURVE_NAMES: [&str; N_MEASURED_IR_CURVES] = [
 /// Number of measured IR curves in the calibration table.
 pub const N_MEASURED_IR_CURVES: usize = 8;
 
-/// Curve index of the average of the measured curves (see [`MeasuredCurve::pooled`]). Any
+/// Curve index of the average of the measured curves (see `MeasuredCurve::pooled`). Any
 /// curve index at or above it also selects the average curve.
 pub const MEAN_IR_CURVE: u8 = N_MEASURED_IR_CURVES as u8;
 
@@ -72,77 +73,6 @@ const N_IR_CURVES: usize = N_MEASURED_IR_CURVES + 1;
 pub const SAME_ROBOT_CURVES: [[u8; N_IR]; 2] = [[3, 2, 1, 0], [7, 6, 5, 4]];
 
 const BUILTIN_IR_CSV: &str = include_str!("../../data/epuck-ir-calibration.csv");
-
-/// How each sample picks the measured curve that models each IR sensor.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CurveChoice {
-    /// Each sensor independently uses any of the 8 measured curves, so controllers meet the
-    /// full variety of real sensors, including mismatched ones on one robot.
-    #[default]
-    Any,
-    /// One of the two measured robots is picked per sample and each sensor uses that robot's
-    /// curve for the matching physical sensor (see [`SAME_ROBOT_CURVES`]).
-    SameRobot,
-    /// Every sensor uses the average curve; no per-sensor variety.
-    Mean,
-}
-
-/// How a raw reading becomes a network input in [0, 1] (1 at contact, 0 at 12 cm or beyond).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum IrMapping {
-    /// Model version 3's mapping: as `average_table`, after a baseline correction that moves
-    /// each sensor's empty reading, plus a margin of four noise standard deviations, onto the
-    /// average curve's. The margin makes walls 9 cm away read 0 even on the average curve, so
-    /// a robot driving along one wall cannot see the other, nor an opening in it; return to
-    /// room could not bootstrap past one start branch in four (72 % after 150 generations
-    /// with `average_table`, against 25 % flat).
-    LinearDistance,
-    /// Linear in the raw value between the curve's mean at 12 cm (0) and at contact (1). A
-    /// wall 6 cm away reads 0.008: the sensor is close to a contact switch, and the turning
-    /// primitives did not bootstrap with it.
-    LinearRaw,
-    /// The default, as JBotEvolver's `EpuckIRSensor` (the paper's simulator): nothing sensed
-    /// beyond 12 cm (reads 0); nearer, the raw reading drawn from the sensor's own curve is
-    /// turned back into a distance through the average table (what a robot calibrated once
-    /// with the average table does), with no baseline correction, and the input is
-    /// `1 - d / 12 cm`. A sensor whose own curve differs from the average reads systematically
-    /// off, as a real one would; a wall 8-9 cm away reads about 0.2-0.3 on most curves.
-    #[default]
-    AverageTable,
-}
-
-/// IR sensor configuration.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct IrConfig {
-    /// How far from the robot's body a sensor senses, metres. Beyond 12 cm a sensor reads 0
-    /// anyway (the alternative mappings read the calibration's farthest row); the world uses
-    /// this and `cone_deg` for geometry.
-    pub range_m: f32,
-    /// Opening of each sensor's cone, degrees.
-    pub cone_deg: f32,
-    /// Largest fixed offset noise, as a fraction of the input: each sensor's offset is drawn
-    /// from U(-offset_fraction, +offset_fraction) at the start of each sample.
-    pub offset_fraction: f32,
-    /// How each sample picks the measured curves.
-    pub curve_choice: CurveChoice,
-    /// How a raw reading maps to the input.
-    pub mapping: IrMapping,
-}
-
-impl Default for IrConfig {
-    fn default() -> Self {
-        IrConfig {
-            range_m: 0.14,
-            cone_deg: 70.0,
-            offset_fraction: 0.05,
-            curve_choice: CurveChoice::Any,
-            mapping: IrMapping::AverageTable,
-        }
-    }
-}
 
 impl IrConfig {
     /// Draws one sample's sensor setup with this configuration.
@@ -508,7 +438,7 @@ impl IrModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::{Stream, stream_rng};
+    use crate::math::rng::{Stream, stream_rng};
 
     fn builtin_table() -> CalibrationTable {
         CalibrationTable::parse(BUILTIN_IR_CSV).unwrap()
@@ -785,7 +715,7 @@ mod tests {
             offset: [0.0; N_IR],
             mapping: IrMapping::LinearDistance,
         };
-        let mut rng = crate::rng::stream_rng(3, crate::rng::Stream::Noise);
+        let mut rng = crate::math::rng::stream_rng(3, crate::math::rng::Stream::Noise);
         // Near the robot, where the curve is steep, the distance comes back unbiased; far out
         // the noise margin of the baseline correction reads it a little farther.
         assert_reads_linear_in_distance(model, &setup, &[0.5, 1.0, 2.0, 3.0, 5.0], 0.03, &mut rng);
@@ -813,7 +743,7 @@ mod tests {
             offset: [0.0; N_IR],
             mapping: IrMapping::AverageTable,
         };
-        let mut rng = crate::rng::stream_rng(4, crate::rng::Stream::Noise);
+        let mut rng = crate::math::rng::stream_rng(4, crate::math::rng::Stream::Noise);
         // On the average curve the input is 1 - d / 12 cm all the way out, with no noise
         // margin: 9 cm reads about 0.25 (JBotEvolver: 0.250 on its centre ray).
         assert_reads_linear_in_distance(model, &setup, &[1.0, 3.0, 6.0, 9.0], 0.04, &mut rng);

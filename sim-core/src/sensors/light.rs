@@ -7,14 +7,10 @@
 
 use std::sync::OnceLock;
 
-use serde::{Deserialize, Serialize};
-
 use super::calibration::{CalibrationError, CalibrationTable, MeanStd, ResampledCurve};
 use super::ir::IR_ANGLES;
-use crate::rng::{SimRng, standard_normal};
-
-/// Number of light-flash inputs: left, right.
-pub const N_LIGHT: usize = 2;
+use crate::config::{LightConfig, N_LIGHT};
+use crate::math::rng::{SimRng, standard_normal};
 
 /// Angles of the two light sensors from the heading, radians (left, right): the lateral IR
 /// sensors', which they are in ambient-light mode.
@@ -29,43 +25,6 @@ pub const RIGHT: usize = 1;
 pub const LIGHT_CURVE_NAMES: [&str; N_LIGHT] = ["l", "r"];
 
 const BUILTIN_LIGHT_CSV: &str = include_str!("../../data/epuck-light-calibration.csv");
-
-/// Light sensing and flash configuration.
-///
-/// The default thresholds come from the calibration table. The right sensor reads about 40
-/// units higher than the left one throughout (dark: left 3960.65 +- 0.48, right 4001.31 +-
-/// 0.46), so one threshold cannot serve both sides: 3955 would detect a lit light at 6 cm on the
-/// right in only 42% of cycles. Each side's threshold therefore sits just below its own dark row:
-///
-/// * left 3955 (11.8 dark standard deviations below 3960.65): a dark left side triggers with
-///   probability 1e-32 per cycle; a lit light 6 cm away (mean 3930.3 +- 17.5) is detected in
-///   92.1% of cycles, at 6.25 cm (a robot centred in a 0.2 m corridor) 91.8%, at 7 cm 90.6%;
-/// * right 3995 (13.6 dark standard deviations below 4001.31): false trigger 1e-42 per cycle;
-///   a lit light at 6 cm (3959.92 +- 23.4) is detected in 93.3% of cycles, at 7 cm 92.4%.
-///
-/// A light stays lit for `flash_cycles` = 5 cycles once triggered. A robot passing at 6 cm
-/// misses a flash only if all 5 reads miss: probability 0.079^5 = 3.1e-6 on the left and
-/// 0.067^5 = 1.4e-6 on the right; the worst case between 6 and 8 cm is 7.3e-6 (left, 7 cm).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct LightConfig {
-    /// How many cycles a side's input stays 1 after the last cycle a flash was detected on it.
-    pub hold_cycles: u32,
-    /// Per side (left, right): a raw reading below this counts as a detected flash.
-    pub threshold_raw: [f32; N_LIGHT],
-    /// How many control cycles a light stays lit once the world triggers it.
-    pub flash_cycles: u32,
-}
-
-impl Default for LightConfig {
-    fn default() -> Self {
-        LightConfig {
-            hold_cycles: 15,
-            threshold_raw: [3955.0, 3995.0],
-            flash_cycles: 5,
-        }
-    }
-}
 
 /// The ambient-light model of the two lateral sensors.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,11 +95,13 @@ impl LightModel {
 
     /// Mean and standard deviation of side `side`'s raw reading with a lit light at
     /// `distance_m`, or `None` for an out-of-range side.
+    #[cfg(test)]
     pub fn mean_std(&self, side: usize, distance_m: f32) -> Option<MeanStd> {
         self.sides.get(side).map(|curve| curve.at(distance_m))
     }
 
-    /// Mean and standard deviation of side `side`'s raw reading in the dark.
+    /// Mean and standard deviation of side `side`'s raw reading in the dark (what a light
+    /// sensor reads with no light lit; `hevo export` uses it).
     pub fn dark(&self, side: usize) -> Option<MeanStd> {
         self.sides.get(side).map(ResampledCurve::farthest)
     }
@@ -194,11 +155,13 @@ impl FlashDetector {
     }
 
     /// Forgets any held flash, as at the start of a sample.
+    #[cfg(test)]
     pub fn reset(&mut self) {
         self.remaining = [0; N_LIGHT];
     }
 
     /// How many more cycles each side's input will stay 1 without a new detection.
+    #[cfg(test)]
     pub fn remaining(&self) -> [u32; N_LIGHT] {
         self.remaining
     }
@@ -207,7 +170,7 @@ impl FlashDetector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::{Stream, stream_rng};
+    use crate::math::rng::{Stream, stream_rng};
 
     /// `read_raw` takes the farthest row for "no lit light" where it used to interpolate at
     /// infinity: the two must be the same bits, or the outcomes of every run would move.

@@ -3,7 +3,7 @@
 //! name resolved when the scenario compiles.
 
 use super::{Atom, AtomKind, CycleView, fixed_word};
-use crate::scenario::rect_holds;
+use crate::geometry::rect_holds;
 
 /// `in maze`: the robot's centre in a map cell.
 pub const IN_MAZE: AtomKind = AtomKind {
@@ -135,7 +135,7 @@ impl Atom for TeammateInRoom {
         view.teammate.is_some_and(|mate| {
             mate.following
                 && view.ground.room.as_ref().is_some_and(|room| {
-                    room.depth_beyond_exit(mate.pose.position()) < -view.task.robot.radius
+                    room.depth_beyond_exit(mate.pose.position()) < -view.params.robot.radius
                 })
         })
     }
@@ -160,7 +160,7 @@ impl Atom for BeyondExit {
     fn holds(&self, view: &CycleView<'_>) -> bool {
         view.ground.room.as_ref().is_some_and(|room| {
             room.depth_beyond_exit(view.robot.position())
-                > view.task.room.wall_thickness + view.task.robot.radius
+                > view.params.room.wall_thickness + view.params.robot.radius
         })
     }
 }

@@ -2,10 +2,10 @@
 //! is a small type implementing one trait: a world ([`World`]: a map, a generated room or
 //! corridor, their joins), a condition's atom ([`Atom`]: `in goal`, `near LIGHT`, ...; the
 //! phases, the stages and `end.solved` are conditions), a fitness quantity ([`Quantity`]:
-//! `time_bonus`, `approach NAME`, ...), how the teammate moves ([`TeammateBehaviour`]:
-//! `follow`, `fixed`, `wander`), or one of the robot's sensors ([`Sensor`]: `ir`, `light`,
-//! `near_robot`). Each kind of block has a registry below ([`WORLDS`], [`ATOMS`],
-//! [`QUANTITIES`], [`BEHAVIOURS`], [`SENSORS`]): the scenario compiler asks the registered
+//! `time_bonus`, `approach NAME`, ...), or how the teammate moves ([`TeammateBehaviour`]:
+//! `follow`, `fixed`, `wander`). Each kind of block has a registry below ([`WORLDS`], [`ATOMS`],
+//! [`QUANTITIES`], [`BEHAVIOURS`]; the robot's sensors, a floor below, have theirs in
+//! [`crate::sensors::registry`]): the scenario compiler asks the registered
 //! blocks in order which one a piece of the file names, and the evaluator only ever calls the
 //! compiled blocks' traits. A new block is one file in this folder and one line in its
 //! registry; ARCHITECTURE.md walks through one.
@@ -16,20 +16,19 @@
 
 pub mod atoms;
 pub mod quantities;
-pub mod sensors;
 pub mod teammates;
 pub mod worlds;
 
-use crate::env::cells::CellMap;
-use crate::env::room::Room;
-use crate::env::{Ground, LightSpec};
-use crate::evaluate::SubTaskChoices;
-use crate::rng::SimRng;
-use crate::robot::Pose;
+use crate::body::Pose;
+use crate::config::Params;
+use crate::geometry::cells::CellMap;
+use crate::geometry::scene::Scene;
+use crate::math::rng::SimRng;
+use crate::outcome::SubTaskChoices;
 use crate::scenario::file::WorldDecl;
 use crate::scenario::{CompiledMap, LightDef, Scenario};
-use crate::scene::Scene;
-use crate::task::TaskConfig;
+use crate::world::Ground;
+use crate::world::room::Room;
 use atoms::RegionTest;
 use std::fmt::Debug;
 use std::sync::Arc;
@@ -69,12 +68,6 @@ pub static QUANTITIES: &[QuantityKind] = &[
 /// default).
 pub static BEHAVIOURS: &[&dyn TeammateBehaviour] =
     &[&teammates::Follow, &teammates::Fixed, &teammates::Wander];
-
-/// The robot's sensors, in frame order: a frame holds each one's inputs in this order, and a
-/// cycle reads them (and draws their noise) in this order, so a new one goes last. A
-/// scenario's robot carries those its `sensors` key names, or else those carried by default;
-/// each one's name is also the input group a network lists.
-pub const SENSORS: &[SensorKind] = &[sensors::IR, sensors::LIGHT, sensors::NEAR_ROBOT];
 
 /// What a scenario holds, as far as a block's requirements go: a block that needs a room, a
 /// teammate or a goal in cells says so when it compiles, naming what is missing.
@@ -136,8 +129,10 @@ pub struct CycleView<'a> {
     pub ground: &'a Ground,
     /// The scenario.
     pub scenario: &'a Scenario,
-    /// The task's settings in force.
-    pub task: &'a TaskConfig,
+    /// The numbers in force.
+    pub params: &'a Params,
+    /// The cycle limit in force.
+    pub max_cycles: u32,
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -151,7 +146,8 @@ impl<'a> CycleView<'a> {
         teammate: Option<TeammateView>,
         ground: &'a Ground,
         scenario: &'a Scenario,
-        task: &'a TaskConfig,
+        params: &'a Params,
+        max_cycles: u32,
     ) -> CycleView<'a> {
         let world_map = ground
             .cells
@@ -162,7 +158,8 @@ impl<'a> CycleView<'a> {
             teammate,
             ground,
             scenario,
-            task,
+            params,
+            max_cycles,
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -250,7 +247,7 @@ pub trait World: Debug + Send + Sync {
     }
     /// What never changes between samples, built once per evaluator. A world with statics
     /// builds every sample on them: its samples' scene is the statics' scene.
-    fn statics(&self, _scenario: &Scenario, _task: &TaskConfig) -> Option<FixedLayout> {
+    fn statics(&self, _scenario: &Scenario, _params: &Params) -> Option<FixedLayout> {
         None
     }
     /// One sample's layout, drawn from its environment stream. By default, a fixed world's:
@@ -258,7 +255,7 @@ pub trait World: Debug + Send + Sync {
     fn build(
         &self,
         _scenario: &Scenario,
-        _task: &TaskConfig,
+        _params: &Params,
         statics: Option<&FixedLayout>,
         _rng: &mut SimRng,
     ) -> Built {
@@ -352,76 +349,6 @@ pub trait Motion: Debug + Send {
     fn after_met(&mut self, pose: &mut Pose, robot: &Pose, step: f32);
 }
 
-/// One kind of sensor: its name, its inputs and how it compiles for a task.
-#[derive(Debug)]
-pub struct SensorKind {
-    /// The name `sensors` and a network's `inputs` give.
-    pub name: &'static str,
-    /// Each input's name, in the order the sensor fills them: trace columns and the Python
-    /// binding's `input_names`. Their number is the group's width.
-    pub inputs: &'static [&'static str],
-    /// Whether a robot whose scenario names no `sensors` carries it: the e-puck's sensors do.
-    /// A new sensor that does not leaves every existing scenario's results as they are.
-    pub by_default: bool,
-    /// The sensor with a task's settings (its geometry, noise, calibration), built once per
-    /// evaluator; `None` when nothing in the task's scenario can excite it (no light for
-    /// `light`, no teammate for `near_robot`), so that it would read 0 and draw nothing in
-    /// every cycle of every sample: it is then not run at all.
-    pub compile: fn(task: &TaskConfig) -> Option<Box<dyn Sensor>>,
-}
-
-/// A compiled sensor: what all samples of an evaluator share.
-pub trait Sensor: Debug + Send + Sync {
-    /// A sample's reading of it, with whatever it keeps between cycles; drawn at the sample's
-    /// start from the sample's own sensor-setup stream (shared by the sensors in registry
-    /// order).
-    fn start<'s>(&'s self, setup: &mut SimRng) -> Box<dyn SensorRun + 's>;
-}
-
-/// One sample's reading of a sensor.
-pub trait SensorRun: Debug + Send {
-    /// Fills `out` (as many values as the kind's `inputs`, each in [0, 1], all 0 on entry)
-    /// with this cycle's reading, drawing any noise from the sample's noise stream.
-    fn read(&mut self, view: &SenseView<'_>, noise: &mut SimRng, out: &mut [f32]);
-}
-
-/// What a sensor sees of a sample at the start of a cycle.
-#[derive(Debug, Clone, Copy)]
-pub struct SenseView<'a> {
-    /// The robot.
-    pub robot: &'a Pose,
-    /// The sine of the robot's heading, computed once per cycle for every sensor.
-    pub sin_heading: f32,
-    /// The cosine of the robot's heading.
-    pub cos_heading: f32,
-    /// The solids.
-    pub scene: &'a Scene,
-    /// The sample's lights.
-    pub lights: &'a [LightSpec],
-    /// Bit `i` set when light `i` is lit in this cycle.
-    pub lit_mask: u32,
-    /// The teammate, in scenarios with one.
-    pub teammate: Option<&'a Pose>,
-}
-
-impl<'a> SenseView<'a> {
-    /// What a robot at `robot` sees of `env` with no light lit and no teammate: for the tests
-    /// of one sensor on its own.
-    #[cfg(test)]
-    pub(crate) fn unlit(robot: &'a Pose, env: &'a crate::env::Environment) -> SenseView<'a> {
-        let (sin_heading, cos_heading) = robot.heading.sin_cos();
-        SenseView {
-            robot,
-            sin_heading,
-            cos_heading,
-            scene: &env.scene,
-            lights: &env.lights,
-            lit_mask: 0,
-            teammate: None,
-        }
-    }
-}
-
 /// What a block written as a fixed word (one of `words`) makes of `text`: nothing when the text
 /// is another word, else the block, or the refusal `missing` when the scenario lacks what the
 /// block needs.
@@ -459,11 +386,15 @@ mod doc_examples {
     #[path = "east_of.rs"]
     mod east_of;
 
-    // What the examples import from `super`, the blocks module they would live in.
-    use super::{Atom, AtomKind, CycleView, Facts, SenseView, Sensor, SensorKind, SensorRun};
-    use crate::evaluate::{Evaluator, Sample};
-    use crate::rng::{Stream, stream_rng};
-    use crate::robot::Pose;
+    // What the examples import from `super`: the blocks module the atom would live in, and
+    // the sensors floor the compass would.
+    use super::{Atom, AtomKind, CycleView, Facts};
+    use crate::body::Pose;
+    use crate::episode::evaluator::Evaluator;
+    use crate::math::rng::{Stream, stream_rng};
+    use crate::outcome::Sample;
+    use crate::sensors::registry::SensorKind;
+    use crate::sensors::{SenseView, Sensor, SensorRun};
     use crate::task::TaskConfig;
 
     #[test]
@@ -514,7 +445,14 @@ mod doc_examples {
                 y: 0.0,
                 heading: 0.0,
             };
-            let view = CycleView::new(&robot, None, &env.ground, &task.scenario, &task);
+            let view = CycleView::new(
+                &robot,
+                None,
+                &env.ground,
+                &task.scenario,
+                &task.params,
+                task.max_cycles(),
+            );
             assert_eq!(atom.holds(&view), holds, "x = {x}");
         }
     }
@@ -522,7 +460,8 @@ mod doc_examples {
     #[test]
     fn the_compass_example_reads_the_heading() {
         let task = TaskConfig::shipped("exit_room").unwrap();
-        let sensor = (compass::COMPASS.compile)(&task).expect("always built");
+        let sensor = (compass::COMPASS.compile)(&task.params, &task.scenario.sensed_world())
+            .expect("always built");
         let env = Evaluator::new(task.clone())
             .unwrap()
             .environment(Sample::seeded(0));
@@ -538,7 +477,7 @@ mod doc_examples {
             };
             let mut out = [0.0f32; 2];
             run.read(
-                &SenseView::unlit(&robot, &env),
+                &SenseView::unlit(&robot, &env.scene),
                 &mut stream_rng(0, Stream::Noise),
                 &mut out,
             );

@@ -3,7 +3,7 @@
 //! range when the sample ends; an approach keeps its closest distance cycle by cycle.
 
 use super::{CycleView, EndView, Quantity, QuantityKind, Tracked, fixed_word};
-use crate::float::hypot;
+use crate::math::float::hypot;
 
 /// `time_bonus`: (max_cycles - cycles) / max_cycles.
 pub const TIME_BONUS: QuantityKind = QuantityKind {
@@ -24,7 +24,7 @@ struct TimeBonus;
 
 impl Quantity for TimeBonus {
     fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
-        time_bonus(end.cycles, end.cycle.task.max_cycles())
+        time_bonus(end.cycles, end.cycle.max_cycles)
     }
 }
 

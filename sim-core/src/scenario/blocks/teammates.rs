@@ -5,10 +5,10 @@
 //! at random on its own stream until met, then follows.
 
 use super::{Motion, TeammateBehaviour};
-use crate::float::hypot;
-use crate::rng::{SimRng, Stream, stream_rng};
-use crate::robot::Pose;
-use crate::scene::Scene;
+use crate::body::Pose;
+use crate::geometry::scene::Scene;
+use crate::math::float::hypot;
+use crate::math::rng::{SimRng, Stream, stream_rng};
 use std::collections::VecDeque;
 
 /// The follower's keep-away distance, centre to centre: it stops this close behind the robot.

@@ -4,14 +4,14 @@
 //! from the environment stream in a fixed order.
 
 use super::{Built, FixedLayout, Refusal, World, WorldKind};
-use crate::env::cells::{CellMap, Side};
-use crate::env::corridor::{self, Junction, Turn};
-use crate::env::room::{self, Placement, Room};
-use crate::rng::SimRng;
+use crate::config::Params;
+use crate::geometry::cells::{CellMap, Side};
+use crate::geometry::scene::{Rect, Scene};
+use crate::math::rng::SimRng;
 use crate::scenario::file::WorldDecl;
 use crate::scenario::{CompiledMap, Scenario};
-use crate::scene::{Rect, Scene};
-use crate::task::TaskConfig;
+use crate::world::corridor::{self, Junction, Turn};
+use crate::world::room::{self, Placement, Room};
 use rand::RngExt;
 use std::sync::Arc;
 
@@ -36,9 +36,9 @@ impl World for FixedMap {
         true
     }
 
-    fn statics(&self, scenario: &Scenario, task: &TaskConfig) -> Option<FixedLayout> {
+    fn statics(&self, scenario: &Scenario, params: &Params) -> Option<FixedLayout> {
         let map = &scenario.map.as_ref()?.map;
-        let scene = Scene::new(map.wall_rects(&[]), task.query_margin());
+        let scene = Scene::new(map.wall_rects(&[]), params.query_margin());
         Some((Arc::new(scene), Some(Arc::new(map.clone()))))
     }
 }
@@ -69,12 +69,12 @@ impl World for StandaloneRoom {
     fn build(
         &self,
         _scenario: &Scenario,
-        task: &TaskConfig,
+        params: &Params,
         _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
-        let room = room::generate(&task.room, Placement::Standalone, rng);
-        let scene = Arc::new(Scene::new(room.rects.clone(), task.query_margin()));
+        let room = room::generate(&params.room, Placement::Standalone, rng);
+        let scene = Arc::new(Scene::new(room.rects.clone(), params.query_margin()));
         Built {
             scene,
             cells: None,
@@ -125,12 +125,12 @@ impl World for RoomBelowMap {
     fn build(
         &self,
         scenario: &Scenario,
-        task: &TaskConfig,
+        params: &Params,
         _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
         let map = &scenario.map.as_ref().expect("checked when compiled").map;
-        let (scene, room) = room_below(map, self.entrance, task, rng);
+        let (scene, room) = room_below(map, self.entrance, params, rng);
         Built {
             scene,
             cells: Some(Arc::new(map.clone())),
@@ -217,15 +217,15 @@ impl World for Corridor {
     fn build(
         &self,
         _scenario: &Scenario,
-        task: &TaskConfig,
+        params: &Params,
         _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
-        let (map, path, junction) = generate_corridor(self.turn, task, rng);
+        let (map, path, junction) = generate_corridor(self.turn, params, rng);
         let shape = Some(junction.index());
         if self.room_below {
             // The corridor is drawn first, then the room under its first cell.
-            let (scene, room) = room_below(&map, path[0], task, rng);
+            let (scene, room) = room_below(&map, path[0], params, rng);
             Built {
                 scene,
                 cells: Some(Arc::new(map)),
@@ -236,7 +236,7 @@ impl World for Corridor {
         } else {
             let map = Arc::new(map);
             Built {
-                scene: Arc::new(Scene::new(map.wall_rects(&[]), task.query_margin())),
+                scene: Arc::new(Scene::new(map.wall_rects(&[]), params.query_margin())),
                 cells: Some(map),
                 room: None,
                 corridor_path: Some(path),
@@ -252,7 +252,7 @@ impl World for Corridor {
 fn room_below(
     map: &CellMap,
     entrance: usize,
-    task: &TaskConfig,
+    params: &Params,
     rng: &mut SimRng,
 ) -> (Arc<Scene>, Room) {
     let entrance_center = map.center(entrance);
@@ -262,7 +262,7 @@ fn room_below(
         entrance_center[1] - half - 0.5 * map.wall_thickness,
     ];
     let room = room::generate(
-        &task.room,
+        &params.room,
         Placement::Below {
             exit_center: room_exit,
         },
@@ -270,17 +270,17 @@ fn room_below(
     );
     let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
     rects.extend(room.rects.iter().copied());
-    (Arc::new(Scene::new(rects, task.query_margin())), room)
+    (Arc::new(Scene::new(rects, params.query_margin())), room)
 }
 
 /// A corridor drawn from the stream as the turning and following primitives need it: its
 /// cells, its path, and the shape of its turn.
 fn generate_corridor(
     turn: Turn,
-    task: &TaskConfig,
+    params: &Params,
     rng: &mut SimRng,
 ) -> (CellMap, Vec<usize>, Junction) {
-    let c = &task.corridor;
+    let c = &params.corridor;
     let (before, after) = match turn {
         Turn::Straight => (
             rng.random_range(c.straight_cells[0]..=c.straight_cells[1]),
@@ -323,10 +323,13 @@ pub const SOLIDS: WorldKind = WorldKind {
 struct Solids;
 
 impl World for Solids {
-    fn statics(&self, _scenario: &Scenario, task: &TaskConfig) -> Option<FixedLayout> {
+    fn statics(&self, _scenario: &Scenario, params: &Params) -> Option<FixedLayout> {
         // Empty: the scenario's solids are added to every world's (`env::Statics`), and here
         // they are all there is.
-        Some((Arc::new(Scene::new(Vec::new(), task.query_margin())), None))
+        Some((
+            Arc::new(Scene::new(Vec::new(), params.query_margin())),
+            None,
+        ))
     }
 }
 

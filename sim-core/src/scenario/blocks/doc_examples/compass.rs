@@ -1,12 +1,12 @@
 //! `compass`: the robot's heading as two inputs in [0, 1], (1 + cos) / 2 and (1 + sin) / 2.
 use super::{SenseView, Sensor, SensorKind, SensorRun};
-use crate::rng::SimRng;
+use crate::math::rng::SimRng;
 
 pub const COMPASS: SensorKind = SensorKind {
     name: "compass",
     inputs: &["compass_cos", "compass_sin"],
     by_default: false,
-    compile: |_task| Some(Box::new(Compass)),
+    compile: |_params, _world| Some(Box::new(Compass)),
 };
 
 #[derive(Debug, Clone, Copy)]

@@ -3,40 +3,12 @@
 //! a list of samples shared by all genomes; the result is one outcome per (genome, sample).
 //! Built once per batch and shared by reference between the worker's threads.
 
-use crate::controller::{Controller, ControllerError, ControllerFile, NodeKind};
-use crate::evaluate::{Evaluator, NodeUse, Outcome, Policy, Sample, SubTaskChoices, TaskError};
-use crate::frame::SensorFrame;
-use crate::lockstep::LaneController;
+use crate::episode::evaluator::{Evaluator, TaskError};
+use crate::episode::lockstep::LaneController;
+use crate::network::controller::{Controller, ControllerError, ControllerFile, NodeKind};
+use crate::outcome::{NodeUse, Outcome, Sample, SubTaskChoices};
 use crate::scenario::Scenario;
 use crate::task::TaskConfig;
-
-impl Policy for Controller {
-    fn reset(&mut self) {
-        Controller::reset(self);
-    }
-
-    #[inline]
-    fn step(&mut self, frame: &SensorFrame, dt: f32) -> [f32; 2] {
-        let wheels = Controller::step(self, frame, dt);
-        [wheels.left, wheels.right]
-    }
-
-    fn root_choice(&self) -> Option<usize> {
-        Controller::root_choice(self)
-    }
-
-    fn active_path(&self) -> &[usize] {
-        Controller::active_path(self)
-    }
-
-    fn n_nodes(&self) -> usize {
-        Controller::n_nodes(self)
-    }
-
-    fn root_child_index(&self, name: &str) -> Option<usize> {
-        Controller::root_child_index(self, name)
-    }
-}
 
 /// Why a batch cannot be evaluated.
 #[derive(Debug, thiserror::Error)]
@@ -76,13 +48,13 @@ pub fn controller_fits(controller: &ControllerFile, scenario: &Scenario) -> Resu
 
 /// Which evaluator runs a batch's samples. Both give bit-identical outcomes (a property test
 /// holds them to it); the scalar one is the reference, one sample after another, and the
-/// lockstep one ([`crate::lockstep`]) advances several samples of a genome together.
+/// lockstep one (`episode::lockstep`) advances several samples of a genome together.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EvaluatorKind {
     /// One sample at a time: [`Evaluator::evaluate`].
     Scalar,
-    /// [`crate::lanes::LANES`] samples in lockstep: [`Evaluator::evaluate_lockstep`].
+    /// `LANES` (eight) samples in lockstep: [`Evaluator::evaluate_lockstep`].
     #[default]
     Lockstep,
 }
@@ -155,7 +127,7 @@ impl BatchEvaluator {
                 .map(|&sample| self.evaluator.evaluate(&mut controller, sample))
                 .collect(),
             EvaluatorKind::Lockstep => {
-                let dt = self.evaluator.task().robot.cycle_seconds;
+                let dt = self.evaluator.task().params.robot.cycle_seconds;
                 let mut lanes = LaneController::new(controller, dt);
                 self.evaluator.evaluate_lockstep(&mut lanes, samples)
             }
@@ -302,18 +274,11 @@ impl BatchEvaluator {
     }
 }
 
-/// A stable content hash of a task configuration (FNV-1a over its canonical JSON), so workers
-/// can cache evaluators by (template hash, task hash).
-pub fn task_content_hash(task: &TaskConfig) -> String {
-    let json = serde_json::to_string(task).unwrap_or_default();
-    crate::hash::fnv1a_hex(json.as_bytes())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::NodeSpec;
-    use crate::frame::InputGroup;
+    use crate::network::controller::NodeSpec;
+    use crate::sensors::frame::InputGroup;
 
     /// A two-level tree whose root sees every input group, over the children the task's
     /// phases ask for (two others when it has none), so it fits every task.

@@ -16,6 +16,7 @@ pub const LANES: usize = 8;
 pub type LaneMask = u32;
 
 /// Every lane.
+#[cfg(test)]
 pub const ALL_LANES: LaneMask = {
     assert!(
         LANES <= LaneMask::BITS as usize,

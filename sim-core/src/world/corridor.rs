@@ -8,10 +8,9 @@
 //! saw L-bends, or only T-ends, learns a rule ("turn at the wall ahead") that the other
 //! junction breaks.
 
-use super::cells::{Cell, CellMap, Side};
+use crate::config::MAZE_CELL_SIZE;
+use crate::geometry::cells::{Cell, CellMap, Side};
 
-/// The maze's cell side (JBotEvolver's default): corridors are built of the maze's own cells.
-pub const MAZE_CELL_SIZE: f32 = 0.30;
 /// The maze's wall thickness, which leaves a 0.20 m corridor in a 0.30 m cell.
 pub const MAZE_WALL_THICKNESS: f32 = 0.10;
 use serde::{Deserialize, Serialize};

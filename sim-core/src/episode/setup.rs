@@ -1,125 +1,23 @@
-//! Environments: everything a sample's world holds that does not move by itself. From the
-//! task's scenario and the sample's environment stream this builds the scene, the start pose,
-//! the teammate, the lights and the ground truth the task judges against (the goal's cells and
-//! path, the room's exit). The draws come in one order for every scenario: the variant (when
-//! there are several and the sample does not fix one), the world's generators, the start
-//! anywhere in its region, the start's turn, its jitter, its advance (each only when the
-//! scenario asks for it). Layouts that never change (a fixed map) are built once per
-//! evaluator and shared.
+//! Setting a sample's world up: from the task's scenario and the sample's environment stream
+//! this builds the scene, the start pose, the teammate, the lights and the ground truth the
+//! task judges against (the goal's cells and path, the room's exit). The draws come in one
+//! order for every scenario: the variant (when there are several and the sample does not fix
+//! one), the world's generators, the start anywhere in its region, the start's turn, its
+//! jitter, its advance (each only when the scenario asks for it). Layouts that never change (a
+//! fixed map) are built once per evaluator and shared ([`Statics`]).
 
-pub mod cells;
-pub mod corridor;
-#[cfg(test)]
-pub mod maze;
-pub mod regions;
-pub mod room;
-
-use crate::rng::SimRng;
-use crate::robot::Pose;
+use crate::body::Pose;
+use crate::geometry::cells::{self, CellMap};
+use crate::geometry::scene::Scene;
+use crate::math::rng::SimRng;
 use crate::scenario::blocks::FixedLayout;
-use crate::scenario::{Facing, PlaceAt, Scenario, Trigger};
-use crate::scene::Scene;
+use crate::scenario::{Facing, PlaceAt, Scenario};
 use crate::task::TaskConfig;
-use cells::CellMap;
+use crate::world::lights::LightSpec;
+use crate::world::{CellGoal, Environment, Ground};
 use rand::RngExt;
-use room::Room;
 use std::f32::consts::PI;
 use std::sync::Arc;
-
-/// A light as one sample sees it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LightSpec {
-    /// Position, metres.
-    pub position: [f32; 2],
-    /// Whether this light lights in the sample's variant.
-    pub flashes: bool,
-    /// When it lights.
-    pub trigger: Trigger,
-}
-
-/// What a sample's task judges progress against.
-#[derive(Debug, Clone, Default)]
-pub struct Ground {
-    /// The room, in worlds with one.
-    pub room: Option<Room>,
-    /// The goal in cells and the path to it, when the variant has one.
-    pub goal: Option<CellGoal>,
-    /// The cells of the world, in worlds made of cells ("in maze").
-    pub cells: Option<Arc<CellMap>>,
-}
-
-/// A goal in a cell world: the path, the goal cell and the corridor-distance table.
-#[derive(Debug, Clone)]
-pub struct CellGoal {
-    /// The cells.
-    pub map: Arc<CellMap>,
-    /// Whether each cell lies on the correct path.
-    pub on_path: Vec<bool>,
-    /// The goal cell (last on the path).
-    pub goal: usize,
-    /// Corridor distance from each cell centre to the goal's centre.
-    pub distances: Vec<f32>,
-    /// Corridor distance from the path's start (its first cell's centre) to the goal.
-    pub total_distance: f32,
-    /// The dead ends off the path: the other branches' end cells.
-    pub wrong_ends: Vec<usize>,
-}
-
-impl CellGoal {
-    fn new(map: Arc<CellMap>, path: &[usize]) -> CellGoal {
-        let goal = *path.last().expect("paths have at least two cells");
-        let distances = map.distances_to(goal);
-        let mut on_path = vec![false; map.cells.len()];
-        for &cell_idx in path {
-            on_path[cell_idx] = true;
-        }
-        let total_distance = distances[path[0]];
-        let wrong_ends = (0..map.cells.len())
-            .filter(|&cell_idx| !on_path[cell_idx] && map.neighbours(cell_idx).count() == 1)
-            .collect();
-        CellGoal {
-            map,
-            on_path,
-            goal,
-            distances,
-            total_distance,
-            wrong_ends,
-        }
-    }
-
-    /// Whether a robot of this radius at `point` has reached another branch's end, as the
-    /// authors' code judges it: its bounding box meets the central half of a dead-end cell
-    /// off the path.
-    pub fn reached_wrong_end(&self, point: [f32; 2], radius: f32) -> bool {
-        let reach = 0.25 * self.map.cell_size + radius;
-        self.wrong_ends.iter().any(|&cell_idx| {
-            let center = self.map.center(cell_idx);
-            (point[0] - center[0]).abs() < reach && (point[1] - center[1]).abs() < reach
-        })
-    }
-
-    /// Corridor distance from a point to the goal (None outside the cells).
-    pub fn distance_from(&self, point: [f32; 2]) -> Option<f32> {
-        self.map.distance_from(point, &self.distances)
-    }
-}
-
-/// One sample's environment.
-#[derive(Debug, Clone)]
-pub struct Environment {
-    /// Walls and obstacles.
-    pub scene: Arc<Scene>,
-    /// The robot's start pose.
-    pub start: Pose,
-    /// The teammate's start pose, and whether it already follows.
-    pub teammate: Option<(Pose, bool)>,
-    /// The lights.
-    pub lights: Vec<LightSpec>,
-    /// The ground truth.
-    pub ground: Ground,
-    /// The variant (light configuration, start branch), or a turning corridor's shape.
-    pub variant: u32,
-}
 
 /// Geometry shared by all samples of an evaluator: built once.
 #[derive(Debug)]
@@ -131,7 +29,7 @@ impl Statics {
     /// Builds what never changes between samples of this task.
     pub fn new(task: &TaskConfig) -> Statics {
         let scenario = &task.scenario;
-        let closed_map = scenario.world.statics(scenario, task);
+        let closed_map = scenario.world.statics(scenario, &task.params);
         Statics {
             closed_map: closed_map.map(|(scene, cells)| (with_solids(scene, task), cells)),
         }
@@ -146,7 +44,7 @@ fn with_solids(scene: Arc<Scene>, task: &TaskConfig) -> Arc<Scene> {
         return scene;
     }
     let rects = scene.rects().iter().chain(solids).copied().collect();
-    Arc::new(Scene::new(rects, task.query_margin()))
+    Arc::new(Scene::new(rects, task.params.query_margin()))
 }
 
 /// How often a start anywhere in its region is drawn again for touching a solid before it
@@ -190,7 +88,7 @@ fn draw_anywhere(
     };
     (0..ANYWHERE_TRIES)
         .map(|_| draw())
-        .find(|&at| !scene.disc_hits(at, task.robot.radius))
+        .find(|&at| !scene.disc_hits(at, task.params.robot.radius))
         .unwrap_or(fallback)
 }
 
@@ -229,7 +127,7 @@ pub fn build(
     // The world: its scene, cells, room, and a generated corridor's path and shape.
     let built = scenario
         .world
-        .build(scenario, task, statics.closed_map.as_ref(), rng);
+        .build(scenario, &task.params, statics.closed_map.as_ref(), rng);
     let reported = built.shape.unwrap_or(variant_idx);
     // A fixed world's scene has the scenario's solids already; a generated one gets them now.
     let scene = match statics.closed_map {
@@ -333,8 +231,8 @@ pub fn build(
                 };
                 let mut start = stem_start(at, heading, task, rng);
                 // Drawn only when asked for, so tasks without an advance keep their draws.
-                if place.advance && task.corridor.start_advance > 0.0 {
-                    start.y += rng.random_range(0.0..=task.corridor.start_advance);
+                if place.advance && task.params.corridor.start_advance > 0.0 {
+                    start.y += rng.random_range(0.0..=task.params.corridor.start_advance);
                 }
                 start
             }
@@ -406,8 +304,8 @@ pub fn build(
 /// A start pose at a corridor cell: jittered sideways and in heading (SPEC is silent; the
 /// amounts are config values).
 fn stem_start(center: [f32; 2], heading: f32, task: &TaskConfig, rng: &mut SimRng) -> Pose {
-    let lateral = task.start.lateral_offset;
-    let jitter = task.start.heading_jitter_deg.to_radians();
+    let lateral = task.params.start.lateral_offset;
+    let jitter = task.params.start.heading_jitter_deg.to_radians();
     let offset = if lateral > 0.0 {
         rng.random_range(-lateral..=lateral)
     } else {
@@ -436,7 +334,8 @@ fn teammate_at_branch_end(goal: &CellGoal, task: &TaskConfig) -> Pose {
         .map_or(end, |n| goal.map.center(n));
     let heading = (before[1] - end[1]).atan2(before[0] - end[0]);
     // Towards the dead end from the cell centre, clear of the end wall.
-    let back = 0.5 * goal.map.cell_size - 0.5 * goal.map.wall_thickness - task.robot.radius - 0.01;
+    let back =
+        0.5 * goal.map.cell_size - 0.5 * goal.map.wall_thickness - task.params.robot.radius - 0.01;
     Pose {
         x: end[0] - back * heading.cos(),
         y: end[1] - back * heading.sin(),
@@ -447,8 +346,8 @@ fn teammate_at_branch_end(goal: &CellGoal, task: &TaskConfig) -> Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::{Stream, stream_rng};
-    use corridor::MAZE_CELL_SIZE;
+    use crate::config::MAZE_CELL_SIZE;
+    use crate::math::rng::{Stream, stream_rng};
 
     /// How far along +y each of `n` samples' starts lie beyond their first cell's centre.
     fn start_advances(task: &TaskConfig, n: u64) -> Vec<f32> {
@@ -486,7 +385,7 @@ mod tests {
     fn the_other_branches_ends_are_the_wrong_ends() {
         let task = TaskConfig::shipped("solve_maze").unwrap();
         let statics = Statics::new(&task);
-        let radius = task.robot.radius;
+        let radius = task.params.robot.radius;
         for configuration in 0..4 {
             let env = build(
                 &task,

@@ -19,7 +19,7 @@
 //! build of `sincosf` glibc picks for the CPU, they are also the same on CPUs without FMA (where
 //! glibc's own results differ in a few values in a billion).
 
-use crate::lanes::LANES;
+use crate::math::lanes::LANES;
 
 /// glibc's `__sincosf_table[0]`: 2^24 * 2 / pi, pi / 2, the cosine polynomial's coefficients
 /// c0..c4 and the sine polynomial's s1..s3 (the second table negates every c).

@@ -4,8 +4,8 @@
 //! The shapes are the ones the judge tests: a map region is its whole cells (`in REGION` asks
 //! which cell the robot's centre is in), `room` the room's interior.
 
-use super::Environment;
 use crate::task::TaskConfig;
+use crate::world::Environment;
 
 /// A named region: its name, as conditions spell it, and the rectangles `[x0, y0, x1, y1]` it
 /// covers, metres.
@@ -55,8 +55,8 @@ pub fn named_regions(task: &TaskConfig, env: &Environment) -> Vec<NamedRegion> {
             ]],
         });
         // The exit: the gap in the wall, from its inner face through the wall.
-        let half_gap = 0.5 * task.room.exit_width;
-        let thick = task.room.wall_thickness;
+        let half_gap = 0.5 * task.params.room.exit_width;
+        let thick = task.params.room.wall_thickness;
         let [ox, oy] = room.exit_outward;
         let [cx, cy] = room.exit_center;
         let far = [cx + thick * ox, cy + thick * oy];
@@ -110,8 +110,8 @@ fn cell_square(center: [f32; 2], size: f32) -> [f32; 4] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::{Statics, build};
-    use crate::rng::{Stream, stream_rng};
+    use crate::episode::setup::{Statics, build};
+    use crate::math::rng::{Stream, stream_rng};
 
     fn regions_of(name: &str, seed: u64) -> Vec<NamedRegion> {
         let task = TaskConfig::shipped(name).unwrap();
@@ -159,7 +159,12 @@ mod tests {
             .rects[0];
         assert!(room[3] <= y0 + 1e-4, "room {room:?} entrance {entrance:?}");
         // The exit is the gap, `room.exit_width` wide, through the wall of the map's border.
-        let half_gap = 0.5 * TaskConfig::shipped("rescue").unwrap().room.exit_width;
+        let half_gap = 0.5
+            * TaskConfig::shipped("rescue")
+                .unwrap()
+                .params
+                .room
+                .exit_width;
         assert!((exit[0] + half_gap).abs() < 1e-4, "{exit:?}");
         assert!((exit[2] - half_gap).abs() < 1e-4, "{exit:?}");
         assert!((exit[1] - room[3]).abs() < 1e-4, "{exit:?} {room:?}");

@@ -2,19 +2,21 @@
 //! cycle. Every genome of a generation runs the same samples, so the networks of all lanes
 //! share their weights and differ only in their state; that state is laid out one [`Lanes`]
 //! per neuron, and each network steps once per cycle for all the lanes in which it is active,
-//! with the compiler's vector instructions ([`crate::lanes`]). The world of each lane (sensing,
+//! with the compiler's vector instructions ([`crate::math::lanes`]). The world of each lane (sensing,
 //! moving, judging) runs the scalar evaluator's own per-sample code (`evaluate::SampleRun`), so an
 //! outcome here is bit-identical to [`Evaluator::evaluate`]'s for the same controller and
 //! sample; the property tests in `tests/lockstep.rs` hold the two to that. A lane whose sample
 //! ends takes the next sample at once, so samples that end early leave no lane idle.
 
-use crate::controller::{Controller, NodeKind, arbitrate};
-use crate::ctrnn::{StepWeights, euler_step};
-use crate::evaluate::{Evaluator, Outcome, Sample, SampleRun, phase_children};
-use crate::frame::N_FLAT;
-use crate::lanes::{LANES, LaneMask, Lanes, lanes_of};
-use crate::robot::Arc;
-use crate::trig;
+use crate::body::Arc;
+use crate::episode::evaluator::{Evaluator, SampleRun};
+use crate::episode::judge::phase_children;
+use crate::math::lanes::{LANES, LaneMask, Lanes, lanes_of};
+use crate::math::trig;
+use crate::network::controller::{Controller, NodeKind, arbitrate};
+use crate::network::ctrnn::{StepWeights, euler_step};
+use crate::outcome::{Outcome, Sample};
+use crate::sensors::frame::N_FLAT;
 use std::ops::Range;
 
 /// [`euler_step`] on lanes, compiled for the baseline CPU and again for AVX2, where one
@@ -351,7 +353,7 @@ impl LaneController {
 }
 
 impl Evaluator {
-    /// Runs every sample with `controller`, [`LANES`] at a time in lockstep, and returns the
+    /// Runs every sample with `controller`, `LANES` (eight) at a time in lockstep, and returns the
     /// outcomes in sample order: the same, bit for bit, as [`Evaluator::evaluate`] gives for
     /// the controller it was built from.
     pub fn evaluate_lockstep(
@@ -427,8 +429,8 @@ impl Evaluator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ctrnn::{Ctrnn, CtrnnTopology};
-    use crate::lanes::Real;
+    use crate::math::lanes::Real;
+    use crate::network::ctrnn::{Ctrnn, CtrnnTopology};
     use proptest::prelude::*;
 
     /// Every shape `step_network` has unrolled code for, and two it has not.

@@ -4,7 +4,7 @@
 //! path by path and light by light. Parsing is strict: a malformed line is an error naming
 //! its line number.
 
-use super::cells::{Cell, CellMap};
+use crate::geometry::cells::{Cell, CellMap};
 use std::sync::OnceLock;
 
 /// The layout file shipped with hevo (a copy of `shared/data/double-t-maze.txt`).
@@ -41,7 +41,8 @@ pub struct MazeError {
     pub message: String,
 }
 
-use super::corridor::{MAZE_CELL_SIZE, MAZE_WALL_THICKNESS};
+use super::corridor::MAZE_WALL_THICKNESS;
+use crate::config::MAZE_CELL_SIZE;
 
 impl MazeLayout {
     /// The shipped layout, parsed once.
@@ -186,11 +187,6 @@ impl MazeLayout {
     /// Number of light configurations (four in the paper's maze).
     pub fn n_configurations(&self) -> u32 {
         self.paths.len() as u32
-    }
-
-    /// The entrance cell: the first cell of every path.
-    pub fn entrance(&self) -> usize {
-        self.paths[0][0]
     }
 }
 

@@ -4,7 +4,8 @@
 //! registered sensors ([`SENSORS`]): a frame holds every registered sensor's inputs, one after
 //! the other in registry order, so its layout is fixed when the crate compiles.
 
-use crate::scenario::blocks::{SENSORS, SensorKind};
+use super::SENSORS;
+use super::SensorKind;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt;
 

@@ -10,7 +10,7 @@
 //! flat layout of each rectangle. The tests hold the table to the one rapier's broad phase
 //! gives and the distances to parry's ray casts.
 
-use crate::float::hypot;
+use crate::math::float::hypot;
 use rapier2d::math::{Pose, Vector};
 use rapier2d::parry::bounding_volume::{Aabb, BoundingVolume};
 use rapier2d::parry::shape::Cuboid;
@@ -134,6 +134,7 @@ pub struct Scene {
 
 /// The distance beyond a cell that its candidate list must cover: the robot's body, the IR
 /// range beyond the body and one cycle's worth of movement, with room to spare.
+#[cfg(test)]
 pub const DEFAULT_QUERY_MARGIN: f32 = 0.25;
 const GRID_CELL: f32 = 0.1;
 const CELLS_PER_METRE: f32 = 1.0 / GRID_CELL;
@@ -799,12 +800,12 @@ mod tests {
         use crate::{Sample, Scenario, TaskConfig};
         assert_broad_phase_table(box_scene().rects, DEFAULT_QUERY_MARGIN, "the box scene");
         let examples = [
-            include_str!("../../scenarios/examples/t_maze.toml"),
-            include_str!("../../scenarios/examples/triple_t_maze.toml"),
-            include_str!("../../scenarios/examples/cross_yard.toml"),
-            include_str!("../../scenarios/examples/room_to_yard.toml"),
-            include_str!("../../scenarios/examples/room_to_corridor.toml"),
-            include_str!("../../scenarios/examples/find_wanderer.toml"),
+            include_str!("../../../scenarios/examples/t_maze.toml"),
+            include_str!("../../../scenarios/examples/triple_t_maze.toml"),
+            include_str!("../../../scenarios/examples/cross_yard.toml"),
+            include_str!("../../../scenarios/examples/room_to_yard.toml"),
+            include_str!("../../../scenarios/examples/room_to_corridor.toml"),
+            include_str!("../../../scenarios/examples/find_wanderer.toml"),
         ];
         let mut tasks: Vec<TaskConfig> = Scenario::shipped_names()
             .into_iter()
@@ -819,7 +820,11 @@ mod tests {
             for seed in 0..6 {
                 let env = evaluator.environment(Sample::seeded(seed));
                 let what = format!("{} seed {seed}", task.name());
-                assert_broad_phase_table(env.scene.rects.clone(), task.query_margin(), &what);
+                assert_broad_phase_table(
+                    env.scene.rects.clone(),
+                    task.params.query_margin(),
+                    &what,
+                );
             }
         }
     }
@@ -883,15 +888,15 @@ mod tests {
                     point[axis] = point[axis].next_up();
                 }
             }
-            let radius = task.robot.radius;
+            let radius = task.params.robot.radius;
             let (sin_h, cos_h) = at.2.sin_cos();
-            let cones = ConeLanes::new(&IR_ANGLES.map(|angle| Cone::new(angle, task.ir.cone_deg.to_radians())))
+            let cones = ConeLanes::new(&IR_ANGLES.map(|angle| Cone::new(angle, task.params.ir.cone_deg.to_radians())))
                 .rotated(sin_h, cos_h);
             let origins = [
                 IR_ANGLES.map(|a| point[0] + radius * (at.2 + a).cos()),
                 IR_ANGLES.map(|a| point[1] + radius * (at.2 + a).sin()),
             ];
-            let range = task.ir.range_m;
+            let range = task.params.ir.range_m;
             let bits = |d: [Option<f32>; 4]| d.map(|d| d.map(f32::to_bits));
             let all = &scene.all_solids;
             let expected_cones = bits(scene.cone_lane_distances_among(all, &origins, &cones, range));

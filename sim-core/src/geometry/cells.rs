@@ -3,8 +3,8 @@
 //! 0.30 m cell leaves a 0.20 m corridor), tells which cell a point is in, and measures the
 //! distance along the corridors to a goal cell, which f2 and the corridor fitness need.
 
-use crate::float::{floor_to_i32, hypot};
-use crate::scene::{Rect, RectKind};
+use crate::geometry::scene::{Rect, RectKind};
+use crate::math::float::{floor_to_i32, hypot};
 use std::collections::VecDeque;
 
 /// Side of a square cell: top (+y), right (+x), bottom (-y), left (-x).

@@ -6,17 +6,16 @@
 //! the models and their calibration tables live in [`crate::sensors`], and this file only
 //! wires them to the frame.
 
-use super::{SenseView, Sensor, SensorKind, SensorRun};
-use crate::evaluate::IrCone;
-use crate::float::hypot;
-use crate::rng::SimRng;
-use crate::robot::Pose;
-use crate::scene::{Cone, ConeLanes};
-use crate::sensors::{
-    FlashDetector, IR_ANGLES, IrConfig, IrModel, IrSensorSetup, LIGHT_ANGLES, LightConfig,
-    LightModel, N_IR, N_LIGHT,
-};
-use crate::task::TaskConfig;
+use super::registry::{SenseView, SensedWorld, Sensor, SensorKind, SensorRun};
+use super::{FlashDetector, IR_ANGLES, IrModel, IrSensorSetup, LIGHT_ANGLES, LightModel, N_IR};
+use crate::body::Pose;
+use crate::config::{IrConfig, LightConfig, N_LIGHT, Params};
+use crate::geometry::scene::{Cone, ConeLanes};
+use crate::math::float::hypot;
+use crate::math::rng::SimRng;
+
+/// A sensor cone for drawing: sensor position, the two boundary ray directions, the range.
+pub type IrCone = ([f32; 2], [f32; 2], [f32; 2], f32);
 
 /// `ir`: front-left, left, right and front-right proximity, 1 at contact, 0 at 12 cm or beyond.
 pub const IR: SensorKind = SensorKind {
@@ -73,11 +72,11 @@ struct IrSensor {
     model: &'static IrModel,
 }
 
-fn compile_ir(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
+fn compile_ir(params: &Params, _world: &SensedWorld) -> Option<Box<dyn Sensor>> {
     Some(Box::new(IrSensor {
-        cones: ConeLanes::new(&ir_cones_at_rest(&task.ir)),
-        offsets: body_offsets(IR_ANGLES, task.robot.radius),
-        config: task.ir,
+        cones: ConeLanes::new(&ir_cones_at_rest(&params.ir)),
+        offsets: body_offsets(IR_ANGLES, params.robot.radius),
+        config: params.ir,
         model: IrModel::builtin(),
     }))
 }
@@ -89,15 +88,15 @@ fn ir_cones_at_rest(config: &IrConfig) -> [Cone; N_IR] {
 
 /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
 /// boundary rays, and the range; for drawing.
-pub fn ir_cones(task: &TaskConfig, pose: &Pose) -> Vec<IrCone> {
+pub fn ir_cones(params: &Params, pose: &Pose) -> Vec<IrCone> {
     let (sin_h, cos_h) = pose.heading.sin_cos();
     let origins = positions(
-        &body_offsets(IR_ANGLES, task.robot.radius),
+        &body_offsets(IR_ANGLES, params.robot.radius),
         pose,
         sin_h,
         cos_h,
     );
-    ir_cones_at_rest(&task.ir)
+    ir_cones_at_rest(&params.ir)
         .iter()
         .enumerate()
         .map(|(sensor, cone)| {
@@ -106,7 +105,7 @@ pub fn ir_cones(task: &TaskConfig, pose: &Pose) -> Vec<IrCone> {
                 [origins[0][sensor], origins[1][sensor]],
                 cone.boundaries[0],
                 cone.boundaries[1],
-                task.ir.range_m,
+                params.ir.range_m,
             )
         })
         .collect()
@@ -167,13 +166,13 @@ struct LightSensor {
     model: &'static LightModel,
 }
 
-fn compile_light(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
-    if task.scenario.lights.is_empty() {
+fn compile_light(params: &Params, world: &SensedWorld) -> Option<Box<dyn Sensor>> {
+    if !world.has_lights {
         return None;
     }
     Some(Box::new(LightSensor {
-        offsets: body_offsets(LIGHT_ANGLES, task.robot.radius),
-        config: task.light,
+        offsets: body_offsets(LIGHT_ANGLES, params.robot.radius),
+        config: params.light,
         model: LightModel::builtin(),
     }))
 }
@@ -221,7 +220,7 @@ impl SensorRun for LightRun<'_> {
             for (side, nearest) in nearest.iter_mut().enumerate() {
                 let p = [origins[0][side], origins[1][side]];
                 let facing = [p[0] - robot.x, p[1] - robot.y];
-                let to_light = [light.position[0] - p[0], light.position[1] - p[1]];
+                let to_light = [light[0] - p[0], light[1] - p[1]];
                 if facing[0] * to_light[0] + facing[1] * to_light[1] > 0.0 {
                     let d = hypot(to_light[0], to_light[1]);
                     *nearest = Some(nearest.map_or(d, |n: f32| n.min(d)));
@@ -239,10 +238,12 @@ struct NearRobot {
     range_m: f32,
 }
 
-fn compile_near_robot(task: &TaskConfig) -> Option<Box<dyn Sensor>> {
-    task.scenario.teammate.as_ref()?;
+fn compile_near_robot(params: &Params, world: &SensedWorld) -> Option<Box<dyn Sensor>> {
+    if !world.has_teammate {
+        return None;
+    }
     Some(Box::new(NearRobot {
-        range_m: task.robot.near_robot_range,
+        range_m: params.robot.near_robot_range,
     }))
 }
 
@@ -268,8 +269,9 @@ impl SensorRun for NearRobot {
 mod tests {
     use super::super::SENSORS;
     use super::*;
-    use crate::evaluate::{Evaluator, Sample};
-    use crate::rng::{Stream, stream_rng};
+    use crate::episode::evaluator::Evaluator;
+    use crate::math::rng::{Stream, stream_rng};
+    use crate::outcome::Sample;
     use crate::task::TaskConfig;
     use proptest::prelude::*;
     use std::collections::HashSet;
@@ -301,15 +303,15 @@ mod tests {
                 y: env.start.y + offset.1,
                 heading: offset.2,
             };
-            let view = SenseView::unlit(&robot, &env);
+            let view = SenseView::unlit(&robot, &env.scene);
             let (sin_heading, cos_heading) = (view.sin_heading, view.cos_heading);
             let sensor = IrSensor {
-                cones: ConeLanes::new(&ir_cones_at_rest(&task.ir)),
-                offsets: body_offsets(IR_ANGLES, task.robot.radius),
-                config: task.ir,
+                cones: ConeLanes::new(&ir_cones_at_rest(&task.params.ir)),
+                offsets: body_offsets(IR_ANGLES, task.params.robot.radius),
+                config: task.params.ir,
                 model: IrModel::builtin(),
             };
-            let setup = task.ir.draw_setup(&mut stream_rng(seed, Stream::SensorSetup));
+            let setup = task.params.ir.draw_setup(&mut stream_rng(seed, Stream::SensorSetup));
             let (mut noise_dispatched, mut noise_baseline) =
                 (stream_rng(seed, Stream::Noise), stream_rng(seed, Stream::Noise));
             let mut dispatched = [0.0f32; N_IR];
@@ -319,7 +321,7 @@ mod tests {
             let origins = positions(&sensor.offsets, &robot, sin_heading, cos_heading);
             let distances =
                 env.scene
-                    .cone_lane_distances(robot.position(), &origins, &cones, task.ir.range_m);
+                    .cone_lane_distances(robot.position(), &origins, &cones, task.params.ir.range_m);
             let baseline = sensor.model.read_all(&setup, &distances, &mut noise_baseline);
             prop_assert_eq!(dispatched.map(f32::to_bits), baseline.map(f32::to_bits));
             prop_assert_eq!(
@@ -339,7 +341,8 @@ mod tests {
             .iter()
             .find(|kind| kind.name == "near_robot")
             .unwrap();
-        let sensor = (kind.compile)(&task).expect("the rescue has a teammate");
+        let sensor = (kind.compile)(&task.params, &task.scenario.sensed_world())
+            .expect("the rescue has a teammate");
         let evaluator = Evaluator::new(task.clone()).unwrap();
         let env = evaluator.environment(Sample::seeded(11));
         let robot = env.start;
@@ -350,7 +353,7 @@ mod tests {
                 y: robot.y + distance * sin,
                 heading: 0.0,
             };
-            let mut view = SenseView::unlit(&robot, &env);
+            let mut view = SenseView::unlit(&robot, &env.scene);
             view.teammate = Some(&mate);
             let mut run = sensor.start(&mut stream_rng(11, Stream::SensorSetup));
             let mut out = [0.5f32];
@@ -389,7 +392,9 @@ mod tests {
             let task = TaskConfig::shipped(task).unwrap();
             SENSORS
                 .iter()
-                .filter(|kind| (kind.compile)(&task).is_some())
+                .filter(|kind| {
+                    (kind.compile)(&task.params, &task.scenario.sensed_world()).is_some()
+                })
                 .map(|kind| kind.name)
                 .collect()
         };

@@ -43,7 +43,7 @@ use std::ops::Range;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::lanes::Real;
+use crate::math::lanes::Real;
 
 /// Smallest value a gene takes in evolution and in a valid controller file.
 pub const GENE_MIN: f32 = -10.0;
@@ -788,7 +788,7 @@ mod tests {
             let mut bits = input_seed;
             for _ in 0..2000 {
                 for input in &mut inputs {
-                    bits = crate::rng::mix64(bits);
+                    bits = crate::math::rng::mix64(bits);
                     *input = (bits >> 40) as f32 / (1u64 << 24) as f32;
                 }
                 net.step(&inputs, 0.1, &mut outputs).unwrap();

@@ -16,7 +16,7 @@
 //!                 "genome": [0.5, -3.25, ...] } ] } }
 //! ```
 //!
-//! Every genome follows the layout documented in [`crate::ctrnn`]. A node whose genome is null or
+//! Every genome follows the layout documented in [`crate::network::ctrnn`]. A node whose genome is null or
 //! absent is the *free* node: the one being evolved, whose genes are supplied at evaluation time.
 
 use std::collections::HashSet;
@@ -24,9 +24,9 @@ use std::collections::HashSet;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::ctrnn::{Ctrnn, CtrnnError, CtrnnTopology, GENE_MAX, GENE_MIN};
-use crate::frame::{InputGroup, SensorFrame, SensorSet};
-use crate::hash::Fnv1a;
+use crate::math::hash::Fnv1a;
+use crate::network::ctrnn::{Ctrnn, CtrnnError, CtrnnTopology, GENE_MAX, GENE_MIN};
+use crate::sensors::frame::{InputGroup, SensorFrame, SensorSet};
 
 /// The schema string of the controller file format this module reads and writes.
 pub const CONTROLLER_SCHEMA: &str = "hevo.controller/1";
@@ -41,7 +41,7 @@ pub const PATH_SEPARATOR: char = '/';
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerFile {
-    /// Must be [`CONTROLLER_SCHEMA`].
+    /// Must be `CONTROLLER_SCHEMA` (`hevo.controller/1`).
     pub schema: String,
     /// The top of the tree.
     pub root: NodeSpec,
@@ -893,7 +893,7 @@ fn argmax(values: &[f32]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::mix64;
+    use crate::math::rng::mix64;
 
     /// Deterministic pseudo-random genes in [-10, 10] for `topology`.
     fn random_genes(topology: CtrnnTopology, seed: u64) -> Vec<f32> {

@@ -1,0 +1,143 @@
+//! The room generator's numbers; the generator is [`crate::world::room`].
+
+use super::{ConfigError, invalid};
+use serde::{Deserialize, Serialize};
+
+/// Every number of the room generator. Defaults follow SPEC section 4; the clearances are
+/// hevo's choices (the paper is silent) and keep every room solvable.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RoomConfig {
+    /// Smallest side of the room's interior, metres.
+    pub min_side: f32,
+    /// Largest side, metres.
+    pub max_side: f32,
+    /// Rooms with an interior area above this get three obstacles, others two (m^2; 1.21 is a
+    /// 1.1 m square, the middle of the size range).
+    pub three_obstacles_above_area: f32,
+    /// Smallest obstacle side, metres.
+    pub obstacle_min_side: f32,
+    /// Largest obstacle side, metres.
+    pub obstacle_max_side: f32,
+    /// Clear width of the exit, metres (the maze corridor width).
+    pub exit_width: f32,
+    /// Wall thickness, metres (the maze's, so the rescue room's wall is the maze's border).
+    pub wall_thickness: f32,
+    /// The start position is the centre plus a uniform offset of up to this much per axis.
+    pub start_offset: f32,
+    /// Minimum free gap between an obstacle and a wall or another obstacle, metres.
+    pub obstacle_clearance: f32,
+    /// No obstacle comes closer than this to the room centre (the start area), metres.
+    pub start_clearance: f32,
+    /// No obstacle comes closer than this to the exit's centre, metres.
+    pub exit_clearance: f32,
+    /// Length of the corridor stub outside the exit of the stand-alone room, metres.
+    pub exit_corridor_length: f32,
+}
+
+impl Default for RoomConfig {
+    fn default() -> Self {
+        RoomConfig {
+            min_side: 1.0,
+            max_side: 1.2,
+            three_obstacles_above_area: 1.21,
+            obstacle_min_side: 0.05,
+            obstacle_max_side: 0.20,
+            exit_width: 0.20,
+            wall_thickness: 0.10,
+            start_offset: 0.10,
+            obstacle_clearance: 0.10,
+            start_clearance: 0.25,
+            exit_clearance: 0.30,
+            exit_corridor_length: 0.30,
+        }
+    }
+}
+
+impl RoomConfig {
+    /// Checks ranges; names the offending key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        // Every length finite and room-sized: a scene's lookup table covers the room in 0.1 m
+        // cells, so an unbounded side would be an unbounded allocation.
+        for (key, metres) in [
+            ("room.min_side", self.min_side),
+            ("room.max_side", self.max_side),
+            ("room.obstacle_min_side", self.obstacle_min_side),
+            ("room.obstacle_max_side", self.obstacle_max_side),
+            ("room.exit_width", self.exit_width),
+            ("room.wall_thickness", self.wall_thickness),
+            ("room.start_offset", self.start_offset),
+            ("room.obstacle_clearance", self.obstacle_clearance),
+            ("room.start_clearance", self.start_clearance),
+            ("room.exit_clearance", self.exit_clearance),
+            ("room.exit_corridor_length", self.exit_corridor_length),
+            (
+                "room.three_obstacles_above_area",
+                self.three_obstacles_above_area.sqrt(),
+            ),
+        ] {
+            if !(metres.is_finite() && metres <= MAX_ROOM_METRES) {
+                return Err(invalid(
+                    key,
+                    format!(
+                        "must be a finite number of at most {MAX_ROOM_METRES} m (m² for an area)"
+                    ),
+                ));
+            }
+        }
+        let checks = [
+            (
+                self.min_side > 0.3 && self.min_side <= self.max_side,
+                "room.min_side",
+                "must be > 0.3 and <= room.max_side",
+            ),
+            (
+                self.obstacle_min_side > 0.0 && self.obstacle_min_side <= self.obstacle_max_side,
+                "room.obstacle_min_side",
+                "must be > 0 and <= room.obstacle_max_side",
+            ),
+            (
+                self.exit_width > 0.0 && self.exit_width < self.min_side - 0.2,
+                "room.exit_width",
+                "must be > 0 and leave 0.1 m of wall either side",
+            ),
+            (
+                self.wall_thickness > 0.0,
+                "room.wall_thickness",
+                "must be > 0",
+            ),
+            (
+                self.start_offset >= 0.0,
+                "room.start_offset",
+                "must be >= 0",
+            ),
+            (
+                self.obstacle_clearance >= 0.0,
+                "room.obstacle_clearance",
+                "must be >= 0",
+            ),
+            (
+                self.start_clearance >= 0.0,
+                "room.start_clearance",
+                "must be >= 0",
+            ),
+            (
+                self.exit_clearance >= 0.0,
+                "room.exit_clearance",
+                "must be >= 0",
+            ),
+            (
+                self.exit_corridor_length >= 0.0,
+                "room.exit_corridor_length",
+                "must be >= 0",
+            ),
+        ];
+        match checks.iter().find(|(ok, _, _)| !ok) {
+            Some((_, key, message)) => Err(invalid(key, (*message).to_string())),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The longest length a room's numbers may give, metres.
+pub const MAX_ROOM_METRES: f32 = 20.0;

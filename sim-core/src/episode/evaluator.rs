@@ -1,0 +1,599 @@
+//! Evaluation of one policy on one seeded sample: the control loop (sense, decide, move, judge;
+//! the judge and the task's fitness are [`super::judge`]). `Evaluator` is built once per task
+//! and shared by reference between threads; each call owns its own world and random streams,
+//! so results depend only on (policy, task, seed, variant). A second entry point records a
+//! per-cycle trace for replays.
+
+use super::judge::{Judge, phase_children};
+use super::setup::{self, Statics};
+use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
+use crate::config::ConfigError;
+use crate::geometry::scene::Scene;
+use crate::math::rng::{SimRng, Stream, stream_rng};
+use crate::math::trig;
+use crate::network::Policy;
+use crate::outcome::{
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
+};
+use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
+use crate::scenario::{Scenario, ScenarioError};
+use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
+use crate::sensors::kinds::ir_cones;
+use crate::sensors::{IrCone, SenseView, Sensor, SensorRun};
+use crate::task::TaskConfig;
+use crate::world::Environment;
+use crate::world::lights::{LiveLight, trigger_lights};
+
+/// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
+trait Recorder {
+    fn record(&mut self, make: impl FnOnce() -> TraceCycle);
+}
+
+impl Recorder for () {
+    #[inline(always)]
+    fn record(&mut self, _make: impl FnOnce() -> TraceCycle) {}
+}
+
+impl Recorder for Vec<TraceCycle> {
+    fn record(&mut self, make: impl FnOnce() -> TraceCycle) {
+        self.push(make());
+    }
+}
+
+/// Errors in a task configuration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TaskError {
+    /// A number out of range, or an option where it does not apply.
+    #[error("invalid task configuration: {0}")]
+    Config(#[from] ConfigError),
+    /// The scenario's worlds, as the task builds them, break a rule of every world (a start
+    /// touching a solid): the file, key and line.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}
+
+/// Samples per variant whose worlds [`Evaluator::new`] builds to check their starts: a start
+/// that touches a solid is refused before any evaluation (every world's start, in the tests of
+/// the shipped and example scenarios).
+const START_CHECK_SEEDS: u64 = 8;
+
+/// Evaluates policies on samples of one task. Cheap to share between threads (`&Evaluator` is
+/// all a thread needs).
+#[derive(Debug)]
+pub struct Evaluator {
+    task: TaskConfig,
+    statics: Statics,
+    /// By input group, the sensor compiled, if the scenario's robot carries it and anything in
+    /// the scenario can excite it.
+    sensors: [Option<Box<dyn Sensor>>; N_GROUPS],
+}
+
+/// Why a start lies outside its world, if it does: not a finite point, or in a map world
+/// outside every open cell (a map has walls only between open and solid cells, so a start in
+/// a solid cell touches none and would run every sample to its limit).
+fn start_outside_the_world(scenario: &Scenario, [x, y]: [f32; 2]) -> Option<&'static str> {
+    if !(x.is_finite() && y.is_finite()) {
+        return Some("at no point");
+    }
+    let map = scenario
+        .map
+        .as_ref()
+        .filter(|_| scenario.world.is_map_alone())?;
+    map.map
+        .cell_at([x, y])
+        .is_none()
+        .then_some("outside every open cell of the map")
+}
+
+impl Evaluator {
+    /// Validates the task and builds what all its samples share; refuses a scenario whose
+    /// robot starts touching a solid in the worlds of the first seeds ([`Evaluator::check_starts`]).
+    pub fn new(task: TaskConfig) -> Result<Evaluator, TaskError> {
+        let evaluator = Evaluator::for_drawing(task)?;
+        evaluator.check_starts(START_CHECK_SEEDS)?;
+        Ok(evaluator)
+    }
+
+    /// [`Evaluator::new`] without the check of the starts: for drawing a world, the refused
+    /// ones included, to show what is wrong with them.
+    pub fn for_drawing(task: TaskConfig) -> Result<Evaluator, TaskError> {
+        task.validate()?;
+        let carried = task.scenario.sensors;
+        let sensed_world = task.scenario.sensed_world();
+        let sensors = InputGroup::ALL.map(|group| {
+            carried
+                .carries(group)
+                .then(|| (group.kind().compile)(&task.params, &sensed_world))
+                .flatten()
+        });
+        Ok(Evaluator {
+            statics: Statics::new(&task),
+            task,
+            sensors,
+        })
+    }
+
+    /// Refuses a scenario whose robot starts outside its world, touching a solid or in a
+    /// region it forbids: it would end in its first cycle (or never move on), every sample,
+    /// and evolution would go on regardless.
+    /// Checked on the worlds of seeds `0..seeds` of every variant, as the task (with its
+    /// overrides) builds them.
+    pub fn check_starts(&self, seeds: u64) -> Result<(), ScenarioError> {
+        let scenario = &self.task.scenario;
+        let radius = self.task.params.robot.radius;
+        for variant in 0..scenario.n_variants() {
+            for seed in 0..seeds {
+                let sample = Sample {
+                    seed,
+                    variant: (scenario.n_variants() > 1).then_some(variant),
+                };
+                let env = self.environment(sample);
+                if env.scene.disc_hits(env.start.position(), radius) {
+                    let start = env.start;
+                    let path = match &scenario.place.at {
+                        crate::scenario::PlaceAt::VariantStart if scenario.n_variants() > 1 => {
+                            format!("variant[{variant}].start")
+                        }
+                        _ => "place".to_string(),
+                    };
+                    return Err(scenario.refusal(
+                        &path,
+                        format!(
+                            "the robot starts touching a solid: at ({:.3}, {:.3}) m in variant \
+                             {variant}, seed {seed}, a robot of radius {radius} m overlaps a \
+                             wall or obstacle (`hevo scenario draw --variant {variant} --seed \
+                             {seed}` shows it)",
+                            start.x, start.y
+                        ),
+                    ));
+                }
+                if let Some(why) = start_outside_the_world(scenario, env.start.position()) {
+                    return Err(scenario.refusal(
+                        "place",
+                        format!(
+                            "the robot starts {why}: at ({:.3}, {:.3}) m in variant {variant}, \
+                             seed {seed} (`hevo scenario draw --variant {variant} --seed {seed}` \
+                             shows it)",
+                            env.start.x, env.start.y
+                        ),
+                    ));
+                }
+                if let Some(forbidden) = &scenario.forbidden {
+                    let teammate = env
+                        .teammate
+                        .map(|(pose, following)| TeammateView { pose, following });
+                    let view = CycleView::new(
+                        &env.start,
+                        teammate,
+                        &env.ground,
+                        scenario,
+                        &self.task.params,
+                        self.task.max_cycles(),
+                    );
+                    if forbidden.holds(&view) {
+                        return Err(scenario.refusal(
+                            "end.forbidden",
+                            format!(
+                                "the robot starts where the scenario forbids it to go: at \
+                                 ({:.3}, {:.3}) m in variant {variant}, seed {seed}",
+                                env.start.x, env.start.y
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The task.
+    pub fn task(&self) -> &TaskConfig {
+        &self.task
+    }
+
+    /// Runs one sample.
+    pub fn evaluate(&self, policy: &mut impl Policy, sample: Sample) -> Outcome {
+        self.run(policy, sample, &mut ()).0
+    }
+
+    /// Runs one sample and records every cycle.
+    pub fn evaluate_traced(&self, policy: &mut impl Policy, sample: Sample) -> Trace {
+        let mut cycles = Vec::new();
+        let (outcome, env, final_robot) = self.run(policy, sample, &mut cycles);
+        let goal = env.ground.goal.as_ref().map(|g| g.map.center(g.goal));
+        let exit = env
+            .ground
+            .room
+            .as_ref()
+            .map(|room| (room.exit_center, room.exit_outward));
+        let scenario = &self.task.scenario;
+        Trace {
+            scenario: scenario.name().to_string(),
+            variant_label: scenario.variant_label(outcome.variant),
+            has_phases: scenario.has_phases(),
+            sample,
+            rects: env.scene.rects().to_vec(),
+            lights: env.lights.iter().map(|l| (l.position, l.flashes)).collect(),
+            goal,
+            exit,
+            cycles,
+            final_robot,
+            outcome,
+        }
+    }
+
+    /// The world a sample starts in, built from its environment stream as its evaluation
+    /// builds it: for pictures of a scenario (its named regions, `env::regions`).
+    pub fn environment(&self, sample: Sample) -> Environment {
+        let mut env_rng = stream_rng(sample.seed, Stream::Environment);
+        setup::build(&self.task, &self.statics, sample.variant, &mut env_rng)
+    }
+
+    /// The IR sensors' cones at a pose: for each sensor its position, the directions of its two
+    /// boundary rays, and the range; for drawing.
+    pub fn ir_cones(&self, pose: &Pose) -> Vec<IrCone> {
+        ir_cones(&self.task.params, pose)
+    }
+
+    fn run<R: Recorder>(
+        &self,
+        policy: &mut impl Policy,
+        sample: Sample,
+        recorder: &mut R,
+    ) -> (Outcome, Environment, Pose) {
+        let dt = self.task.params.robot.cycle_seconds;
+        policy.reset();
+        let mut run = SampleRun::new(
+            self,
+            sample,
+            policy.n_nodes(),
+            phase_children(&self.task.scenario, policy),
+        );
+        let ending = loop {
+            let frame = run.sense();
+            let wheels = policy.step(&frame, dt);
+            run.count_decision(policy.active_path(), policy.root_choice());
+            let (before, collided) = run.move_robot(wheels);
+            recorder.record(|| TraceCycle {
+                robot: before,
+                teammate: run.teammate.as_ref().map(|m| m.pose),
+                frame,
+                wheels,
+                active_path: policy.active_path().iter().map(|&n| n as u16).collect(),
+                collided,
+                lit_lights: run.lit_mask,
+                sub_task: run.sub_task.unwrap_or(0),
+            });
+            if let Some(ending) = run.finish_cycle(&before, collided) {
+                break ending;
+            }
+        };
+        run.finish(ending)
+    }
+}
+
+/// One sample in progress: its world, random streams, robot, teammate, lights and judge, and
+/// the counts its outcome reports. The control loop is split into the steps around the
+/// controller (sense, count the decision, move, the rest of the cycle) so that the scalar loop
+/// above and the lockstep evaluator, which steps the controllers of many samples together, run
+/// the very same per-sample code.
+#[derive(Debug)]
+pub(crate) struct SampleRun<'e> {
+    evaluator: &'e Evaluator,
+    env: Environment,
+    /// By input group, the sample's reading of the robot's sensor (none where the evaluator
+    /// compiled none).
+    sensor_runs: [Option<Box<dyn SensorRun + 'e>>; N_GROUPS],
+    noise: SimRng,
+    robot: Pose,
+    teammate: Option<Teammate>,
+    lights: Vec<LiveLight>,
+    /// Each light's position, by index: what the light sensor sees of the lights.
+    light_positions: Vec<[f32; 2]>,
+    judge: Judge<'e>,
+    active_cycles: Vec<u32>,
+    activations: Vec<u32>,
+    /// Per node, the last cycle (a `cycles_run`) it was active in, `u32::MAX` before any: a
+    /// node active now whose last cycle is not the one before has been switched on.
+    last_active_cycle: Vec<u32>,
+    collided_ever: bool,
+    /// Cycles begun, the current one included.
+    cycles_run: u32,
+    sub_task_choices: SubTaskChoices,
+    /// The current cycle's rescue sub-task, from `sense`.
+    sub_task: Option<u8>,
+    /// The lights lit in the current cycle, from `sense`.
+    lit_mask: u32,
+}
+
+impl<'e> SampleRun<'e> {
+    /// Builds the sample's world and streams, for a policy of `n_nodes` nodes whose root's
+    /// phase children are `phase_child`. The policy itself must be reset by the caller.
+    pub(crate) fn new(
+        evaluator: &'e Evaluator,
+        sample: Sample,
+        n_nodes: usize,
+        phase_child: [usize; N_SUB_TASKS],
+    ) -> SampleRun<'e> {
+        let task = &evaluator.task;
+        let mut env = evaluator.environment(sample);
+        let mut setup = stream_rng(sample.seed, Stream::SensorSetup);
+        // Started in registry order: the order they draw from the setup stream.
+        let sensor_runs = std::array::from_fn(|group| {
+            evaluator.sensors[group]
+                .as_ref()
+                .map(|sensor| sensor.start(&mut setup))
+        });
+        let noise: SimRng = stream_rng(sample.seed, Stream::Noise);
+        let robot = env.start;
+        let behaviour = task
+            .scenario
+            .teammate
+            .as_ref()
+            .map_or(blocks::BEHAVIOURS[0], |plan| plan.behaviour);
+        let teammate = env.teammate.map(|(pose, following)| {
+            Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
+        });
+        let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
+        let light_positions = env.lights.iter().map(|spec| spec.position).collect();
+        // The judge keeps the ground truth for the sample's length; `finish` hands it back.
+        let ground = std::mem::take(&mut env.ground);
+        let judge = Judge::new(
+            task,
+            ground,
+            robot,
+            teammate.as_ref().map(Teammate::view),
+            phase_child,
+        );
+        SampleRun {
+            evaluator,
+            env,
+            sensor_runs,
+            noise,
+            robot,
+            teammate,
+            lights,
+            light_positions,
+            judge,
+            active_cycles: vec![0; n_nodes],
+            activations: vec![0; n_nodes],
+            last_active_cycle: vec![u32::MAX; n_nodes],
+            collided_ever: false,
+            cycles_run: 0,
+            sub_task_choices: SubTaskChoices::default(),
+            sub_task: None,
+            lit_mask: 0,
+        }
+    }
+
+    /// Begins a cycle: reads every sensor at the robot's pose and notes the sub-task in force.
+    #[inline]
+    pub(crate) fn sense(&mut self) -> SensorFrame {
+        self.sense_at(trig::sin_cos(self.robot.heading))
+    }
+
+    /// The robot's heading, whose sine and cosine [`SampleRun::sense_at`] takes.
+    #[inline]
+    pub(crate) fn heading(&self) -> f32 {
+        self.robot.heading
+    }
+
+    /// [`SampleRun::sense`], given the sine and cosine of the robot's heading.
+    #[inline]
+    pub(crate) fn sense_at(&mut self, (sin_heading, cos_heading): (f32, f32)) -> SensorFrame {
+        let robot = self.robot;
+        self.cycles_run += 1;
+        // Each light's state this cycle, before it counts the cycle down.
+        let mut lit_mask = 0u32;
+        for (light_idx, light) in self.lights.iter_mut().enumerate() {
+            if light.lit() {
+                lit_mask |= 1 << light_idx;
+            }
+            light.count_down();
+        }
+        let view = SenseView {
+            robot: &robot,
+            sin_heading,
+            cos_heading,
+            scene: &self.env.scene,
+            lights: &self.light_positions,
+            lit_mask,
+            teammate: self.teammate.as_ref().map(|mate| &mate.pose),
+        };
+        let mut frame = SensorFrame::default();
+        // A loop over a constant number of groups, which the compiler unrolls: one call site
+        // per sensor, and each group's place in the frame a constant.
+        for (group, run) in InputGroup::ALL.into_iter().zip(&mut self.sensor_runs) {
+            if let Some(run) = run {
+                run.read(&view, &mut self.noise, frame.values_mut(group));
+            }
+        }
+        self.lit_mask = lit_mask;
+        self.sub_task = self
+            .judge
+            .phase(&robot, self.teammate.as_ref().map(Teammate::view));
+        frame
+    }
+
+    /// Counts the controller's decision of this cycle: which nodes drove, and whether the root
+    /// chose the child the sub-task in force asks for.
+    #[inline]
+    pub(crate) fn count_decision(&mut self, active_path: &[usize], root_choice: Option<usize>) {
+        // Only the path's nodes are touched, so a big tree costs no more than a small one.
+        let cycle = self.cycles_run;
+        for &node in active_path {
+            if let (Some(count), Some(activations), Some(last)) = (
+                self.active_cycles.get_mut(node),
+                self.activations.get_mut(node),
+                self.last_active_cycle.get_mut(node),
+            ) {
+                *count += 1;
+                if *last != cycle {
+                    *activations += u32::from(*last != cycle.wrapping_sub(1));
+                    *last = cycle;
+                }
+            }
+        }
+        if let Some(sub_task) = self.sub_task {
+            self.sub_task_choices.cycles[sub_task as usize] += 1;
+            if root_choice == Some(self.judge.phase_child[sub_task as usize]) {
+                self.sub_task_choices.correct[sub_task as usize] += 1;
+            }
+        }
+    }
+
+    /// Moves the robot by the wheel outputs, with noise, unless the move would touch a solid.
+    /// Returns the pose before the move and whether it was undone.
+    #[inline]
+    pub(crate) fn move_robot(&mut self, wheels: [f32; 2]) -> (Pose, bool) {
+        let arc = self.plan_move(wheels);
+        let (sin_half_turn, _) = trig::sin_cos(arc.half_turn);
+        self.finish_move(&arc, sin_half_turn, trig::sin_cos(arc.mid_heading))
+    }
+
+    /// The first half of [`SampleRun::move_robot`]: the wheel speeds with their noise (drawn
+    /// here) and the arc they drive, up to its sines.
+    #[inline]
+    pub(crate) fn plan_move(&mut self, wheels: [f32; 2]) -> Arc {
+        let robot_config = &self.evaluator.task.params.robot;
+        let left = noisy_speed(
+            wheel_speed(wheels[0], robot_config.v_max),
+            robot_config,
+            &mut self.noise,
+        );
+        let right = noisy_speed(
+            wheel_speed(wheels[1], robot_config.v_max),
+            robot_config,
+            &mut self.noise,
+        );
+        Arc::of(&self.robot, left, right, robot_config)
+    }
+
+    /// The second half: the arc's end from its sines (`sin(half_turn)`, and the sine and
+    /// cosine of the mid-arc heading), unless it touches a solid.
+    #[inline]
+    pub(crate) fn finish_move(
+        &mut self,
+        arc: &Arc,
+        sin_half_turn: f32,
+        mid: (f32, f32),
+    ) -> (Pose, bool) {
+        let robot_config = &self.evaluator.task.params.robot;
+        let before = self.robot;
+        let next = arc.end_pose(&self.robot, sin_half_turn, mid);
+        let collided = move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene);
+        self.collided_ever |= collided;
+        (before, collided)
+    }
+
+    /// Ends the cycle after the move: lights fire, the teammate moves, and the judge rules.
+    /// Returns the sample's ending if it ended in this cycle (its cycle limit included).
+    #[inline]
+    pub(crate) fn finish_cycle(&mut self, before: &Pose, collided: bool) -> Option<Ending> {
+        let task = &self.evaluator.task;
+        let robot_config = &task.params.robot;
+        let cycle = self.cycles_run - 1;
+        trigger_lights(
+            &mut self.lights,
+            before,
+            &self.robot,
+            cycle,
+            task.params.light.flash_cycles,
+        );
+        if let Some(mate) = self.teammate.as_mut() {
+            mate.update(
+                &self.robot,
+                robot_config.v_max * robot_config.cycle_seconds,
+                robot_config.near_robot_range,
+                &self.env.scene,
+                robot_config.radius,
+            );
+        }
+        if collided && task.end_on_collision {
+            return Some(Ending::Collision);
+        }
+        if let Some(end) = self
+            .judge
+            .check(&self.robot, self.teammate.as_ref().map(Teammate::view))
+        {
+            return Some(end);
+        }
+        (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)
+    }
+
+    /// The sample's outcome, its world (for a trace) and the robot's final pose.
+    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
+        let judge = self.judge;
+        let fitness = judge.fitness(
+            ending,
+            self.cycles_run,
+            &self.robot,
+            self.teammate.as_ref().map(Teammate::view),
+            &self.sub_task_choices,
+        );
+        let stage = judge.stage(ending);
+        let mut env = self.env;
+        let outcome = Outcome {
+            fitness,
+            solved: ending == Ending::Solved,
+            collided: self.collided_ever,
+            ending,
+            cycles: self.cycles_run,
+            stage,
+            variant: env.variant,
+            node_use: NodeUse {
+                active_cycles: self.active_cycles,
+                activations: self.activations,
+            },
+            sub_task_choices: self.sub_task_choices,
+        };
+        env.ground = judge.ground;
+        (outcome, env, self.robot)
+    }
+}
+
+/// The other robot: met when the robot comes within the near-robot range, moving as its
+/// behaviour ([`blocks::teammates`]) says before and after.
+#[derive(Debug)]
+struct Teammate {
+    pose: Pose,
+    /// Whether it has been met (and so, unless fixed, follows).
+    following: bool,
+    motion: Box<dyn Motion>,
+}
+
+impl Teammate {
+    fn new(
+        mut pose: Pose,
+        following: bool,
+        behaviour: &dyn TeammateBehaviour,
+        sample_seed: u64,
+        max_cycles: u32,
+    ) -> Teammate {
+        let motion = behaviour.start(&mut pose, sample_seed, max_cycles);
+        Teammate {
+            pose,
+            following,
+            motion,
+        }
+    }
+
+    fn view(&self) -> TeammateView {
+        TeammateView {
+            pose: self.pose,
+            following: self.following,
+        }
+    }
+
+    fn update(&mut self, robot: &Pose, step: f32, near_range: f32, scene: &Scene, radius: f32) {
+        if !self.following {
+            if self.pose.distance_to(robot.position()) < near_range {
+                self.following = true;
+            } else {
+                self.motion.before_met(&mut self.pose, step, scene, radius);
+                return;
+            }
+        }
+        self.motion.after_met(&mut self.pose, robot, step);
+    }
+}

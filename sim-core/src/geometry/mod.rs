@@ -1,0 +1,13 @@
+//! Geometry: the solids of a world (rectangles and the scene that answers distance, ray and
+//! overlap queries about them) and worlds made of square cells (walls, neighbours, paths and
+//! corridor distances).
+
+pub mod cells;
+pub mod scene;
+
+/// Whether the rectangle `[x0, y0, x1, y1]` holds `point`, its edges included: what `in REGION`
+/// and a light triggered by entering a region both test.
+#[inline]
+pub fn rect_holds([x0, y0, x1, y1]: [f32; 4], [x, y]: [f32; 2]) -> bool {
+    (x0..=x1).contains(&x) && (y0..=y1).contains(&y)
+}
