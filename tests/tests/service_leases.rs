@@ -328,3 +328,72 @@ fn a_killed_workers_batch_is_queued_again_at_once() {
         );
     });
 }
+
+/// A worker with a valid token that returns plausible but false results (in range, shaped
+/// right) is caught by a spot check under `--verify-share 0.1` (every worker's first result is
+/// checked), refused from then on, and the job's results are exactly a local run's.
+#[test]
+fn a_worker_forging_plausible_results_is_caught_by_a_spot_check() {
+    let scratch = Scratch::new("leases-spot-check");
+    let expected = local_reference(&scratch);
+    let master = master_with_roles(&scratch, &["--verify-share", "0.1"]);
+    let job = runtime().block_on(async {
+        let job = jobs(&master.url, CLIENT_TOKEN)
+            .submit_job(submission(SMALL))
+            .await
+            .unwrap()
+            .into_inner()
+            .job_id;
+        let mut forger = workers(&master.url, WORKER_TOKEN);
+        let mut forged_batches = 0;
+        // It forges every batch it gets until the master gives it none.
+        while let Some(batch) = lease(&mut forger, "forger", Duration::from_secs(3)).await {
+            let response = forger
+                .complete_batch(v1::CompleteBatchRequest {
+                    worker: "forger".into(),
+                    lease_id: batch.lease_id,
+                    batch_id: batch.batch_id,
+                    epoch: batch.epoch,
+                    genomes: forged(&batch, |_| {}),
+                    elapsed_ms: 1,
+                })
+                .await;
+            forged_batches += 1;
+            assert!(
+                forged_batches < 50,
+                "the forger is never refused: {response:?}"
+            );
+        }
+        assert!(forged_batches >= 1, "the forger got no batch");
+        job
+    });
+    let _worker = start_worker(
+        &master.url,
+        WORKER_TOKEN,
+        "honest",
+        &[],
+        &scratch.join("honest.log"),
+    );
+    runtime().block_on(async {
+        let info = wait_until_final(
+            &mut jobs(&master.url, CLIENT_TOKEN),
+            &job,
+            Duration::from_secs(120),
+        )
+        .await;
+        assert_eq!(info.state, v1::JobState::Succeeded as i32, "{}", info.error);
+    });
+    let fetched = scratch.join("fetched");
+    fetch(&master.url, &job, &fetched);
+    hevo_tests::assert_same_results(&expected, &fetched, None);
+    let metrics = metrics_text(&master);
+    assert_eq!(
+        metric(&metrics, "hevo_lying_workers_total"),
+        1.0,
+        "{metrics}"
+    );
+    assert!(
+        metric(&metrics, "hevo_spot_checks_total") >= 1.0,
+        "{metrics}"
+    );
+}

@@ -88,6 +88,12 @@ pub struct ServeArgs {
     /// RESOURCE_EXHAUSTED, HTTP 503).
     #[arg(long, default_value_t = 256)]
     pub max_event_streams: usize,
+    /// Spot checks: the share of batches (0 to 1) whose results the master evaluates itself
+    /// and compares bit for bit before accepting them; every worker's first result is checked
+    /// too. A worker whose results differ is refused from then on, and the unfinished jobs it
+    /// worked on are evaluated again from the start. 0 (the default) checks none.
+    #[arg(long, default_value_t = 0.0)]
+    pub verify_share: f64,
 }
 
 /// `hevo submit`.
@@ -162,6 +168,9 @@ pub fn serve(args: ServeArgs) -> Result<()> {
             "--max-connections, --http-max-connections and --max-event-streams must be at least 1"
         );
     }
+    if !(0.0..=1.0).contains(&args.verify_share) {
+        bail!("--verify-share must be a share from 0 to 1");
+    }
     if args.first_request_timeout_seconds == 0 || args.idle_timeout_seconds == 0 {
         bail!("--first-request-timeout-seconds and --idle-timeout-seconds must be at least 1");
     }
@@ -183,6 +192,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
         grpc_limits: connection_limits(args.max_connections),
         http_limits: connection_limits(args.http_max_connections),
         max_event_streams: args.max_event_streams,
+        verify_share: args.verify_share,
     };
     let runtime = runtime()?;
     let served = runtime.block_on(hevo_service::serve(config));

@@ -189,6 +189,10 @@ pub struct DispatchConfig {
     pub worker_window: Duration,
     /// The number of workers assumed before any has asked (local mode knows its threads).
     pub expected_workers: usize,
+    /// The share of batches whose results are checked against an evaluation of the master's
+    /// own before they are accepted (0: none). A worker's first result is always checked
+    /// when the share is above 0; see [`Dispatcher::next_spot_check`].
+    pub verify_share: f64,
 }
 
 impl Default for DispatchConfig {
@@ -200,6 +204,7 @@ impl Default for DispatchConfig {
             batches_per_worker: 3,
             worker_window: Duration::from_secs(30),
             expected_workers: 1,
+            verify_share: 0.0,
         }
     }
 }
@@ -231,6 +236,10 @@ pub struct DispatchStats {
     pub lease_revocations: u64,
     /// Batches completed.
     pub batches_completed: u64,
+    /// Results checked against the master's own evaluation.
+    pub spot_checks: u64,
+    /// Workers whose checked results differed from the master's: refused from then on.
+    pub lying_workers: u64,
 }
 
 #[derive(Debug)]
@@ -244,6 +253,8 @@ struct BatchEntry {
     done: bool,
     /// The last refusal of a result for it, and how many refusals in a row said the same.
     refusals: Option<(String, usize)>,
+    /// Results held for a spot check: the worker that sent them, and what it sent.
+    checking: Option<(String, Vec<Vec<SampleSummary>>)>,
 }
 
 #[derive(Debug)]
@@ -278,6 +289,14 @@ struct State {
     next_id: u64,
     stats: DispatchStats,
     shutting_down: bool,
+    /// Batches whose results wait for a spot check, oldest first.
+    checks: VecDeque<u64>,
+    /// Workers whose results passed a spot check.
+    checked_workers: std::collections::HashSet<String>,
+    /// Workers caught sending results that differ from the master's: never leased to again.
+    refused_workers: std::collections::HashSet<String>,
+    /// Per job, the workers whose results it accepted (kept while spot checks are on).
+    contributors: HashMap<String, std::collections::HashSet<String>>,
 }
 
 /// The scheduler. Share it as `Arc<Dispatcher>`.
@@ -286,6 +305,7 @@ pub struct Dispatcher {
     config: DispatchConfig,
     state: Mutex<State>,
     work_available: Notify,
+    check_available: Notify,
 }
 
 impl Dispatcher {
@@ -298,6 +318,7 @@ impl Dispatcher {
                 ..State::default()
             }),
             work_available: Notify::new(),
+            check_available: Notify::new(),
         }
     }
 
@@ -363,6 +384,7 @@ impl Dispatcher {
                         lease: None,
                         done: false,
                         refusals: None,
+                        checking: None,
                     },
                 );
                 state
@@ -435,7 +457,7 @@ impl Dispatcher {
             .workers
             .insert(worker.to_string(), (now, threads.max(1)));
         self.expire_leases(&mut state, now);
-        if state.shutting_down {
+        if state.shutting_down || state.refused_workers.contains(worker) {
             return None;
         }
         // Round-robin: the first job after the one served last that has work.
@@ -705,46 +727,248 @@ impl Dispatcher {
 
         state.leases.remove(&lease_id);
         state.stats.leased_batches = state.stats.leased_batches.saturating_sub(1);
-        let entry = state.batches.get_mut(&batch_id).expect("checked above");
-        entry.done = true;
-        entry.lease = None;
-        let (request_id, genome_indices, range) = (
-            entry.request_id,
-            entry.genome_indices.clone(),
-            entry.sample_range.clone(),
-        );
-        let mut cycles = 0u64;
-        let mut evaluations = 0u64;
-        let finished = {
-            let request = state.requests.get_mut(&request_id).expect("checked above");
-            for (genome_results, &genome_idx) in results.into_iter().zip(&genome_indices) {
-                for (summary, sample_idx) in genome_results.into_iter().zip(range.clone()) {
-                    cycles += u64::from(summary.cycles);
-                    evaluations += 1;
-                    request.results[genome_idx as usize][sample_idx] = Some(summary);
-                }
-            }
-            request.remaining_batches -= 1;
-            request.remaining_batches == 0
-        };
-        state.stats.cycles += cycles;
-        state.stats.evaluations += evaluations;
-        state.stats.batches_completed += 1;
-        if finished {
-            let request = state.requests.get_mut(&request_id).expect("present");
-            // The request is finished, so its results can move out rather than be copied.
-            let results: Option<Vec<Vec<SampleSummary>>> = std::mem::take(&mut request.results)
-                .into_iter()
-                .map(|genome| genome.into_iter().collect::<Option<Vec<_>>>())
-                .collect();
-            let outcome = results.ok_or_else(|| {
-                DispatchError::Failed("internal: a finished request has holes".into())
-            });
-            finish_request(&mut state, request_id, outcome);
+        if self.config.verify_share > 0.0
+            && (!state.checked_workers.contains(worker)
+                || chosen_for_check(batch_id, self.config.verify_share))
+        {
+            // Held until the master's own evaluation of the batch says whether they are true.
+            let entry = state.batches.get_mut(&batch_id).expect("checked above");
+            entry.lease = None;
+            entry.checking = Some((worker.to_string(), results));
+            state.checks.push_back(batch_id);
+            drop(state);
+            self.check_available.notify_one();
+            return Ok(());
         }
+        accept(
+            &mut state,
+            batch_id,
+            worker,
+            results,
+            self.config.verify_share > 0.0,
+        );
         Ok(())
     }
 
+    /// The next batch whose results wait for a spot check, waiting for one; `None` once the
+    /// dispatcher is shutting down. The caller evaluates the batch itself (evaluation is
+    /// deterministic, so the true results are its own) and passes them to
+    /// [`Dispatcher::settle_spot_check`].
+    pub async fn next_spot_check(&self) -> Option<Batch> {
+        loop {
+            let notified = self.check_available.notified();
+            tokio::pin!(notified);
+            notified.as_mut().enable();
+            {
+                let mut state = self.lock();
+                if state.shutting_down {
+                    return None;
+                }
+                while let Some(batch_id) = state.checks.pop_front() {
+                    if let Some(batch) = held_batch(&state, batch_id) {
+                        return Some(batch);
+                    }
+                }
+            }
+            notified.await;
+        }
+    }
+
+    /// Settles a spot check of `batch_id` with the master's own results `truth`: the worker's
+    /// results are accepted when they are the same bit for bit; otherwise the master's are,
+    /// the worker is refused from then on (its leases taken back), and the jobs that accepted
+    /// any result of its are returned, for their runs to be evaluated again from the start.
+    pub fn settle_spot_check(
+        &self,
+        batch_id: u64,
+        truth: Vec<Vec<SampleSummary>>,
+    ) -> Option<LyingWorker> {
+        let mut state = self.lock();
+        let (worker, claimed) = state.batches.get_mut(&batch_id)?.checking.take()?;
+        state.stats.spot_checks += 1;
+        if same_bits(&claimed, &truth) {
+            state.checked_workers.insert(worker.clone());
+            accept(&mut state, batch_id, &worker, truth, true);
+            return None;
+        }
+        tracing::warn!(
+            batch_id,
+            worker,
+            "a worker's results differ from the master's own evaluation: the worker is refused from now on"
+        );
+        state.stats.lying_workers += 1;
+        state.refused_workers.insert(worker.clone());
+        let held: Vec<u64> = state
+            .leases
+            .iter()
+            .filter(|(_, lease)| lease.worker == worker)
+            .map(|(&id, _)| id)
+            .collect();
+        for lease_id in held {
+            revoke(&mut state, lease_id);
+        }
+        let job = state.batches.get(&batch_id).map(|b| b.job.clone());
+        accept(&mut state, batch_id, "master", truth, true);
+        let mut jobs: Vec<String> = state
+            .contributors
+            .iter()
+            .filter(|(_, workers)| workers.contains(&worker))
+            .map(|(job, _)| job.clone())
+            .collect();
+        // Results it sent for batches still waiting for a check are dropped and queued again.
+        let waiting: Vec<u64> = state.checks.iter().copied().collect();
+        for other in waiting {
+            if let Some(entry) = state.batches.get_mut(&other)
+                && entry.checking.as_ref().is_some_and(|(w, _)| *w == worker)
+            {
+                entry.checking = None;
+                requeue(&mut state, other, 0);
+            }
+        }
+        jobs.extend(job);
+        jobs.sort();
+        jobs.dedup();
+        drop(state);
+        self.work_available.notify_waiters();
+        Some(LyingWorker { worker, jobs })
+    }
+
+    /// Fails the request of a batch held for a spot check that the master could not evaluate
+    /// itself (every worker would fail it too).
+    pub fn fail_spot_check(&self, batch_id: u64, message: String) {
+        let mut state = self.lock();
+        if let Some(request_id) = state.batches.get(&batch_id).map(|b| b.request_id) {
+            finish_request(&mut state, request_id, Err(DispatchError::Failed(message)));
+        }
+    }
+
+    /// Forgets which workers a job's results came from (its runs start again from scratch).
+    pub fn forget_contributors(&self, job: &str) {
+        self.lock().contributors.remove(job);
+    }
+}
+
+/// A worker caught by a spot check, and the jobs that accepted results of its.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LyingWorker {
+    /// The worker.
+    pub worker: String,
+    /// The jobs.
+    pub jobs: Vec<String>,
+}
+
+/// Whether batch `batch_id` is among the share checked: a fixed hash of its id, so the choice
+/// does not depend on timing and cannot be steered by a worker.
+fn chosen_for_check(batch_id: u64, share: f64) -> bool {
+    // SplitMix64's finaliser: every bit of the id moves every bit of the hash.
+    let mut mixed = batch_id ^ 0x5b0d_c4ec_6e1f_a3d1;
+    mixed = (mixed ^ (mixed >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    mixed = (mixed ^ (mixed >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    mixed ^= mixed >> 31;
+    ((mixed >> 11) as f64) / ((1u64 << 53) as f64) < share
+}
+
+/// Whether two sets of results are the same bit for bit (fitness compared as bits, so that
+/// even a sign of zero counts).
+fn same_bits(a: &[Vec<SampleSummary>], b: &[Vec<SampleSummary>]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(a, b)| {
+            a.len() == b.len()
+                && a.iter().zip(b).all(|(a, b)| {
+                    a.fitness.to_bits() == b.fitness.to_bits()
+                        && SampleSummary {
+                            fitness: 0.0,
+                            ..a.clone()
+                        } == SampleSummary {
+                            fitness: 0.0,
+                            ..b.clone()
+                        }
+                })
+        })
+}
+
+/// Batch `batch_id` as a worker would have leased it, with no lease (for a spot check).
+fn held_batch(state: &State, batch_id: u64) -> Option<Batch> {
+    let entry = state.batches.get(&batch_id)?;
+    entry.checking.as_ref()?;
+    let request = &state.requests.get(&entry.request_id)?.request;
+    Some(Batch {
+        batch_id,
+        lease_id: 0,
+        job: entry.job.clone(),
+        shared: request.shared.clone(),
+        genomes: entry
+            .genome_indices
+            .iter()
+            .map(|&g| (g, request.genomes[g as usize].clone()))
+            .collect(),
+        samples: request.samples[entry.sample_range.clone()].into(),
+        deadline: Instant::now(),
+    })
+}
+
+/// Accepts `results` (checked, and spot-checked when asked) for batch `batch_id` into its
+/// request, finishing the request when it was the last; `worker` is remembered as a
+/// contributor of the job when `track` is set.
+fn accept(
+    state: &mut State,
+    batch_id: u64,
+    worker: &str,
+    results: Vec<Vec<SampleSummary>>,
+    track: bool,
+) {
+    let Some(entry) = state.batches.get_mut(&batch_id) else {
+        return;
+    };
+    if entry.done {
+        return;
+    }
+    entry.done = true;
+    entry.lease = None;
+    let (job, request_id, genome_indices, range) = (
+        entry.job.clone(),
+        entry.request_id,
+        entry.genome_indices.clone(),
+        entry.sample_range.clone(),
+    );
+    if track {
+        state
+            .contributors
+            .entry(job)
+            .or_default()
+            .insert(worker.to_string());
+    }
+    let Some(request) = state.requests.get_mut(&request_id) else {
+        return;
+    };
+    let mut cycles = 0u64;
+    let mut evaluations = 0u64;
+    for (genome_results, &genome_idx) in results.into_iter().zip(&genome_indices) {
+        for (summary, sample_idx) in genome_results.into_iter().zip(range.clone()) {
+            cycles += u64::from(summary.cycles);
+            evaluations += 1;
+            request.results[genome_idx as usize][sample_idx] = Some(summary);
+        }
+    }
+    request.remaining_batches -= 1;
+    let finished = request.remaining_batches == 0;
+    state.stats.cycles += cycles;
+    state.stats.evaluations += evaluations;
+    state.stats.batches_completed += 1;
+    if finished {
+        let request = state.requests.get_mut(&request_id).expect("present");
+        // The request is finished, so its results can move out rather than be copied.
+        let results: Option<Vec<Vec<SampleSummary>>> = std::mem::take(&mut request.results)
+            .into_iter()
+            .map(|genome| genome.into_iter().collect::<Option<Vec<_>>>())
+            .collect();
+        let outcome = results
+            .ok_or_else(|| DispatchError::Failed("internal: a finished request has holes".into()));
+        finish_request(state, request_id, outcome);
+    }
+}
+
+impl Dispatcher {
     /// Drops every queued batch of a job and fails its waiting requests.
     pub fn cancel_job(&self, job: &str) {
         let mut state = self.lock();
@@ -773,6 +997,7 @@ impl Dispatcher {
         }
         drop(state);
         self.work_available.notify_waiters();
+        self.check_available.notify_waiters();
     }
 
     /// A snapshot of the counters, with the workers active at `now`.
@@ -1198,6 +1423,95 @@ mod tests {
         assert!(dispatcher.try_lease("w", 1, now).is_none());
         assert_eq!(dispatcher.stats(now).leased_batches, 0);
         assert_eq!(dispatcher.stats(now).queued_batches, 0);
+    }
+
+    #[tokio::test]
+    async fn a_spot_check_refuses_a_worker_whose_results_differ_from_the_masters() {
+        let dispatcher = Dispatcher::new(DispatchConfig {
+            verify_share: 1.0,
+            ..DispatchConfig::default()
+        });
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 2, 2), now);
+        // An honest worker's result is held, checked, and then accepted.
+        let batch = dispatcher.try_lease("honest", 1, now).unwrap();
+        dispatcher
+            .complete(batch.lease_id, batch.batch_id, "honest", fake(&batch))
+            .unwrap();
+        assert!(pending.try_result().is_none(), "held for its check");
+        let check = dispatcher.next_spot_check().await.unwrap();
+        assert_eq!(check.batch_id, batch.batch_id);
+        assert_eq!(
+            dispatcher.settle_spot_check(check.batch_id, fake(&check)),
+            None
+        );
+        // A liar's plausible result (in range, one fitness a little off) is caught.
+        let forged_batch = dispatcher.try_lease("liar", 1, now).unwrap();
+        let mut forged = fake(&forged_batch);
+        forged[0][0].fitness += 0.001;
+        dispatcher
+            .complete(forged_batch.lease_id, forged_batch.batch_id, "liar", forged)
+            .unwrap();
+        let check = dispatcher.next_spot_check().await.unwrap();
+        let caught = dispatcher
+            .settle_spot_check(check.batch_id, fake(&check))
+            .expect("caught");
+        assert_eq!(caught.worker, "liar");
+        assert_eq!(caught.jobs, ["j"]);
+        assert!(
+            dispatcher.try_lease("liar", 1, now).is_none(),
+            "refused from now on"
+        );
+        // The rest, each held for its check and settled with the master's own results.
+        loop {
+            drain(&dispatcher, "honest", now);
+            let next =
+                tokio::time::timeout(Duration::from_millis(20), dispatcher.next_spot_check());
+            match next.await {
+                Ok(Some(check)) => {
+                    assert_eq!(
+                        dispatcher.settle_spot_check(check.batch_id, fake(&check)),
+                        None
+                    );
+                }
+                _ => break,
+            }
+        }
+        // Every result is the true one.
+        let results = pending.try_result().expect("complete").unwrap();
+        for (genome_idx, genome) in results.iter().enumerate() {
+            for (sample_idx, summary) in genome.iter().enumerate() {
+                assert_eq!(
+                    summary.fitness,
+                    expected_fitness(genome_idx as f32, sample_idx as u64)
+                );
+            }
+        }
+        let stats = dispatcher.stats(now);
+        assert!(stats.spot_checks >= 2, "{stats:?}");
+        assert_eq!(stats.lying_workers, 1);
+    }
+
+    #[test]
+    fn without_spot_checks_nothing_is_held() {
+        let dispatcher = Dispatcher::new(DispatchConfig::default());
+        let now = Instant::now();
+        let mut pending = dispatcher.submit(request("j", 1, 1), now);
+        let batch = dispatcher.try_lease("w", 1, now).unwrap();
+        dispatcher
+            .complete(batch.lease_id, batch.batch_id, "w", fake(&batch))
+            .unwrap();
+        assert!(pending.try_result().is_some());
+        assert_eq!(dispatcher.stats(now).spot_checks, 0);
+    }
+
+    #[test]
+    fn a_fixed_share_of_batches_is_chosen_for_checks() {
+        let chosen = (0..100_000u64)
+            .filter(|&id| chosen_for_check(id, 0.1))
+            .count();
+        assert!((9_000..11_000).contains(&chosen), "{chosen}");
+        assert!(!(0..1000u64).any(|id| chosen_for_check(id, 0.0)));
     }
 
     #[test]

@@ -306,6 +306,48 @@ impl JobManager {
         Ok(record)
     }
 
+    /// Evaluates an unfinished job again from the start (after a spot check caught a worker
+    /// whose results it accepted): its driver stops, its outputs go, and it runs anew. A job
+    /// that finished already keeps its results, with an error logged: a caught worker had
+    /// passed its first check, so only results it sent after it are in doubt.
+    pub async fn evaluate_again(&self, id: &str) {
+        let Ok(record) = self.get(id) else {
+            return;
+        };
+        self.inner.dispatcher.forget_contributors(id);
+        if record.state.is_final() {
+            tracing::error!(job = %id, "the job accepted results of a worker a spot check caught; it had finished: submit it again to be sure of its results");
+            return;
+        }
+        let task = lock(&self.inner.live)
+            .get_mut(id)
+            .and_then(|live| live.task.take());
+        if let Some(task) = task {
+            task.abort();
+            let _ = task.await;
+        }
+        self.inner.dispatcher.cancel_job(id);
+        let out_dir = job_out_dir(&self.inner.state_dir, id);
+        if let Err(error) = std::fs::remove_dir_all(&out_dir)
+            && error.kind() != std::io::ErrorKind::NotFound
+        {
+            tracing::error!(job = %id, %error, "cannot remove the job's outputs to evaluate it again");
+            let _ = self.finish(
+                id,
+                JobState::Failed,
+                Some(format!(
+                    "a worker sent false results and the outputs could not be removed: {error}"
+                )),
+            );
+            return;
+        }
+        if let Some(record) = lock(&self.inner.records).get_mut(id) {
+            record.generations_done = 0;
+        }
+        tracing::warn!(job = %id, "evaluating the job again from the start");
+        self.spawn(id.to_string());
+    }
+
     /// Forgets a finished job: its record and request id in the store, its memory here, and
     /// its directory (outputs and the record's copy). Its watchers' streams end.
     pub fn delete(&self, id: &str) -> Result<(), JobError> {

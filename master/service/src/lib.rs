@@ -60,6 +60,9 @@ pub struct ServeConfig {
     pub http_limits: ConnectionLimits,
     /// The most event streams open at once, per port (gRPC watches, the dashboard's pages).
     pub max_event_streams: usize,
+    /// The share of batches the master evaluates itself to check the worker's results (0:
+    /// none); see [`spot_checks`].
+    pub verify_share: f64,
 }
 
 /// File descriptors kept for the master's own use beyond its connections: the store, the
@@ -325,9 +328,13 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         // A quarter of the message limit: the estimate is generous, and a worker's reply
         // carries its results alongside.
         max_batch_bytes: hevo_proto::MAX_MESSAGE_BYTES / 4,
+        verify_share: config.verify_share,
         ..DispatchConfig::default()
     }));
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
+    if config.verify_share > 0.0 {
+        tokio::spawn(spot_checks(dispatcher.clone(), manager.clone()));
+    }
     let worker_api = grpc::WorkerApi::new(dispatcher.clone(), config.lease, MAX_LEASE_WAIT);
     let (closed_connections, closed) = tokio::sync::mpsc::unbounded_channel();
     tokio::spawn(worker_api.clone().revoke_on_close(closed));
@@ -451,6 +458,43 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Checks the batches the dispatcher holds for a spot check (every worker's first result, and
+/// `--verify-share` of the rest) by evaluating each here, on a blocking thread: evaluation is
+/// deterministic, so the master's results are the true ones. A worker whose results differ is
+/// refused from then on by the dispatcher, and every job that accepted a result of its is
+/// evaluated again from the start, so that no lie outlives its discovery.
+pub async fn spot_checks(dispatcher: Arc<Dispatcher>, manager: jobs::JobManager) {
+    let cache = Arc::new(hevo_engine::executor::EvaluatorCache::default());
+    while let Some(batch) = dispatcher.next_spot_check().await {
+        let batch_id = batch.batch_id;
+        let cache = cache.clone();
+        let truth = tokio::task::spawn_blocking(move || {
+            let evaluator = hevo_engine::local::evaluator_for(&cache, &batch)?;
+            hevo_engine::local::evaluate_batch(&evaluator, &batch)
+        })
+        .await;
+        match truth {
+            Ok(Ok(truth)) => {
+                if let Some(liar) = dispatcher.settle_spot_check(batch_id, truth) {
+                    tracing::warn!(worker = %liar.worker, jobs = ?liar.jobs, "a spot check caught a worker sending false results; it is refused, and the jobs it worked on start again");
+                    for job in liar.jobs {
+                        manager.evaluate_again(&job).await;
+                    }
+                }
+            }
+            Ok(Err(error)) => {
+                dispatcher.fail_spot_check(
+                    batch_id,
+                    format!("the master cannot evaluate the batch: {error}"),
+                );
+            }
+            Err(error) => {
+                dispatcher.fail_spot_check(batch_id, format!("the spot check failed: {error}"));
+            }
+        }
+    }
 }
 
 /// Re-reads the token files on every SIGHUP and replaces the accepted tokens: an operator

@@ -156,6 +156,18 @@ impl Metrics {
             refused.to_string(),
         );
         metric(
+            "hevo_spot_checks_total",
+            "counter",
+            "Batches whose results were checked against the master's own evaluation (--verify-share).",
+            stats.spot_checks.to_string(),
+        );
+        metric(
+            "hevo_lying_workers_total",
+            "counter",
+            "Workers refused because a spot check found their results differ from the master's.",
+            stats.lying_workers.to_string(),
+        );
+        metric(
             "hevo_lease_calls_refused_total",
             "counter",
             "Worker calls naming no live lease of the caller's (late duplicates, revoked or foreign leases): nothing changed.",

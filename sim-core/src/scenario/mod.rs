@@ -618,11 +618,12 @@ fn check_map_size(file: &MapFile) -> Result<(), (String, String)> {
             ),
         );
     }
-    // The farthest cell centre, in cells, on either axis.
-    let reach = |origin: i32, extent: usize| {
-        (f64::from(origin).abs()).max((f64::from(origin) + extent as f64).abs())
-    };
-    let farthest = reach(file.origin[0], widest.unwrap_or(0)).max(reach(file.origin[1], n_rows))
+    // The farthest cell centre, in cells, on either axis: columns run right of the origin,
+    // rows down from it.
+    let reach = |origin: i32, last: f64| f64::from(origin).abs().max(last.abs());
+    let last_column = f64::from(file.origin[0]) + widest.unwrap_or(0) as f64;
+    let last_row = f64::from(file.origin[1]) - n_rows as f64;
+    let farthest = reach(file.origin[0], last_column).max(reach(file.origin[1], last_row))
         * f64::from(file.cell_size);
     if farthest > f64::from(MAX_SOLID_COORDINATE) {
         return bad(
@@ -753,6 +754,23 @@ mod tests {
         ] {
             assert_eq!(line_of_path(text, path), line, "{path}");
         }
+    }
+
+    #[test]
+    fn a_maps_reach_counts_its_rows_down_from_the_origin() {
+        let map = |origin_y: i32, rows: usize| MapFile {
+            cell_size: 1.0,
+            wall_thickness: 0.1,
+            origin: [0, origin_y],
+            grid: vec!["."; rows].join("\n"),
+            legend: BTreeMap::from([(".".to_string(), "open".to_string())]),
+        };
+        // Rows 40 down to -19: within 50 m.
+        assert!(check_map_size(&map(40, 60)).is_ok());
+        // Rows -40 down to -59: beyond.
+        let (key, message) = check_map_size(&map(-40, 20)).unwrap_err();
+        assert_eq!(key, "origin");
+        assert!(message.contains("at most 50 m"), "{message}");
     }
 
     #[test]
