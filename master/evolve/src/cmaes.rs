@@ -484,30 +484,30 @@ mod tests {
         values[values.len() / 2]
     }
 
+    /// pycma 4.5.0's median evaluations to a generation's best below 1e-8 over seeds 1-10, on
+    /// the same functions and settings (`tests/pycma_reference.py`): sphere 1,350 (1,250 to
+    /// 1,490), Rosenbrock 5,190 (4,570 to 6,090, one seed stuck in the local minimum).
+    const PYCMA_MEDIAN_EVALUATIONS: [(&str, usize); 2] = [("sphere", 1_350), ("rosenbrock", 5_190)];
+
     #[test]
-    fn it_solves_sphere_and_rosenbrock_in_the_usual_number_of_evaluations() {
-        // 10 dimensions, the default lambda 4 + floor(3 ln 10) = 10, sigma 0.5 from 0; the
-        // target 1e-8. Measured: sphere 1,180 to 1,420 evaluations (median 1,330), Rosenbrock
-        // 4,860 to 6,760 (median 6,240) over these five seeds; the bounds are 1.5 times the
-        // medians, so a wrong update fails them.
-        let runs = |f: fn(&[f64]) -> f64, max: usize| -> Vec<usize> {
-            (0..5)
+    fn it_needs_at_most_half_again_pycma_s_evaluations_on_sphere_and_rosenbrock() {
+        // 10 dimensions, the default lambda 4 + floor(3 ln 10) = 10, sigma 0.5 from 0, ten
+        // seeds; a run that does not reach the target counts as never. Measured: sphere median
+        // 1,330 (1,180 to 1,420), Rosenbrock 6,270 (4,860 to 6,790, every seed reaching it),
+        // that is 0.99 and 1.21 times pycma's.
+        let functions: [fn(&[f64]) -> f64; 2] = [sphere, rosenbrock];
+        for ((name, pycma), f) in PYCMA_MEDIAN_EVALUATIONS.into_iter().zip(functions) {
+            let evaluations: Vec<usize> = (0..10)
                 .map(|seed| {
                     let cmaes = Cmaes::start(settings(10, 0.5), 10, seed).unwrap();
-                    evaluations_to_reach(cmaes, f, 1e-8, max).expect("reached the target")
+                    evaluations_to_reach(cmaes, f, 1e-8, 3 * pycma).unwrap_or(usize::MAX)
                 })
-                .collect()
-        };
-        let sphere_evaluations = runs(sphere, 20_000);
-        assert!(
-            median(sphere_evaluations.clone()) < 2_600,
-            "{sphere_evaluations:?}"
-        );
-        let rosenbrock_evaluations = runs(rosenbrock, 40_000);
-        assert!(
-            median(rosenbrock_evaluations.clone()) < 9_400,
-            "{rosenbrock_evaluations:?}"
-        );
+                .collect();
+            assert!(
+                2 * median(evaluations.clone()) <= 3 * pycma,
+                "{name}: {evaluations:?} against pycma's median {pycma}"
+            );
+        }
     }
 
     #[test]
