@@ -56,7 +56,7 @@ impl LightModel {
         })
     }
 
-    /// Draws one raw ambient reading of side `side` ([`LEFT`] or [`RIGHT`]):
+    /// Draws one raw ambient reading of side `side` (`LEFT` or `RIGHT`: 0 or 1):
     /// mean(d) + std(d) * N(0, 1), interpolated between table rows, where d is the distance to
     /// a lit light. With no lit light (`None`), NaN, or a light beyond the table (13 cm), the
     /// farthest, dark row is used. An out-of-range side reads +infinity, which never counts as
