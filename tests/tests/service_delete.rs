@@ -1,7 +1,8 @@
 //! What a job keeps, and for how long: a submission carries only the files its experiment
 //! reads (a file it never reads is refused, not kept for the job's life), and `hevo delete`
 //! forgets a finished job, its record and its files, while a job that has not finished is
-//! refused until it is cancelled.
+//! refused until it is cancelled; with `--retain-finished-hours` the master deletes finished
+//! jobs by itself once their retention runs out, and never an unfinished one.
 
 use hevo_proto::v1;
 use hevo_tests::service::{CLIENT_TOKEN, SMALL, jobs, master_with_roles, runtime, submission};
@@ -89,4 +90,70 @@ fn a_finished_job_can_be_deleted_and_a_running_one_not() {
             .into_inner();
         assert!(listed.jobs.is_empty());
     });
+}
+
+#[test]
+fn finished_jobs_are_deleted_once_their_retention_runs_out() {
+    let scratch = Scratch::new("delete-retention");
+    // 0.0002 hours: 0.72 s.
+    let master = master_with_roles(&scratch, &["--retain-finished-hours", "0.0002"]);
+    let (cancelled, waiting) = runtime().block_on(async {
+        let mut client = jobs(&master.url, CLIENT_TOKEN);
+        let mut submit = |request_id: &str| {
+            let mut request = submission(SMALL);
+            request.request_id = request_id.into();
+            request
+        };
+        let first = client
+            .submit_job(submit("a"))
+            .await
+            .unwrap()
+            .into_inner()
+            .job_id;
+        let second = client
+            .submit_job(submit("b"))
+            .await
+            .unwrap()
+            .into_inner()
+            .job_id;
+        client
+            .cancel_job(v1::CancelJobRequest {
+                job_id: first.clone(),
+            })
+            .await
+            .unwrap();
+        (first, second)
+    });
+    let state_dir = scratch.join("state").join("jobs");
+    assert!(state_dir.join(&cancelled).is_dir());
+    // No worker runs the second job, so it never finishes: it must stay.
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let listed = loop {
+        let listed: Vec<String> = runtime().block_on(async {
+            let mut client = jobs(&master.url, CLIENT_TOKEN);
+            let response = client.list_jobs(v1::ListJobsRequest {}).await.unwrap();
+            response
+                .into_inner()
+                .jobs
+                .into_iter()
+                .map(|j| j.job_id)
+                .collect()
+        });
+        if !listed.contains(&cancelled) || std::time::Instant::now() > deadline {
+            break listed;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(
+        listed,
+        [waiting.clone()],
+        "the cancelled job is gone within 30 s, the waiting one kept"
+    );
+    assert!(
+        !state_dir.join(&cancelled).exists(),
+        "its directory is gone"
+    );
+    assert!(state_dir.join(&waiting).is_dir());
+    let log = std::fs::read_to_string(scratch.join("master.log")).unwrap_or_default();
+    assert!(log.contains("past their retention"), "{log}");
 }

@@ -94,6 +94,11 @@ pub struct ServeArgs {
     /// worked on are evaluated again from the start. 0 (the default) checks none.
     #[arg(long, default_value_t = 0.0)]
     pub verify_share: f64,
+    /// Delete a finished job (succeeded, failed or cancelled), its record and its files, this
+    /// many hours after it finished, as `hevo delete` would; fetch its results before then.
+    /// Unset (the default), finished jobs are kept until deleted.
+    #[arg(long)]
+    pub retain_finished_hours: Option<f64>,
 }
 
 /// `hevo submit`.
@@ -171,6 +176,16 @@ pub fn serve(args: ServeArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&args.verify_share) {
         bail!("--verify-share must be a share from 0 to 1");
     }
+    let retain_finished = match args.retain_finished_hours {
+        None => None,
+        // A century at most: beyond that a duration is no setting but a typo.
+        Some(hours) if hours.is_finite() && hours > 0.0 && hours <= 876_000.0 => {
+            Some(Duration::from_secs_f64(hours * 3600.0))
+        }
+        Some(hours) => {
+            bail!("--retain-finished-hours must be a number of hours above 0, got {hours}")
+        }
+    };
     if args.first_request_timeout_seconds == 0 || args.idle_timeout_seconds == 0 {
         bail!("--first-request-timeout-seconds and --idle-timeout-seconds must be at least 1");
     }
@@ -193,6 +208,7 @@ pub fn serve(args: ServeArgs) -> Result<()> {
         http_limits: connection_limits(args.http_max_connections),
         max_event_streams: args.max_event_streams,
         verify_share: args.verify_share,
+        retain_finished,
     };
     let runtime = runtime()?;
     let served = runtime.block_on(hevo_service::serve(config));

@@ -534,10 +534,11 @@ pub fn new_job_id() -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn record(id: String) -> JobRecord {
+    /// A queued job's record, for tests here and in `jobs.rs`.
+    pub(crate) fn record(id: String) -> JobRecord {
         JobRecord {
             id,
             request_id: None,

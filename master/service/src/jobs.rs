@@ -18,6 +18,7 @@ use hevo_proto::v1;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 use tokio::sync::{broadcast, watch};
 use tokio::task::JoinHandle;
@@ -141,6 +142,22 @@ fn now_ms() -> i64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
+}
+
+/// The finished jobs whose retention of `retention_ms` has run out at `now_ms`: those that
+/// reached their final state longer ago than that. Unfinished jobs are never expired. Time is
+/// an argument, so the rule is tested without a clock.
+pub fn expired(records: &[JobRecord], now_ms: i64, retention_ms: i64) -> Vec<String> {
+    records
+        .iter()
+        .filter(|record| {
+            record.state.is_final()
+                && record
+                    .finished_unix_ms
+                    .is_some_and(|finished| now_ms.saturating_sub(finished) > retention_ms)
+        })
+        .map(|record| record.id.clone())
+        .collect()
 }
 
 /// Where jobs live in a state directory.
@@ -367,6 +384,22 @@ impl JobManager {
         self.inner.changes.send_modify(|n| *n = n.wrapping_add(1));
         tracing::info!(job = %id, "job deleted");
         Ok(())
+    }
+
+    /// Deletes the finished jobs that reached their final state more than `retention` ago
+    /// (as [`JobManager::delete`] would one by one); returns how many it deleted.
+    pub fn delete_expired(&self, retention: Duration) -> usize {
+        let retention_ms = i64::try_from(retention.as_millis()).unwrap_or(i64::MAX);
+        expired(&self.list(), now_ms(), retention_ms)
+            .iter()
+            .filter(|id| match self.delete(id) {
+                Ok(()) => true,
+                Err(error) => {
+                    tracing::warn!(job = %id, %error, "cannot delete an expired job");
+                    false
+                }
+            })
+            .count()
     }
 
     /// Subscribes to a job's events (before reading its status, so nothing is missed).
@@ -773,4 +806,36 @@ impl Progress for JobProgress {
 /// A job's status for the wire.
 pub fn info(record: &JobRecord) -> v1::JobInfo {
     job_info(record)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::tests::record;
+
+    #[test]
+    fn only_jobs_finished_longer_ago_than_the_retention_expire() {
+        let at = |id: &str, state: JobState, finished: Option<i64>| JobRecord {
+            state,
+            finished_unix_ms: finished,
+            ..record(id.to_string())
+        };
+        let records = [
+            at("old-success", JobState::Succeeded, Some(1_000)),
+            at("old-failure", JobState::Failed, Some(1_000)),
+            at("old-cancel", JobState::Cancelled, Some(1_000)),
+            at("recent", JobState::Succeeded, Some(9_500)),
+            at("just-expired", JobState::Succeeded, Some(8_999)),
+            at("exactly-due", JobState::Succeeded, Some(9_000)),
+            // Never final, whatever its timestamps say: never expired.
+            at("running", JobState::Running, Some(1_000)),
+            at("queued", JobState::Queued, None),
+        ];
+        assert_eq!(
+            expired(&records, 10_000, 1_000),
+            ["old-success", "old-failure", "old-cancel", "just-expired"]
+        );
+        assert!(expired(&records, 10_000, i64::MAX).is_empty());
+        assert_eq!(expired(&records, i64::MIN, 0), Vec::<String>::new());
+    }
 }

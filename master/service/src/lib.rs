@@ -63,6 +63,27 @@ pub struct ServeConfig {
     /// The share of batches the master evaluates itself to check the worker's results (0:
     /// none); see [`spot_checks`].
     pub verify_share: f64,
+    /// How long a finished job is kept before it is deleted as `hevo delete` would (`None`:
+    /// for ever).
+    pub retain_finished: Option<Duration>,
+}
+
+/// Deletes the finished jobs older than `retention`, now and then: often enough that a job
+/// outlives its retention by at most a quarter of it (or a minute), rarely enough to cost
+/// nothing.
+async fn forget_finished(manager: jobs::JobManager, retention: Duration) {
+    let period = (retention / 4).clamp(Duration::from_millis(100), Duration::from_secs(60));
+    loop {
+        let deleted = manager.delete_expired(retention);
+        if deleted > 0 {
+            tracing::info!(
+                deleted,
+                ?retention,
+                "deleted finished jobs past their retention"
+            );
+        }
+        tokio::time::sleep(period).await;
+    }
 }
 
 /// File descriptors kept for the master's own use beyond its connections: the store, the
@@ -334,6 +355,9 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
     if config.verify_share > 0.0 {
         tokio::spawn(spot_checks(dispatcher.clone(), manager.clone()));
+    }
+    if let Some(retention) = config.retain_finished {
+        tokio::spawn(forget_finished(manager.clone(), retention));
     }
     let worker_api = grpc::WorkerApi::new(dispatcher.clone(), config.lease, MAX_LEASE_WAIT);
     let (closed_connections, closed) = tokio::sync::mpsc::unbounded_channel();
