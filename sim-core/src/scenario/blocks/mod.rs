@@ -8,7 +8,7 @@
 //! [`crate::sensors::registry`]): the scenario compiler asks the registered
 //! blocks in order which one a piece of the file names, and the evaluator only ever calls the
 //! compiled blocks' traits. A new block is one file in this folder and one line in its
-//! registry; ARCHITECTURE.md walks through one.
+//! registry; docs/dev/extending.md walks through one.
 //!
 //! Blocks compile once per scenario (names resolved to indices, regions to tests, requirements
 //! checked against [`Facts`]), so in the control loop a block does arithmetic on what it sees
@@ -377,7 +377,7 @@ pub(crate) fn listed(items: impl Iterator<Item = &'static str>) -> String {
     }
 }
 
-/// The two blocks ARCHITECTURE.md's "Where to add" shows whole, compiled here as written there
+/// The two blocks docs/dev/extending.md shows whole, compiled here as written there
 /// and tried, so that the guide a new block starts from never rots.
 #[cfg(test)]
 mod doc_examples {
@@ -398,8 +398,8 @@ mod doc_examples {
     use crate::task::TaskConfig;
 
     #[test]
-    fn architecture_md_shows_each_example_block_as_compiled_here() {
-        let guide = include_str!("../../../../ARCHITECTURE.md");
+    fn the_extending_guide_shows_each_example_block_as_compiled_here() {
+        let guide = include_str!("../../../../docs/dev/extending.md");
         for (name, code) in [
             ("east_of.rs", include_str!("doc_examples/east_of.rs")),
             ("compass.rs", include_str!("doc_examples/compass.rs")),
@@ -414,7 +414,7 @@ mod doc_examples {
                 .collect();
             assert!(
                 guide.contains(&format!("  ```rust\n{shown}  ```\n")),
-                "ARCHITECTURE.md no longer shows doc_examples/{name} as it is"
+                "docs/dev/extending.md no longer shows doc_examples/{name} as it is"
             );
         }
     }
