@@ -99,7 +99,7 @@ fn finished_jobs_are_deleted_once_their_retention_runs_out() {
     let master = master_with_roles(&scratch, &["--retain-finished-hours", "0.0002"]);
     let (cancelled, waiting) = runtime().block_on(async {
         let mut client = jobs(&master.url, CLIENT_TOKEN);
-        let mut submit = |request_id: &str| {
+        let submit = |request_id: &str| {
             let mut request = submission(SMALL);
             request.request_id = request_id.into();
             request
@@ -146,7 +146,7 @@ fn finished_jobs_are_deleted_once_their_retention_runs_out() {
     };
     assert_eq!(
         listed,
-        [waiting.clone()],
+        std::slice::from_ref(&waiting),
         "the cancelled job is gone within 30 s, the waiting one kept"
     );
     assert!(
