@@ -57,20 +57,14 @@ pub use task::{TaskConfig, task_content_hash};
 
 /// Whether a test comparing a CPU-specific code path with its reference can run on this CPU
 /// (`present`: the CPU has `feature`). Without it the comparison would pass without comparing
-/// anything, so the test says so on stderr and is skipped; under CI (`CI` set), whose machines
-/// have the feature, it fails instead, as a test whose tool is missing does.
+/// anything, so the test says so on stderr and is skipped; under CI, whose machines have the
+/// features, `tests/golden.rs` fails instead (sim-core itself reads no environment).
 #[cfg(test)]
 pub(crate) fn cpu_feature_for_test(feature: &str, present: bool, test: &str) -> bool {
-    if present {
-        return true;
+    if !present {
+        eprintln!("SKIPPED {test}: this CPU lacks {feature}, so there is nothing to compare");
     }
-    let why = format!("{test}: this CPU lacks {feature}, so there is nothing to compare");
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "{why} (CI requires {feature})"
-    );
-    eprintln!("SKIPPED {why}");
-    false
+    present
 }
 
 /// The model's tasks are part of the model: each shipped scenario's and map's text, as hashed when

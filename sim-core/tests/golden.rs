@@ -325,6 +325,27 @@ fn the_golden_cases_cover_every_task_and_mostly_succeed() {
     }
 }
 
+/// sim-core's bit-for-bit comparisons of its CPU-specific paths (glibc's FMA sines, the AVX2
+/// IR cones) skip, saying so, on a CPU without the feature. Under CI (`CI` set), whose machines
+/// have both, a skip must not pass silently: this fails instead, as a test whose tool is
+/// missing does.
+#[test]
+fn under_ci_the_cpu_has_what_the_bit_comparisons_need() {
+    if std::env::var_os("CI").is_none() {
+        return;
+    }
+    for (feature, present) in [
+        ("fma", std::arch::is_x86_feature_detected!("fma")),
+        ("avx2", std::arch::is_x86_feature_detected!("avx2")),
+    ] {
+        assert!(
+            present,
+            "CI's CPU lacks {feature}: sim-core's comparisons of its {feature} code with the \
+             reference were skipped"
+        );
+    }
+}
+
 /// Recorded with `HEVO_BLESS=1` (see the top of this file).
 #[rustfmt::skip]
 const EXPECTED: &[Golden] = &[
