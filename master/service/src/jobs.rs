@@ -310,7 +310,14 @@ impl JobManager {
             return Ok(record);
         }
         let record = self.finish(id, JobState::Cancelled, None)?;
-        // Stop the driver before dropping the job's batches, so it cannot queue new ones after.
+        self.stop_driver(id).await;
+        tracing::info!(job = %id, "job cancelled");
+        Ok(record)
+    }
+
+    /// Stops a job's driver, then drops its batches: in that order, so the driver cannot
+    /// queue new ones after.
+    async fn stop_driver(&self, id: &str) {
         let task = lock(&self.inner.live)
             .get_mut(id)
             .and_then(|live| live.task.take());
@@ -319,8 +326,6 @@ impl JobManager {
             let _ = task.await;
         }
         self.inner.dispatcher.cancel_job(id);
-        tracing::info!(job = %id, "job cancelled");
-        Ok(record)
     }
 
     /// Evaluates an unfinished job again from the start (after a spot check caught a worker
@@ -336,14 +341,7 @@ impl JobManager {
             tracing::error!(job = %id, "the job accepted results of a worker a spot check caught; it had finished: submit it again to be sure of its results");
             return;
         }
-        let task = lock(&self.inner.live)
-            .get_mut(id)
-            .and_then(|live| live.task.take());
-        if let Some(task) = task {
-            task.abort();
-            let _ = task.await;
-        }
-        self.inner.dispatcher.cancel_job(id);
+        self.stop_driver(id).await;
         let out_dir = job_out_dir(&self.inner.state_dir, id);
         if let Err(error) = std::fs::remove_dir_all(&out_dir)
             && error.kind() != std::io::ErrorKind::NotFound
