@@ -100,21 +100,31 @@ fn the_exported_c_in_the_loop_solves_what_sim_core_solves() {
     );
 }
 
+/// The shipped rescue exported with `export_args` into a scratch folder named `scratch_name`
+/// and run by `make check-qemu`, which must pass: the folder (kept while it lives) and what
+/// make printed. `None` where the cross-compiler or QEMU is missing (outside CI).
+fn rescue_under_qemu(
+    test: &str,
+    scratch_name: &str,
+    export_args: &[&str],
+) -> Option<(Scratch, String)> {
+    tools::require("make", test)?;
+    tools::require("arm-none-eabi-gcc", test)?;
+    tools::require("qemu-system-arm", test)?;
+    let scratch = Scratch::new(scratch_name);
+    let dir = scratch.join("c");
+    export("rescue.json", "rescue", &dir, export_args);
+    let (success, output) = make(&dir, "check-qemu");
+    assert!(success, "make check-qemu:\n{output}");
+    Some((scratch, output))
+}
+
 #[test]
 fn the_float_export_runs_bit_identical_on_an_emulated_cortex_m4() {
     let test = "the_float_export_runs_bit_identical_on_an_emulated_cortex_m4";
-    let (Some(_), Some(_), Some(_)) = (
-        tools::require("make", test),
-        tools::require("arm-none-eabi-gcc", test),
-        tools::require("qemu-system-arm", test),
-    ) else {
+    let Some((_scratch, output)) = rescue_under_qemu(test, "export-qemu-float", &[]) else {
         return;
     };
-    let scratch = Scratch::new("export-qemu-float");
-    let dir = scratch.join("c");
-    export("rescue.json", "rescue", &dir, &[]);
-    let (success, output) = make(&dir, "check-qemu");
-    assert!(success, "make check-qemu:\n{output}");
     assert!(output.contains("bit-identical to sim-core"), "{output}");
     assert!(number_after(&output, "hevo_step: ") > 100.0, "{output}");
 }
@@ -122,18 +132,12 @@ fn the_float_export_runs_bit_identical_on_an_emulated_cortex_m4() {
 #[test]
 fn the_fixed_rescue_fits_the_e_puck1_ram_on_an_emulated_cortex_m3() {
     let test = "the_fixed_rescue_fits_the_e_puck1_ram_on_an_emulated_cortex_m3";
-    let (Some(_), Some(_), Some(_)) = (
-        tools::require("make", test),
-        tools::require("arm-none-eabi-gcc", test),
-        tools::require("qemu-system-arm", test),
-    ) else {
+    let Some((scratch, output)) =
+        rescue_under_qemu(test, "export-qemu-fixed", &["--target", "fixed"])
+    else {
         return;
     };
-    let scratch = Scratch::new("export-qemu-fixed");
     let dir = scratch.join("c");
-    export("rescue.json", "rescue", &dir, &["--target", "fixed"]);
-    let (success, output) = make(&dir, "check-qemu");
-    assert!(success, "make check-qemu:\n{output}");
     assert!(output.contains("Cortex-M3, no FPU"), "{output}");
     // No float instruction in the library: a core without FPU runs it.
     let objdump = Command::new("arm-none-eabi-objdump")

@@ -45,18 +45,6 @@ typedef int16_t hevo_raw;     /* raw sensor readings, ADC units */
 typedef int32_t hevo_ir_mean; /* the IR table's mean raw readings, Q4 (raw * 16) */
 
 typedef struct {
-    /* Raw proximity readings (e-puck units, about 20 far .. 3900 at contact; larger is
-     * nearer) of the front-left (+17 deg), left (+90 deg), right (-90 deg) and front-right
-     * (-17 deg) sensors. At or below the farthest calibration mean (12 cm) an input is 0. */
-    hevo_raw ir[HEVO_N_IR];
-    /* Raw ambient readings of the left and right sensor (about 3960 and 4000 in the dark;
-     * lower is more light): a flash below the threshold holds the input at 1. */
-    hevo_raw light[HEVO_N_LIGHT];
-    /* 1 while the teammate is within {{NEAR_RANGE}} m (the range and bearing board), else 0. */
-    uint8_t near_robot;
-} hevo_raw_inputs;
-
-typedef struct {
     hevo_value left, right;          /* the active primitive's outputs, Q16 in [0, HEVO_ONE] */
     int16_t left_steps, right_steps; /* (2 output - 1) v_max in motor steps per second,
                                         rounded: e_set_speed_left / e_set_speed_right */
