@@ -11,35 +11,11 @@
 
 use hevo_tests::deploy::{Analysis, DeployFiles};
 use hevo_tests::podman::{IMAGE, Podman, wait_until};
+use hevo_tests::service::health_status;
 use hevo_tests::{Scratch, binaries, http_get};
 use std::time::Duration;
 
 const TEST: &str = "container_live_probes";
-
-/// The grpc.health.v1 status of `service` at `address`, asked without a token.
-fn health_status(
-    runtime: &tokio::runtime::Runtime,
-    address: &str,
-    service: &str,
-) -> Result<i32, String> {
-    runtime.block_on(async {
-        let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))
-            .map_err(|e| e.to_string())?
-            .connect_timeout(Duration::from_secs(5))
-            .timeout(Duration::from_secs(5))
-            .connect()
-            .await
-            .map_err(|e| e.to_string())?;
-        let mut client = tonic_health::pb::health_client::HealthClient::new(channel);
-        let response = client
-            .check(tonic_health::pb::HealthCheckRequest {
-                service: service.to_string(),
-            })
-            .await
-            .map_err(|status| format!("{}: {}", status.code(), status.message()))?;
-        Ok(response.into_inner().status)
-    })
-}
 
 #[test]
 fn the_master_container_as_kubernetes_runs_it_answers_its_probes() {

@@ -9,7 +9,7 @@ use hevo_tests::service::{
     CLIENT_TOKEN, SMALL, WORKER_TOKEN, jobs, lease, master_with_roles, metric, metrics_text,
     runtime, submission, wait_until_final, workers,
 };
-use hevo_tests::{Scratch, hevo, start_worker};
+use hevo_tests::{Master, Scratch, hevo, start_worker};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -142,25 +142,7 @@ fn forged_and_foreign_results_change_nothing() {
         job
     });
     // An honest worker finishes the job; the results are exactly the local ones.
-    let _worker = start_worker(
-        &master.url,
-        WORKER_TOKEN,
-        "honest",
-        &[],
-        &scratch.join("honest.log"),
-    );
-    runtime().block_on(async {
-        let info = wait_until_final(
-            &mut jobs(&master.url, CLIENT_TOKEN),
-            &job,
-            Duration::from_secs(120),
-        )
-        .await;
-        assert_eq!(info.state, v1::JobState::Succeeded as i32, "{}", info.error);
-    });
-    let fetched = scratch.join("fetched");
-    fetch(&master.url, &job, &fetched);
-    hevo_tests::assert_same_results(&expected, &fetched, None);
+    an_honest_worker_finishes(&master, &scratch, &job, &expected);
     let metrics = metrics_text(&master);
     assert!(
         metric(&metrics, "hevo_results_refused_total") >= 3.0,
@@ -367,25 +349,7 @@ fn a_worker_forging_plausible_results_is_caught_by_a_spot_check() {
         assert!(forged_batches >= 1, "the forger got no batch");
         job
     });
-    let _worker = start_worker(
-        &master.url,
-        WORKER_TOKEN,
-        "honest",
-        &[],
-        &scratch.join("honest.log"),
-    );
-    runtime().block_on(async {
-        let info = wait_until_final(
-            &mut jobs(&master.url, CLIENT_TOKEN),
-            &job,
-            Duration::from_secs(120),
-        )
-        .await;
-        assert_eq!(info.state, v1::JobState::Succeeded as i32, "{}", info.error);
-    });
-    let fetched = scratch.join("fetched");
-    fetch(&master.url, &job, &fetched);
-    hevo_tests::assert_same_results(&expected, &fetched, None);
+    an_honest_worker_finishes(&master, &scratch, &job, &expected);
     let metrics = metrics_text(&master);
     assert_eq!(
         metric(&metrics, "hevo_lying_workers_total"),
@@ -396,4 +360,28 @@ fn a_worker_forging_plausible_results_is_caught_by_a_spot_check() {
         metric(&metrics, "hevo_spot_checks_total") >= 1.0,
         "{metrics}"
     );
+}
+
+/// An honest worker joins and finishes `job`, whose fetched results must be exactly
+/// `expected`, the local run's.
+fn an_honest_worker_finishes(master: &Master, scratch: &Scratch, job: &str, expected: &Path) {
+    let _worker = start_worker(
+        &master.url,
+        WORKER_TOKEN,
+        "honest",
+        &[],
+        &scratch.join("honest.log"),
+    );
+    runtime().block_on(async {
+        let info = wait_until_final(
+            &mut jobs(&master.url, CLIENT_TOKEN),
+            job,
+            Duration::from_secs(120),
+        )
+        .await;
+        assert_eq!(info.state, v1::JobState::Succeeded as i32, "{}", info.error);
+    });
+    let fetched = scratch.join("fetched");
+    fetch(&master.url, job, &fetched);
+    hevo_tests::assert_same_results(expected, &fetched, None);
 }

@@ -710,10 +710,9 @@ mod tests {
         assert!(svg.starts_with("<svg"));
     }
 
-    #[tokio::test]
-    async fn an_abandoned_stream_is_dropped() {
-        let dashboard = dashboard(Access::Open);
-        let response = dashboard
+    /// Opens the event stream of a run directory's job page.
+    async fn open_events(dashboard: Dashboard) -> axum::response::Response {
+        dashboard
             .router()
             .oneshot(
                 Request::builder()
@@ -722,7 +721,13 @@ mod tests {
                     .unwrap(),
             )
             .await
-            .unwrap();
+            .unwrap()
+    }
+
+    #[tokio::test]
+    async fn an_abandoned_stream_is_dropped() {
+        let dashboard = dashboard(Access::Open);
+        let response = open_events(dashboard.clone()).await;
         assert_eq!(response.status(), StatusCode::OK);
         for _ in 0..100 {
             if dashboard.open_streams() == 1 {
@@ -943,21 +948,9 @@ mod tests {
     async fn event_streams_beyond_the_cap_are_refused_until_one_closes() {
         let dashboard = dashboard(Access::Open);
         dashboard.set_max_streams(1);
-        let open = |dashboard: Dashboard| async move {
-            dashboard
-                .router()
-                .oneshot(
-                    Request::builder()
-                        .uri("/jobs/runs-wide-turn-starts/events")
-                        .body(Body::empty())
-                        .unwrap(),
-                )
-                .await
-                .unwrap()
-        };
-        let first = open(dashboard.clone()).await;
+        let first = open_events(dashboard.clone()).await;
         assert_eq!(first.status(), StatusCode::OK);
-        let second = open(dashboard.clone()).await;
+        let second = open_events(dashboard.clone()).await;
         assert_eq!(second.status(), StatusCode::SERVICE_UNAVAILABLE);
         drop(first);
         for _ in 0..200 {
@@ -966,6 +959,9 @@ mod tests {
             }
             tokio::time::sleep(std::time::Duration::from_millis(10)).await;
         }
-        assert_eq!(open(dashboard.clone()).await.status(), StatusCode::OK);
+        assert_eq!(
+            open_events(dashboard.clone()).await.status(),
+            StatusCode::OK
+        );
     }
 }
