@@ -220,6 +220,9 @@ impl TaskConfig {
         // gets the message it got before.
         self.params.robot.validate()?;
         self.params.room.validate()?;
+        self.params
+            .room
+            .validate_start_clearance(self.params.robot.radius)?;
         if self.max_cycles() == 0 {
             return Err(invalid("max_cycles", "must be at least 1".into()));
         }
@@ -429,5 +432,18 @@ mod tests {
         let error = task.validate().unwrap_err();
         assert_eq!(error.key, "corridor.start_advance", "{error}");
         assert!(error.message.contains("cells_before_turn"), "{error}");
+    }
+
+    #[test]
+    fn a_room_whose_obstacles_could_cover_the_start_is_refused() {
+        let mut task = shipped("exit_room");
+        task.params.room.start_clearance = 0.15;
+        let error = task.validate().unwrap_err();
+        assert_eq!(error.key, "room.start_clearance", "{error}");
+        assert!(error.message.contains("no clearance"), "{error}");
+        // A bigger robot needs more room around the same start area.
+        let mut wide = shipped("exit_room");
+        wide.params.robot.radius = 0.12;
+        assert_eq!(wide.validate().unwrap_err().key, "room.start_clearance");
     }
 }

@@ -137,7 +137,76 @@ impl RoomConfig {
             None => Ok(()),
         }
     }
+
+    /// The smallest `start_clearance` that keeps every obstacle off every start: a start lies
+    /// up to `start_offset` from the centre on each axis (so up to `start_offset * sqrt 2`
+    /// away), and the robot's body reaches `robot_radius` beyond it. With the defaults (0.10 m,
+    /// an e-puck's 0.0375 m) that is 0.179 m.
+    pub fn min_start_clearance(&self, robot_radius: f32) -> f32 {
+        self.start_offset * std::f32::consts::SQRT_2 + robot_radius
+    }
+
+    /// Refuses a start clearance that lets an obstacle cover a start: such a robot would
+    /// begin inside a solid, and the sample could never be solved.
+    pub fn validate_start_clearance(&self, robot_radius: f32) -> Result<(), ConfigError> {
+        let needed = self.min_start_clearance(robot_radius);
+        if self.start_clearance >= needed {
+            return Ok(());
+        }
+        Err(invalid(
+            "room.start_clearance",
+            format!(
+                "{} m leaves the start no clearance: the robot starts up to {:.3} m from the \
+                 room's centre (room.start_offset {} m on each axis) and its body reaches {} m \
+                 beyond, so an obstacle could cover the start; use at least {:.3} m, or a \
+                 smaller room.start_offset",
+                self.start_clearance,
+                self.start_offset * std::f32::consts::SQRT_2,
+                self.start_offset,
+                robot_radius,
+                (needed * 1000.0).ceil() / 1000.0,
+            ),
+        ))
+    }
 }
 
 /// The longest length a room's numbers may give, metres.
 pub const MAX_ROOM_METRES: f32 = 20.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EPUCK_RADIUS: f32 = 0.0375;
+
+    #[test]
+    fn the_default_room_leaves_the_start_clear() {
+        let room = RoomConfig::default();
+        assert!(room.validate_start_clearance(EPUCK_RADIUS).is_ok());
+        // The figure the docs quote.
+        let needed = room.min_start_clearance(EPUCK_RADIUS);
+        assert!((needed - 0.1789).abs() < 1e-3, "{needed}");
+    }
+
+    #[test]
+    fn a_start_clearance_an_obstacle_could_cover_is_refused_with_the_minimum() {
+        let room = RoomConfig {
+            start_clearance: 0.1,
+            ..RoomConfig::default()
+        };
+        let message = room
+            .validate_start_clearance(EPUCK_RADIUS)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("room.start_clearance"), "{message}");
+        assert!(message.contains("no clearance"), "{message}");
+        assert!(message.contains("at least 0.179 m"), "{message}");
+        // A smaller offset needs less: the check follows the start area, not a constant.
+        let near_centre = RoomConfig {
+            start_clearance: 0.1,
+            start_offset: 0.02,
+            ..RoomConfig::default()
+        };
+        assert!(near_centre.validate_start_clearance(EPUCK_RADIUS).is_ok());
+    }
+}
