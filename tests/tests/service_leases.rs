@@ -2,9 +2,11 @@
 //! no evaluation could give, and a lease held past its lifetime by a worker that only ever
 //! heartbeats change nothing of the job's results. And a worker whose connection closes
 //! loses its leases at once: its batch goes back to the queue without waiting for the lease
-//! to run out.
+//! to run out. A worker forging plausible results is caught by a spot check, and the
+//! dashboard names it.
 
 use hevo_proto::v1;
+use hevo_tests::dashboard::{dashboard_url, request};
 use hevo_tests::service::{
     CLIENT_TOKEN, SMALL, WORKER_TOKEN, jobs, lease, master_with_roles, metric, metrics_text,
     runtime, submission, wait_until_final, workers,
@@ -318,7 +320,10 @@ fn a_killed_workers_batch_is_queued_again_at_once() {
 fn a_worker_forging_plausible_results_is_caught_by_a_spot_check() {
     let scratch = Scratch::new("leases-spot-check");
     let expected = local_reference(&scratch);
-    let master = master_with_roles(&scratch, &["--verify-share", "0.1"]);
+    let master = master_with_roles(
+        &scratch,
+        &["--verify-share", "0.1", "--http-listen", "127.0.0.1:0"],
+    );
     let job = runtime().block_on(async {
         let job = jobs(&master.url, CLIENT_TOKEN)
             .submit_job(submission(SMALL))
@@ -359,6 +364,23 @@ fn a_worker_forging_plausible_results_is_caught_by_a_spot_check() {
     assert!(
         metric(&metrics, "hevo_spot_checks_total") >= 1.0,
         "{metrics}"
+    );
+    // The dashboard's job list names the worker it caught.
+    let page = request(
+        dashboard_url(&master),
+        "GET",
+        "/",
+        &[&format!("Authorization: Bearer {CLIENT_TOKEN}")],
+        "",
+    );
+    assert_eq!(page.status, 200, "{page:?}");
+    assert!(page.body.contains("<h2>Spot checks</h2>"), "{}", page.body);
+    // A worker is known by its name and its connection's address.
+    assert!(
+        page.body
+            .contains(r#"<td class="refused-workers"><code>forger@127.0.0.1:"#),
+        "{}",
+        page.body
     );
 }
 

@@ -126,6 +126,19 @@ pub struct WorkersView {
     pub evaluations: u64,
     /// Batches completed since the master started.
     pub batches_completed: u64,
+    /// The spot checks, when the master re-evaluates a share of batches (`--verify-share`).
+    pub spot_checks: Option<SpotChecksView>,
+}
+
+/// What the master's spot checks found, for the jobs page.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpotChecksView {
+    /// The share of batches re-evaluated by the master (every worker's first result is too).
+    pub share: f64,
+    /// Results compared with the master's own evaluation.
+    pub checked: u64,
+    /// Workers whose results differed: refused from then on, in name order.
+    pub refused_workers: Vec<String>,
 }
 
 /// Why a source could not answer.

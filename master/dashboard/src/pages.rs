@@ -5,7 +5,7 @@
 
 use crate::html::{escape, percent, utc};
 use crate::replay::{ReplayFigure, figure_html};
-use crate::{JobOverview, NodeView, WorkersView};
+use crate::{JobOverview, NodeView, SpotChecksView, WorkersView};
 use hevo_viz::RunLog;
 use std::fmt::Write;
 
@@ -88,8 +88,50 @@ pub fn jobs_body(title: &str, jobs: &[JobOverview], workers: Option<&WorkersView
             w.batches_completed,
             w.evaluations
         );
+        if let Some(checks) = &w.spot_checks {
+            out.push_str(&spot_checks_html(checks));
+        }
     }
     out
+}
+
+/// How many names of refused workers the jobs page lists before it only counts the rest.
+const MAX_REFUSED_LISTED: usize = 20;
+
+/// The master's spot checks: what share it re-evaluates, how many results it compared, and
+/// the workers it caught (names escaped, at most [`MAX_REFUSED_LISTED`] of them).
+fn spot_checks_html(checks: &SpotChecksView) -> String {
+    let refused = if checks.refused_workers.is_empty() {
+        "none".to_string()
+    } else {
+        let mut names: Vec<String> = checks
+            .refused_workers
+            .iter()
+            .take(MAX_REFUSED_LISTED)
+            .map(|name| format!("<code>{}</code>", escape(name)))
+            .collect();
+        let more = checks
+            .refused_workers
+            .len()
+            .saturating_sub(MAX_REFUSED_LISTED);
+        if more > 0 {
+            names.push(format!("and {more} more"));
+        }
+        names.join(", ")
+    };
+    format!(
+        r#"<h2>Spot checks</h2>
+<table class="spot-checks"><tbody>
+<tr><th>batches re-evaluated by the master</th><td>{share} % (and every worker's first)</td></tr>
+<tr><th>results checked</th><td>{checked}</td></tr>
+<tr><th>workers caught and refused</th><td class="refused-count">{n_refused}</td></tr>
+<tr><th>refused workers</th><td class="refused-workers">{refused}</td></tr>
+</tbody></table>
+"#,
+        share = checks.share * 100.0,
+        checked = checks.checked,
+        n_refused = checks.refused_workers.len(),
+    )
 }
 
 /// The run logs of a node, labelled for the plot's legend.
@@ -347,6 +389,55 @@ mod tests {
         assert!(html.contains(r#"<a href="/jobs/job-1">job-1</a>"#));
         assert!(html.contains("&lt;small&gt;"));
         assert!(html.contains("3 of 10 generations"));
+    }
+
+    fn workers(spot_checks: Option<SpotChecksView>) -> WorkersView {
+        WorkersView {
+            active_workers: 2,
+            active_threads: 4,
+            leased_batches: 1,
+            queued_batches: 0,
+            evaluations: 100,
+            batches_completed: 7,
+            spot_checks,
+        }
+    }
+
+    #[test]
+    fn the_job_list_shows_what_the_spot_checks_caught_and_only_when_there_are_any() {
+        let html = jobs_body("hevo master", &[], Some(&workers(None)));
+        assert!(html.contains("connected workers"), "{html}");
+        assert!(!html.contains("Spot checks"), "{html}");
+
+        let clean = workers(Some(SpotChecksView {
+            share: 0.1,
+            checked: 3,
+            refused_workers: vec![],
+        }));
+        let html = jobs_body("hevo master", &[], Some(&clean));
+        assert!(html.contains("<h2>Spot checks</h2>"), "{html}");
+        assert!(html.contains("10 % (and every worker's first)"), "{html}");
+        assert!(html.contains("<td>3</td>"), "{html}");
+        assert!(
+            html.contains(r#"<td class="refused-workers">none</td>"#),
+            "{html}"
+        );
+
+        let mut names: Vec<String> = (0..25).map(|i| format!("w{i:02}")).collect();
+        names[0] = "<liar>".into();
+        let caught = workers(Some(SpotChecksView {
+            share: 0.1,
+            checked: 9,
+            refused_workers: names,
+        }));
+        let html = jobs_body("hevo master", &[], Some(&caught));
+        assert!(
+            html.contains(r#"<td class="refused-count">25</td>"#),
+            "{html}"
+        );
+        assert!(html.contains("<code>&lt;liar&gt;</code>"), "{html}");
+        assert!(html.contains("<code>w19</code>, and 5 more"), "{html}");
+        assert!(!html.contains("<code>w20</code>"), "{html}");
     }
 
     #[test]

@@ -1000,6 +1000,18 @@ impl Dispatcher {
         self.check_available.notify_waiters();
     }
 
+    /// The share of batches checked against the master's own evaluation (0: none).
+    pub fn verify_share(&self) -> f64 {
+        self.config.verify_share
+    }
+
+    /// The workers a spot check caught, refused from then on, in name order.
+    pub fn refused_workers(&self) -> Vec<String> {
+        let mut workers: Vec<String> = self.lock().refused_workers.iter().cloned().collect();
+        workers.sort();
+        workers
+    }
+
     /// A snapshot of the counters, with the workers active at `now`.
     pub fn stats(&self, now: Instant) -> DispatchStats {
         let state = self.lock();

@@ -8,7 +8,8 @@ use crate::db::JobRecord;
 use crate::jobs::{JobError, JobManager};
 use hevo_dashboard::rundirs::{read_best, read_nodes};
 use hevo_dashboard::{
-    BestController, BoxFuture, JobOverview, NodeView, Source, SourceError, WorkersView,
+    BestController, BoxFuture, JobOverview, NodeView, Source, SourceError, SpotChecksView,
+    WorkersView,
 };
 use hevo_engine::experiment::Experiment;
 use std::path::Path;
@@ -117,7 +118,13 @@ impl Source for JobsSource {
     }
 
     fn workers(&self) -> Option<WorkersView> {
-        let stats = self.manager.dispatcher().stats(std::time::Instant::now());
+        let dispatcher = self.manager.dispatcher();
+        let stats = dispatcher.stats(std::time::Instant::now());
+        let spot_checks = (dispatcher.verify_share() > 0.0).then(|| SpotChecksView {
+            share: dispatcher.verify_share(),
+            checked: stats.spot_checks,
+            refused_workers: dispatcher.refused_workers(),
+        });
         Some(WorkersView {
             active_workers: stats.active_workers,
             active_threads: stats.active_threads,
@@ -125,6 +132,7 @@ impl Source for JobsSource {
             queued_batches: stats.queued_batches,
             evaluations: stats.evaluations,
             batches_completed: stats.batches_completed,
+            spot_checks,
         })
     }
 
