@@ -23,8 +23,8 @@ pub struct TaskConfig {
     pub end_on_collision: bool,
     /// Whether entering a cell off the path ends the sample in a scenario whose wrong branches
     /// do not end it by default (the rescue: the paper does not say, and a rescuer may turn
-    /// round and search on; see `docs/decisions/0006-goals-and-wrong-branches.md`, and for the
-    /// ablation with it on `docs/decisions/0020-rescue-wrong-branch-ablation.md`).
+    /// round and search on; see `docs/decisions/model/0006-goals-and-wrong-branches.md`, and for the
+    /// ablation with it on `docs/decisions/model/0020-rescue-wrong-branch-ablation.md`).
     pub end_on_wrong_branch: bool,
     /// For a scenario with a derived fitness: whether a solved sample also earns the time bonus
     /// (maxCycles - spentCycles) / maxCycles, as in the authors' JBotEvolver code

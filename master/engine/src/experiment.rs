@@ -235,7 +235,7 @@ pub struct EvolutionParams {
 
 /// How the samples of a generation meet a task's light configurations (or start branches). The
 /// paper says only that the samples' initial conditions vary; see
-/// `docs/decisions/0019-training-variants-equal-shares.md`.
+/// `docs/decisions/reproduction/0019-training-variants-equal-shares.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TrainingVariants {

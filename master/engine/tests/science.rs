@@ -266,7 +266,7 @@ fn every_paper_task_models_the_papers_robot_and_sensors() {
 // --- provenance -----------------------------------------------------------------------------
 
 /// Where each shipped controller came from: the run whose `best.json` it is, byte for byte, as
-/// docs/decisions/0018-shipped-controllers.md and REPRODUCTION.md say.
+/// docs/decisions/reproduction/0018-shipped-controllers.md and REPRODUCTION.md say.
 const PROVENANCE: &[(&str, &str)] = &[
     ("exit_room.json", "experiments/runs/exit_room/run-3"),
     ("follow_wall.json", "experiments/runs/follow_wall/run-1"),

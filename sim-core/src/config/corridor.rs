@@ -29,7 +29,7 @@ pub struct CorridorConfig {
     /// corridor than the centre of its first cell. An arbitrator activates a primitive, freshly
     /// reset, wherever the robot happens to be, often beside the opening it must take; a turning
     /// primitive that only ever started a whole cell or more before its junction never learns
-    /// to turn from there (see `docs/decisions/0016-turn-starts-up-to-the-junction.md`). The
+    /// to turn from there (see `docs/decisions/model/0016-turn-starts-up-to-the-junction.md`). The
     /// turning tasks use one cell, 0.30 m, so starts cover every distance up to the junction's
     /// centre; absent means 0, which leaves the other tasks' draws and content hashes unchanged.
     #[serde(skip_serializing_if = "is_zero")]

@@ -80,8 +80,8 @@ pub struct NodeSpec {
     /// least this many cycles, whatever the network's outputs say. 0 (the default, and the
     /// paper's activator) lets it switch in any cycle. The paper notes that other activators
     /// could be used; this one limits how fast an arbitrator can flick between freshly reset
-    /// children (`docs/decisions/0026-node-use.md`; return to room tried it:
-    /// `docs/decisions/0027-min-active-cycles.md`).
+    /// children (`docs/decisions/reproduction/0026-node-use.md`; return to room tried it:
+    /// `docs/decisions/model/0027-min-active-cycles.md`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub min_active_cycles: u32,
 }

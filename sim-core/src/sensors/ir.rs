@@ -22,7 +22,7 @@
 //! is the curve's mean at contact and `floor` its mean at 12 cm). With both, a surface 12 cm
 //! away or more, and an empty cone, read the curve's 12 cm row, so such a sensor reads a noisy
 //! value near 0 (under `linear_distance` exactly 0 in 99.997 % of cycles). See
-//! `docs/model.md`, section 3.1, and `docs/decisions/0013-ir-reading-average-table.md`.
+//! `docs/model.md`, section 3.1, and `docs/decisions/model/0013-ir-reading-average-table.md`.
 //!
 //! The per-sample choices (which measured curve models each sensor, and its offset noise) live
 //! in [`IrSensorSetup`], drawn once per sample from the sample's sensor-setup stream; the
