@@ -72,7 +72,8 @@ pub struct ClientOptions {
 #[derive(Debug, Clone, clap::Args)]
 pub struct MasterArgs {
     /// The master's URL: http://HOST:PORT, https://HOST:PORT, or HOST:PORT.
-    #[arg(long, env = "HEVO_MASTER")]
+    // Without hiding, `--help` prints the variable's value, `[env: HEVO_MASTER=]` when unset.
+    #[arg(long, env = "HEVO_MASTER", hide_env_values = true)]
     pub master: String,
     /// The token of this program's role: for `hevo` commands a client token, for `hevo-worker`
     /// a worker token (the master's --token-file or --worker-token-file).
@@ -209,27 +210,57 @@ pub fn error_chain(error: &(dyn std::error::Error + 'static)) -> String {
 
 /// A status as a user-facing line: the code's name and the master's message.
 pub fn describe_status(status: &tonic::Status) -> String {
-    let code: &str = match status.code() {
-        tonic::Code::Unauthenticated => "UNAUTHENTICATED",
-        tonic::Code::InvalidArgument => "INVALID_ARGUMENT",
-        tonic::Code::NotFound => "NOT_FOUND",
-        tonic::Code::Unavailable => "UNAVAILABLE",
-        tonic::Code::FailedPrecondition => "FAILED_PRECONDITION",
-        tonic::Code::ResourceExhausted => "RESOURCE_EXHAUSTED",
-        tonic::Code::Internal => "INTERNAL",
-        tonic::Code::DeadlineExceeded => "DEADLINE_EXCEEDED",
-        tonic::Code::Cancelled => "CANCELLED",
-        other => &format!("{other:?}"),
-    };
+    let code = code_name(status.code());
     if let Some(source) = std::error::Error::source(status) {
         return format!("{code}: {} ({})", status.message(), error_chain(source));
     }
     format!("{code}: {}", status.message())
 }
 
+/// A status code as the gRPC specification spells it (`PERMISSION_DENIED`), one style for every
+/// code a message may show.
+pub fn code_name(code: tonic::Code) -> &'static str {
+    use tonic::Code;
+    match code {
+        Code::Ok => "OK",
+        Code::Cancelled => "CANCELLED",
+        Code::Unknown => "UNKNOWN",
+        Code::InvalidArgument => "INVALID_ARGUMENT",
+        Code::DeadlineExceeded => "DEADLINE_EXCEEDED",
+        Code::NotFound => "NOT_FOUND",
+        Code::AlreadyExists => "ALREADY_EXISTS",
+        Code::PermissionDenied => "PERMISSION_DENIED",
+        Code::ResourceExhausted => "RESOURCE_EXHAUSTED",
+        Code::FailedPrecondition => "FAILED_PRECONDITION",
+        Code::Aborted => "ABORTED",
+        Code::OutOfRange => "OUT_OF_RANGE",
+        Code::Unimplemented => "UNIMPLEMENTED",
+        Code::Internal => "INTERNAL",
+        Code::Unavailable => "UNAVAILABLE",
+        Code::DataLoss => "DATA_LOSS",
+        Code::Unauthenticated => "UNAUTHENTICATED",
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_status_code_prints_in_the_specifications_style() {
+        let denied = tonic::Status::permission_denied("a worker token cannot submit");
+        assert_eq!(
+            describe_status(&denied),
+            "PERMISSION_DENIED: a worker token cannot submit"
+        );
+        for number in 0..=16 {
+            let name = code_name(tonic::Code::from_i32(number));
+            assert!(
+                name.chars().all(|c| c.is_ascii_uppercase() || c == '_'),
+                "{name}"
+            );
+        }
+    }
 
     #[test]
     fn urls_get_a_scheme_and_tls_needs_https() {

@@ -222,6 +222,9 @@ impl Worker {
         let mut backoff = Backoff::new(self.config.max_backoff);
         let mut connected = false;
         let mut failures = 0u32;
+        // A lease request waits for work, so "connected" may come much later: say at once that
+        // the worker is up and where it looks.
+        tracing::info!(master = %self.config.client.url, worker = %self.config.name, threads = self.config.threads, "asking the master for work");
         loop {
             if *self.shutdown.borrow() != Shutdown::Running {
                 return Ok(());
