@@ -219,6 +219,7 @@ pub fn describe_status(status: &tonic::Status) -> String {
         tonic::Code::Internal => "INTERNAL",
         tonic::Code::DeadlineExceeded => "DEADLINE_EXCEEDED",
         tonic::Code::Cancelled => "CANCELLED",
+        tonic::Code::Aborted => "ABORTED",
         other => &format!("{other:?}"),
     };
     if let Some(source) = std::error::Error::source(status) {

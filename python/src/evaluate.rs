@@ -187,6 +187,7 @@ impl EvaluationInput {
         } else {
             Vec::new()
         };
+        let n_samples = self.sample_list.len();
         let seeds: Vec<u64> = self.sample_list.iter().map(|sample| sample.seed).collect();
         Ok(Evaluation {
             fitness: PyArray1::from_vec(py, columns.fitness).unbind(),
@@ -196,17 +197,17 @@ impl EvaluationInput {
             per_variant: matrix(py, n, columns.per_variant)?.unbind(),
             per_stage: matrix(py, n, columns.per_stage)?.unbind(),
             per_phase: matrix(py, n, columns.per_phase)?.unbind(),
-            sample_fitness: matrix(py, n, columns.sample_fitness)?.unbind(),
-            sample_solved: matrix(py, n, columns.sample_solved)?.unbind(),
-            sample_collided: matrix(py, n, columns.sample_collided)?.unbind(),
-            sample_cycles: matrix(py, n, columns.sample_cycles)?.unbind(),
-            sample_stage: matrix(py, n, columns.sample_stage)?.unbind(),
-            sample_variant: matrix(py, n, columns.sample_variant)?.unbind(),
+            sample_fitness: shaped(py, n, n_samples, columns.sample_fitness)?.unbind(),
+            sample_solved: shaped(py, n, n_samples, columns.sample_solved)?.unbind(),
+            sample_collided: shaped(py, n, n_samples, columns.sample_collided)?.unbind(),
+            sample_cycles: shaped(py, n, n_samples, columns.sample_cycles)?.unbind(),
+            sample_stage: shaped(py, n, n_samples, columns.sample_stage)?.unbind(),
+            sample_variant: shaped(py, n, n_samples, columns.sample_variant)?.unbind(),
             sample_seeds: PyArray1::from_vec(py, seeds).unbind(),
             variant_names,
             stage_names: columns.stage_names,
             phase_names: columns.phase_names,
-            samples: self.sample_list.len() as u32,
+            samples: n_samples as u32,
         })
     }
 }
@@ -319,12 +320,23 @@ impl Columns {
     }
 }
 
+/// `values` as a matrix of `rows` rows (and no columns when there are no rows).
 fn matrix<'py, T: numpy::Element>(
     py: Python<'py>,
     rows: usize,
     values: Vec<T>,
 ) -> PyResult<Bound<'py, PyArray2<T>>> {
     let columns = values.len().checked_div(rows).unwrap_or(0);
+    shaped(py, rows, columns, values)
+}
+
+/// `values` as a `rows` x `columns` matrix.
+fn shaped<'py, T: numpy::Element>(
+    py: Python<'py>,
+    rows: usize,
+    columns: usize,
+    values: Vec<T>,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
     let array = Array2::from_shape_vec((rows, columns), values)
         .map_err(|error| RunError::new_err(format!("internal: result shape: {error}")))?;
     Ok(PyArray2::from_owned_array(py, array))
