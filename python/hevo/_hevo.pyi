@@ -64,12 +64,13 @@ class Controller:
         """The genome length of the node at `node` (a path; the root when omitted)."""
     def genome(self, node: Optional[str] = None) -> Optional[npt.NDArray[np.float32]]:
         """A copy of the node's genome (the root when omitted), or None for the free node."""
-    def set_genome(self, genes: npt.NDArray[np.float32], node: Optional[str] = None) -> None:
-        """Sets the node's genome (the root when omitted); ControllerError when it does not fit."""
+    def set_genome(self, genes: npt.ArrayLike, node: Optional[str] = None) -> None:
+        """Sets the node's genome (the root when omitted; any float dtype, float64 rounded to
+        the nearest float32); ControllerError when it does not fit."""
     def without_genome(self, node: Optional[str] = None) -> Controller:
         """A copy with the node's genome removed: a template for `evaluate`."""
-    def with_genome(self, genes: npt.NDArray[np.float32]) -> Controller:
-        """A copy of this template with its free node's genome filled in."""
+    def with_genome(self, genes: npt.ArrayLike) -> Controller:
+        """A copy of this template with its free node's genome filled in (any float dtype)."""
 
 class Task:
     """A task: a scenario and every number of the model in force."""

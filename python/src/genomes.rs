@@ -62,6 +62,54 @@ fn rows_of<T: Copy + Into<f64>>(array: ArrayView2<'_, T>, clip: bool) -> PyResul
         .collect()
 }
 
+/// A 2-D float array's values, as they are stored.
+enum Floats<'py> {
+    Single(PyReadonlyArray2<'py, f32>),
+    Double(PyReadonlyArray2<'py, f64>),
+}
+
+/// `value` (a numpy array, or anything `numpy.asarray` makes a float array of) as a float
+/// array, its shape checked by `check_shape`; `name` names it in errors. TypeError for a dtype
+/// that is not a float.
+fn float_array<'py>(
+    value: &Bound<'py, PyAny>,
+    name: &str,
+    check_shape: impl FnOnce(&[usize]) -> PyResult<()>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let array = value
+        .py()
+        .import("numpy")?
+        .getattr("asarray")?
+        .call1((value,))?;
+    let untyped = array.cast::<PyUntypedArray>()?;
+    let dtype = untyped.dtype();
+    if dtype.kind() != b'f' {
+        return Err(PyTypeError::new_err(format!(
+            "{name} must be a float array (float64, float32, ...), got dtype {}; convert it \
+             with .astype(numpy.float64)",
+            dtype.str()?
+        )));
+    }
+    check_shape(untyped.shape())?;
+    Ok(array)
+}
+
+/// A 2-D float array's values: float32 as they are, float64 as they are, other float dtypes
+/// (float16 exactly, longdouble rounded) as float64.
+fn floats_2d(array: Bound<'_, PyAny>) -> PyResult<Floats<'_>> {
+    if let Ok(single) = array.extract::<PyReadonlyArray2<'_, f32>>() {
+        return Ok(Floats::Single(single));
+    }
+    if let Ok(double) = array.extract::<PyReadonlyArray2<'_, f64>>() {
+        return Ok(Floats::Double(double));
+    }
+    Ok(Floats::Double(
+        array
+            .call_method1("astype", ("float64",))?
+            .extract::<PyReadonlyArray2<'_, f64>>()?,
+    ))
+}
+
 /// The rows of `genomes` (a numpy array, or anything `numpy.asarray` makes a float array of)
 /// as float32 genomes of `n_genes` genes for the free node `free_path`. TypeError for a
 /// dtype that is not a float, ValueError for a shape that does not fit, ControllerError for
@@ -72,39 +120,43 @@ pub(crate) fn genome_rows(
     free_path: &str,
     clip: bool,
 ) -> PyResult<Vec<Arc<[f32]>>> {
-    let py = genomes.py();
-    let array = py.import("numpy")?.getattr("asarray")?.call1((genomes,))?;
-    let untyped = array.cast::<PyUntypedArray>()?;
-    let dtype = untyped.dtype();
-    if dtype.kind() != b'f' {
-        return Err(PyTypeError::new_err(format!(
-            "genomes must be a float array (float64, float32, ...), got dtype {}; convert it \
-             with .astype(numpy.float64)",
-            dtype.str()?
-        )));
+    let array = float_array(genomes, "genomes", |shape| {
+        if shape.len() != 2 {
+            return Err(PyValueError::new_err(format!(
+                "genomes must be 2-D, one genome per row, shape (n, {n_genes}); got shape \
+                 {shape:?} (one genome: genomes[None, :])"
+            )));
+        }
+        if shape[1] != n_genes {
+            return Err(PyValueError::new_err(format!(
+                "genomes has {} column(s), but the free node '{free_path}' takes {n_genes} genes",
+                shape[1]
+            )));
+        }
+        Ok(())
+    })?;
+    match floats_2d(array)? {
+        Floats::Single(single) => rows_of(single.as_array(), clip),
+        Floats::Double(double) => rows_of(double.as_array(), clip),
     }
-    let shape = untyped.shape();
-    if shape.len() != 2 {
-        return Err(PyValueError::new_err(format!(
-            "genomes must be 2-D, one genome per row, shape (n, {n_genes}); got shape {shape:?} \
-             (one genome: genomes[None, :])"
-        )));
-    }
-    if shape[1] != n_genes {
-        return Err(PyValueError::new_err(format!(
-            "genomes has {} column(s), but the free node '{free_path}' takes {n_genes} genes",
-            shape[1]
-        )));
-    }
-    if let Ok(single) = array.extract::<PyReadonlyArray2<'_, f32>>() {
-        return rows_of(single.as_array(), clip);
-    }
-    // float64 as it is; float16 (exact) and longdouble through float64.
-    let double = if array.extract::<PyReadonlyArray2<'_, f64>>().is_ok() {
-        array
-    } else {
-        array.call_method1("astype", ("float64",))?
-    };
-    let double = double.extract::<PyReadonlyArray2<'_, f64>>()?;
-    rows_of(double.as_array(), clip)
+}
+
+/// One genome (a 1-D array of any float dtype) as float32 genes, rounded to the nearest as
+/// [`genome_rows`] rounds; its range is the controller file's check, which names the node.
+pub(crate) fn genes_of(genes: &Bound<'_, PyAny>) -> PyResult<Vec<f32>> {
+    let array = float_array(genes, "genes", |shape| {
+        if shape.len() == 1 {
+            Ok(())
+        } else {
+            Err(PyValueError::new_err(format!(
+                "genes must be 1-D, one genome; got shape {shape:?}"
+            )))
+        }
+    })?;
+    let row = array.call_method1("reshape", (1, -1))?;
+    Ok(match floats_2d(row)? {
+        Floats::Single(single) => single.as_array().iter().copied().collect(),
+        // Rounds to the nearest f32, ties to even, as `gene` does.
+        Floats::Double(double) => double.as_array().iter().map(|&v| v as f32).collect(),
+    })
 }
