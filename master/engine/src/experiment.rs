@@ -1949,4 +1949,25 @@ runs = 1
         let err = error_of("[experiment\nname = 1");
         assert!(err.starts_with("exp.toml"), "{err}");
     }
+
+    #[test]
+    fn a_remote_evaluation_is_held_to_a_generations_bounds() {
+        assert_eq!(check_evaluation_cost(10_000, 100, 25, 4), Ok(()));
+        fn field(result: Result<(), (&'static str, String)>) -> &'static str {
+            result.unwrap_err().0
+        }
+        assert_eq!(field(check_evaluation_cost(100_001, 1, 1, 1)), "genomes");
+        assert_eq!(field(check_evaluation_cost(1, 1, 100_001, 1)), "samples");
+        // 10,000 x 26 x 4 = 1,040,000 evaluations.
+        let (key, message) = check_evaluation_cost(10_000, 1, 26, 4).unwrap_err();
+        assert_eq!(key, "genomes");
+        assert!(
+            message.starts_with("1040000 evaluations at once"),
+            "{message}"
+        );
+        // 100,000 genomes of 1,000 genes on one sample: 2.8 GB of genes.
+        let (key, message) = check_evaluation_cost(100_000, 1_000, 1, 1).unwrap_err();
+        assert_eq!(key, "genomes");
+        assert!(message.contains("MiB, at most 1024 MiB"), "{message}");
+    }
 }
