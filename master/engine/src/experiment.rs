@@ -121,8 +121,8 @@ fn check_node_cost(
 
 /// Refuses a one-off evaluation (a master's remote evaluation) of `genomes` genomes of
 /// `n_genes` genes on `samples_per_variant` samples of each of `n_variants` variants that would
-/// cost more than one generation of a job may: the limits a node is checked against ([`limits`]). The error is
-/// (field, message), the field `genomes` or `samples`.
+/// cost more than one generation of a job may: the limits a node is checked against
+/// ([`limits`]). The error is (field, message), the field `genomes` or `samples`.
 pub fn check_evaluation_cost(
     genomes: u32,
     n_genes: usize,
