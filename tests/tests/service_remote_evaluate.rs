@@ -1,6 +1,8 @@
 //! Remote evaluation (`EvaluateGenomes`) on a real master and real workers: the results
 //! `hevo_client::evaluate_genomes` streams back are the engine's own local evaluation bit for
-//! bit, with a worker killed while it holds a batch and spot checks on; dropping the stream or
+//! bit, with a worker killed while it holds a batch and spot checks on, and with a worker
+//! forging results that a spot check catches (the evaluation ends and the client evaluates
+//! again); dropping the stream or
 //! cancelling the evaluation by its id takes its batches off the queue; a worker's token and
 //! requests over a limit or with a bad gene are refused naming the field.
 
@@ -11,7 +13,8 @@ use hevo_proto::convert as wire;
 use hevo_proto::v1;
 use hevo_sim_core::{ControllerFile, SampleSummary, TaskConfig};
 use hevo_tests::service::{
-    CLIENT_TOKEN, WORKER_TOKEN, jobs, master_with_roles, metric, metrics_text, runtime,
+    CLIENT_TOKEN, WORKER_TOKEN, jobs, lease, master_with_roles, metric, metrics_text, runtime,
+    workers,
 };
 use hevo_tests::{Master, Scratch, repo_root, start_worker};
 use std::sync::Arc;
@@ -85,31 +88,9 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
     let genomes = genomes_near(40);
     let (samples, seed) = (3, 11);
 
-    let remote = std::thread::scope(|scope| {
-        let evaluation = scope.spawn(|| {
-            let mut results: Vec<Vec<SampleSummary>> = Vec::new();
-            runtime()
-                .block_on(hevo_client::evaluate_genomes(
-                    &options(&master, CLIENT_TOKEN),
-                    &template,
-                    &task,
-                    &genomes,
-                    samples,
-                    seed,
-                    |event| match event {
-                        EvaluationEvent::Started(_) => results.clear(),
-                        EvaluationEvent::Results {
-                            first_genome,
-                            results: chunk,
-                        } => {
-                            assert_eq!(first_genome, results.len());
-                            results.extend(chunk);
-                        }
-                    },
-                ))
-                .unwrap();
-            results
-        });
+    let (remote, _) = std::thread::scope(|scope| {
+        let evaluation =
+            scope.spawn(|| evaluate_remotely(&master, &template, &task, &genomes, samples, seed));
         wait_for("both workers to hold a batch", || {
             metric(&metrics_text(&master), "hevo_batches_leased") >= 2.0
         });
@@ -123,15 +104,64 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
             >= 1.0,
         "the killed worker's lease was not taken back:\n{after}"
     );
+    assert_local_results(&remote, &template, &task, &genomes, samples, seed);
+}
 
-    let samples = hevo_engine::post_evaluation::post_evaluation_samples(&task, samples, seed);
+/// `hevo_client::evaluate_genomes` on `master`: the results, `[genome][sample]`, and how many
+/// attempts the master started.
+fn evaluate_remotely(
+    master: &Master,
+    template: &ControllerFile,
+    task: &TaskConfig,
+    genomes: &[Arc<[f32]>],
+    samples: u32,
+    seed: u64,
+) -> (Vec<Vec<SampleSummary>>, usize) {
+    let mut results: Vec<Vec<SampleSummary>> = Vec::new();
+    let mut attempts = 0;
+    runtime()
+        .block_on(hevo_client::evaluate_genomes(
+            &options(master, CLIENT_TOKEN),
+            template,
+            task,
+            genomes,
+            samples,
+            seed,
+            |event| match event {
+                EvaluationEvent::Started(_) => {
+                    attempts += 1;
+                    results.clear();
+                }
+                EvaluationEvent::Results {
+                    first_genome,
+                    results: chunk,
+                } => {
+                    assert_eq!(first_genome, results.len());
+                    results.extend(chunk);
+                }
+            },
+        ))
+        .unwrap();
+    (results, attempts)
+}
+
+/// Asserts that `remote` is the engine's local evaluation of the same genomes, bit for bit.
+fn assert_local_results(
+    remote: &[Vec<SampleSummary>],
+    template: &ControllerFile,
+    task: &TaskConfig,
+    genomes: &[Arc<[f32]>],
+    samples: u32,
+    seed: u64,
+) {
+    let samples = hevo_engine::post_evaluation::post_evaluation_samples(task, samples, seed);
     let dispatcher = hevo_engine::local::local_dispatcher(2);
     let local = hevo_engine::local::run_local(dispatcher, 2, async |dispatcher| {
         dispatcher
             .evaluate(EvaluationRequest {
                 job: "local".into(),
                 shared: Arc::new(RequestShared::new(template.clone(), task.clone())),
-                genomes: genomes.clone(),
+                genomes: genomes.to_vec(),
                 samples: samples.into(),
             })
             .await
@@ -149,6 +179,68 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
             );
         }
     }
+}
+
+#[test]
+fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
+    let scratch = Scratch::new("remote-evaluate-forged");
+    let master = master_with_roles(&scratch, &["--verify-share", "0.1"]);
+    let (template, task) = maze_template();
+    let genomes = genomes_near(12);
+    let (remote, attempts) = std::thread::scope(|scope| {
+        let evaluation =
+            scope.spawn(|| evaluate_remotely(&master, &template, &task, &genomes, 2, 5));
+        runtime().block_on(async {
+            let mut forger = workers(&master.url, WORKER_TOKEN);
+            let mut forged_batches = 0;
+            // Plausible results (in range, of the sample's variant) for every batch it gets, until the master gives it none.
+            while let Some(batch) = lease(&mut forger, "forger", Duration::from_secs(3)).await {
+                let forged = batch
+                    .genomes
+                    .iter()
+                    .map(|_| v1::GenomeResult {
+                        samples: (batch.samples.iter())
+                            .map(|sample| v1::SampleResult {
+                                fitness: 0.5,
+                                cycles: 10,
+                                variant: sample.variant.unwrap_or(0),
+                                ..v1::SampleResult::default()
+                            })
+                            .collect(),
+                    })
+                    .collect();
+                let _ = forger
+                    .complete_batch(v1::CompleteBatchRequest {
+                        worker: "forger".into(),
+                        lease_id: batch.lease_id,
+                        batch_id: batch.batch_id,
+                        epoch: batch.epoch,
+                        genomes: forged,
+                        elapsed_ms: 1,
+                    })
+                    .await;
+                forged_batches += 1;
+                assert!(forged_batches < 50, "the forger is never refused");
+            }
+            assert!(forged_batches >= 1, "the forger got no batch");
+        });
+        let _honest = start_worker(
+            &master.url,
+            WORKER_TOKEN,
+            "honest",
+            &[],
+            &scratch.join("honest.log"),
+        );
+        evaluation.join().unwrap()
+    });
+    let metrics = metrics_text(&master);
+    assert_eq!(
+        metric(&metrics, "hevo_lying_workers_total"),
+        1.0,
+        "{metrics}"
+    );
+    assert!(attempts >= 2, "the caught evaluation was not started again");
+    assert_local_results(&remote, &template, &task, &genomes, 2, 5);
 }
 
 /// A request for `genomes` of the maze template, as the client builds it.
