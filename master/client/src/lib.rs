@@ -318,8 +318,12 @@ pub async fn evaluate_genomes(
         let again = match outcome {
             Ok(()) => return Ok(()),
             Err(Retry::Fatal(error)) => return Err(error),
+            // Not CANCELLED: that is a cancel (`hevo cancel` of the evaluation's id), final.
             Err(Retry::Status(status))
-                if connection_lost(&status) || status.code() == tonic::Code::Aborted =>
+                if matches!(
+                    status.code(),
+                    tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Aborted
+                ) =>
             {
                 describe_status(&status)
             }
