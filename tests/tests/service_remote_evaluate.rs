@@ -2,9 +2,9 @@
 //! `hevo_client::evaluate_genomes` streams back are the engine's own local evaluation bit for
 //! bit, with a worker killed while it holds a batch and spot checks on, and with a worker
 //! forging results that a spot check catches (the evaluation ends and the client evaluates
-//! again); dropping the stream or
-//! cancelling the evaluation by its id takes its batches off the queue; a worker's token and
-//! requests over a limit or with a bad gene are refused naming the field.
+//! again); dropping the stream or cancelling the evaluation by its id takes its batches off
+//! the queue, and the client stops at a cancel; a worker's token and requests over a limit or
+//! with a bad gene are refused naming the field.
 
 use hevo_client::EvaluationEvent;
 use hevo_engine::dispatch::{EvaluationRequest, RequestShared};
@@ -366,4 +366,46 @@ fn refusals_name_the_field() {
             status.message()
         );
     });
+}
+
+#[test]
+fn the_client_stops_at_a_cancel_and_does_not_evaluate_again() {
+    let scratch = Scratch::new("remote-evaluate-client-cancel");
+    // No workers: the evaluation waits until it is cancelled.
+    let master = master_with_roles(&scratch, &[]);
+    let (template, task) = maze_template();
+    let genomes = genomes_near(4);
+    let (started, ids) = std::sync::mpsc::channel();
+    let outcome = std::thread::scope(|scope| {
+        let evaluation = scope.spawn(|| {
+            let mut attempts = 0;
+            let outcome = runtime().block_on(hevo_client::evaluate_genomes(
+                &options(&master, CLIENT_TOKEN),
+                &template,
+                &task,
+                &genomes,
+                1,
+                1,
+                |event| {
+                    if let EvaluationEvent::Started(id) = event {
+                        attempts += 1;
+                        let _ = started.send(id);
+                    }
+                },
+            ));
+            (outcome, attempts)
+        });
+        let id = ids.recv_timeout(Duration::from_secs(60)).unwrap();
+        runtime().block_on(async {
+            jobs(&master.url, CLIENT_TOKEN)
+                .cancel_job(v1::CancelJobRequest { job_id: id })
+                .await
+                .unwrap();
+        });
+        evaluation.join().unwrap()
+    });
+    let (outcome, attempts) = outcome;
+    let error = format!("{:#}", outcome.unwrap_err());
+    assert!(error.starts_with("CANCELLED: "), "{error}");
+    assert_eq!(attempts, 1);
 }
