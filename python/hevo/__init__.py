@@ -4,11 +4,13 @@ The same engine the ``hevo`` command runs, bound with PyO3:
 
 - ``Controller``: controller files, their trees and genomes as numpy arrays;
 - ``Task``: a shipped scenario by name, or a scenario file, with settings overridden;
-- ``evaluate``: many genomes on the same samples, all cores, the GIL released; the numbers
-  ``hevo eval --json`` prints, bit for bit;
+- ``evaluate``: many genomes (any float dtype; genes in ``GENE_RANGE``, or ``clip=True``) on
+  the same samples, all cores, the GIL released; the numbers ``hevo eval --json`` prints, bit
+  for bit, and each sample's outcome;
 - ``trace``: one sample cycle by cycle as numpy arrays, and the replay picture;
 - ``run``: an experiment evolved by the resumable runner of ``hevo run``;
-- ``Client``: a master's job service (submit, watch, jobs, fetch, cancel).
+- ``Client``: a master's job service (submit, watch, jobs, fetch, cancel), and ``evaluate`` on
+  the master's workers with the results of ``hevo.evaluate``, bit for bit.
 
 Errors are ``HevoError`` subclasses carrying the messages the command line prints:
 ``ConfigError``, ``ControllerError``, ``RunError``, ``ClientError``.
@@ -21,6 +23,7 @@ from ._hevo import (
     Controller,
     ControllerError,
     Evaluation,
+    GENE_RANGE,
     HevoError,
     JobWatch,
     RunError,
@@ -41,6 +44,7 @@ __all__ = [
     "Controller",
     "ControllerError",
     "Evaluation",
+    "GENE_RANGE",
     "HevoError",
     "JobWatch",
     "RunError",

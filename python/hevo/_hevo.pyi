@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -11,6 +11,9 @@ import numpy.typing as npt
 PathLike = Union[str, os.PathLike]
 
 __version__: str
+GENE_RANGE: Tuple[float, float]
+"""(-10.0, 10.0): the range every gene lies in, both ends included (`evaluate` refuses genes
+outside it unless `clip=True`)."""
 
 class HevoError(Exception):
     """The base of every error hevo raises; its message is the one the `hevo` command prints."""
@@ -61,12 +64,13 @@ class Controller:
         """The genome length of the node at `node` (a path; the root when omitted)."""
     def genome(self, node: Optional[str] = None) -> Optional[npt.NDArray[np.float32]]:
         """A copy of the node's genome (the root when omitted), or None for the free node."""
-    def set_genome(self, genes: npt.NDArray[np.float32], node: Optional[str] = None) -> None:
-        """Sets the node's genome (the root when omitted); ControllerError when it does not fit."""
+    def set_genome(self, genes: npt.ArrayLike, node: Optional[str] = None) -> None:
+        """Sets the node's genome (the root when omitted; any float dtype, float64 rounded to
+        the nearest float32); ControllerError when it does not fit."""
     def without_genome(self, node: Optional[str] = None) -> Controller:
         """A copy with the node's genome removed: a template for `evaluate`."""
-    def with_genome(self, genes: npt.NDArray[np.float32]) -> Controller:
-        """A copy of this template with its free node's genome filled in."""
+    def with_genome(self, genes: npt.ArrayLike) -> Controller:
+        """A copy of this template with its free node's genome filled in (any float dtype)."""
 
 class Task:
     """A task: a scenario and every number of the model in force."""
@@ -100,6 +104,15 @@ class Evaluation:
     """Share of samples that reached each stage, shape (n, len(stage_names))."""
     per_phase: npt.NDArray[np.float64]
     """Share of right choices per phase of a derived fitness (NaN: no sample reached it)."""
+    sample_fitness: npt.NDArray[np.float32]
+    """Each sample's fitness, shape (n, samples); columns in the order of `sample_seeds`."""
+    sample_solved: npt.NDArray[np.bool_]
+    sample_collided: npt.NDArray[np.bool_]
+    sample_cycles: npt.NDArray[np.uint32]
+    sample_stage: npt.NDArray[np.uint8]
+    sample_variant: npt.NDArray[np.uint32]
+    sample_seeds: npt.NDArray[np.uint64]
+    """The samples' seeds, shape (samples,): `trace(controller, task, seed, variant)` replays one."""
     variant_names: List[str]
     stage_names: List[str]
     phase_names: List[str]
@@ -109,15 +122,19 @@ class Evaluation:
 
 def evaluate(
     template: Controller,
-    genomes: npt.NDArray[np.float32],
+    genomes: npt.ArrayLike,
     task: Task,
     samples: int = 50,
     seed: int = 0,
     threads: Optional[int] = None,
+    clip: bool = False,
 ) -> Evaluation:
-    """Evaluates each row of `genomes` (float32, (n, template.n_genes)) as the template's free
-    node, on `samples` samples per variant drawn from `seed`, on every core with the GIL
-    released: per genome what `hevo eval --samples S --seed K --json` prints, bit for bit."""
+    """Evaluates each row of `genomes` ((n, template.n_genes), any float dtype: float64 rounds
+    to the nearest float32) as the template's free node, on `samples` samples per variant drawn
+    from `seed`, on every core with the GIL released: per genome what `hevo eval --samples S
+    --seed K --json` prints, bit for bit, and each sample's outcome. Genes outside GENE_RANGE
+    are clipped with `clip=True`, else refused (ControllerError naming the row and gene); NaN
+    and infinity are refused either way."""
 
 def bench_controller(task: Task, seed: int = 1) -> Controller:
     """The controller `hevo bench` measures `task` with, random genes drawn from `seed`."""

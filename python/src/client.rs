@@ -1,10 +1,14 @@
 //! `hevo.Client`: a master's job service from Python, through the client calls `hevo submit`,
 //! `watch`, `jobs`, `fetch` and `cancel` make (`hevo_client`), with the same URL forms,
-//! token, TLS and retries. Each call runs on a thread of its own and can be stopped with
+//! token, TLS and retries; and `evaluate`, `hevo.evaluate` on the master's workers (the same
+//! inputs and reduction, `crate::evaluate`, so the same results bit for bit). Each call runs on a thread of its own and can be stopped with
 //! Ctrl-C; `watch` is an iterator of the job's events that reconnects when the master
 //! restarts, as `hevo watch` does.
 
+use crate::controller::Controller;
+use crate::evaluate::{Evaluation, EvaluationInput};
 use crate::interrupt::Mailbox;
+use crate::task::Task;
 use crate::{ClientError, ConfigError};
 use hevo_client as calls;
 use hevo_engine::runner::Overrides;
@@ -175,6 +179,53 @@ impl Client {
     fn cancel<'py>(&self, py: Python<'py>, job: String) -> PyResult<Bound<'py, PyAny>> {
         let info = call(py, calls::cancel(&self.options, &job))?;
         crate::json_to_python(py, &job_info(&info))
+    }
+
+    /// `hevo.evaluate` on the master's workers: the same arguments (`threads` is accepted and
+    /// ignored: the workers' threads count) and the same Evaluation, bit for bit. The genomes
+    /// are checked and converted here as `hevo.evaluate` does, sent to the master in one
+    /// call, split over every connected worker with the leases, checks and fault tolerance of
+    /// jobs, and reduced here as their results stream in. A lost connection (or an evaluation
+    /// a spot check ended) is evaluated again from the start, up to six attempts. Ctrl-C
+    /// drops the call, which cancels the evaluation on the master.
+    #[pyo3(signature = (template, genomes, task, samples=50, seed=0, threads=None, clip=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &self,
+        py: Python<'_>,
+        template: &Controller,
+        genomes: &Bound<'_, PyAny>,
+        task: &Task,
+        samples: u32,
+        seed: u64,
+        threads: Option<usize>,
+        clip: bool,
+    ) -> PyResult<Evaluation> {
+        let _ = threads;
+        let input = EvaluationInput::new(template, genomes, task, samples, seed, clip)?;
+        let columns = call(py, async {
+            let mut columns = input.columns();
+            calls::evaluate_genomes(
+                &self.options,
+                &input.template,
+                &input.task,
+                &input.rows,
+                samples,
+                seed,
+                |event| match event {
+                    // A new attempt sends every result again.
+                    calls::EvaluationEvent::Started(_) => columns = input.columns(),
+                    calls::EvaluationEvent::Results { results, .. } => {
+                        for summaries in results {
+                            input.reduce(&mut columns, &summaries);
+                        }
+                    }
+                },
+            )
+            .await?;
+            Ok(columns)
+        })?;
+        input.evaluation(py, columns)
     }
 
     /// Follows a job until it ends: an iterator of its events as dicts (`event` is `status`,

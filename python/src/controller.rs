@@ -5,7 +5,7 @@
 
 use crate::ControllerError;
 use hevo_sim_core::{ControllerFile, NodeKind, NodeSpec};
-use numpy::{PyArray1, PyReadonlyArray1};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -181,11 +181,12 @@ impl Controller {
             .map(|genes| PyArray1::from_slice(py, genes)))
     }
 
-    /// Sets the genome of the node at `node` (the root when omitted) from a float32 array of
-    /// its genome length; raises ControllerError (and changes nothing) when the genes do not fit.
+    /// Sets the genome of the node at `node` (the root when omitted) from an array of its
+    /// genome length (any float dtype; float64 rounds to the nearest float32); raises
+    /// ControllerError (and changes nothing) when the genes do not fit.
     #[pyo3(signature = (genes, node=None))]
-    fn set_genome(&mut self, genes: PyReadonlyArray1<'_, f32>, node: Option<&str>) -> PyResult<()> {
-        let genes = genes.as_array().to_vec();
+    fn set_genome(&mut self, genes: &Bound<'_, PyAny>, node: Option<&str>) -> PyResult<()> {
+        let genes = crate::genomes::genes_of(genes)?;
         let path = node.map(str::to_string);
         let mut copy = self.clone();
         copy.node_mut(path.as_deref())?.genome = Some(genes);
@@ -205,9 +206,9 @@ impl Controller {
     }
 
     /// A copy of this template with its free node's genome filled in (how an evolved genome is
-    /// saved as a complete controller).
-    fn with_genome(&self, genes: PyReadonlyArray1<'_, f32>) -> PyResult<Self> {
-        let genes = genes.as_array().to_vec();
+    /// saved as a complete controller); any float dtype, as `set_genome`.
+    fn with_genome(&self, genes: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let genes = crate::genomes::genes_of(genes)?;
         let file = self
             .file
             .with_free_genome(&genes)

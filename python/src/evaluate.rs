@@ -3,20 +3,23 @@
 //! engine's dispatcher served by the local worker pool, and the post-evaluation report of each
 //! genome's outcomes. So `evaluate(template, genomes, task, samples=S, seed=K)` gives, for each
 //! genome, exactly the numbers `hevo eval CONTROLLER --samples S --seed K --json` prints for
-//! the template filled with that genome.
+//! the template filled with that genome, and each sample's outcome as arrays. The inputs
+//! ([`EvaluationInput`]) and the reduction of outcomes to the result ([`Columns`]) are shared
+//! with `hevo.Client.evaluate`, which has the master's workers evaluate the same samples.
 //!
 //! Memory: genomes go to the dispatcher in chunks, at most two in flight, and each chunk's
 //! per-sample outcomes are reduced to its rows of the result arrays as soon as it is in, so
-//! 10,000 genomes hold their result arrays and a chunk's outcomes, never every sample's.
+//! 10,000 genomes hold their result arrays (18 bytes per genome and sample for the per-sample
+//! outcomes) and a chunk's summaries, never every sample's summary.
 
 use crate::controller::Controller;
 use crate::task::Task;
 use crate::{ControllerError, RunError};
 use hevo_engine::dispatch::{DispatchError, EvaluationRequest, RequestShared};
 use hevo_engine::post_evaluation::{self, EvalReport};
-use hevo_sim_core::Sample;
+use hevo_sim_core::{ControllerFile, Sample, SampleSummary, TaskConfig};
 use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -31,7 +34,8 @@ const CHUNK_GENOMES: usize = 256;
 /// `mean_cycles`; `per_variant[:, v]` is `per_variant[v].solve_rate`; `per_stage` the share of
 /// samples that reached each stage (`stages` for the rescue, `per_stage` for other scenarios);
 /// `per_phase` the share of right choices per phase of a derived fitness (NaN where no sample
-/// reached it).
+/// reached it). The `sample_*` arrays are each sample's outcome, shape (n, samples), columns
+/// in the order of `sample_seeds`.
 #[pyclass(module = "hevo", frozen)]
 #[derive(Debug)]
 pub struct Evaluation {
@@ -56,6 +60,28 @@ pub struct Evaluation {
     /// Share of right choices per phase of a derived fitness: float64 (n, len(phase_names)).
     #[pyo3(get)]
     per_phase: Py<PyArray2<f64>>,
+    /// Each sample's fitness: float32 (n, samples).
+    #[pyo3(get)]
+    sample_fitness: Py<PyArray2<f32>>,
+    /// Whether each sample was solved: bool (n, samples).
+    #[pyo3(get)]
+    sample_solved: Py<PyArray2<bool>>,
+    /// Whether the robot touched a wall or obstacle in each sample: bool (n, samples).
+    #[pyo3(get)]
+    sample_collided: Py<PyArray2<bool>>,
+    /// Cycles each sample ran: uint32 (n, samples).
+    #[pyo3(get)]
+    sample_cycles: Py<PyArray2<u32>>,
+    /// The furthest stage each sample reached: uint8 (n, samples).
+    #[pyo3(get)]
+    sample_stage: Py<PyArray2<u8>>,
+    /// Each sample's variant (light configuration, start branch): uint32 (n, samples).
+    #[pyo3(get)]
+    sample_variant: Py<PyArray2<u32>>,
+    /// The samples' seeds, the columns of the `sample_*` arrays: uint64 (samples,).
+    /// `hevo.trace(controller, task, seed=s, variant=v)` replays one.
+    #[pyo3(get)]
+    sample_seeds: Py<PyArray1<u64>>,
     /// The variants' names (columns of `per_variant`).
     #[pyo3(get)]
     variant_names: Vec<String>,
@@ -85,9 +111,110 @@ impl Evaluation {
     }
 }
 
+/// What `hevo.evaluate` and `hevo.Client.evaluate` take, checked and converted: the template,
+/// the task, the genomes as float32 rows, and the samples every genome runs on.
+#[derive(Debug)]
+pub(crate) struct EvaluationInput {
+    pub(crate) template: ControllerFile,
+    pub(crate) task: TaskConfig,
+    /// One genome of the free node per row.
+    pub(crate) rows: Vec<Arc<[f32]>>,
+    /// The samples themselves.
+    pub(crate) sample_list: Arc<[Sample]>,
+    node_paths: Vec<String>,
+}
+
+impl EvaluationInput {
+    /// Checks the template (it has a free node that fits the task's robot), the genomes (see
+    /// [`crate::genomes::genome_rows`]) and the sample count.
+    pub(crate) fn new(
+        template: &Controller,
+        genomes: &Bound<'_, PyAny>,
+        task: &Task,
+        samples: u32,
+        seed: u64,
+        clip: bool,
+    ) -> PyResult<EvaluationInput> {
+        let template = template.file.clone();
+        let task = task.config.clone();
+        let Some((free_path, topology)) = template.free_node_topology() else {
+            return Err(ControllerError::new_err(
+                "the template has no free node: every node has its genome. Take one out with \
+                 controller.without_genome(node) to evaluate genomes for it",
+            ));
+        };
+        let rows = crate::genomes::genome_rows(genomes, topology.n_genes(), &free_path, clip)?;
+        if samples == 0 {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "samples must be at least 1",
+            ));
+        }
+        hevo_sim_core::Evaluator::new(task.clone())
+            .map_err(|error| crate::ConfigError::new_err(crate::message(&error)))?;
+        hevo_sim_core::controller_fits(&template, &task.scenario)
+            .map_err(|problem| ControllerError::new_err(format!("the template {problem}")))?;
+        let sample_list = post_evaluation::post_evaluation_samples(&task, samples, seed).into();
+        Ok(EvaluationInput {
+            node_paths: template.node_paths(),
+            template,
+            task,
+            rows,
+            sample_list,
+        })
+    }
+
+    /// Empty result columns for these genomes.
+    pub(crate) fn columns(&self) -> Columns {
+        Columns::with_capacity(self.rows.len(), self.sample_list.len())
+    }
+
+    /// Adds one genome's outcomes (one per sample, in sample order) to `columns`.
+    pub(crate) fn reduce(&self, columns: &mut Columns, summaries: &[SampleSummary]) {
+        let report = post_evaluation::report(&self.task, summaries, &self.node_paths);
+        columns.push(&report, summaries);
+    }
+
+    /// The finished columns as an `Evaluation`.
+    pub(crate) fn evaluation(&self, py: Python<'_>, columns: Columns) -> PyResult<Evaluation> {
+        let n = self.rows.len();
+        let variant_names = if self.task.scenario.n_variants() > 1 {
+            self.task
+                .scenario
+                .variants
+                .iter()
+                .map(|variant| variant.name.clone())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let n_samples = self.sample_list.len();
+        let seeds: Vec<u64> = self.sample_list.iter().map(|sample| sample.seed).collect();
+        Ok(Evaluation {
+            fitness: PyArray1::from_vec(py, columns.fitness).unbind(),
+            solve_rate: PyArray1::from_vec(py, columns.solve_rate).unbind(),
+            collision_rate: PyArray1::from_vec(py, columns.collision_rate).unbind(),
+            mean_cycles: PyArray1::from_vec(py, columns.mean_cycles).unbind(),
+            per_variant: matrix(py, n, columns.per_variant)?.unbind(),
+            per_stage: matrix(py, n, columns.per_stage)?.unbind(),
+            per_phase: matrix(py, n, columns.per_phase)?.unbind(),
+            sample_fitness: shaped(py, n, n_samples, columns.sample_fitness)?.unbind(),
+            sample_solved: shaped(py, n, n_samples, columns.sample_solved)?.unbind(),
+            sample_collided: shaped(py, n, n_samples, columns.sample_collided)?.unbind(),
+            sample_cycles: shaped(py, n, n_samples, columns.sample_cycles)?.unbind(),
+            sample_stage: shaped(py, n, n_samples, columns.sample_stage)?.unbind(),
+            sample_variant: shaped(py, n, n_samples, columns.sample_variant)?.unbind(),
+            sample_seeds: PyArray1::from_vec(py, seeds).unbind(),
+            variant_names,
+            stage_names: columns.stage_names,
+            phase_names: columns.phase_names,
+            samples: n_samples as u32,
+        })
+    }
+}
+
 /// The result arrays as they fill, a row per genome.
 #[derive(Debug)]
-struct Columns {
+pub(crate) struct Columns {
     fitness: Vec<f64>,
     solve_rate: Vec<f64>,
     collision_rate: Vec<f64>,
@@ -95,6 +222,12 @@ struct Columns {
     per_variant: Vec<f64>,
     per_stage: Vec<f64>,
     per_phase: Vec<f64>,
+    sample_fitness: Vec<f32>,
+    sample_solved: Vec<bool>,
+    sample_collided: Vec<bool>,
+    sample_cycles: Vec<u32>,
+    sample_stage: Vec<u8>,
+    sample_variant: Vec<u32>,
     stage_names: Vec<String>,
     phase_names: Vec<String>,
 }
@@ -142,21 +275,28 @@ fn phases_of(report: &EvalReport) -> (Vec<String>, Vec<f64>) {
 }
 
 impl Columns {
-    fn with_capacity(n: usize) -> Columns {
+    fn with_capacity(n_genomes: usize, n_samples: usize) -> Columns {
+        let cells = n_genomes.saturating_mul(n_samples);
         Columns {
-            fitness: Vec::with_capacity(n),
-            solve_rate: Vec::with_capacity(n),
-            collision_rate: Vec::with_capacity(n),
-            mean_cycles: Vec::with_capacity(n),
+            fitness: Vec::with_capacity(n_genomes),
+            solve_rate: Vec::with_capacity(n_genomes),
+            collision_rate: Vec::with_capacity(n_genomes),
+            mean_cycles: Vec::with_capacity(n_genomes),
             per_variant: Vec::new(),
             per_stage: Vec::new(),
             per_phase: Vec::new(),
+            sample_fitness: Vec::with_capacity(cells),
+            sample_solved: Vec::with_capacity(cells),
+            sample_collided: Vec::with_capacity(cells),
+            sample_cycles: Vec::with_capacity(cells),
+            sample_stage: Vec::with_capacity(cells),
+            sample_variant: Vec::with_capacity(cells),
             stage_names: Vec::new(),
             phase_names: Vec::new(),
         }
     }
 
-    fn push(&mut self, report: &EvalReport) {
+    fn push(&mut self, report: &EvalReport, summaries: &[SampleSummary]) {
         self.fitness.push(report.mean_fitness);
         self.solve_rate.push(report.solve_rate);
         self.collision_rate.push(report.collision_rate);
@@ -169,84 +309,66 @@ impl Columns {
         let (phase_names, phases) = phases_of(report);
         self.per_phase.extend(phases);
         self.phase_names = phase_names;
+        for summary in summaries {
+            self.sample_fitness.push(summary.fitness);
+            self.sample_solved.push(summary.solved);
+            self.sample_collided.push(summary.collided);
+            self.sample_cycles.push(summary.cycles);
+            self.sample_stage.push(summary.stage);
+            self.sample_variant.push(summary.variant);
+        }
     }
 }
 
-fn matrix<'py>(
+/// `values` as a matrix of `rows` rows (and no columns when there are no rows).
+fn matrix<'py, T: numpy::Element>(
     py: Python<'py>,
     rows: usize,
-    values: Vec<f64>,
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    values: Vec<T>,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
     let columns = values.len().checked_div(rows).unwrap_or(0);
+    shaped(py, rows, columns, values)
+}
+
+/// `values` as a `rows` x `columns` matrix.
+fn shaped<'py, T: numpy::Element>(
+    py: Python<'py>,
+    rows: usize,
+    columns: usize,
+    values: Vec<T>,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
     let array = Array2::from_shape_vec((rows, columns), values)
         .map_err(|error| RunError::new_err(format!("internal: result shape: {error}")))?;
     Ok(PyArray2::from_owned_array(py, array))
 }
 
-/// Evaluates each row of `genomes` (float32, shape (n, template.n_genes)) as the genome of the
-/// template's free node, on `samples` samples per variant of `task` drawn from `seed` (the
-/// samples of `hevo eval --samples S --seed K`), on `threads` threads (default: every core),
-/// with the GIL released. Returns an Evaluation: per genome the numbers `hevo eval --json`
-/// prints for the template filled with it, bit for bit. Ctrl-C stops it and raises
-/// KeyboardInterrupt.
+/// Evaluates each row of `genomes` (shape (n, template.n_genes), any float dtype: float64
+/// rounds to the nearest float32) as the genome of the template's free node, on `samples`
+/// samples per variant of `task` drawn from `seed` (the samples of `hevo eval --samples S
+/// --seed K`), on `threads` threads (default: every core), with the GIL released. Genes
+/// outside [-10, 10] are clipped to it with `clip=True` and refused otherwise (ControllerError
+/// naming the row and gene); NaN and infinity are refused either way. Returns an Evaluation:
+/// per genome the numbers `hevo eval --json` prints for the template filled with it, bit for
+/// bit, and each sample's outcome. Ctrl-C stops it and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (template, genomes, task, samples=50, seed=0, threads=None))]
+#[pyo3(signature = (template, genomes, task, samples=50, seed=0, threads=None, clip=false))]
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     py: Python<'_>,
     template: &Controller,
-    genomes: PyReadonlyArray2<'_, f32>,
+    genomes: &Bound<'_, PyAny>,
     task: &Task,
     samples: u32,
     seed: u64,
     threads: Option<usize>,
+    clip: bool,
 ) -> PyResult<Evaluation> {
-    let template = template.file.clone();
-    let task = task.config.clone();
-    let Some((free_path, topology)) = template.free_node_topology() else {
-        return Err(ControllerError::new_err(
-            "the template has no free node: every node has its genome. Take one out with \
-             controller.without_genome(node) to evaluate genomes for it",
-        ));
-    };
-    let n_genes = topology.n_genes();
-    let shape = genomes.shape();
-    if shape[1] != n_genes {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "genomes has {} column(s), but the free node '{free_path}' takes {n_genes} genes",
-            shape[1]
-        )));
-    }
-    if samples == 0 {
-        return Err(pyo3::exceptions::PyValueError::new_err(
-            "samples must be at least 1",
-        ));
-    }
-    hevo_sim_core::Evaluator::new(task.clone())
-        .map_err(|error| crate::ConfigError::new_err(crate::message(&error)))?;
-    hevo_sim_core::controller_fits(&template, &task.scenario)
-        .map_err(|problem| ControllerError::new_err(format!("the template {problem}")))?;
-    let rows: Vec<Arc<[f32]>> = genomes
-        .as_array()
-        .rows()
-        .into_iter()
-        .map(|row| row.iter().copied().collect::<Vec<f32>>().into())
-        .collect();
-    let n = rows.len();
+    let input = EvaluationInput::new(template, genomes, task, samples, seed, clip)?;
     let threads = crate::thread_count(threads);
-    let sample_list: Arc<[Sample]> =
-        post_evaluation::post_evaluation_samples(&task, samples, seed).into();
-    let n_samples = sample_list.len() as u32;
-    let node_paths = template.node_paths();
-    let variant_names = if task.scenario.n_variants() > 1 {
-        task.scenario
-            .variants
-            .iter()
-            .map(|variant| variant.name.clone())
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let shared = Arc::new(RequestShared::new(template, task.clone()));
+    let shared = Arc::new(RequestShared::new(
+        input.template.clone(),
+        input.task.clone(),
+    ));
     let dispatcher = hevo_engine::local::local_dispatcher(threads);
     let stopper = dispatcher.clone();
 
@@ -254,20 +376,19 @@ pub fn evaluate(
         py,
         |_events| {
             hevo_engine::local::run_local(dispatcher, threads, async |dispatcher| {
-                let mut columns = Columns::with_capacity(n);
+                let mut columns = input.columns();
                 let mut in_flight = VecDeque::new();
-                let reduce =
-                    |columns: &mut Columns, results: Vec<Vec<hevo_sim_core::SampleSummary>>| {
-                        for summaries in results {
-                            columns.push(&post_evaluation::report(&task, &summaries, &node_paths));
-                        }
-                    };
-                for chunk in rows.chunks(CHUNK_GENOMES) {
+                let reduce = |columns: &mut Columns, results: Vec<Vec<SampleSummary>>| {
+                    for summaries in results {
+                        input.reduce(columns, &summaries);
+                    }
+                };
+                for chunk in input.rows.chunks(CHUNK_GENOMES) {
                     let request = EvaluationRequest {
                         job: "python".into(),
                         shared: shared.clone(),
                         genomes: chunk.to_vec(),
-                        samples: sample_list.clone(),
+                        samples: input.sample_list.clone(),
                     };
                     in_flight.push_back(dispatcher.submit(request, Instant::now()));
                     // Two in flight: the workers start on the next chunk while this thread
@@ -293,19 +414,7 @@ pub fn evaluate(
             DispatchError::Failed(message) => ControllerError::new_err(message),
             other => RunError::new_err(crate::message(&other)),
         })?;
-    Ok(Evaluation {
-        fitness: PyArray1::from_vec(py, columns.fitness).unbind(),
-        solve_rate: PyArray1::from_vec(py, columns.solve_rate).unbind(),
-        collision_rate: PyArray1::from_vec(py, columns.collision_rate).unbind(),
-        mean_cycles: PyArray1::from_vec(py, columns.mean_cycles).unbind(),
-        per_variant: matrix(py, n, columns.per_variant)?.unbind(),
-        per_stage: matrix(py, n, columns.per_stage)?.unbind(),
-        per_phase: matrix(py, n, columns.per_phase)?.unbind(),
-        variant_names,
-        stage_names: columns.stage_names,
-        phase_names: columns.phase_names,
-        samples: n_samples,
-    })
+    input.evaluation(py, columns)
 }
 
 /// The controller `hevo bench` measures a task with (the paper's network sizes for its tasks),

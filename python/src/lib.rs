@@ -8,6 +8,7 @@
 mod client;
 mod controller;
 mod evaluate;
+mod genomes;
 mod interrupt;
 mod run;
 mod task;
@@ -177,5 +178,13 @@ fn hevo_module(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(trace::trace, module)?)?;
     module.add_function(wrap_pyfunction!(run::run, module)?)?;
     module.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // The range every gene of a controller file lies in (both ends included).
+    module.add(
+        "GENE_RANGE",
+        (
+            f64::from(hevo_sim_core::GENE_MIN),
+            f64::from(hevo_sim_core::GENE_MAX),
+        ),
+    )?;
     Ok(())
 }

@@ -1,7 +1,9 @@
 """Shared fixtures of hevo's Python tests: the repository, the real `hevo` and `hevo-worker`
 binaries (built by scripts/python-tests.sh; HEVO_TEST_BIN_DIR points elsewhere, as for the
-Rust end-to-end tests), and a helper that runs `hevo` and returns what it printed."""
+Rust end-to-end tests), a helper that runs `hevo` and returns what it printed, and a master
+with workers on 127.0.0.1 port 0."""
 
+import contextlib
 import os
 import pathlib
 import subprocess
@@ -58,3 +60,58 @@ def hevo_cli(binaries):
         return completed
 
     return run
+
+
+CLIENT_TOKEN = "python-client-token"
+WORKER_TOKEN = "python-worker-token"
+
+
+class Cluster:
+    """A running master (`url`, `metrics_url` when asked for) and its workers' processes."""
+
+    def __init__(self, url, metrics_url, workers, directory):
+        self.url = url
+        self.metrics_url = metrics_url
+        self.workers = workers
+        self.directory = directory
+
+
+@contextlib.contextmanager
+def cluster(binaries, directory, workers=1, master_args=()):
+    """`hevo serve` on 127.0.0.1 port 0 with client and worker tokens, and `workers`
+    `hevo-worker` processes of one thread each (logs in `directory`); all killed afterwards."""
+    (directory / "clients").write_text(CLIENT_TOKEN + "\n")
+    (directory / "workers").write_text(WORKER_TOKEN + "\n")
+    log = open(directory / "master.log", "w")
+    serve = subprocess.Popen(
+        [
+            str(binaries["hevo"]), "serve", "--listen", "127.0.0.1:0",
+            "--state-dir", str(directory / "state"),
+            "--token-file", str(directory / "clients"),
+            "--worker-token-file", str(directory / "workers"),
+            *map(str, master_args),
+        ],
+        stdout=subprocess.PIPE, stderr=log, text=True,
+    )
+    started = []
+    try:
+        first = serve.stdout.readline().strip()
+        assert first.startswith("listening on "), (first, (directory / "master.log").read_text())
+        url = "http://" + first[len("listening on "):]
+        metrics_url = None
+        if "--metrics-listen" in master_args:
+            second = serve.stdout.readline().strip()
+            assert second.startswith("metrics on "), second
+            metrics_url = "http://" + second[len("metrics on "):] + "/metrics"
+        for k in range(workers):
+            started.append(subprocess.Popen(
+                [str(binaries["hevo-worker"]), "--master", url, "--threads", "1", "--name", f"py{k}"],
+                env={"HEVO_TOKEN": WORKER_TOKEN, "PATH": "/usr/bin:/bin"},
+                stdout=subprocess.DEVNULL, stderr=open(directory / f"worker{k}.log", "w"),
+            ))
+        yield Cluster(url, metrics_url, started, directory)
+    finally:
+        for process in (*started, serve):
+            process.kill()
+            process.wait()
+        log.close()

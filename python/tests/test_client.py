@@ -3,15 +3,12 @@
 bit for bit), cancel, and the errors."""
 
 import filecmp
-import subprocess
 import textwrap
 
 import pytest
 
 import hevo
-
-CLIENT_TOKEN = "python-client-token"
-WORKER_TOKEN = "python-worker-token"
+from conftest import CLIENT_TOKEN, WORKER_TOKEN, cluster
 
 EXPERIMENT = textwrap.dedent(
     """
@@ -40,36 +37,9 @@ EXPERIMENT = textwrap.dedent(
 
 @pytest.fixture
 def master(tmp_path, binaries):
-    """A master and one worker; yields the master's URL. Both are killed afterwards."""
-    (tmp_path / "clients").write_text(CLIENT_TOKEN + "\n")
-    (tmp_path / "workers").write_text(WORKER_TOKEN + "\n")
-    log = open(tmp_path / "master.log", "w")
-    serve = subprocess.Popen(
-        [
-            str(binaries["hevo"]), "serve", "--listen", "127.0.0.1:0",
-            "--state-dir", str(tmp_path / "state"),
-            "--token-file", str(tmp_path / "clients"),
-            "--worker-token-file", str(tmp_path / "workers"),
-        ],
-        stdout=subprocess.PIPE, stderr=log, text=True,
-    )
-    worker = None
-    try:
-        first = serve.stdout.readline().strip()
-        assert first.startswith("listening on "), (first, (tmp_path / "master.log").read_text())
-        url = "http://" + first[len("listening on "):]
-        worker = subprocess.Popen(
-            [str(binaries["hevo-worker"]), "--master", url, "--threads", "1", "--name", "py"],
-            env={"HEVO_TOKEN": WORKER_TOKEN, "PATH": "/usr/bin:/bin"},
-            stdout=subprocess.DEVNULL, stderr=open(tmp_path / "worker.log", "w"),
-        )
-        yield url
-    finally:
-        for process in (worker, serve):
-            if process is not None:
-                process.kill()
-                process.wait()
-        log.close()
+    """A master and one worker; yields the master's URL."""
+    with cluster(binaries, tmp_path) as running:
+        yield running.url
 
 
 def test_submit_watch_jobs_fetch(master, tmp_path, hevo_cli):

@@ -56,6 +56,16 @@ def test_template_and_filled_copy(repo):
     assert template.genome("solve_maze") is None
     filled = template.with_genome(complete.genome("solve_maze"))
     assert filled == complete
+    # Any float dtype: float64 rounds to the same float32 genes.
+    assert template.with_genome(complete.genome("solve_maze").astype(np.float64)) == complete
+    assert template.with_genome(complete.genome("solve_maze").tolist()) == complete
+    copy = hevo.Controller.load(repo / "controllers" / "solve_maze.json")
+    copy.set_genome(complete.genome("solve_maze").astype(np.float64) + 1e-12, "solve_maze")
+    assert copy == complete
+    with pytest.raises(TypeError, match="float array"):
+        template.with_genome(np.zeros(template.n_genes, dtype=np.int32))
+    with pytest.raises(ValueError, match="1-D"):
+        template.with_genome(np.zeros((1, template.n_genes)))
 
 
 def test_bad_genomes_are_controller_errors(repo):
@@ -65,6 +75,8 @@ def test_bad_genomes_are_controller_errors(repo):
         controller.set_genome(np.zeros(3, dtype=np.float32))
     with pytest.raises(hevo.ControllerError):
         controller.set_genome(np.full(len(before), np.nan, dtype=np.float32))
+    with pytest.raises(hevo.ControllerError, match=r"gene 0 is 10.5, outside \[-10, 10\]"):
+        controller.set_genome(np.full(len(before), 10.5))
     np.testing.assert_array_equal(controller.genome(), before)
     with pytest.raises(hevo.ControllerError, match="no node 'nowhere'"):
         controller.genome("nowhere")

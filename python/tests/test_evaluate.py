@@ -1,5 +1,6 @@
 """hevo.evaluate: the numbers `hevo eval --json` prints, bit for bit, for every genome; the
-same on any number of threads; the errors; and 10,000 genomes at once."""
+same on any number of threads; genomes of any float dtype, clipped or refused naming row and
+gene; each sample's outcome as arrays; the errors; and 10,000 genomes at once."""
 
 import json
 import math
@@ -122,8 +123,10 @@ def test_bad_inputs(repo):
         hevo.evaluate(template, np.zeros((2, template.n_genes + 1), dtype=np.float32), task)
     with pytest.raises(ValueError, match="samples"):
         hevo.evaluate(template, np.zeros((1, template.n_genes), dtype=np.float32), task, samples=0)
-    with pytest.raises(TypeError):
-        hevo.evaluate(template, np.zeros((1, template.n_genes), dtype=np.float64), task)
+    with pytest.raises(TypeError, match="float array.*int64"):
+        hevo.evaluate(template, np.zeros((1, template.n_genes), dtype=np.int64), task)
+    with pytest.raises(ValueError, match="2-D"):
+        hevo.evaluate(template, np.zeros(template.n_genes), task)
     nan = np.full((1, template.n_genes), np.nan, dtype=np.float32)
     with pytest.raises(hevo.ControllerError):
         hevo.evaluate(template, nan, task)
@@ -142,3 +145,114 @@ def test_ten_thousand_genomes_keep_only_their_result_arrays(repo):
     # Chunks of genomes are reduced in order: the last chunk's rows are the last genomes'.
     tail = hevo.evaluate(template, genomes[-3:], task, samples=1, seed=1)
     np.testing.assert_array_equal(result.fitness[-3:], tail.fitness)
+
+
+ARRAYS = (
+    "fitness", "solve_rate", "collision_rate", "mean_cycles", "per_variant", "per_stage",
+    "per_phase", "sample_fitness", "sample_solved", "sample_collided", "sample_cycles",
+    "sample_stage", "sample_variant", "sample_seeds",
+)
+
+
+def assert_same_evaluation(a, b):
+    """Every array of two evaluations equal bit for bit (NaN where the other has NaN)."""
+    for name in ARRAYS:
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape, name
+        assert x.tobytes() == y.tobytes(), name
+    assert (a.variant_names, a.stage_names, a.phase_names, a.samples) == (
+        b.variant_names, b.stage_names, b.phase_names, b.samples)
+
+
+def maze_setup(repo):
+    complete = hevo.Controller.load(repo / "controllers" / "solve_maze.json")
+    return complete, complete.without_genome("solve_maze"), hevo.Task("solve_maze", max_cycles=150)
+
+
+def test_gene_range():
+    assert hevo.GENE_RANGE == (-10.0, 10.0)
+
+
+def test_float64_rounds_to_float32_and_other_float_dtypes(repo):
+    complete, template, task = maze_setup(repo)
+    rng = np.random.default_rng(5)
+    genomes = complete.genome("solve_maze")[None, :] + rng.normal(0, 0.3, (3, template.n_genes))
+    genomes = np.clip(genomes, -10, 10)
+    assert genomes.dtype == np.float64
+    as_float32 = hevo.evaluate(template, genomes.astype(np.float32), task, samples=2, seed=3)
+    assert_same_evaluation(hevo.evaluate(template, genomes, task, samples=2, seed=3), as_float32)
+    # A list of lists, as numpy.asarray makes of it: float64.
+    assert_same_evaluation(
+        hevo.evaluate(template, genomes.tolist(), task, samples=2, seed=3), as_float32)
+    # float16 converts exactly; a non-contiguous view reads the same genes.
+    half = genomes.astype(np.float16)
+    assert_same_evaluation(
+        hevo.evaluate(template, half, task, samples=2, seed=3),
+        hevo.evaluate(template, half.astype(np.float32), task, samples=2, seed=3),
+    )
+    wide = np.repeat(genomes, 2, axis=1)[:, ::2]
+    assert not wide.flags["C_CONTIGUOUS"]
+    assert_same_evaluation(hevo.evaluate(template, wide, task, samples=2, seed=3), as_float32)
+
+
+def test_out_of_range_genes_are_refused_naming_row_and_gene_or_clipped(repo):
+    complete, template, task = maze_setup(repo)
+    genomes = np.tile(complete.genome("solve_maze").astype(np.float64), (4, 1))
+    genomes[2, 9] = -10.19458
+    with pytest.raises(hevo.ControllerError) as refused:
+        hevo.evaluate(template, genomes, task, samples=1)
+    message = str(refused.value)
+    assert "genomes[2, 9]" in message and "row 2" in message and "gene 9" in message
+    assert "-10.19458" in message and "[-10, 10]" in message and "clip=True" in message
+    clipped = hevo.evaluate(template, genomes, task, samples=2, seed=1, clip=True)
+    assert_same_evaluation(
+        clipped, hevo.evaluate(template, np.clip(genomes, -10, 10), task, samples=2, seed=1))
+    # Far beyond float32's range, too.
+    genomes[2, 9] = 1e300
+    assert_same_evaluation(
+        hevo.evaluate(template, genomes, task, samples=2, seed=1, clip=True),
+        hevo.evaluate(template, np.clip(genomes, -10, 10), task, samples=2, seed=1),
+    )
+    with pytest.raises(hevo.ControllerError, match=r"genomes\[2, 9\].* is 1e300, outside"):
+        hevo.evaluate(template, genomes, task, samples=1)
+    genomes[2, 9] = 0.0
+    for bad in (np.nan, np.inf, -np.inf):
+        genomes[3, 0] = bad
+        for clip in (False, True):
+            with pytest.raises(hevo.ControllerError, match=r"genomes\[3, 0\].*row 3.*gene 0.*finite"):
+                hevo.evaluate(template, genomes, task, samples=1, clip=clip)
+
+
+def test_per_sample_outcomes(repo):
+    complete, template, task = maze_setup(repo)
+    genomes = np.tile(complete.genome("solve_maze"), (2, 1))
+    genomes[1] = perturbed(complete.genome("solve_maze"), 1, seed=9)[0]
+    result = hevo.evaluate(template, genomes, task, samples=2, seed=4)
+    n_samples = result.samples
+    assert n_samples == 2 * task.n_variants
+    for name, dtype in (
+        ("sample_fitness", np.float32), ("sample_solved", np.bool_),
+        ("sample_collided", np.bool_), ("sample_cycles", np.uint32),
+        ("sample_stage", np.uint8), ("sample_variant", np.uint32),
+    ):
+        array = getattr(result, name)
+        assert array.shape == (2, n_samples) and array.dtype == dtype, name
+    assert result.sample_seeds.shape == (n_samples,) and result.sample_seeds.dtype == np.uint64
+    # The per-genome numbers are these samples' means.
+    np.testing.assert_allclose(result.sample_fitness.mean(axis=1, dtype=np.float64), result.fitness, rtol=1e-6)
+    np.testing.assert_allclose(result.sample_solved.mean(axis=1), result.solve_rate)
+    np.testing.assert_allclose(result.sample_collided.mean(axis=1), result.collision_rate)
+    np.testing.assert_allclose(result.sample_cycles.mean(axis=1), result.mean_cycles)
+    assert set(result.sample_variant[0]) == set(range(task.n_variants))
+    # Each column is the sample `hevo.trace` replays from its seed and variant.
+    for i, genes in enumerate(genomes):
+        controller = template.with_genome(genes)
+        for j in (0, n_samples - 1):
+            trace = hevo.trace(controller, task, seed=int(result.sample_seeds[j]),
+                               variant=int(result.sample_variant[i, j]))
+            outcome = trace.outcome
+            assert np.float32(outcome["fitness"]) == result.sample_fitness[i, j]
+            assert outcome["solved"] == result.sample_solved[i, j]
+            assert outcome["collided"] == result.sample_collided[i, j]
+            assert outcome["cycles"] == result.sample_cycles[i, j]
+            assert outcome["stage"] == result.sample_stage[i, j]

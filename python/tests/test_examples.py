@@ -1,8 +1,12 @@
-"""The examples in python/examples/ run, at tiny settings, and write what they say."""
+"""The examples in python/examples/ run, at tiny settings, and write what they say
+(`cma_on_cluster.py` against a real master with two workers)."""
 
 import pathlib
 import subprocess
 import sys
+
+import hevo
+from conftest import CLIENT_TOKEN, cluster
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 
@@ -32,3 +36,16 @@ def test_draw_trace(tmp_path):
     out = run_example("draw_trace.py", "--out", tmp_path / "trace.png")
     assert "cycles" in out
     assert (tmp_path / "trace.png").stat().st_size > 1000
+
+
+def test_cma_on_a_cluster(tmp_path, binaries):
+    with cluster(binaries, tmp_path, workers=2) as running:
+        out = run_example(
+            "cma_on_cluster.py", "--master", running.url, "--token", CLIENT_TOKEN,
+            "--generations", 3, "--population", 8, "--samples", 1,
+            "--out", tmp_path / "best.json",
+        )
+    assert out.count("on the cluster)") == 3, out
+    assert "the same numbers as the cluster's: True" in out, out
+    best = hevo.Controller.load(tmp_path / "best.json")
+    assert best.free_node is None

@@ -40,7 +40,7 @@ pub use network::Policy;
 pub use network::controller::{
     Controller, ControllerError, ControllerFile, NodeKind, NodeSpec, PRIMITIVE_OUTPUTS,
 };
-pub use network::ctrnn::{CtrnnTopology, logistic, tau_from_gene};
+pub use network::ctrnn::{CtrnnTopology, GENE_MAX, GENE_MIN, logistic, tau_from_gene};
 pub use outcome::{
     Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
 };

@@ -1,6 +1,7 @@
 //! The client side of hevo's service: submit an experiment with the files it reads, follow a
 //! job's events (outliving master restarts: when the stream breaks it reconnects with backoff
-//! and carries on), list, fetch, cancel and delete jobs. Each call connects to a master with the shared
+//! and carries on), list, fetch, cancel and delete jobs, and evaluate genomes on the master's
+//! workers. Each call connects to a master with the shared
 //! token (and TLS when the URL is https://) and turns a refusal into one clear error
 //! (`INVALID_ARGUMENT: experiment_toml: ...`). It prints nothing and parses no command line: the
 //! `hevo` command (`hevo submit`, `watch`, `jobs`, `fetch`, `cancel`) and the Python module's
@@ -216,6 +217,133 @@ pub async fn delete(options: &ClientOptions, job: &str) -> Result<()> {
         .await
         .map_err(refused)?;
     Ok(())
+}
+
+/// What [`evaluate_genomes`] hands its caller, in order.
+#[derive(Debug)]
+pub enum EvaluationEvent {
+    /// An attempt started on the master with this id: results from an earlier attempt (cut
+    /// off by a lost connection or a worker a spot check caught) are to be forgotten, and
+    /// they come again from genome 0.
+    Started(String),
+    /// The outcomes of genomes `first_genome..first_genome + results.len()`, one per sample
+    /// in sample order.
+    Results {
+        /// The index of the first genome.
+        first_genome: usize,
+        /// `[genome][sample]`.
+        results: Vec<Vec<hevo_sim_core::SampleSummary>>,
+    },
+}
+
+/// Attempts of one remote evaluation, when connections are lost or a spot check ends it.
+const EVALUATE_ATTEMPTS: u32 = 6;
+
+/// Evaluates `genomes` (genes of `template`'s free node) on the master's workers, on the
+/// samples of `hevo eval --samples SAMPLES --seed SEED` for `task`: the `EvaluateGenomes`
+/// call. `on_event` gets each attempt's start and its results, in genome order. A lost
+/// connection or an evaluation ended by a spot check is evaluated again from the start, up to
+/// a few times (evaluation is deterministic, so the results are the same); a refusal is an
+/// error naming what the master refused.
+pub async fn evaluate_genomes(
+    options: &ClientOptions,
+    template: &hevo_sim_core::ControllerFile,
+    task: &hevo_sim_core::TaskConfig,
+    genomes: &[std::sync::Arc<[f32]>],
+    samples: u32,
+    seed: u64,
+    mut on_event: impl FnMut(EvaluationEvent),
+) -> Result<()> {
+    let request = v1::EvaluateGenomesRequest {
+        template_json: hevo_proto::convert::template_to_json(template),
+        template_hash: template.content_hash(),
+        task_json: hevo_proto::convert::task_to_json(task),
+        task_hash: hevo_sim_core::task_content_hash(task),
+        genomes: u32::try_from(genomes.len()).context("too many genomes for one call")?,
+        genes: genomes
+            .iter()
+            .flat_map(|genes| genes.iter().copied())
+            .collect(),
+        samples,
+        seed,
+    };
+    let n_samples =
+        hevo_engine::post_evaluation::post_evaluation_samples(task, samples, seed).len();
+    let mut delay = Duration::from_millis(500);
+    for attempt in 1.. {
+        let outcome = async {
+            let mut client = job_client(
+                options
+                    .connect()
+                    .await
+                    .map_err(|error| Retry::Connect(error.into()))?,
+            );
+            let mut stream = client
+                .evaluate_genomes(request.clone())
+                .await
+                .map_err(Retry::Status)?
+                .into_inner();
+            let mut next_genome = 0;
+            while let Some(message) = stream.message().await.map_err(Retry::Status)? {
+                if next_genome == 0 && message.results.is_empty() {
+                    on_event(EvaluationEvent::Started(message.evaluation_id));
+                    continue;
+                }
+                let results = hevo_proto::convert::results_from_proto(&message.results)
+                    .map_err(|e| Retry::Fatal(anyhow!("the master sent a bad result: {e}")))?;
+                let first_genome = message.first_genome as usize;
+                if first_genome != next_genome
+                    || next_genome + results.len() > genomes.len()
+                    || results.iter().any(|genome| genome.len() != n_samples)
+                {
+                    return Err(Retry::Fatal(anyhow!(
+                        "the master sent results for genomes {first_genome}.. of another shape than asked (expected genome {next_genome}, {n_samples} samples each)"
+                    )));
+                }
+                next_genome += results.len();
+                on_event(EvaluationEvent::Results {
+                    first_genome,
+                    results,
+                });
+            }
+            if next_genome != genomes.len() {
+                return Err(Retry::Status(tonic::Status::unavailable(format!(
+                    "the stream ended after {next_genome} of {} genomes",
+                    genomes.len()
+                ))));
+            }
+            Ok(())
+        }
+        .await;
+        let again = match outcome {
+            Ok(()) => return Ok(()),
+            Err(Retry::Fatal(error)) => return Err(error),
+            // Not CANCELLED: that is a cancel (`hevo cancel` of the evaluation's id), final.
+            Err(Retry::Status(status))
+                if matches!(
+                    status.code(),
+                    tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Aborted
+                ) =>
+            {
+                describe_status(&status)
+            }
+            Err(Retry::Status(status)) => return Err(refused(status)),
+            Err(Retry::Connect(error)) => format!("{error:#}"),
+        };
+        if attempt >= EVALUATE_ATTEMPTS {
+            bail!("{again} (gave up after {attempt} attempts)");
+        }
+        tokio::time::sleep(delay).await;
+        delay = (delay * 2).min(Duration::from_secs(8));
+    }
+    unreachable!("the loop returns")
+}
+
+/// How an attempt of [`evaluate_genomes`] failed.
+enum Retry {
+    Connect(anyhow::Error),
+    Status(tonic::Status),
+    Fatal(anyhow::Error),
 }
 
 /// `YYYY-MM-DD HH:MM:SS` in UTC (days to civil date after H. Hinnant's algorithm).

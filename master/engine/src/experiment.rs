@@ -119,6 +119,58 @@ fn check_node_cost(
     Ok(())
 }
 
+/// Refuses a one-off evaluation (a master's remote evaluation) of `genomes` genomes of
+/// `n_genes` genes on `samples_per_variant` samples of each of `n_variants` variants that would
+/// cost more than one generation of a job may: the limits a node is checked against
+/// ([`limits`]). The error is (field, message), the field `genomes` or `samples`.
+pub fn check_evaluation_cost(
+    genomes: u32,
+    n_genes: usize,
+    samples_per_variant: u32,
+    n_variants: u32,
+) -> Result<(), (&'static str, String)> {
+    if genomes > limits::POPULATION {
+        return Err((
+            "genomes",
+            format!("{genomes} genomes, at most {}", limits::POPULATION),
+        ));
+    }
+    if samples_per_variant > limits::SAMPLES {
+        return Err((
+            "samples",
+            format!(
+                "{samples_per_variant} samples per variant, at most {}",
+                limits::SAMPLES
+            ),
+        ));
+    }
+    let samples = u64::from(samples_per_variant) * u64::from(n_variants.max(1));
+    let evaluations = u64::from(genomes) * samples;
+    if evaluations > limits::EVALUATIONS_PER_GENERATION {
+        return Err((
+            "genomes",
+            format!(
+                "{evaluations} evaluations at once (genomes x samples x variants), at most {}: send fewer genomes per call",
+                limits::EVALUATIONS_PER_GENERATION
+            ),
+        ));
+    }
+    let samples = u32::try_from(samples).unwrap_or(u32::MAX);
+    let bytes = generation_bytes(genomes, n_genes, samples);
+    if bytes > limits::GENERATION_BYTES {
+        const MIB: u64 = 1024 * 1024;
+        return Err((
+            "genomes",
+            format!(
+                "{genomes} genomes of {n_genes} genes, each on {samples} samples, hold about {} MiB, at most {} MiB are accepted: send fewer genomes per call",
+                bytes.div_ceil(MIB),
+                limits::GENERATION_BYTES / MIB
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Whether `name` can name a node: a plain identifier (ASCII letters, digits, `_` and `-`,
 /// not starting with `-`), so it is a safe directory name and a safe command-line word.
 pub fn check_node_name(name: &str) -> Result<(), String> {
@@ -1896,5 +1948,26 @@ runs = 1
     fn malformed_toml_is_a_syntax_error() {
         let err = error_of("[experiment\nname = 1");
         assert!(err.starts_with("exp.toml"), "{err}");
+    }
+
+    #[test]
+    fn a_remote_evaluation_is_held_to_a_generations_bounds() {
+        assert_eq!(check_evaluation_cost(10_000, 100, 25, 4), Ok(()));
+        fn field(result: Result<(), (&'static str, String)>) -> &'static str {
+            result.unwrap_err().0
+        }
+        assert_eq!(field(check_evaluation_cost(100_001, 1, 1, 1)), "genomes");
+        assert_eq!(field(check_evaluation_cost(1, 1, 100_001, 1)), "samples");
+        // 10,000 x 26 x 4 = 1,040,000 evaluations.
+        let (key, message) = check_evaluation_cost(10_000, 1, 26, 4).unwrap_err();
+        assert_eq!(key, "genomes");
+        assert!(
+            message.starts_with("1040000 evaluations at once"),
+            "{message}"
+        );
+        // 100,000 genomes of 1,000 genes on one sample: 2.8 GB of genes.
+        let (key, message) = check_evaluation_cost(100_000, 1_000, 1, 1).unwrap_err();
+        assert_eq!(key, "genomes");
+        assert!(message.contains("MiB, at most 1024 MiB"), "{message}");
     }
 }

@@ -7,6 +7,7 @@
 //! unrelated batch that happens to reuse the id.
 
 use crate::convert::{batch_to_proto, job_info, status_event};
+use crate::evaluations::{EvaluationStream, Evaluations};
 use crate::jobs::{JobError, JobManager, Submission};
 use hevo_engine::dispatch::{CompleteError, Dispatcher};
 use hevo_engine::runner::Overrides;
@@ -40,16 +41,19 @@ fn job_status(error: JobError) -> Status {
 #[derive(Debug, Clone)]
 pub struct JobApi {
     manager: JobManager,
+    evaluations: Evaluations,
     /// Places for open watch streams.
     watches: Arc<tokio::sync::Semaphore>,
     max_watches: usize,
 }
 
 impl JobApi {
-    /// Serves the manager's jobs, with at most `max_watches` watch streams open at once.
-    pub fn new(manager: JobManager, max_watches: usize) -> JobApi {
+    /// Serves the manager's jobs and remote evaluations, with at most `max_watches` watch
+    /// streams open at once.
+    pub fn new(manager: JobManager, evaluations: Evaluations, max_watches: usize) -> JobApi {
         JobApi {
             manager,
+            evaluations,
             watches: Arc::new(tokio::sync::Semaphore::new(max_watches)),
             max_watches,
         }
@@ -186,14 +190,31 @@ impl JobService for JobApi {
         &self,
         request: Request<v1::CancelJobRequest>,
     ) -> Result<Response<v1::CancelJobResponse>, Status> {
-        let record = self
-            .manager
-            .cancel(&request.into_inner().job_id)
-            .await
-            .map_err(job_status)?;
+        let id = request.into_inner().job_id;
+        if self.evaluations.cancel(&id) {
+            // A running evaluation: it has no record, only its id and state.
+            return Ok(Response::new(v1::CancelJobResponse {
+                job: Some(v1::JobInfo {
+                    job_id: id,
+                    state: v1::JobState::Cancelled as i32,
+                    ..v1::JobInfo::default()
+                }),
+            }));
+        }
+        let record = self.manager.cancel(&id).await.map_err(job_status)?;
         Ok(Response::new(v1::CancelJobResponse {
             job: Some(job_info(&record)),
         }))
+    }
+
+    type EvaluateGenomesStream = EvaluationStream;
+
+    async fn evaluate_genomes(
+        &self,
+        request: Request<v1::EvaluateGenomesRequest>,
+    ) -> Result<Response<Self::EvaluateGenomesStream>, Status> {
+        let stream = self.evaluations.start(request.into_inner()).await?;
+        Ok(Response::new(stream))
     }
 
     async fn delete_job(

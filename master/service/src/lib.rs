@@ -12,6 +12,7 @@ pub mod conn;
 pub mod convert;
 pub mod dashboard;
 pub mod db;
+pub mod evaluations;
 pub mod grpc;
 pub mod jobs;
 pub mod load;
@@ -353,8 +354,14 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         ..DispatchConfig::default()
     }));
     let manager = jobs::JobManager::start(store, dispatcher.clone(), config.state_dir.clone())?;
+    // Evaluations are streams: as many at once as event streams.
+    let evaluations = evaluations::Evaluations::new(dispatcher.clone(), config.max_event_streams);
     if config.verify_share > 0.0 {
-        tokio::spawn(spot_checks(dispatcher.clone(), manager.clone()));
+        tokio::spawn(spot_checks(
+            dispatcher.clone(),
+            manager.clone(),
+            evaluations.clone(),
+        ));
     }
     if let Some(retention) = config.retain_finished {
         tokio::spawn(forget_finished(manager.clone(), retention));
@@ -384,9 +391,13 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
         .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
     let job_service = InterceptedService::new(
-        JobServiceServer::new(grpc::JobApi::new(manager.clone(), config.max_event_streams))
-            .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
-            .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES),
+        JobServiceServer::new(grpc::JobApi::new(
+            manager.clone(),
+            evaluations,
+            config.max_event_streams,
+        ))
+        .max_decoding_message_size(hevo_proto::MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(hevo_proto::MAX_MESSAGE_BYTES),
         auth_for(Role::Client),
     );
 
@@ -488,8 +499,13 @@ pub async fn serve(config: ServeConfig) -> Result<()> {
 /// `--verify-share` of the rest) by evaluating each here, on a blocking thread: evaluation is
 /// deterministic, so the master's results are the true ones. A worker whose results differ is
 /// refused from then on by the dispatcher, and every job that accepted a result of its is
-/// evaluated again from the start, so that no lie outlives its discovery.
-pub async fn spot_checks(dispatcher: Arc<Dispatcher>, manager: jobs::JobManager) {
+/// evaluated again from the start (a running remote evaluation ends, for its client to evaluate
+/// again), so that no lie outlives its discovery.
+pub async fn spot_checks(
+    dispatcher: Arc<Dispatcher>,
+    manager: jobs::JobManager,
+    evaluations: evaluations::Evaluations,
+) {
     let cache = Arc::new(hevo_engine::executor::EvaluatorCache::default());
     while let Some(batch) = dispatcher.next_spot_check().await {
         let batch_id = batch.batch_id;
@@ -504,7 +520,9 @@ pub async fn spot_checks(dispatcher: Arc<Dispatcher>, manager: jobs::JobManager)
                 if let Some(liar) = dispatcher.settle_spot_check(batch_id, truth) {
                     tracing::warn!(worker = %liar.worker, jobs = ?liar.jobs, "a spot check caught a worker sending false results; it is refused, and the jobs it worked on start again");
                     for job in liar.jobs {
-                        manager.evaluate_again(&job).await;
+                        if !evaluations.caught_false_results(&job) {
+                            manager.evaluate_again(&job).await;
+                        }
                     }
                 }
             }
