@@ -8,9 +8,9 @@ use hevo_sim_core::{Controller, ControllerFile};
 use proptest::prelude::*;
 
 const SHIPPED: [&str; 3] = [
-    include_str!("../../controllers/follow_wall.json"),
-    include_str!("../../controllers/solve_maze.json"),
-    include_str!("../../controllers/rescue.json"),
+    include_str!("../../../controllers/follow_wall.json"),
+    include_str!("../../../controllers/solve_maze.json"),
+    include_str!("../../../controllers/rescue.json"),
 ];
 
 fn mutated() -> impl Strategy<Value = String> {

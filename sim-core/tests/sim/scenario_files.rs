@@ -2,43 +2,16 @@
 //! files say, and every kind of mistake is refused with the file, the key path and, where the
 //! parser knows it, the line.
 
-use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig};
+use hevo_sim_core::{Ending, Evaluator, Sample, TaskConfig};
 use hevo_sim_core::{SHIPPED, Scenario};
 use std::sync::Arc;
 
-const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
-const EXAMPLES: [(&str, &str); 7] = [
-    ("t_maze", T_MAZE),
-    (
-        "triple_t_maze",
-        include_str!("../../scenarios/examples/triple_t_maze.toml"),
-    ),
-    (
-        "cross_yard",
-        include_str!("../../scenarios/examples/cross_yard.toml"),
-    ),
-    (
-        "room_to_yard",
-        include_str!("../../scenarios/examples/room_to_yard.toml"),
-    ),
-    (
-        "find_wanderer",
-        include_str!("../../scenarios/examples/find_wanderer.toml"),
-    ),
-    (
-        "room_to_corridor",
-        include_str!("../../scenarios/examples/room_to_corridor.toml"),
-    ),
-    (
-        "phototaxis",
-        include_str!("../../scenarios/examples/phototaxis.toml"),
-    ),
-];
+use crate::support::{
+    EXAMPLES, FIND_WANDERER, Fixed, ROOM_TO_CORRIDOR, T_MAZE, example, example_task,
+};
 
 fn t_maze() -> TaskConfig {
-    TaskConfig::from_scenario(Arc::new(
-        Scenario::parse(T_MAZE, "t_maze.toml").expect("the example compiles"),
-    ))
+    example_task("t_maze")
 }
 
 /// The error `text` gets, as printed.
@@ -70,17 +43,6 @@ fn the_example_t_maze_compiles_with_two_variants_and_the_f2_range() {
     assert_eq!(back, task);
 }
 
-/// Drives straight ahead at full speed, whatever it senses.
-struct StraightOn;
-
-impl Policy for StraightOn {
-    fn reset(&mut self) {}
-
-    fn step(&mut self, _frame: &hevo_sim_core::SensorFrame, _dt: f32) -> [f32; 2] {
-        [1.0, 1.0]
-    }
-}
-
 #[test]
 fn driving_straight_into_the_junction_wall_is_a_collision_in_both_variants() {
     // The stem ends in the junction's far wall: a robot that never turns hits it, whatever
@@ -88,7 +50,7 @@ fn driving_straight_into_the_junction_wall_is_a_collision_in_both_variants() {
     let evaluator = Evaluator::new(t_maze()).unwrap();
     for variant in 0..2 {
         let outcome = evaluator.evaluate(
-            &mut StraightOn,
+            &mut Fixed::straight(),
             Sample {
                 seed: 3,
                 variant: Some(variant),
@@ -123,7 +85,7 @@ fn a_sensor_the_robot_lacks_reads_zero_and_the_rest_still_sense() {
     let trace = |task: TaskConfig| {
         Evaluator::new(task)
             .unwrap()
-            .evaluate_traced(&mut StraightOn, variant_0)
+            .evaluate_traced(&mut Fixed::straight(), variant_0)
     };
     // Driving straight up the stem, the robot passes the flashing light and meets the wall.
     let all = trace(t_maze());
@@ -223,7 +185,7 @@ fn the_triple_t_maze_has_eight_variants_and_its_stem_ends_in_a_wall() {
     let evaluator = Evaluator::new(task).unwrap();
     for variant in 0..8 {
         let outcome = evaluator.evaluate(
-            &mut StraightOn,
+            &mut Fixed::straight(),
             Sample {
                 seed: 1,
                 variant: Some(variant),
@@ -455,8 +417,8 @@ fn entering_a_forbidden_region_ends_the_sample_as_a_wrong_branch() {
             seed: 3,
             variant: Some(variant),
         };
-        let fallen = with_pit.evaluate(&mut StraightOn, sample);
-        let crashed = without.evaluate(&mut StraightOn, sample);
+        let fallen = with_pit.evaluate(&mut Fixed::straight(), sample);
+        let crashed = without.evaluate(&mut Fixed::straight(), sample);
         assert_eq!(fallen.ending, Ending::WrongBranch, "variant {variant}");
         assert_eq!(crashed.ending, Ending::Collision, "variant {variant}");
         assert!(fallen.cycles < crashed.cycles, "{fallen:?} {crashed:?}");
@@ -465,7 +427,7 @@ fn entering_a_forbidden_region_ends_the_sample_as_a_wrong_branch() {
             fallen.fitness > 0.0 && fallen.fitness < crashed.fitness,
             "{fallen:?} {crashed:?}"
         );
-        let trace = with_pit.evaluate_traced(&mut StraightOn, sample);
+        let trace = with_pit.evaluate_traced(&mut Fixed::straight(), sample);
         let last = trace.final_robot;
         assert!(last.y > 0.45 && last.y < 0.75, "ends in the pit: {last:?}");
     }
@@ -498,11 +460,7 @@ fn a_forbidden_region_that_is_unknown_or_holds_the_start_is_refused() {
 /// The example yard with the robot placed by `place` (the `[place]` table's keys) and a
 /// rectangle `middle` over the yard's lower rows and its middle obstacle.
 fn yard_placed(place: &str) -> String {
-    let yard = EXAMPLES
-        .iter()
-        .find(|(name, _)| *name == "cross_yard")
-        .unwrap()
-        .1;
+    let yard = example("cross_yard");
     let edited = yard.replace(
         "[place]\nat = \"entrance\"\nfacing = \"up\"\n",
         &format!("[place]\n{place}\n"),
@@ -626,21 +584,6 @@ fn starts_anywhere_or_turned_that_cannot_be_are_refused_naming_the_key() {
     assert!(error.contains("at `place.anywhere`"), "{error}");
 }
 
-fn example(name: &str) -> &'static str {
-    EXAMPLES.iter().find(|(n, _)| *n == name).unwrap().1
-}
-
-/// Turns on the spot, left wheel back, right forward, whatever it senses.
-struct Spin;
-
-impl Policy for Spin {
-    fn reset(&mut self) {}
-
-    fn step(&mut self, _frame: &hevo_sim_core::SensorFrame, _dt: f32) -> [f32; 2] {
-        [0.0, 1.0]
-    }
-}
-
 #[test]
 fn a_world_of_solid_rectangles_alone_walls_the_robot_in() {
     let text = example("phototaxis");
@@ -654,13 +597,13 @@ fn a_world_of_solid_rectangles_alone_walls_the_robot_in() {
         assert!(env.ground.cells.is_none() && env.ground.room.is_none());
         // Driving straight on from anywhere along the bottom, facing any way, ends against a
         // wall or pillar, or in the pit: nothing leaves the arena.
-        let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(seed));
+        let outcome = evaluator.evaluate(&mut Fixed::straight(), Sample::seeded(seed));
         assert!(
             matches!(outcome.ending, Ending::Collision | Ending::WrongBranch),
             "seed {seed}: {outcome:?}"
         );
         // Spinning on the spot neither collides nor gets anywhere.
-        let spun = evaluator.evaluate(&mut Spin, Sample::seeded(seed));
+        let spun = evaluator.evaluate(&mut Fixed::spin(), Sample::seeded(seed));
         assert_eq!(spun.ending, Ending::Timeout, "seed {seed}");
     }
 }
@@ -679,8 +622,8 @@ fn solid_rectangles_join_a_map_and_a_generated_room() {
     let without = Evaluator::new(t_maze()).unwrap();
     let sample = Sample::seeded(3);
     let (hit, open) = (
-        with_block.evaluate_traced(&mut StraightOn, sample),
-        without.evaluate(&mut StraightOn, sample),
+        with_block.evaluate_traced(&mut Fixed::straight(), sample),
+        without.evaluate(&mut Fixed::straight(), sample),
     );
     assert_eq!(hit.outcome.ending, Ending::Collision);
     assert!(
@@ -759,7 +702,7 @@ fn a_light_triggered_by_a_region_lights_when_the_robot_enters_it() {
     let flash_cycles = task.params.light.flash_cycles as usize;
     let evaluator = Evaluator::new(task).unwrap();
     let trace = evaluator.evaluate_traced(
-        &mut StraightOn,
+        &mut Fixed::straight(),
         Sample {
             seed: 3,
             variant: Some(1),
@@ -860,7 +803,6 @@ fn a_huge_value_is_quoted_back_bounded() {
 
 #[test]
 fn bad_teammates_are_refused_naming_the_key() {
-    const WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
     for (from, to, key, expected) in [
         (
             "behaviour = \"wander\"",
@@ -893,13 +835,17 @@ fn bad_teammates_are_refused_naming_the_key() {
             "duplicate key",
         ),
     ] {
-        let error = edit_refusal(WANDERER, from, to);
+        let error = edit_refusal(FIND_WANDERER, from, to);
         assert!(error.contains(key), "{to}: {error}");
         assert!(error.contains(expected), "{to}: {error}");
     }
     // Without a teammate, neither its ending nor its approach means anything.
-    let alone: String = WANDERER.split("[teammate]").next().unwrap().to_string()
-        + &WANDERER[WANDERER.find("[end]").unwrap()..];
+    let alone: String = FIND_WANDERER
+        .split("[teammate]")
+        .next()
+        .unwrap()
+        .to_string()
+        + &FIND_WANDERER[FIND_WANDERER.find("[end]").unwrap()..];
     let error = refusal(&alone);
     assert!(error.contains("end.solved"), "{error}");
     let error = refusal(&T_MAZE.replace("timeout = \"0\"", "timeout = \"approach teammate\""));
@@ -909,8 +855,6 @@ fn bad_teammates_are_refused_naming_the_key() {
         "{error}"
     );
 }
-
-const ROOM_TO_CORRIDOR: &str = include_str!("../../scenarios/examples/room_to_corridor.toml");
 
 /// The room under a corridor: every sample's room has its exit centred under the corridor's
 /// first cell, on the corridor's lower border, the robot starts in the room clear of every
@@ -955,7 +899,7 @@ fn a_room_joins_a_corridor_below_its_first_cell() {
     assert_eq!(shapes.len(), 3, "every shape comes up: {shapes:?}");
     // A robot driving straight from the room's start ends in a collision or a timeout, never
     // solved: the turn is needed.
-    let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(3));
+    let outcome = evaluator.evaluate(&mut Fixed::straight(), Sample::seeded(3));
     assert_ne!(outcome.ending, Ending::Solved);
 }
 

@@ -12,11 +12,8 @@ use hevo_sim_core::{Outcome, Sample, Scenario, TaskConfig};
 use hevo_sim_core::{SimRng, mix64};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
-use std::sync::Arc;
 
-const T_MAZE: &str = include_str!("../../scenarios/examples/t_maze.toml");
-/// A wandering teammate: its walk lives in the per-sample state both evaluators share.
-const FIND_WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
+use crate::support::example_task;
 
 /// Every task the property draws from: the shipped scenarios and the examples.
 fn tasks() -> Vec<TaskConfig> {
@@ -24,12 +21,9 @@ fn tasks() -> Vec<TaskConfig> {
         .into_iter()
         .map(|name| TaskConfig::shipped(name).expect("shipped"))
         .collect();
-    tasks.push(TaskConfig::from_scenario(Arc::new(
-        Scenario::parse(T_MAZE, "t_maze.toml").expect("the example compiles"),
-    )));
-    tasks.push(TaskConfig::from_scenario(Arc::new(
-        Scenario::parse(FIND_WANDERER, "find_wanderer.toml").expect("the example compiles"),
-    )));
+    tasks.push(example_task("t_maze"));
+    // A wandering teammate: its walk lives in the per-sample state both evaluators share.
+    tasks.push(example_task("find_wanderer"));
     tasks
 }
 

@@ -9,7 +9,7 @@
 //! When a change is intended, re-record the table and paste it over `EXPECTED` below:
 //!
 //! ```text
-//! HEVO_BLESS=1 cargo test -p hevo-sim-core --release --test golden
+//! HEVO_BLESS=1 cargo test -p hevo-sim-core --release --test sim golden::
 //! ```
 //!
 //! In bless mode the test prints the new table to stderr instead of comparing, and then fails,
@@ -19,13 +19,12 @@
 //! `hypot` identically (the same Rust standard library and platform maths); a different
 //! platform may need its own blessing.
 
-use hevo_scripted::{
-    CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
-};
 use hevo_sim_core::Pose;
 use hevo_sim_core::SHIPPED_NAMES;
 use hevo_sim_core::{Controller, ControllerFile, InputGroup, NodeSpec};
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
+
+use crate::support::Scripted;
 
 /// A pose as the bit patterns of x, y and heading.
 type PoseBits = [u32; 3];
@@ -122,16 +121,7 @@ fn traced(policy: &'static str, kind: &'static str, sample: Sample) -> Trace {
         let controller = Controller::new(&file, None).expect("a complete controller");
         return run(&evaluator, controller, sample);
     }
-    match kind {
-        "exit_room" => run(&evaluator, RoomExiter::new(), sample),
-        "follow_wall" => run(&evaluator, CorridorFollower::new(), sample),
-        "turn_left" => run(&evaluator, Turner::new(TurnSide::Left), sample),
-        "turn_right" => run(&evaluator, Turner::new(TurnSide::Right), sample),
-        "solve_maze" => run(&evaluator, MazeSolver::new(), sample),
-        "return_room" => run(&evaluator, Returner::new(), sample),
-        "rescue" => run(&evaluator, Rescuer::new(), sample),
-        other => panic!("no scripted policy for {other}"),
-    }
+    run(&evaluator, Scripted::standard(kind), sample)
 }
 
 fn run(evaluator: &Evaluator, mut policy: impl Policy, sample: Sample) -> Trace {
@@ -211,7 +201,7 @@ fn fixed_seed_samples_reproduce_their_recorded_trajectories() {
         eprintln!("{}", table_source(&observed));
         panic!(
             "HEVO_BLESS is set, so the golden table was printed (above, on stderr) and not \
-             compared: paste it over EXPECTED in sim-core/tests/golden.rs and rerun without \
+             compared: paste it over EXPECTED in sim-core/tests/sim/golden.rs and rerun without \
              HEVO_BLESS"
         );
     }

@@ -14,9 +14,6 @@
 //! fitness is a number even when the corridor is a single cell).
 //! Case counts keep the file well under half a minute in release.
 
-use hevo_scripted::{
-    CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
-};
 use hevo_sim_core::IrMapping;
 use hevo_sim_core::N_IR;
 use hevo_sim_core::Pose;
@@ -27,6 +24,8 @@ use hevo_sim_core::{InputGroup, SensorFrame};
 use hevo_sim_core::{SHIPPED_NAMES, Scenario};
 use hevo_sim_core::{Stream, stream_rng};
 use proptest::prelude::*;
+
+use crate::support::Scripted;
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
 #[derive(Debug, Clone)]
@@ -152,16 +151,7 @@ fn assert_never_inside(trace: &Trace, radius: f32) {
 
 /// A scripted policy for any task: used where a second, very different driver is needed.
 fn scripted_trace(evaluator: &Evaluator, kind: &'static str, sample: Sample) -> Trace {
-    match kind {
-        "exit_room" => evaluator.evaluate_traced(&mut RoomExiter::new(), sample),
-        "follow_wall" => evaluator.evaluate_traced(&mut CorridorFollower::new(), sample),
-        "turn_left" => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Left), sample),
-        "turn_right" => evaluator.evaluate_traced(&mut Turner::new(TurnSide::Right), sample),
-        "solve_maze" => evaluator.evaluate_traced(&mut MazeSolver::new(), sample),
-        "return_room" => evaluator.evaluate_traced(&mut Returner::new(), sample),
-        "rescue" => evaluator.evaluate_traced(&mut Rescuer::new(), sample),
-        other => panic!("no scripted policy for {other}"),
-    }
+    evaluator.evaluate_traced(&mut Scripted::standard(kind), sample)
 }
 
 proptest! {

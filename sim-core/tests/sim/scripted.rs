@@ -26,6 +26,8 @@ use hevo_sim_core::IrMapping;
 use hevo_sim_core::{Ending, Evaluator, Outcome, Policy, Sample, TaskConfig, Trace};
 use hevo_sim_core::{InputGroup, SensorFrame};
 
+use crate::support::Scripted;
+
 /// Samples per task (per light configuration for the maze).
 const SEEDS: u64 = 200;
 
@@ -718,20 +720,7 @@ fn light_flashes_are_held_and_come_on_the_side_of_the_turn() {
 /// configuration (`TaskConfig::new`, the default IR mapping).
 fn run_default(kind: &'static str, variant: Option<u32>) -> Vec<(Sample, Outcome)> {
     let task = TaskConfig::shipped(kind).unwrap();
-    let outcomes = match kind {
-        "follow_wall" => run_on(&task, &mut CorridorFollower::for_task(&task), variant),
-        "turn_left" => run_on(&task, &mut Turner::for_task(TurnSide::Left, &task), variant),
-        "turn_right" => run_on(
-            &task,
-            &mut Turner::for_task(TurnSide::Right, &task),
-            variant,
-        ),
-        "solve_maze" => run_on(&task, &mut MazeSolver::for_task(&task), variant),
-        "return_room" => run_on(&task, &mut Returner::for_task(&task), variant),
-        "exit_room" => run_on(&task, &mut RoomExiter::for_task(&task), variant),
-        "rescue" => run_on(&task, &mut Rescuer::for_task(&task), variant),
-        other => panic!("no scripted policy for {other}"),
-    };
+    let outcomes = run_on(&task, &mut Scripted::for_task(kind, &task), variant);
     assert_coherent(kind, &outcomes);
     outcomes
 }

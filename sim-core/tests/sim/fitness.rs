@@ -18,53 +18,10 @@ use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
 use hevo_sim_core::{InputGroup, SensorFrame};
 use std::collections::BTreeSet;
 
+use crate::support::Fixed;
+
 /// Side of a corridor cell, metres (docs/model.md 5.1).
 const CELL: f32 = 0.30;
-
-/// Drives with fixed wheel outputs for `drive` cycles, then stands still: outputs 0.5 command
-/// speed 0, which the multiplicative wheel noise leaves at 0.
-#[derive(Debug, Clone)]
-struct Fixed {
-    wheels: [f32; 2],
-    drive: u32,
-    cycle: u32,
-}
-
-impl Fixed {
-    fn new(wheels: [f32; 2], drive: u32) -> Fixed {
-        Fixed {
-            wheels,
-            drive,
-            cycle: 0,
-        }
-    }
-
-    /// Full speed ahead, for ever.
-    fn straight() -> Fixed {
-        Fixed::new([1.0, 1.0], u32::MAX)
-    }
-
-    /// Spinning on the spot: the wheels at equal and opposite speeds move the robot nowhere.
-    fn spin() -> Fixed {
-        Fixed::new([0.0, 1.0], u32::MAX)
-    }
-}
-
-impl Policy for Fixed {
-    fn reset(&mut self) {
-        self.cycle = 0;
-    }
-
-    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
-        let wheels = if self.cycle < self.drive {
-            self.wheels
-        } else {
-            [0.5, 0.5]
-        };
-        self.cycle += 1;
-        wheels
-    }
-}
 
 /// Swaps the light inputs, so a maze solver turns against the lights into a wrong branch.
 #[derive(Debug)]

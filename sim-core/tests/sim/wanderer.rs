@@ -5,33 +5,18 @@
 
 use hevo_sim_core::Pose;
 use hevo_sim_core::Scene;
-use hevo_sim_core::SensorFrame;
-use hevo_sim_core::{Ending, Evaluator, Policy, Sample, Scenario, TaskConfig, Trace};
-use std::sync::Arc;
+use hevo_sim_core::{Ending, Evaluator, Sample, TaskConfig, Trace};
 
-const FIND_WANDERER: &str = include_str!("../../scenarios/examples/find_wanderer.toml");
+use crate::support::{Fixed, example_task};
 
 fn task() -> TaskConfig {
-    TaskConfig::from_scenario(Arc::new(
-        Scenario::parse(FIND_WANDERER, "find_wanderer.toml").expect("the example compiles"),
-    ))
-}
-
-/// Stands still: wheel outputs of 0.5 are no speed.
-struct Still;
-
-impl Policy for Still {
-    fn reset(&mut self) {}
-
-    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
-        [0.5, 0.5]
-    }
+    example_task("find_wanderer")
 }
 
 fn traced(task: &TaskConfig, seed: u64) -> Trace {
     Evaluator::new(task.clone())
         .unwrap()
-        .evaluate_traced(&mut Still, Sample::seeded(seed))
+        .evaluate_traced(&mut Fixed::still(), Sample::seeded(seed))
 }
 
 fn teammate_path(trace: &Trace) -> Vec<Pose> {
@@ -87,17 +72,6 @@ fn the_walk_is_fixed_by_the_seed() {
     assert_ne!(a, c);
 }
 
-/// Drives straight up the room from the dock at full speed.
-struct StraightOn;
-
-impl Policy for StraightOn {
-    fn reset(&mut self) {}
-
-    fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
-        [1.0, 1.0]
-    }
-}
-
 #[test]
 fn a_met_wanderer_follows_and_the_sample_is_solved() {
     let mut task = task();
@@ -105,7 +79,7 @@ fn a_met_wanderer_follows_and_the_sample_is_solved() {
     // wherever it is.
     task.params.robot.near_robot_range = 5.0;
     let evaluator = Evaluator::new(task.clone()).unwrap();
-    let outcome = evaluator.evaluate(&mut StraightOn, Sample::seeded(1));
+    let outcome = evaluator.evaluate(&mut Fixed::straight(), Sample::seeded(1));
     assert_eq!(outcome.ending, Ending::Solved);
     assert_eq!(outcome.cycles, 1);
     // Solved in the first cycle: 1 plus the share of cycles left.
