@@ -3,41 +3,11 @@
 //! to exactly the result an uninterrupted run gives, the thread count never changes results,
 //! a changed experiment under existing checkpoints is refused, and bad files get clear errors.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::Path;
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
-
-/// A small but real experiment: an exit-room primitive (1000-cycle samples make each
-/// generation take long enough to kill the process in the middle of a run).
-const SMALL: &str = include_str!("../../../tests/fixtures/exit_room_small.toml");
-
-fn write_experiment(dir: &Path, text: &str) -> PathBuf {
-    let path = dir.join("small.toml");
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
-fn hevo(args: &[&str]) -> std::process::Output {
-    Command::new(HEVO)
-        .args(args)
-        .env("RUST_LOG", "warn")
-        .output()
-        .expect("hevo runs")
-}
-
-/// `hevo` with `args`, which must succeed (its stderr is the failure message).
-fn hevo_ok(args: &[&str]) -> std::process::Output {
-    let out = hevo(args);
-    assert!(
-        out.status.success(),
-        "hevo {} failed: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
+use crate::support::{SMALL, hevo, hevo_command, hevo_ok, repo_root, write_experiment};
 
 /// Every file under `dir`, relative path -> bytes.
 fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
@@ -126,20 +96,18 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     // the first checkpoint of either run, with most of the 60 generations still to do, and
     // the exit status shows that it landed before the end.
     let killed = dir.path().join("killed");
-    let mut child = Command::new(HEVO)
-        .args([
-            "run",
-            experiment,
-            "--out",
-            killed.to_str().unwrap(),
-            "--threads",
-            "2",
-        ])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = hevo_command(&[
+        "run",
+        experiment,
+        "--out",
+        killed.to_str().unwrap(),
+        "--threads",
+        "2",
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
     let checkpoints = [0, 1].map(|run| killed.join(format!("exit_room/run-{run}/checkpoint.json")));
     let started = Instant::now();
     let killed_at = loop {
@@ -207,7 +175,7 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
 }
 
 /// Two levels: a maze arbitrator over one primitive, small enough to run in seconds.
-const TWO_LEVELS: &str = include_str!("../../../tests/fixtures/two_levels.toml");
+const TWO_LEVELS: &str = include_str!("../../../../tests/fixtures/two_levels.toml");
 
 #[test]
 fn more_runs_of_one_node_keep_its_children_and_are_never_thrown_away() {
@@ -624,10 +592,8 @@ fn check_bench_report(report: &serde_json::Value) {
 /// quietly and successfully instead of panicking on the failed write.
 #[test]
 fn a_closed_stdout_ends_a_command_quietly() {
-    let controller =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../controllers/exit_room.json");
-    let mut child = Command::new(HEVO)
-        .args(["eval", controller.to_str().unwrap(), "--task", "exit_room"])
+    let controller = repo_root().join("controllers/exit_room.json");
+    let mut child = hevo_command(&["eval", controller.to_str().unwrap(), "--task", "exit_room"])
         .args(["--samples", "20", "--threads", "1", "--failures"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -654,8 +620,7 @@ fn eval_and_replay_take_a_nodes_task_from_an_experiment_file() {
         &SMALL.replace("generations = 10", "cycles = 60\ngenerations = 10"),
     );
     let experiment = experiment.to_str().unwrap();
-    let controller =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../controllers/exit_room.json");
+    let controller = repo_root().join("controllers/exit_room.json");
     let controller = controller.to_str().unwrap();
     let eval = |task_flags: &[&str]| {
         let mut args = vec!["eval", controller, "--samples", "4", "--threads", "1"];

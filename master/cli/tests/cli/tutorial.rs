@@ -4,14 +4,10 @@
 //! it says.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use crate::support::{HEVO, repo_root, succeeded};
 
 /// A fenced block: its info string and its lines.
 struct Block {
@@ -81,12 +77,7 @@ fn run_line(dir: &Path, line: &str) {
         .current_dir(dir)
         .output()
         .unwrap_or_else(|e| panic!("cannot run {line}: {e}"));
-    assert!(
-        output.status.success(),
-        "`{line}` failed:\n{}{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
+    succeeded(line, output);
 }
 
 #[test]

@@ -17,23 +17,11 @@ use hevo_sim_core::SampleSummary;
 use hevo_sim_core::{Controller, ControllerFile, NodeKind, NodeSpec};
 use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 use std::collections::{BTreeMap, HashSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn read(path: &Path) -> String {
-    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn shipped_controller(file: &str) -> ControllerFile {
-    let path = repo_root().join("controllers").join(file);
-    ControllerFile::from_json_str(&read(&path))
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
+use crate::support::{read, repo_root, shipped_controller};
 
 // --- SPEC conformance ---------------------------------------------------------------------
 

@@ -1,21 +1,22 @@
 //! `hevo run` checks what it is asked before it allocates or writes anything: each bad value
 //! is an error naming it, with a non-zero exit, never a panic or an abort.
 
-use std::process::Command;
-
-const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
-const SMALL: &str = include_str!("../../../tests/fixtures/exit_room_small.toml");
+use crate::support::{SMALL, hevo};
 
 fn run(dir: &std::path::Path, toml: &str, extra: &[&str]) -> (Option<i32>, String) {
     let file = dir.join("x.toml");
     std::fs::write(&file, toml).unwrap();
-    let output = Command::new(HEVO)
-        .arg("run")
-        .arg(&file)
-        .args(["--out", dir.join("out").to_str().unwrap(), "--threads", "1"])
-        .args(extra)
-        .output()
-        .unwrap();
+    let out = dir.join("out");
+    let mut args = vec![
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "1",
+    ];
+    args.extend_from_slice(extra);
+    let output = hevo(&args);
     (
         output.status.code(),
         String::from_utf8_lossy(&output.stderr).into_owned(),

@@ -3,33 +3,7 @@
 //! accepts them, and every region `draw` should name (the map's, the generators') is in the
 //! picture, shaded and labelled.
 
-use std::path::Path;
-use std::process::Command;
-
-const HEVO: &str = env!("CARGO_BIN_EXE_hevo");
-
-fn hevo_ok(args: &[&str]) -> String {
-    let out = Command::new(HEVO)
-        .args(args)
-        .current_dir(repo_root())
-        .output()
-        .expect("hevo runs");
-    assert!(
-        out.status.success(),
-        "hevo {} failed: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-fn repo_root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .parent()
-        .unwrap()
-}
+use crate::support::hevo_ok;
 
 /// The names the picture's region labels carry, in order.
 fn region_labels(svg: &str) -> Vec<String> {
@@ -70,7 +44,7 @@ fn check_accepts_and_draw_names_every_region() {
             ][..],
         ),
     ] {
-        let checked = hevo_ok(&["scenario", "check", file]);
+        let checked = String::from_utf8(hevo_ok(&["scenario", "check", file]).stdout).unwrap();
         assert!(checked.contains(": ok ("), "{file}: {checked}");
         let regions = checked
             .lines()

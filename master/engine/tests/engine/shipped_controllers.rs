@@ -13,10 +13,12 @@
 //! measured on other samples: rescue 88.0 % here, 87.8-88.8 % there.)
 
 use hevo_engine::post_evaluation::{post_evaluation_samples, report};
+use hevo_sim_core::Controller;
 use hevo_sim_core::SampleSummary;
-use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, TaskConfig};
 use std::path::PathBuf;
+
+use crate::support::{repo_root, shipped_controller};
 
 /// Samples per light configuration (or start branch), as in REPRODUCTION.md's post-evaluation.
 const N_SAMPLES: u32 = 100;
@@ -142,10 +144,6 @@ const SHIPPED: &[Floor] = &[
     },
 ];
 
-fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 fn controllers_dir() -> PathBuf {
     repo_root().join("controllers")
 }
@@ -190,16 +188,13 @@ struct Counts {
 
 /// Runs the shipped controller `file` on its task's samples.
 fn measure(file: &str, task: &TaskConfig) -> Counts {
-    let path = controllers_dir().join(file);
-    let text = std::fs::read_to_string(&path).expect("shipped controller is readable");
-    let controller_file =
-        ControllerFile::from_json_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let controller_file = shipped_controller(file);
     let evaluator = Evaluator::new(task.clone()).expect("valid task");
     let summaries: Vec<SampleSummary> = post_evaluation_samples(task, N_SAMPLES, SEED)
         .into_iter()
         .map(|sample| {
             let mut controller = Controller::new(&controller_file, None)
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                .unwrap_or_else(|e| panic!("controllers/{file}: {e}"));
             SampleSummary::from(&evaluator.evaluate(&mut controller, sample))
         })
         .collect();

@@ -9,9 +9,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 const SHIPPED: [&str; 3] = [
-    include_str!("../../../experiments/rescue.toml"),
-    include_str!("../../../experiments/maze_single.toml"),
-    include_str!("../../../tests/fixtures/three_nodes.toml"),
+    include_str!("../../../../experiments/rescue.toml"),
+    include_str!("../../../../experiments/maze_single.toml"),
+    include_str!("../../../../tests/fixtures/three_nodes.toml"),
 ];
 
 /// The longest error any input may produce: a bounded excerpt, never the whole input.
