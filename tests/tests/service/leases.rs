@@ -6,10 +6,10 @@
 
 use hevo_proto::v1;
 use hevo_tests::service::{
-    CLIENT_TOKEN, SMALL, WORKER_TOKEN, jobs, lease, master_with_roles, metric, metrics_text,
-    runtime, submission, wait_until_final, workers,
+    CLIENT_TOKEN, SLOW_EXIT_ROOM, SMALL, WORKER_TOKEN, jobs, lease, master_with_roles, metric,
+    metrics_text, runtime, submission, wait_until_final, workers,
 };
-use hevo_tests::{Master, Scratch, hevo, start_worker};
+use hevo_tests::{Master, Scratch, fetch, run_locally, start_worker};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -41,44 +41,8 @@ fn local_reference(scratch: &Scratch) -> std::path::PathBuf {
     let file = scratch.join("small.toml");
     std::fs::write(&file, SMALL).unwrap();
     let out = scratch.join("local");
-    let output = hevo(
-        &[
-            "run",
-            file.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--threads",
-            "1",
-        ],
-        None,
-        Duration::from_secs(120),
-    );
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    run_locally(&file, &out, &["--threads", "1"]);
     out
-}
-
-fn fetch(url: &str, job: &str, out: &Path) {
-    let output = hevo(
-        &[
-            "fetch",
-            "--master",
-            url,
-            job,
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        Some(CLIENT_TOKEN),
-        Duration::from_secs(60),
-    );
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
 }
 
 #[test]
@@ -217,31 +181,6 @@ fn a_worker_that_only_heartbeats_loses_its_batch_at_the_lease_lifetime() {
     assert!(metric(&metrics_text(&master), "hevo_lease_revocations_total") >= 1.0);
 }
 
-/// Exit room samples that all run their 1000 cycles: batches that take long enough to catch
-/// a worker holding one.
-const SLOW: &str = r#"
-[experiment]
-name = "slow"
-seed = 5
-
-[evolution]
-population = 20
-elites = 4
-post_evaluation_samples = 2
-
-[[node]]
-name = "exit_room"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 2
-task = "exit_room"
-samples = 20
-generations = 2
-runs = 1
-[node.task_config]
-end_on_collision = false
-"#;
-
 #[test]
 fn a_killed_workers_batch_is_queued_again_at_once() {
     let scratch = Scratch::new("leases-killed");
@@ -249,7 +188,7 @@ fn a_killed_workers_batch_is_queued_again_at_once() {
     let master = master_with_roles(&scratch, &["--lease-seconds", "60"]);
     runtime().block_on(async {
         let job = jobs(&master.url, CLIENT_TOKEN)
-            .submit_job(submission(SLOW))
+            .submit_job(submission(SLOW_EXIT_ROOM))
             .await
             .unwrap()
             .into_inner()
@@ -382,6 +321,6 @@ fn an_honest_worker_finishes(master: &Master, scratch: &Scratch, job: &str, expe
         assert_eq!(info.state, v1::JobState::Succeeded as i32, "{}", info.error);
     });
     let fetched = scratch.join("fetched");
-    fetch(&master.url, job, &fetched);
+    fetch(&master.url, CLIENT_TOKEN, job, &fetched, &[]);
     hevo_tests::assert_same_results(expected, &fetched, None);
 }

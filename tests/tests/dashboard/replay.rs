@@ -8,7 +8,7 @@ use fantoccini::key::Key;
 use hevo_tests::browser::{Browser, require_browser};
 use hevo_tests::dashboard::local_dashboard;
 use hevo_tests::service::runtime;
-use hevo_tests::{Scratch, repo_root};
+use hevo_tests::{Scratch, cluster_turn, repo_root};
 use std::time::Duration;
 
 const MARKER: &str = "return document.querySelector('figure.replay[data-node=\"turn_left\"] .robot-marker').getAttribute('transform');";
@@ -16,7 +16,9 @@ const LABEL: &str = "return document.querySelector('figure.replay[data-node=\"tu
 
 #[test]
 fn the_cycle_slider_moves_the_robot() {
-    let Some(tools) = require_browser("dashboard_replay") else {
+    // A dashboard and a browser: the browser tests take turns, as the cluster tests do.
+    let _turn = cluster_turn();
+    let Some(tools) = require_browser("dashboard::replay") else {
         return;
     };
     let scratch = Scratch::new("dashboard-replay");

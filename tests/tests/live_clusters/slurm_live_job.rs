@@ -9,15 +9,17 @@
 
 use hevo_tests::slurm::{Cluster, ONE_NODE};
 use hevo_tests::{
-    Scratch, assert_same_results, binaries, hevo, kill_processes_mentioning, processes_mentioning,
-    repo_root, work_done,
+    Scratch, assert_same_results, binaries, cluster_turn, kill_processes_mentioning,
+    processes_mentioning, repo_root, run_locally, work_done,
 };
+use std::path::Path;
 use std::time::Duration;
 
-const TEST: &str = "slurm_live_job";
+const TEST: &str = "live_clusters::slurm_live_job";
 
 #[test]
 fn sbatch_runs_the_tiny_experiment_to_the_local_results() {
+    let _turn = cluster_turn();
     let scratch = Scratch::new("slurm-live-job");
     let Some(cluster) = Cluster::start(TEST, &scratch, 2) else {
         return;
@@ -27,16 +29,7 @@ fn sbatch_runs_the_tiny_experiment_to_the_local_results() {
     let bin_dir = binaries().hevo.parent().unwrap().to_str().unwrap();
 
     let reference = scratch.join("local");
-    let local = hevo(
-        &["run", experiment, "--out", reference.to_str().unwrap()],
-        None,
-        Duration::from_secs(300),
-    );
-    assert!(
-        local.status.success(),
-        "hevo run failed: {}",
-        String::from_utf8_lossy(&local.stderr)
-    );
+    run_locally(Path::new(experiment), &reference, &[]);
 
     let work = scratch.join("job");
     std::fs::create_dir_all(&work).unwrap();

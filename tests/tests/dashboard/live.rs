@@ -5,22 +5,25 @@
 
 use hevo_tests::browser::{Browser, require_browser};
 use hevo_tests::dashboard::{
-    WATCHABLE, dashboard_url, master_with_dashboard, plot_points_script, submit,
+    dashboard_url, master_with_dashboard, plot_points_script, submit, watchable,
 };
 use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, runtime};
-use hevo_tests::{Scratch, start_worker};
+use hevo_tests::{Scratch, cluster_turn, start_worker};
 use std::time::Duration;
 
 #[test]
 fn a_jobs_fitness_curve_grows_while_the_page_is_open() {
-    let Some(tools) = require_browser("dashboard_live") else {
+    // A master, a browser and often a worker: the browser tests take turns, as the cluster
+    // tests do.
+    let _turn = cluster_turn();
+    let Some(tools) = require_browser("dashboard::live") else {
         return;
     };
     let scratch = Scratch::new("dashboard-live");
     let master = master_with_dashboard(&scratch);
     let url = dashboard_url(&master).to_string();
     runtime().block_on(async {
-        let job = submit(&master, WATCHABLE).await;
+        let job = submit(&master, &watchable()).await;
         let browser = Browser::start(&tools, &scratch).await;
 
         let list = browser.sign_in(&url, CLIENT_TOKEN).await;

@@ -2,21 +2,24 @@
 //! 404 page naming it, a malformed query or job id a 400 page, an unknown page a 404; never a
 //! panic (the master keeps serving afterwards).
 
-use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
-use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, request, submit};
+use hevo_tests::dashboard::{dashboard_url, master_with_dashboard, request, submit, watchable};
 use hevo_tests::service::{CLIENT_TOKEN, runtime};
+use hevo_tests::{Scratch, cluster_turn};
 
 #[test]
 fn an_unknown_job_is_a_404_naming_it_and_a_bad_query_a_400() {
-    let Some(tools) = require_browser("dashboard_errors") else {
+    // A master, a browser and often a worker: the browser tests take turns, as the cluster
+    // tests do.
+    let _turn = cluster_turn();
+    let Some(tools) = require_browser("dashboard::errors") else {
         return;
     };
     let scratch = Scratch::new("dashboard-errors");
     let master = master_with_dashboard(&scratch);
     let url = dashboard_url(&master).to_string();
     runtime().block_on(async {
-        let job = submit(&master, WATCHABLE).await;
+        let job = submit(&master, &watchable()).await;
         let bearer = format!("Authorization: Bearer {CLIENT_TOKEN}");
         let cases: [(String, u16, &str); 7] = [
             (

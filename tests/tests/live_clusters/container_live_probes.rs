@@ -12,13 +12,14 @@
 use hevo_tests::deploy::{Analysis, DeployFiles};
 use hevo_tests::podman::{IMAGE, Podman, wait_until};
 use hevo_tests::service::health_status;
-use hevo_tests::{Scratch, binaries, http_get};
+use hevo_tests::{Scratch, binaries, cluster_turn, http_get};
 use std::time::Duration;
 
-const TEST: &str = "container_live_probes";
+const TEST: &str = "live_clusters::container_live_probes";
 
 #[test]
 fn the_master_container_as_kubernetes_runs_it_answers_its_probes() {
+    let _turn = cluster_turn();
     let scratch = Scratch::new("container-live-probes");
     let Some(podman) = Podman::start(TEST, &scratch) else {
         return;

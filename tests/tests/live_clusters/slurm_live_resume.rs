@@ -10,13 +10,13 @@
 
 use hevo_tests::slurm::{Cluster, ONE_NODE};
 use hevo_tests::{
-    Scratch, assert_same_results, binaries, hevo, kill_processes_mentioning, processes_mentioning,
-    repo_root, work_done,
+    Scratch, assert_same_results, binaries, cluster_turn, kill_processes_mentioning,
+    processes_mentioning, repo_root, run_locally, work_done,
 };
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-const TEST: &str = "slurm_live_resume";
+const TEST: &str = "live_clusters::slurm_live_resume";
 
 /// The tiny experiment's generations, raised from 3 so that the job runs for long enough (tens
 /// of seconds; a generation takes some 50 ms) to be cancelled in the middle, after its first
@@ -73,6 +73,7 @@ fn evaluations_in(state: &Path) -> u64 {
 
 #[test]
 fn a_cancelled_job_resubmitted_resumes_to_the_local_results() {
+    let _turn = cluster_turn();
     let scratch = Scratch::new("slurm-live-resume");
     let Some(cluster) = Cluster::start(TEST, &scratch, 2) else {
         return;
@@ -83,22 +84,10 @@ fn a_cancelled_job_resubmitted_resumes_to_the_local_results() {
     let generations = GENERATIONS.to_string();
 
     let reference = scratch.join("local");
-    let local = hevo(
-        &[
-            "run",
-            experiment,
-            "--generations",
-            &generations,
-            "--out",
-            reference.to_str().unwrap(),
-        ],
-        None,
-        Duration::from_secs(600),
-    );
-    assert!(
-        local.status.success(),
-        "hevo run failed: {}",
-        String::from_utf8_lossy(&local.stderr)
+    run_locally(
+        Path::new(experiment),
+        &reference,
+        &["--generations", &generations],
     );
 
     let work = scratch.join("job");

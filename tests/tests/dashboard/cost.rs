@@ -1,5 +1,5 @@
 //! The dashboard's cost, as a benchmark (opt-in: `cargo test --release -p hevo-tests --test
-//! dashboard_cost -- --ignored --nocapture`): a master with its dashboard on and one worker
+//! dashboard -- cost:: --ignored --nocapture`): a master with its dashboard on and one worker
 //! using every core run a long job, while, in alternating phases of `HEVO_COST_PHASE`
 //! generations (default 16), either no dashboard or `HEVO_DASHBOARDS` of them (default 20)
 //! are open on the job's page. An open dashboard does what the page's script does: it loads
@@ -12,7 +12,7 @@
 
 use hevo_proto::v1;
 use hevo_tests::dashboard::{dashboard_url, master_with_dashboard, submit};
-use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, jobs, runtime};
+use hevo_tests::service::{CLIENT_TOKEN, SlowExitRoom, WORKER_TOKEN, jobs, runtime};
 use hevo_tests::{Scratch, start_worker_with_threads};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -34,30 +34,14 @@ fn env_number(name: &str, default: u64) -> u64 {
 
 /// One exit-room node with generations of about half a second on two cores.
 fn experiment(generations: u64) -> String {
-    format!(
-        r#"
-[experiment]
-name = "dashboard_cost"
-seed = 5
-
-[evolution]
-population = 100
-elites = 5
-post_evaluation_samples = 2
-
-[[node]]
-name = "exit_room"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 2
-task = "exit_room"
-samples = 20
-generations = {generations}
-runs = 1
-[node.task_config]
-end_on_collision = false
-"#
-    )
+    SlowExitRoom {
+        name: "dashboard_cost",
+        seed: 5,
+        population: 100,
+        elites: 5,
+        generations,
+    }
+    .toml()
 }
 
 /// What the open dashboards did, summed over all of them.

@@ -1,6 +1,6 @@
 //! deploy/README.md: its shell blocks show the one-box and SLURM scripts and the submit, watch
 //! and fetch commands, and every `deploy/...` path it names and every relative link exists.
-//! (Their flags are checked by `deploy_flags.rs`, their shell by `deploy_scripts.rs`.)
+//! (Their flags are checked by `flags.rs`, their shell by `scripts.rs`.)
 
 use hevo_tests::deploy::{Analysis, Concern, DeployFiles, Drift, assert_drift_detected};
 

@@ -8,20 +8,14 @@
 //! (see `hevo_tests::binaries`), or from the directory in `HEVO_TEST_BIN_DIR` when it is set.
 
 use hevo_tests::{
-    Proc, Scratch, binaries, kill_processes_mentioning, processes_mentioning, repo_root, work_done,
+    Proc, Scratch, binaries, cluster_turn, kill_processes_mentioning, processes_mentioning,
+    repo_root, work_done,
 };
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, ExitStatus, Stdio};
-use std::sync::{Mutex, MutexGuard, mpsc};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
-
-/// The tests take turns: each starts a master, two or three workers and the client commands,
-/// and two cores running three such clusters at once make the time limits below meaningless.
-fn exclusive() -> MutexGuard<'static, ()> {
-    static TURN: Mutex<()> = Mutex::new(());
-    TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
 
 /// Evaluations deploy/local/tiny.toml needs: 2 runs x 3 generations x 10 genomes x 3 samples,
 /// and each run's post-evaluation of 10 samples (follow_wall has one configuration).
@@ -173,7 +167,7 @@ impl Drop for Script {
 
 #[test]
 fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let dir = Scratch::new("one-box-job");
     let work = dir.join("work");
     let results = dir.join("results");
@@ -237,7 +231,7 @@ fn one_box_runs_a_small_job_on_three_workers_and_fetches_it() {
 
 #[test]
 fn one_box_stops_every_process_on_sigterm() {
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let dir = Scratch::new("one-box-stop");
     let work = dir.join("work");
     // Long enough that the job is still running when the signal comes.
@@ -334,7 +328,7 @@ exit "$status"
 #[test]
 fn slurm_script_runs_a_job_with_a_stand_in_srun() {
     use std::os::unix::fs::PermissionsExt;
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let dir = Scratch::new("one-box-slurm");
     let shims = dir.join("bin");
     std::fs::create_dir_all(&shims).unwrap();

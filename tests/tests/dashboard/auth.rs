@@ -4,21 +4,24 @@
 //! that the browser's scripts cannot read; a script's `Authorization: Bearer` header works;
 //! the workers' token is no client's.
 
-use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
-use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, request, submit};
+use hevo_tests::dashboard::{dashboard_url, master_with_dashboard, request, submit, watchable};
 use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, runtime};
+use hevo_tests::{Scratch, cluster_turn};
 
 #[test]
 fn without_the_token_only_the_login_page_shows() {
-    let Some(tools) = require_browser("dashboard_auth") else {
+    // A master, a browser and often a worker: the browser tests take turns, as the cluster
+    // tests do.
+    let _turn = cluster_turn();
+    let Some(tools) = require_browser("dashboard::auth") else {
         return;
     };
     let scratch = Scratch::new("dashboard-auth");
     let master = master_with_dashboard(&scratch);
     let url = dashboard_url(&master).to_string();
     runtime().block_on(async {
-        let job = submit(&master, WATCHABLE).await;
+        let job = submit(&master, &watchable()).await;
 
         for path in [
             "/".to_string(),

@@ -5,7 +5,7 @@
 //! carries; every answer forbids framing and foreign content.
 
 use hevo_tests::Scratch;
-use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, request, submit};
+use hevo_tests::dashboard::{dashboard_url, master_with_dashboard, request, submit, watchable};
 use hevo_tests::service::{CLIENT_TOKEN, runtime};
 
 #[test]
@@ -14,7 +14,7 @@ fn a_cancel_needs_the_dashboards_own_page() {
     let master = master_with_dashboard(&scratch);
     let url = dashboard_url(&master).to_string();
     let host = url.trim_start_matches("http://").to_string();
-    let job = runtime().block_on(submit(&master, WATCHABLE));
+    let job = runtime().block_on(submit(&master, &watchable()));
     let form = "Content-Type: application/x-www-form-urlencoded";
 
     let login = request(

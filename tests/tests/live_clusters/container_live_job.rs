@@ -10,11 +10,15 @@
 //! test fails under CI and is skipped, loudly, elsewhere.
 
 use hevo_tests::podman::{IMAGE, Podman, wait_until};
-use hevo_tests::{Scratch, assert_same_results, binaries, hevo, repo_root, work_done};
+use hevo_tests::{
+    Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, repo_root, run_locally,
+    work_done,
+};
 use serde_norway::Value;
+use std::path::Path;
 use std::time::Duration;
 
-const TEST: &str = "container_live_job";
+const TEST: &str = "live_clusters::container_live_job";
 const CLIENT_TOKEN: &str = "container-live-client-token";
 const WORKER_TOKEN: &str = "container-live-worker-token";
 /// Evaluations deploy/local/tiny.toml needs: 2 runs x 3 generations x 10 genomes x 3 samples,
@@ -39,6 +43,7 @@ fn compose_command(compose: &Value, service: &str) -> Vec<String> {
 
 #[test]
 fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
+    let _turn = cluster_turn();
     let scratch = Scratch::new("container-live-job");
     let Some(podman) = Podman::start(TEST, &scratch) else {
         return;
@@ -52,16 +57,7 @@ fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
     let experiment = experiment.to_str().unwrap();
 
     let reference = scratch.join("local");
-    let local = hevo(
-        &["run", experiment, "--out", reference.to_str().unwrap()],
-        None,
-        Duration::from_secs(300),
-    );
-    assert!(
-        local.status.success(),
-        "hevo run failed: {}",
-        String::from_utf8_lossy(&local.stderr)
-    );
+    run_locally(Path::new(experiment), &reference, &[]);
 
     // The master as compose runs it: both tokens in its environment, the state on a named
     // volume, gRPC and metrics published on the host's loopback (ports the kernel picks), and
@@ -199,23 +195,7 @@ fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
         container_logs()
     );
     let results = scratch.join("results");
-    let fetch = hevo(
-        &[
-            "fetch",
-            "--master",
-            &url,
-            &job,
-            "--out",
-            results.to_str().unwrap(),
-        ],
-        Some(CLIENT_TOKEN),
-        Duration::from_secs(60),
-    );
-    assert!(
-        fetch.status.success(),
-        "hevo fetch: {}",
-        String::from_utf8_lossy(&fetch.stderr)
-    );
+    fetch(&url, CLIENT_TOKEN, &job, &results, &[]);
     assert_same_results(&reference, &results, None);
 
     // The image's user, 10001, in every container, as the host sees the processes.

@@ -1,6 +1,6 @@
-//! The chaos benchmark (opt-in: `cargo test --release -p hevo-tests --test chaos -- --ignored
-//! --nocapture`, for `HEVO_CHAOS_SECONDS`, default 300): a master and three workers run a
-//! stream of small jobs while, at random moments drawn from a fixed seed, workers are killed
+//! The chaos benchmark (opt-in: `cargo test --release -p hevo-tests --test service --
+//! chaos:: --ignored --nocapture`, for `HEVO_CHAOS_SECONDS`, default 300): a master and three
+//! workers run a stream of small jobs while, at random moments drawn from a fixed seed, workers are killed
 //! with SIGKILL, stopped with SIGSTOP (and continued later) and restarted, and the master is
 //! killed with SIGKILL and restarted on the same state directory and port. At the end every
 //! job must have succeeded with results byte for byte equal to a local `hevo run` of the same
@@ -9,7 +9,8 @@
 
 use hevo_tests::service::{CLIENT_TOKEN, SMALL, WORKER_TOKEN, role_args};
 use hevo_tests::{
-    Master, Proc, Scratch, assert_same_results, hevo, start_master_listening, start_worker,
+    Master, Proc, Scratch, assert_same_results, fetch, hevo, run_locally, start_master_listening,
+    start_worker,
 };
 use std::net::TcpListener;
 use std::path::PathBuf;
@@ -173,38 +174,10 @@ fn chaos_loses_nothing() {
             continue;
         }
         let fetched = scratch.join(&format!("fetched-{seed}"));
-        let output = hevo(
-            &[
-                "fetch",
-                "--master",
-                &url,
-                job,
-                "--out",
-                fetched.to_str().unwrap(),
-            ],
-            Some(CLIENT_TOKEN),
-            Duration::from_secs(60),
-        );
-        assert!(
-            output.status.success(),
-            "{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
+        fetch(&url, CLIENT_TOKEN, job, &fetched, &[]);
         let local: PathBuf = scratch.join(&format!("local-{seed}"));
         let file = scratch.join(&format!("job-{seed}.toml"));
-        let output = hevo(
-            &[
-                "run",
-                file.to_str().unwrap(),
-                "--out",
-                local.to_str().unwrap(),
-                "--threads",
-                "1",
-            ],
-            None,
-            Duration::from_secs(300),
-        );
-        assert!(output.status.success());
+        run_locally(&file, &local, &["--threads", "1"]);
         assert_same_results(&local, &fetched, None);
         identical += 1;
     }

@@ -3,22 +3,25 @@
 
 use fantoccini::Locator;
 use hevo_proto::v1;
-use hevo_tests::Scratch;
 use hevo_tests::browser::{Browser, require_browser};
-use hevo_tests::dashboard::{WATCHABLE, dashboard_url, master_with_dashboard, submit};
+use hevo_tests::dashboard::{dashboard_url, master_with_dashboard, submit, watchable};
 use hevo_tests::service::{CLIENT_TOKEN, jobs, runtime, wait_until_final};
+use hevo_tests::{Scratch, cluster_turn};
 use std::time::Duration;
 
 #[test]
 fn the_cancel_button_cancels_the_job() {
-    let Some(tools) = require_browser("dashboard_cancel") else {
+    // A master, a browser and often a worker: the browser tests take turns, as the cluster
+    // tests do.
+    let _turn = cluster_turn();
+    let Some(tools) = require_browser("dashboard::cancel") else {
         return;
     };
     let scratch = Scratch::new("dashboard-cancel");
     let master = master_with_dashboard(&scratch);
     let url = dashboard_url(&master).to_string();
     runtime().block_on(async {
-        let job = submit(&master, WATCHABLE).await;
+        let job = submit(&master, &watchable()).await;
         let browser = Browser::start(&tools, &scratch).await;
         browser.sign_in(&url, CLIENT_TOKEN).await;
         browser.goto(&format!("{url}/jobs/{job}")).await;

@@ -4,20 +4,21 @@
 //! master is killed with SIGKILL and restarted on the same state directory; requests without
 //! the token are refused; a broken experiment file is refused naming the key; TLS with a
 //! private CA works; jobs can be cancelled; a job on a scenario file of one's own runs on a
-//! worker that has no file and gives the local results. The tests that evolve share one local reference
-//! run and take turns, so timings stay realistic on a two-core machine.
+//! worker that has no file and gives the local results. The tests that evolve share one local
+//! reference run and take turns with every other cluster test of the binary
+//! ([`hevo_tests::cluster_turn`]), so timings stay realistic on a two-core machine.
 //!
-//! `overhead_benchmark` (ignored; `cargo test --release -p hevo-tests --test distributed --
-//! --ignored --nocapture`) compares evaluations per second of a master with two single-thread
+//! `overhead_benchmark` (ignored; `cargo test --release -p hevo-tests --test service --
+//! distributed::overhead_benchmark --ignored --nocapture`) compares evaluations per second of a master with two single-thread
 //! workers against local mode on two threads.
 
 use hevo_tests::{
-    Master, Proc, Scratch, assert_same_results, binaries, hevo, http_get, lines_of, start_master,
-    start_worker, wait_for_line,
+    Master, Proc, Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, http_get,
+    lines_of, run_locally, start_master, start_worker, wait_for_line,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 /// The clients' token (submit, watch, fetch).
@@ -31,14 +32,7 @@ const LONG: Duration = Duration::from_secs(180);
 /// fixed sub-controllers and every arbitrator genome scores differently (a genome given the
 /// wrong results would show). The arbitrator's samples run their full 1000 cycles (collisions
 /// do not end them), so a generation takes long enough to kill things in the middle of it.
-const EXPERIMENT: &str = include_str!("../fixtures/three_nodes.toml");
-
-/// The tests that run evolution take turns: two cores are not enough for two masters and four
-/// workers at once, and a crowded machine makes kill timings meaningless.
-fn exclusive() -> MutexGuard<'static, ()> {
-    static TURN: Mutex<()> = Mutex::new(());
-    TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
+const EXPERIMENT: &str = include_str!("../../fixtures/three_nodes.toml");
 
 fn write_experiment(dir: &Path) -> PathBuf {
     let path = dir.join("tree.toml");
@@ -55,33 +49,13 @@ fn reference() -> &'static Path {
         let scratch = Box::leak(Box::new(Scratch::new("reference")));
         let file = write_experiment(scratch.path());
         let out = scratch.join("local");
-        run_locally(&file, &out);
+        run_locally(&file, &out, LOCAL);
         out
     })
 }
 
-/// `hevo run` of `file` into `out` with the test seed on two threads.
-fn run_locally(file: &Path, out: &Path) {
-    let output = hevo(
-        &[
-            "run",
-            file.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--threads",
-            "2",
-            "--seed",
-            SEED,
-        ],
-        None,
-        LONG,
-    );
-    assert!(
-        output.status.success(),
-        "hevo run failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
+/// The arguments of a local `hevo run` with the test seed on two threads.
+const LOCAL: &[&str] = &["--threads", "2", "--seed", SEED];
 
 fn submit(master: &Master, file: &Path, extra: &[&str]) -> String {
     let mut args = vec![
@@ -148,24 +122,6 @@ fn watch_until_done(master: &Master, job: &str, extra: &[&str], generations: u32
         "{stdout}"
     );
     stdout
-}
-
-fn fetch(master: &Master, job: &str, out: &Path, extra: &[&str]) {
-    let mut args = vec![
-        "fetch",
-        "--master",
-        &master.url,
-        job,
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
-    assert!(
-        output.status.success(),
-        "fetch failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
 }
 
 /// The master's metrics page (it must have been started with `--metrics-listen`).
@@ -235,7 +191,7 @@ fn master_with(scratch: &Scratch, state: &str, extra: &[&str], log: &str) -> Mas
 #[test]
 fn two_workers_give_exactly_the_local_results() {
     let expected = reference();
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let started = Instant::now();
     let scratch = Scratch::new("two-workers");
     let file = write_experiment(scratch.path());
@@ -248,7 +204,7 @@ fn two_workers_give_exactly_the_local_results() {
     let mut workers = two_workers(&master, &scratch, "w");
     let job = submit(&master, &file, &[]);
     watch_to_end(&master, &job, &[]);
-    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
 
     let metrics = metrics_text(&master);
@@ -312,9 +268,9 @@ runs = 1
 
 #[test]
 fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let scratch = Scratch::new("own-scenario");
-    let own = include_str!("../../scenarios/examples/t_maze.toml")
+    let own = include_str!("../../../scenarios/examples/t_maze.toml")
         .replacen("name = \"t_maze\"", "name = \"pit_maze\"", 1)
         .replacen("[end]\n", "[end]\nforbidden = \"in pit\"\n", 1)
         + "\n[regions]\npit = { rect = [-0.15, 0.75, 0.15, 1.05] }\n";
@@ -324,7 +280,7 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
     let file = dir.join("own.toml");
     std::fs::write(&file, OWN_SCENARIO_EXPERIMENT).unwrap();
     let local = scratch.join("local");
-    run_locally(&file, &local);
+    run_locally(&file, &local, LOCAL);
 
     // The worker runs elsewhere, with no file: the job carries the scenario's text.
     let master = master_with(&scratch, "state", &[], "master.log");
@@ -338,7 +294,7 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
     let job = submit(&master, &file, &[]);
     std::fs::remove_file(dir.join("pit_maze.toml")).unwrap();
     watch_until_done(&master, &job, &[], 3);
-    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
     assert_same_results(&local, &scratch.join("fetched"), None);
     let summary = std::fs::read_to_string(scratch.join("fetched/pit_maze/summary.json")).unwrap();
     assert!(summary.contains("\"task\": \"pit_maze\""), "{summary}");
@@ -416,7 +372,7 @@ fn the_master_log_names_the_holder_of_a_lease_taken_back() {
 #[test]
 fn a_worker_killed_mid_job_changes_nothing_but_time() {
     let expected = reference();
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let started = Instant::now();
     let scratch = Scratch::new("killed-worker");
     let file = write_experiment(scratch.path());
@@ -500,7 +456,7 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
         "no lease expiry or revocation counted:\n{metrics}"
     );
 
-    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
     eprintln!(
         "killed worker: {:.1} s, lease expiries {expiries}, revocations {revocations}",
@@ -512,7 +468,7 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
 fn a_master_killed_and_restarted_resumes_to_the_same_results() {
     use std::os::unix::process::ExitStatusExt;
     let expected = reference();
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let started = Instant::now();
     let scratch = Scratch::new("killed-master");
     let file = write_experiment(scratch.path());
@@ -564,7 +520,7 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
         (2..8).contains(&resumed_at),
         "resumed at generation {resumed_at}"
     );
-    fetch(&master, &job, &scratch.join("fetched"), &[]);
+    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
     assert_same_results(expected, &scratch.join("fetched"), None);
     eprintln!("killed master: {:.1} s", started.elapsed().as_secs_f64());
 }
@@ -783,7 +739,7 @@ fn jobs_can_be_cancelled() {
 #[test]
 fn tls_with_a_private_certificate() {
     let expected = reference();
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let scratch = Scratch::new("tls");
     let certified = rcgen::generate_simple_self_signed(vec!["localhost".to_string()]).unwrap();
     let (cert, key) = (scratch.join("cert.pem"), scratch.join("key.pem"));
@@ -839,7 +795,7 @@ fn tls_with_a_private_certificate() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    fetch(&master, &job, &scratch.join("fetched"), &ca);
+    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &ca);
     // Only the primitive was asked for: its results are those of the full local run.
     assert_same_results(expected, &scratch.join("fetched"), Some(&["fw"]));
     assert!(!scratch.join("fetched/top").exists());
@@ -850,7 +806,7 @@ fn tls_with_a_private_certificate() {
 #[test]
 #[ignore = "benchmark: run with --ignored --nocapture in release"]
 fn overhead_benchmark() {
-    let _turn = exclusive();
+    let _turn = cluster_turn();
     let scratch = Scratch::new("overhead");
     let experiment = EXPERIMENT
         .replace("generations = 8", "generations = 12")
@@ -874,7 +830,7 @@ fn overhead_benchmark() {
     for round in 0..rounds {
         let out = scratch.join(&format!("local-{round}"));
         let begun = Instant::now();
-        run_locally(&file, &out);
+        run_locally(&file, &out, LOCAL);
         local.push(begun.elapsed().as_secs_f64());
         let before = evaluations_so_far();
         let begun = Instant::now();
@@ -885,7 +841,8 @@ fn overhead_benchmark() {
         // The same work both ways: the results are identical (checked below).
         evaluations = evaluations_so_far() - before;
         fetch(
-            &master,
+            &master.url,
+            TOKEN,
             &job,
             &scratch.join(&format!("remote-{round}")),
             &[],
