@@ -161,7 +161,7 @@ fn median(mut values: Vec<f64>) -> f64 {
 }
 
 #[test]
-#[ignore = "a benchmark: run it with --release -- --ignored --nocapture"]
+#[ignore = "a benchmark: run it with --release -- cost:: --ignored --nocapture"]
 fn open_dashboards_cost_a_running_job_little() {
     let n_dashboards = env_number("HEVO_DASHBOARDS", 20);
     let phase_generations = env_number("HEVO_COST_PHASE", 16);

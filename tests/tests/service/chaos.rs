@@ -78,7 +78,7 @@ fn worker(url: &str, scratch: &Scratch, idx: usize, generation: usize) -> Proc {
 }
 
 #[test]
-#[ignore = "benchmark: run with --ignored --nocapture in release"]
+#[ignore = "benchmark: run with -- chaos:: --ignored --nocapture in release"]
 fn chaos_loses_nothing() {
     let seconds: u64 = std::env::var("HEVO_CHAOS_SECONDS")
         .ok()

@@ -804,7 +804,7 @@ fn tls_with_a_private_certificate() {
 /// Evaluations per second: master + two single-thread workers versus `hevo run --threads 2`,
 /// on the same experiment (the results are identical, so the work is too).
 #[test]
-#[ignore = "benchmark: run with --ignored --nocapture in release"]
+#[ignore = "benchmark: run with -- distributed::overhead_benchmark --ignored --nocapture in release"]
 fn overhead_benchmark() {
     let _turn = cluster_turn();
     let scratch = Scratch::new("overhead");
