@@ -12,6 +12,7 @@
 //! distributed::overhead_benchmark --ignored --nocapture`) compares evaluations per second of a master with two single-thread
 //! workers against local mode on two threads.
 
+use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, role_args};
 use hevo_tests::{
     Master, Proc, Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, http_get,
     lines_of, run_locally, start_master, start_worker, wait_for_line,
@@ -21,10 +22,6 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-/// The clients' token (submit, watch, fetch).
-const TOKEN: &str = "e2e-secret-token";
-/// The workers' token: a credential of its own.
-const WORKER_TOKEN: &str = "e2e-worker-token";
 const SEED: &str = "11";
 const LONG: Duration = Duration::from_secs(180);
 
@@ -67,7 +64,7 @@ fn submit(master: &Master, file: &Path, extra: &[&str]) -> String {
         SEED,
     ];
     args.extend_from_slice(extra);
-    let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
+    let output = hevo(&args, Some(CLIENT_TOKEN), Duration::from_secs(30));
     assert!(
         output.status.success(),
         "submit failed: {}",
@@ -92,7 +89,7 @@ fn spawn_watch(
         Command::new(&binaries().hevo)
             .args(["watch", "--master", &master.url, job])
             .args(extra)
-            .env("HEVO_TOKEN", TOKEN)
+            .env("HEVO_TOKEN", CLIENT_TOKEN)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit()),
     );
@@ -108,7 +105,7 @@ fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
 fn watch_until_done(master: &Master, job: &str, extra: &[&str], generations: u32) -> String {
     let mut args = vec!["watch", "--master", &master.url, job];
     args.extend_from_slice(extra);
-    let output = hevo(&args, Some(TOKEN), LONG);
+    let output = hevo(&args, Some(CLIENT_TOKEN), LONG);
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     assert!(
         output.status.success(),
@@ -164,25 +161,12 @@ fn two_workers(master: &Master, scratch: &Scratch, prefix: &str) -> Vec<Proc> {
         .collect()
 }
 
-fn token_args(scratch: &Scratch) -> Vec<String> {
-    let file = scratch.join("token");
-    std::fs::write(&file, format!("{TOKEN}\n")).unwrap();
-    let worker_file = scratch.join("worker-token");
-    std::fs::write(&worker_file, format!("{WORKER_TOKEN}\n")).unwrap();
-    vec![
-        "--token-file".into(),
-        file.to_string_lossy().into_owned(),
-        "--worker-token-file".into(),
-        worker_file.to_string_lossy().into_owned(),
-    ]
-}
-
 fn master_with(scratch: &Scratch, state: &str, extra: &[&str], log: &str) -> Master {
     let mut args: Vec<String> = vec![
         "--state-dir".into(),
         scratch.join(state).to_string_lossy().into_owned(),
     ];
-    args.extend(token_args(scratch));
+    args.extend(role_args(scratch));
     args.extend(extra.iter().map(|s| s.to_string()));
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     start_master(&args, &scratch.join(log))
@@ -204,7 +188,13 @@ fn two_workers_give_exactly_the_local_results() {
     let mut workers = two_workers(&master, &scratch, "w");
     let job = submit(&master, &file, &[]);
     watch_to_end(&master, &job, &[]);
-    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &[],
+    );
     assert_same_results(expected, &scratch.join("fetched"), None);
 
     let metrics = metrics_text(&master);
@@ -222,7 +212,7 @@ fn two_workers_give_exactly_the_local_results() {
 
     let listing = hevo(
         &["jobs", "--master", &master.url],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(10),
     );
     let listing = String::from_utf8_lossy(&listing.stdout);
@@ -294,7 +284,13 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
     let job = submit(&master, &file, &[]);
     std::fs::remove_file(dir.join("pit_maze.toml")).unwrap();
     watch_until_done(&master, &job, &[], 3);
-    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &[],
+    );
     assert_same_results(&local, &scratch.join("fetched"), None);
     let summary = std::fs::read_to_string(scratch.join("fetched/pit_maze/summary.json")).unwrap();
     assert!(summary.contains("\"task\": \"pit_maze\""), "{summary}");
@@ -456,7 +452,13 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
         "no lease expiry or revocation counted:\n{metrics}"
     );
 
-    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &[],
+    );
     assert_same_results(expected, &scratch.join("fetched"), None);
     eprintln!(
         "killed worker: {:.1} s, lease expiries {expiries}, revocations {revocations}",
@@ -520,7 +522,13 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
         (2..8).contains(&resumed_at),
         "resumed at generation {resumed_at}"
     );
-    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &[]);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &[],
+    );
     assert_same_results(expected, &scratch.join("fetched"), None);
     eprintln!("killed master: {:.1} s", started.elapsed().as_secs_f64());
 }
@@ -550,7 +558,7 @@ fn requests_without_the_right_token_are_refused() {
     }
     let output = hevo(
         &["jobs", "--master", url],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert!(
@@ -674,7 +682,7 @@ fn a_broken_job_file_is_refused_naming_the_key() {
     for (file, extra, wanted) in cases {
         let mut args = vec!["submit", "--master", &master.url, file.to_str().unwrap()];
         args.extend_from_slice(extra);
-        let output = hevo(&args, Some(TOKEN), Duration::from_secs(30));
+        let output = hevo(&args, Some(CLIENT_TOKEN), Duration::from_secs(30));
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(!output.status.success(), "{args:?} was accepted");
         assert!(output.stdout.is_empty(), "{args:?} printed a job id");
@@ -687,7 +695,7 @@ fn a_broken_job_file_is_refused_naming_the_key() {
     }
     let output = hevo(
         &["jobs", "--master", &master.url],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert_eq!(
@@ -706,7 +714,7 @@ fn jobs_can_be_cancelled() {
     let job = submit(&master, &file, &[]);
     let output = hevo(
         &["cancel", "--master", &master.url, &job],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert!(
@@ -720,7 +728,7 @@ fn jobs_can_be_cancelled() {
     );
     let output = hevo(
         &["watch", "--master", &master.url, &job],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert!(
@@ -728,7 +736,7 @@ fn jobs_can_be_cancelled() {
     );
     let output = hevo(
         &["cancel", "--master", &master.url, "job-999999"],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert!(
@@ -769,7 +777,7 @@ fn tls_with_a_private_certificate() {
     // Without the CA the certificate is not trusted.
     let output = hevo(
         &["jobs", "--master", &master.url],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         Duration::from_secs(30),
     );
     assert!(!output.status.success());
@@ -787,7 +795,7 @@ fn tls_with_a_private_certificate() {
             "--tls-ca",
             cert.to_str().unwrap(),
         ],
-        Some(TOKEN),
+        Some(CLIENT_TOKEN),
         LONG,
     );
     assert!(
@@ -795,7 +803,13 @@ fn tls_with_a_private_certificate() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    fetch(&master.url, TOKEN, &job, &scratch.join("fetched"), &ca);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &ca,
+    );
     // Only the primitive was asked for: its results are those of the full local run.
     assert_same_results(expected, &scratch.join("fetched"), Some(&["fw"]));
     assert!(!scratch.join("fetched/top").exists());
@@ -835,14 +849,18 @@ fn overhead_benchmark() {
         let before = evaluations_so_far();
         let begun = Instant::now();
         let job = submit(&master, &file, &[]);
-        let output = hevo(&["watch", "--master", &master.url, &job], Some(TOKEN), LONG);
+        let output = hevo(
+            &["watch", "--master", &master.url, &job],
+            Some(CLIENT_TOKEN),
+            LONG,
+        );
         assert!(output.status.success());
         remote.push(begun.elapsed().as_secs_f64());
         // The same work both ways: the results are identical (checked below).
         evaluations = evaluations_so_far() - before;
         fetch(
             &master.url,
-            TOKEN,
+            CLIENT_TOKEN,
             &job,
             &scratch.join(&format!("remote-{round}")),
             &[],
