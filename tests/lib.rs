@@ -427,14 +427,15 @@ pub fn hevo(args: &[&str], token: Option<&str>, timeout: Duration) -> Output {
     }
 }
 
-/// [`hevo`], which must succeed: otherwise the test fails with its stderr.
+/// [`hevo`], which must succeed: otherwise the test fails with its stdout and stderr.
 pub fn hevo_ok(args: &[&str], token: Option<&str>, timeout: Duration) -> Output {
     let output = hevo(args, token, timeout);
     assert!(
         output.status.success(),
-        "hevo {} failed ({}): {}",
+        "hevo {} failed ({}):\n{}{}",
         args.join(" "),
         output.status,
+        String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
     );
     output

@@ -11,8 +11,8 @@
 
 use hevo_tests::podman::{IMAGE, Podman, wait_until};
 use hevo_tests::{
-    Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, repo_root, run_locally,
-    work_done,
+    Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, hevo_ok, repo_root,
+    run_locally, work_done,
 };
 use serde_norway::Value;
 use std::path::Path;
@@ -166,15 +166,10 @@ fn a_master_and_two_worker_containers_run_the_tiny_experiment() {
         );
     }
 
-    let submit = hevo(
+    let submit = hevo_ok(
         &["submit", "--master", &url, experiment],
         Some(CLIENT_TOKEN),
         Duration::from_secs(30),
-    );
-    assert!(
-        submit.status.success(),
-        "hevo submit: {}",
-        String::from_utf8_lossy(&submit.stderr)
     );
     let job = String::from_utf8_lossy(&submit.stdout).trim().to_string();
     let watch = hevo(

@@ -14,8 +14,8 @@
 
 use hevo_tests::service::{CLIENT_TOKEN, WORKER_TOKEN, role_args};
 use hevo_tests::{
-    Master, Proc, Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, http_get,
-    lines_of, run_locally, start_master, start_worker, wait_for_line,
+    Master, Proc, Scratch, assert_same_results, binaries, cluster_turn, fetch, hevo, hevo_ok,
+    http_get, lines_of, run_locally, start_master, start_worker, wait_for_line,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -64,12 +64,7 @@ fn submit(master: &Master, file: &Path, extra: &[&str]) -> String {
         SEED,
     ];
     args.extend_from_slice(extra);
-    let output = hevo(&args, Some(CLIENT_TOKEN), Duration::from_secs(30));
-    assert!(
-        output.status.success(),
-        "submit failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let output = hevo_ok(&args, Some(CLIENT_TOKEN), Duration::from_secs(30));
     let job = String::from_utf8(output.stdout).unwrap().trim().to_string();
     assert!(
         job.starts_with("job-") && !job.contains(char::is_whitespace),
@@ -105,13 +100,8 @@ fn watch_to_end(master: &Master, job: &str, extra: &[&str]) -> String {
 fn watch_until_done(master: &Master, job: &str, extra: &[&str], generations: u32) -> String {
     let mut args = vec!["watch", "--master", &master.url, job];
     args.extend_from_slice(extra);
-    let output = hevo(&args, Some(CLIENT_TOKEN), LONG);
+    let output = hevo_ok(&args, Some(CLIENT_TOKEN), LONG);
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
-    assert!(
-        output.status.success(),
-        "watch failed: {}\n{stdout}",
-        String::from_utf8_lossy(&output.stderr)
-    );
     assert!(
         stdout.trim_end().ends_with(&format!(
             "succeeded ({generations}/{generations} generations)"
@@ -556,15 +546,10 @@ fn requests_without_the_right_token_are_refused() {
                 && String::from_utf8_lossy(&output.stderr).contains("UNAUTHENTICATED")
         );
     }
-    let output = hevo(
+    let output = hevo_ok(
         &["jobs", "--master", url],
         Some(CLIENT_TOKEN),
         Duration::from_secs(30),
-    );
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
     );
     assert_eq!(
         String::from_utf8_lossy(&output.stdout).lines().count(),
@@ -712,15 +697,10 @@ fn jobs_can_be_cancelled() {
     // No workers: the job waits for them until it is cancelled.
     let master = master_with(&scratch, "state", &[], "master.log");
     let job = submit(&master, &file, &[]);
-    let output = hevo(
+    let output = hevo_ok(
         &["cancel", "--master", &master.url, &job],
         Some(CLIENT_TOKEN),
         Duration::from_secs(30),
-    );
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
     );
     assert_eq!(
         String::from_utf8_lossy(&output.stdout).trim(),
@@ -786,7 +766,7 @@ fn tls_with_a_private_certificate() {
         &file,
         &["--node", "fw", "--tls-ca", cert.to_str().unwrap()],
     );
-    let output = hevo(
+    hevo_ok(
         &[
             "watch",
             "--master",
@@ -797,11 +777,6 @@ fn tls_with_a_private_certificate() {
         ],
         Some(CLIENT_TOKEN),
         LONG,
-    );
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
     );
     fetch(
         &master.url,
