@@ -1,11 +1,10 @@
-//! The chaos benchmark (opt-in: `cargo test --release -p hevo-tests --test service --
-//! chaos:: --ignored --nocapture`, for `HEVO_CHAOS_SECONDS`, default 300): a master and three
-//! workers run a stream of small jobs while, at random moments drawn from a fixed seed, workers are killed
-//! with SIGKILL, stopped with SIGSTOP (and continued later) and restarted, and the master is
-//! killed with SIGKILL and restarted on the same state directory and port. At the end every
-//! job must have succeeded with results byte for byte equal to a local `hevo run` of the same
-//! experiment and seed. It prints the faults injected, the jobs, how many were identical and
-//! anything lost.
+//! The chaos benchmark (opt-in: `cargo test --release -p hevo-tests --test service -- chaos::
+//! --ignored --nocapture`, for `HEVO_CHAOS_SECONDS`, default 300): a master and three workers run a
+//! stream of small jobs while, at random moments drawn from a fixed seed, workers are killed with
+//! SIGKILL, stopped with SIGSTOP (and continued later) and restarted, and the master is killed with
+//! SIGKILL and restarted on the same state directory and port. At the end every job must have
+//! succeeded with results byte for byte equal to a local `hevo run` of the same experiment and
+//! seed. It prints the faults injected, the jobs, how many were identical and anything lost.
 
 use hevo_tests::service::{CLIENT_TOKEN, SMALL, WORKER_TOKEN, role_args};
 use hevo_tests::{
