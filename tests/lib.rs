@@ -1,12 +1,17 @@
 //! Helpers for hevo's end-to-end tests, which drive the real binaries: the `hevo` and
 //! `hevo-worker` executables built once per test process (`cargo build`, in the profile the
-//! tests themselves were built in, or taken from `HEVO_TEST_BIN_DIR`), child processes that are killed when their guard is dropped (so a
-//! failing test leaves nothing running), a master started on 127.0.0.1 port 0 whose address is
-//! read from its first line of output, scratch directories, a plain HTTP GET for the metrics
-//! endpoint, and a byte-for-byte comparison of two result directories in the layout
-//! `hevo run --out` writes.
+//! tests themselves were built in, or taken from `HEVO_TEST_BIN_DIR`), child processes that
+//! are killed when their guard is dropped (so a failing test leaves nothing running), a master
+//! started on 127.0.0.1 port 0 whose address is read from its first line of output, `hevo`
+//! commands that must succeed (a local run, a fetch), the turn the cluster tests take, scratch
+//! directories, a plain HTTP GET for the metrics endpoint, and a byte-for-byte comparison of two
+//! result directories in the layout `hevo run --out` writes.
 //!
-//! [`deploy`] parses and checks the files of `deploy/` for the `deploy_*` tests; [`tools`]
+//! The tests are one binary per area (`tests/tests/AREA/main.rs`, one module per behaviour), so
+//! tests of different modules share a process: what a test holds process-wide (a scratch
+//! directory, a port, a cluster) must not collide with another module's.
+//!
+//! [`deploy`] parses and checks the files of `deploy/` for the `deploy` tests; [`tools`]
 //! finds the external tools (shellcheck, ...) that `scripts/install-test-tools.sh` installs.
 
 pub mod deploy;
@@ -30,8 +35,9 @@ pub mod podman;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
+use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant};
 
 /// The repository's root.
@@ -130,9 +136,14 @@ pub struct Scratch {
 }
 
 impl Scratch {
-    /// A fresh, empty directory.
+    /// A fresh, empty directory, named after `name`, the process and a count of the process's
+    /// scratch directories: the tests of one binary share its process, so no two of them can
+    /// be given the same directory.
     pub fn new(name: &str) -> Scratch {
-        let path = std::env::temp_dir().join(format!("hevo-e2e-{name}-{}", std::process::id()));
+        static COUNT: AtomicUsize = AtomicUsize::new(0);
+        let count = COUNT.fetch_add(1, Ordering::Relaxed);
+        let path =
+            std::env::temp_dir().join(format!("hevo-e2e-{name}-{}-{count}", std::process::id()));
         let _ = std::fs::remove_dir_all(&path);
         std::fs::create_dir_all(&path).expect("cannot create a scratch directory");
         Scratch { path }
@@ -414,6 +425,57 @@ pub fn hevo(args: &[&str], token: Option<&str>, timeout: Duration) -> Output {
         stdout: collect(stdout),
         stderr: collect(stderr),
     }
+}
+
+/// [`hevo`], which must succeed: otherwise the test fails with its stdout and stderr.
+pub fn hevo_ok(args: &[&str], token: Option<&str>, timeout: Duration) -> Output {
+    let output = hevo(args, token, timeout);
+    assert!(
+        output.status.success(),
+        "hevo {} failed ({}):\n{}{}",
+        args.join(" "),
+        output.status,
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
+/// `hevo run FILE --out OUT EXTRA...` on this machine, which must succeed: the results a job
+/// of the same experiment and seed must reproduce byte for byte. Bounded at ten minutes.
+pub fn run_locally(file: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "run",
+        file.to_str().expect("a UTF-8 path"),
+        "--out",
+        out.to_str().expect("a UTF-8 path"),
+    ];
+    args.extend_from_slice(extra);
+    hevo_ok(&args, None, Duration::from_secs(600));
+}
+
+/// `hevo fetch --master URL JOB --out OUT EXTRA...` with the client token `token`, which must
+/// succeed.
+pub fn fetch(url: &str, token: &str, job: &str, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "fetch",
+        "--master",
+        url,
+        job,
+        "--out",
+        out.to_str().expect("a UTF-8 path"),
+    ];
+    args.extend_from_slice(extra);
+    hevo_ok(&args, Some(token), Duration::from_secs(60));
+}
+
+/// A turn for a test that runs a cluster (a master, two or three workers and the client
+/// commands, or a script that starts them): such tests take turns across the whole test
+/// binary, since two cores running two clusters at once make kill timings and time limits
+/// meaningless. Held until the guard is dropped; a test that failed holding it passes it on.
+pub fn cluster_turn() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 /// A plain HTTP/1.1 GET (the metrics endpoint): the whole response, status line, headers and

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # A single-node SLURM cluster on this machine's loopback, for trying deploy/slurm/hevo.sbatch
-# with the real sbatch, srun, squeue and scancel (tests/tests/slurm_live*.rs use it): munged,
-# slurmctld and one slurmd with a partition `debug`, every file (configuration, munge key,
-# sockets, state, logs) in one directory, no systemd and no change to /etc. Needs root (slurmd
-# runs jobs as their users) and Debian's slurm-wlm and munge packages (or any SLURM 22.05+):
+# with the real sbatch, srun, squeue and scancel (tests/tests/live_clusters/slurm_live_*.rs use
+# it): munged, slurmctld and one slurmd with a partition `debug`, every file (configuration,
+# munge key, sockets, state, logs) in one directory, no systemd and no change to /etc. Needs
+# root (slurmd runs jobs as their users) and Debian's slurm-wlm and munge packages (or any
+# SLURM 22.05+):
 #
 #   deploy/slurm/local-cluster.sh up DIR [--cpus N]   # start; prints the SLURM_CONF to export
 #   export SLURM_CONF=DIR/slurm.conf

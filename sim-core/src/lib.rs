@@ -4,7 +4,7 @@
 //! one seeded sample. It does no IO: no threads, no clock, no files, no global random state.
 
 // The floors, lowest first: each imports only its own floor and those below
-// (`tests/floors.rs` holds the order).
+// (`tests/sim/floors.rs` holds the order).
 mod body;
 mod config;
 mod episode;
@@ -58,7 +58,7 @@ pub use task::{TaskConfig, task_content_hash};
 /// Whether a test comparing a CPU-specific code path with its reference can run on this CPU
 /// (`present`: the CPU has `feature`). Without it the comparison would pass without comparing
 /// anything, so the test says so on stderr and is skipped; under CI, whose machines have the
-/// features, `tests/golden.rs` fails instead (sim-core itself reads no environment).
+/// features, `tests/sim/golden.rs` fails instead (sim-core itself reads no environment).
 #[cfg(test)]
 pub(crate) fn cpu_feature_for_test(feature: &str, present: bool, test: &str) -> bool {
     if !present {

@@ -6,8 +6,8 @@
 //! resolve; every container has requests and runs as a non-root uid.
 //!
 //! This follows kustomize's rules for what this base uses (resources, components, a
-//! secretGenerator, patches); `deploy_kubernetes.rs` also renders it with the real kustomize and
-//! validates the output against the Kubernetes API schemas.
+//! secretGenerator, patches); `tests/tests/deploy/kubernetes.rs` also renders it with the real
+//! kustomize and validates the output against the Kubernetes API schemas.
 
 use super::invocation::{Program, container_invocation, port_of, url_host_port};
 use super::yaml::{Lines, at, labels_match, parse_docs, scalar, seq, str_at, strings};

@@ -1,4 +1,4 @@
-//! What the `deploy_*` tests share: the files of `deploy/` read into memory, parsed (the
+//! What the `deploy` tests share: the files of `deploy/` read into memory, parsed (the
 //! Dockerfile, the compose file, the Kubernetes manifests and kustomizations, the SLURM and
 //! one-box scripts, the shell blocks of deploy/README.md), and the facts gathered from them:
 //! every `hevo` and `hevo-worker` command line, environment variable, port, state directory,
@@ -6,9 +6,9 @@
 //!
 //! [`Analysis::of`] parses all files in one pass (the compose file and the manifests fall back
 //! on the Dockerfile's `CMD` and `ENV`, so the order matters) and files each problem it finds
-//! under the [`Concern`] of the test that reports it: one test file per concern
-//! (`tests/tests/deploy_*.rs`). What needs the binaries' `--help` is checked separately, by
-//! [`check_flags`], and what is compared across files by [`check_conventions`].
+//! under the [`Concern`] of the test that reports it: one module of the `deploy` test binary
+//! per concern (`tests/tests/deploy/*.rs`). What needs the binaries' `--help` is checked
+//! separately, by [`check_flags`], and what is compared across files by [`check_conventions`].
 //!
 //! Each test works on a [`DeployFiles`], which the drift tests change in memory (a wrong flag,
 //! a wrong port) to show that the check they cover reports it.
@@ -90,24 +90,24 @@ impl DeployFiles {
     }
 }
 
-/// What a problem is about: each `tests/tests/deploy_*.rs` reports one concern.
+/// What a problem is about: each module `tests/tests/deploy/*.rs` reports one concern.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Concern {
     /// Subcommands, flags, values, required arguments and `HEVO_*` variables against the
-    /// binaries' `--help` (`deploy_flags.rs`).
+    /// binaries' `--help` (`flags.rs`).
     Flags,
-    /// The Dockerfile's stages, user, command and build (`deploy_dockerfile.rs`).
+    /// The Dockerfile's stages, user, command and build (`dockerfile.rs`).
     Dockerfile,
-    /// The compose file's services (`deploy_compose.rs`).
+    /// The compose file's services (`compose.rs`).
     Compose,
-    /// The manifests and kustomizations (`deploy_kubernetes.rs`).
+    /// The manifests and kustomizations (`kubernetes.rs`).
     Kubernetes,
-    /// The one-box and SLURM scripts (`deploy_scripts.rs`).
+    /// The one-box and SLURM scripts (`scripts.rs`).
     Scripts,
-    /// deploy/README.md's commands and references (`deploy_readme.rs`).
+    /// deploy/README.md's commands and references (`readme.rs`).
     Readme,
     /// One gRPC port, one metrics port, one state directory and one uid everywhere
-    /// (`deploy_conventions.rs`).
+    /// (`conventions.rs`).
     Conventions,
 }
 

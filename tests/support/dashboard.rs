@@ -3,7 +3,7 @@
 //! the page scripts that read what the browser shows, and a raw HTTP request for the
 //! statuses and headers a browser does not expose.
 
-use crate::service::{CLIENT_TOKEN, jobs, master_with_roles, submission};
+use crate::service::{CLIENT_TOKEN, SlowExitRoom, jobs, master_with_roles, submission};
 use crate::{Master, Proc, Scratch, binaries, lines_of};
 use std::io::{Read, Write};
 use std::process::{Command, Stdio};
@@ -11,28 +11,16 @@ use std::time::Duration;
 
 /// One exit-room node whose generations take a few tenths of a second each (40 genomes on
 /// 20 samples that never end early), so a page sees its curve grow.
-pub const WATCHABLE: &str = r#"
-[experiment]
-name = "watchable"
-seed = 11
-
-[evolution]
-population = 40
-elites = 4
-post_evaluation_samples = 2
-
-[[node]]
-name = "exit_room"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 2
-task = "exit_room"
-samples = 20
-generations = 15
-runs = 1
-[node.task_config]
-end_on_collision = false
-"#;
+pub fn watchable() -> String {
+    SlowExitRoom {
+        name: "watchable",
+        seed: 11,
+        population: 40,
+        elites: 4,
+        generations: 15,
+    }
+    .toml()
+}
 
 /// A master with separate client and worker tokens and its dashboard on port 0.
 pub fn master_with_dashboard(scratch: &Scratch) -> Master {

@@ -1,6 +1,6 @@
-//! Containers for the live container tests (`tests/tests/container_live_*.rs`): a podman with
-//! its own storage, network configuration and settings in a scratch directory (nothing of the
-//! machine's podman is used or changed), the image built from deploy/Dockerfile without a
+//! Containers for the live container tests (`tests/tests/live_clusters/container_live_*.rs`): a
+//! podman with its own storage, network configuration and settings in a scratch directory (nothing
+//! of the machine's podman is used or changed), the image built from deploy/Dockerfile without a
 //! container registry, and the containers the tests start, removed when [`Podman`] is dropped.
 //!
 //! The image: deploy/debian-base.sh assembles the runtime base from this machine's Debian

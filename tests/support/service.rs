@@ -1,6 +1,6 @@
 //! Helpers for the tests that treat a master as a hostile or unlucky user would: a master
 //! started with separate client and worker tokens, gRPC clients holding either credential,
-//! the master's metrics, and a small experiment to submit.
+//! the master's metrics, a small experiment to submit, and a slow one (`tests/fixtures/`).
 
 use crate::{Master, Scratch, start_master};
 use hevo_proto::client::{AuthChannel, ClientOptions, job_client, worker_client};
@@ -35,6 +35,55 @@ samples = 2
 generations = 2
 runs = 1
 "#;
+
+/// `tests/fixtures/exit_room_slow.toml`: exit-room samples that all run their 1000 cycles
+/// (collisions do not end them), so batches take long enough to catch a worker holding one.
+pub const SLOW_EXIT_ROOM: &str = include_str!("../fixtures/exit_room_slow.toml");
+
+/// [`SLOW_EXIT_ROOM`] with its experiment's name, seed, population, elites and generations
+/// changed: a job slow enough to watch its curve grow, or to cost a dashboard something.
+#[derive(Debug, Clone, Copy)]
+pub struct SlowExitRoom<'a> {
+    /// The experiment's name.
+    pub name: &'a str,
+    /// Its seed.
+    pub seed: u64,
+    /// Genomes per generation.
+    pub population: u32,
+    /// Genomes kept as they are from one generation to the next.
+    pub elites: u32,
+    /// Generations of its one run.
+    pub generations: u64,
+}
+
+impl SlowExitRoom<'_> {
+    /// The experiment file's text.
+    pub fn toml(&self) -> String {
+        let mut text = SLOW_EXIT_ROOM.to_string();
+        for (line, value) in [
+            ("name = \"slow\"", format!("name = \"{}\"", self.name)),
+            ("seed = 5", format!("seed = {}", self.seed)),
+            (
+                "population = 20",
+                format!("population = {}", self.population),
+            ),
+            ("elites = 4", format!("elites = {}", self.elites)),
+            (
+                "generations = 2",
+                format!("generations = {}", self.generations),
+            ),
+        ] {
+            let line = format!("\n{line}\n");
+            assert_eq!(
+                text.matches(&line).count(),
+                1,
+                "tests/fixtures/exit_room_slow.toml has no single line {line:?}"
+            );
+            text = text.replacen(&line, &format!("\n{value}\n"), 1);
+        }
+        text
+    }
+}
 
 /// The token-file flags of a master whose clients and workers have tokens of their own.
 pub fn role_args(scratch: &Scratch) -> Vec<String> {

@@ -1,7 +1,7 @@
-//! A real single-node SLURM cluster for the live SLURM tests (`tests/tests/slurm_live_*.rs`):
-//! `deploy/slurm/local-cluster.sh` starts munged, slurmctld and slurmd in a scratch directory
-//! and stops them when the [`Cluster`] is dropped; the commands a user types (sbatch, squeue,
-//! scontrol, scancel) run against it through `SLURM_CONF`.
+//! A real single-node SLURM cluster for the live SLURM tests
+//! (`tests/tests/live_clusters/slurm_live_*.rs`): `deploy/slurm/local-cluster.sh` starts munged,
+//! slurmctld and slurmd in a scratch directory and stops them when the [`Cluster`] is dropped; the
+//! commands a user types (sbatch, squeue, scontrol, scancel) run against it through `SLURM_CONF`.
 //!
 //! The cluster needs root (slurmd starts jobs as their users) and Debian's slurm-wlm and munge,
 //! which `scripts/install-test-tools.sh slurm` installs. Without either, [`Cluster::start`]

@@ -6,7 +6,7 @@
 //! `scripts/install-export-tools.sh` (a step of the test tools' install); without them the
 //! QEMU tests fail under CI and are skipped loudly elsewhere (`tools::require`).
 
-use hevo_tests::{Proc, Scratch, hevo, lines_of, repo_root, tools};
+use hevo_tests::{Proc, Scratch, hevo_ok, lines_of, repo_root, tools};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -24,15 +24,8 @@ fn export(controller: &str, task: &str, out: &Path, extra: &[&str]) -> String {
         &out_arg,
     ];
     args.extend(extra);
-    let output = hevo(&args, None, Duration::from_secs(600));
-    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
-    assert!(
-        output.status.success(),
-        "hevo {}:\n{stdout}{}",
-        args.join(" "),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    stdout
+    let output = hevo_ok(&args, None, Duration::from_secs(600));
+    String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
 /// `make -s -C DIR TARGET` with at most ten minutes; whether it succeeded, and its output.

@@ -703,25 +703,4 @@ mod tests {
         assert_eq!(tick_label(-0.0, 0.1), "0");
         assert_eq!(tick_label(500.0, 100.0), "500");
     }
-
-    /// Renders an example plot to /tmp for looking at: `cargo test -p hevo-viz --lib
-    /// crate::plot::tests::render_example -- --ignored`.
-    #[test]
-    #[ignore]
-    fn render_example() {
-        let runs: Vec<RunLog> = (0..5)
-            .map(|i| {
-                synthetic_run(
-                    &format!("run {i}"),
-                    if i == 4 { 140 } else { 200 - 10 * i },
-                    i,
-                )
-            })
-            .collect();
-        std::fs::write(
-            "/tmp/fitness_plot.svg",
-            fitness_plot_svg("solve_maze: fitness by generation", &runs),
-        )
-        .expect("write");
-    }
 }

@@ -2104,42 +2104,4 @@ mod tests {
             assert!((pair[1] - pair[0]).abs() < 180.0, "{degrees:?}");
         }
     }
-
-    /// Renders example pictures to /tmp for looking at: `cargo test -p hevo-viz --lib
-    /// crate::replay::tests::render_examples -- --ignored`.
-    #[test]
-    #[ignore]
-    fn render_examples() {
-        let (evaluator, trace) = (0..40)
-            .map(maze_trace)
-            .max_by_key(|(_, t)| (t.outcome.solved, t.cycles.len()))
-            .expect("some seeds");
-        let options = ReplayOptions {
-            rays_at_cycles: vec![30],
-            ..maze_options()
-        };
-        let svg = replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
-        std::fs::write("/tmp/replay_maze.svg", svg).expect("write");
-        let animated = ReplayOptions {
-            animate: true,
-            ..maze_options()
-        };
-        let svg = replay_svg(&trace, &animated, &|pose| evaluator.ir_cones(pose));
-        std::fs::write("/tmp/replay_maze_animated.svg", svg).expect("write");
-
-        let room =
-            Evaluator::new(TaskConfig::shipped("exit_room").unwrap()).expect("task is valid");
-        let trace = room.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(2));
-        let options = ReplayOptions {
-            rays_at_cycles: vec![0, 120],
-            ..maze_options()
-        };
-        let svg = replay_svg(&trace, &options, &|pose| room.ir_cones(pose));
-        std::fs::write("/tmp/replay_room.svg", svg).expect("write");
-
-        let rescue = Evaluator::new(TaskConfig::shipped("rescue").unwrap()).expect("task is valid");
-        let trace = rescue.evaluate_traced(&mut ScriptedMazeDriver::new(), Sample::seeded(4));
-        let svg = replay_svg(&trace, &maze_options(), &|pose| rescue.ir_cones(pose));
-        std::fs::write("/tmp/replay_rescue.svg", svg).expect("write");
-    }
 }

@@ -5,7 +5,7 @@
 //! with the compiler's vector instructions ([`crate::math::lanes`]). The world of each lane (sensing,
 //! moving, judging) runs the scalar evaluator's own per-sample code (`evaluate::SampleRun`), so an
 //! outcome here is bit-identical to [`Evaluator::evaluate`]'s for the same controller and
-//! sample; the property tests in `tests/lockstep.rs` hold the two to that. A lane whose sample
+//! sample; the property tests in `tests/sim/lockstep.rs` hold the two to that. A lane whose sample
 //! ends takes the next sample at once, so samples that end early leave no lane idle.
 
 use crate::body::Arc;

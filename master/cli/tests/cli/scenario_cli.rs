@@ -1,0 +1,85 @@
+//! `hevo scenario check` and `hevo scenario draw` as a user runs them, on the examples with a
+//! wandering teammate and with a room joined under a corridor, and on the rescue: check
+//! accepts them, and every region `draw` should name (the map's, the generators') is in the
+//! picture, shaded and labelled.
+
+use crate::support::hevo_ok;
+
+/// The names the picture's region labels carry, in order.
+fn region_labels(svg: &str) -> Vec<String> {
+    svg.split("<text class=\"region-label\"")
+        .skip(1)
+        .map(|rest| {
+            let text = &rest[rest.find('>').unwrap() + 1..];
+            text[..text.find("</text>").unwrap()].to_string()
+        })
+        .collect()
+}
+
+#[test]
+fn check_accepts_and_draw_names_every_region() {
+    let dir = tempfile::tempdir().unwrap();
+    for (file, seed, expected) in [
+        (
+            "scenarios/examples/find_wanderer.toml",
+            "3",
+            &["den", "dock"][..],
+        ),
+        (
+            "scenarios/examples/room_to_corridor.toml",
+            "2",
+            &["room", "room.exit", "corridor.start", "corridor.end"][..],
+        ),
+        (
+            "rescue",
+            "0",
+            &[
+                "branch_a",
+                "branch_b",
+                "branch_c",
+                "branch_d",
+                "entrance",
+                "room",
+                "room.exit",
+            ][..],
+        ),
+    ] {
+        let checked = String::from_utf8(hevo_ok(&["scenario", "check", file]).stdout).unwrap();
+        assert!(checked.contains(": ok ("), "{file}: {checked}");
+        let regions = checked
+            .lines()
+            .find_map(|line| line.trim().strip_prefix("regions: "))
+            .unwrap_or_else(|| panic!("{file}: no regions line in {checked}"));
+        let regions: Vec<&str> = regions.split(", ").collect();
+        for name in expected {
+            assert!(regions.contains(name), "{file}: {name} not in {regions:?}");
+        }
+        assert!(
+            checked.contains("sensors: ir (4), light (2), near_robot (1)")
+                && checked.contains("genome over all 7 inputs: 44 / 82 / 212 genes"),
+            "{file}: {checked}"
+        );
+        let out = dir.path().join("world.svg");
+        hevo_ok(&[
+            "scenario",
+            "draw",
+            file,
+            "--seed",
+            seed,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let svg = std::fs::read_to_string(&out).unwrap();
+        let mut labels = region_labels(&svg);
+        labels.sort();
+        let mut expected: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
+        expected.sort();
+        assert_eq!(labels, expected, "{file}");
+        for name in &expected {
+            assert!(
+                svg.contains(&format!("class=\"region-rect\" data-name=\"{name}\"")),
+                "{file}: {name} is not shaded"
+            );
+        }
+    }
+}

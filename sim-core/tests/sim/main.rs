@@ -1,0 +1,15 @@
+//! The simulator's integration tests, one binary: each module is one behaviour (the fitness
+//! functions, the golden trajectories, the scenario files, the lockstep evaluator, ...), and
+//! `support` holds what they share. Run one module with `cargo test -p hevo-sim-core --test
+//! sim MODULE::`.
+
+mod fitness;
+mod floors;
+mod fuzz_controller;
+mod golden;
+mod lockstep;
+mod scenario_files;
+mod scripted;
+mod support;
+mod wanderer;
+mod world_properties;
