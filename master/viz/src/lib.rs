@@ -1,5 +1,5 @@
-//! Pictures and reports of what evolved, read from run directories through the engine's
-//! run-directory format: SVG replays of single traced samples (the robot's path through the
+//! Pictures and reports of what evolved, read from run directories through `hevo_rundir`'s
+//! format, without the engine: SVG replays of single traced samples (the robot's path through the
 //! world, coloured by the controller that drove it), fitness plots of evolutionary runs, and
 //! REPRODUCTION.md ([`report`]), the paper's figures beside hevo's, with what chance does to
 //! a solve rate measured on finite samples ([`sampling`]). The pictures share one small SVG

@@ -7,11 +7,9 @@
 //! rerun it after more runs finish.
 
 use crate::sampling::{BestOfRuns, wilson_interval};
-use hevo_engine::post_evaluation::{percent, percent_or_dash};
-use hevo_engine::rundir::{
-    CHECKPOINT, CheckpointHeader, NodeSummary, RunSummary, SUMMARY, run_dirs,
-};
-use hevo_engine::store::{read_json, write_atomic};
+use hevo_rundir::eval_report::{percent, percent_or_dash};
+use hevo_rundir::store::{read_json, write_atomic};
+use hevo_rundir::{CHECKPOINT, CheckpointHeader, NodeSummary, RunSummary, SUMMARY, run_dirs};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -90,7 +88,7 @@ impl NodeResult {
 }
 
 /// [`read_json`], with an error that names the file.
-fn read_named<T: hevo_engine::store::DeserializeOwned>(
+fn read_named<T: hevo_rundir::store::DeserializeOwned>(
     path: &Path,
 ) -> Result<Option<T>, ReportError> {
     Ok(read_json(path)?)
@@ -101,10 +99,10 @@ fn read_named<T: hevo_engine::store::DeserializeOwned>(
 pub enum ReportError {
     /// A result file exists but cannot be read.
     #[error(transparent)]
-    Read(#[from] hevo_engine::store::ReadJsonError),
+    Read(#[from] hevo_rundir::store::ReadJsonError),
     /// A fitness log cannot be read.
     #[error(transparent)]
-    RunDir(#[from] hevo_engine::rundir::RunDirError),
+    RunDir(#[from] hevo_rundir::RunDirError),
     /// A directory cannot be listed, or the report or a picture cannot be written.
     #[error("{path}: {source}")]
     Io {
@@ -993,7 +991,7 @@ fn composition_paragraph<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_engine::post_evaluation::{RightChoice, StageReport};
+    use hevo_rundir::eval_report::{RightChoice, StageReport};
 
     fn node(name: &str, source: &str, finished_runs: usize) -> NodeResult {
         let run: RunSummary = serde_json::from_value(serde_json::json!({
@@ -1015,7 +1013,7 @@ mod tests {
 
     #[test]
     fn tasks_not_in_the_paper_get_their_own_table_with_variant_names() {
-        use hevo_engine::post_evaluation::VariantReport;
+        use hevo_rundir::eval_report::VariantReport;
         let variant = |idx: u32, name: &str, rate: f64| VariantReport {
             variant: idx,
             name: Some(name.to_string()),
@@ -1286,7 +1284,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(
-                |(variant, &solve_rate)| hevo_engine::post_evaluation::VariantReport {
+                |(variant, &solve_rate)| hevo_rundir::eval_report::VariantReport {
                     variant: variant as u32,
                     name: None,
                     samples: 100,
@@ -1310,7 +1308,7 @@ mod tests {
 
     #[test]
     fn the_stage_and_phase_tables_show_each_runs_shares_under_the_scenarios_names() {
-        use hevo_engine::post_evaluation::{PhaseShare, StageShare};
+        use hevo_rundir::eval_report::{PhaseShare, StageShare};
         let mut arena = node("forage", "main", 2);
         for (run_idx, run) in arena.runs.iter_mut().enumerate() {
             run.run = run_idx as u32;
@@ -1363,7 +1361,7 @@ mod tests {
 
     #[test]
     fn the_node_use_table_shows_counted_runs_and_names_the_others() {
-        use hevo_engine::post_evaluation::NodeUseReport;
+        use hevo_rundir::eval_report::NodeUseReport;
         let mut maze = node("solve_maze", "main", 3);
         for (run_idx, run) in maze.runs.iter_mut().enumerate() {
             run.run = run_idx as u32;
