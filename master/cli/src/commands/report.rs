@@ -22,7 +22,7 @@ pub struct ReportArgs {
 
 /// `hevo report`.
 pub fn report(args: ReportArgs) -> Result<()> {
-    let n = hevo_viz::report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;
+    let n = hevo_report::write_report(&args.runs_dirs, &args.ablation_dirs, &args.out)?;
     crate::outln!("{n} node(s) reported -> {}", args.out.display());
     Ok(())
 }

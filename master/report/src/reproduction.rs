@@ -525,11 +525,11 @@ fn fitness_picture(
     pictures: &Path,
     base: &Path,
 ) -> Result<Option<String>, ReportError> {
-    let logs = crate::read_run_logs(&node.dir)?;
+    let logs = hevo_viz::read_run_logs(&node.dir)?;
     if logs.is_empty() {
         return Ok(None);
     }
-    let svg = crate::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
+    let svg = hevo_viz::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
     let file = pictures.join(format!("{stem}-fitness.svg"));
     write_atomic(&file, svg.as_bytes()).map_err(io_error(&file))?;
     let relative = file.strip_prefix(base).unwrap_or(&file);
