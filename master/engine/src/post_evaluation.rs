@@ -1,8 +1,9 @@
 //! Post-evaluation: a controller's solve rate over many fresh samples, per variant (light
 //! configuration, start branch) where the task's scenario has them, per stage and per phase of
 //! the derived fitness where it has those, with mean fitness and collisions. The paper's
-//! tasks keep the report shape they had before scenarios (the rescue's `stages`); any other
-//! scenario's report names its variants, stages and phases as its file does. Used after each
+//! tasks keep the report shape they had before scenarios (the rescue's `stages`, its right
+//! choices keyed by the child each of its phases asks for); any other scenario's report names
+//! its variants, stages and phases as its file does. Used after each
 //! evolutionary run and by `hevo eval`. Evaluations go through the dispatcher, so they spread
 //! over every worker like a generation does. The report's format (and its text) is
 //! `hevo_rundir::eval_report`'s, re-exported here.
@@ -11,7 +12,7 @@ use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShare
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::SampleSummary;
 use hevo_sim_core::derive_seed;
-use hevo_sim_core::{Sample, TaskConfig};
+use hevo_sim_core::{ChildRef, Sample, Scenario, TaskConfig};
 use std::sync::Arc;
 
 pub use hevo_rundir::eval_report::*;
@@ -55,13 +56,29 @@ fn mean_phase_shares(summaries: &[SampleSummary], phase: usize) -> Option<f64> {
     (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
 }
 
-/// Per rescue sub-task, its share of right choices averaged over the samples that reached it.
-fn right_choice(summaries: &[SampleSummary]) -> RightChoice {
-    let mean = |phase: usize| mean_phase_shares(summaries, phase);
-    RightChoice {
-        exit_room: mean(0),
-        solve_maze: mean(1),
-        return_room: mean(2),
+/// Each phase of the scenario's derived fitness, keyed by `key` (of its name and the child it
+/// asks for), with its share of right choices averaged over the samples that reached it.
+fn phase_shares(
+    scenario: &Scenario,
+    summaries: &[SampleSummary],
+    key: fn(&str, &ChildRef) -> String,
+) -> Vec<PhaseShare> {
+    scenario
+        .phases
+        .iter()
+        .enumerate()
+        .map(|(idx, phase)| PhaseShare {
+            phase: key(&phase.name, &phase.child),
+            right_choice: mean_phase_shares(summaries, idx),
+        })
+        .collect()
+}
+
+/// The child a phase asks for, which keys the rescue's phases in its reports.
+fn phase_child(_name: &str, child: &ChildRef) -> String {
+    match child {
+        ChildRef::Name(name) => name.clone(),
+        ChildRef::Index(idx) => idx.to_string(),
     }
 }
 
@@ -119,7 +136,9 @@ pub fn report(task: &TaskConfig, summaries: &[SampleSummary], node_paths: &[Stri
             exited_room: share(&|s| s.stage >= 1),
             reached_teammate: share(&|s| s.stage >= 2),
             returned: share(&|s| s.stage >= 3),
-            right_choice: Some(right_choice(summaries)),
+            right_choice: Some(RightChoice {
+                phases: phase_shares(scenario, summaries, phase_child),
+            }),
         }),
         per_stage: if paper || scenario.stages.is_empty() {
             Vec::new()
@@ -137,15 +156,7 @@ pub fn report(task: &TaskConfig, summaries: &[SampleSummary], node_paths: &[Stri
         per_phase: if paper {
             Vec::new()
         } else {
-            scenario
-                .phases
-                .iter()
-                .enumerate()
-                .map(|(idx, phase)| PhaseShare {
-                    phase: phase.name.clone(),
-                    right_choice: mean_phase_shares(summaries, idx),
-                })
-                .collect()
+            phase_shares(scenario, summaries, |name, _child| name.to_string())
         },
         node_use: node_use_reports(summaries, node_paths),
     }
@@ -328,7 +339,20 @@ mod tests {
         );
         assert_eq!(r.per_variant[0].solve_rate, 0.5);
         // No sample carried sub-task counts, so no sub-task was reached.
-        assert_eq!(stages.right_choice.unwrap().shares(), [None; 3]);
+        let right_choice = stages.right_choice.unwrap();
+        let shares: Vec<(&str, Option<f64>)> = right_choice
+            .phases
+            .iter()
+            .map(|p| (p.phase.as_str(), p.right_choice))
+            .collect();
+        assert_eq!(
+            shares,
+            [
+                ("exit_room", None),
+                ("solve_maze", None),
+                ("return_room", None)
+            ]
+        );
     }
 
     #[test]
@@ -350,7 +374,9 @@ mod tests {
         ];
         let r = report(&shipped("rescue"), &summaries, &[]);
         let right_choice = r.stages.as_ref().unwrap().right_choice.clone().unwrap();
-        assert_eq!(right_choice.shares(), [Some(0.75), Some(0.25), Some(1.0)]);
+        let shares: Vec<Option<f64>> = right_choice.phases.iter().map(|p| p.right_choice).collect();
+        assert_eq!(shares, [Some(0.75), Some(0.25), Some(1.0)]);
+        assert_eq!(right_choice.share("solve_maze"), Some(0.25));
         // The same counts give each sample's f3.
         assert_eq!(summaries[0].sub_task_choices.derived_fitness(), 2.5);
         assert_eq!(summaries[1].sub_task_choices.derived_fitness(), 0.5);

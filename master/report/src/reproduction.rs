@@ -234,6 +234,10 @@ fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
     dirs
 }
 
+/// The rescue's children, in the order of its phases: the keys of its reports' right choices
+/// and the columns of its stage table.
+const RESCUE_CHILDREN: [&str; 3] = ["exit_room", "solve_maze", "return_room"];
+
 /// Per rescue run: the stage rates, the training f3 and f3's terms over the post-evaluation
 /// (dashes for summaries written before hevo counted them).
 fn rescue_stage_table(rescue: &NodeResult) -> String {
@@ -256,10 +260,13 @@ fn rescue_stage_table(rescue: &NodeResult) -> String {
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
     for run in &rescue.runs {
         if let Some(stages) = &run.post_evaluation.stages {
-            let [room, maze, back] = stages
-                .right_choice
-                .as_ref()
-                .map_or([None; 3], |right_choice| right_choice.shares())
+            let [room, maze, back] = RESCUE_CHILDREN
+                .map(|child| {
+                    stages
+                        .right_choice
+                        .as_ref()
+                        .and_then(|right_choice| right_choice.share(child))
+                })
                 .map(percent_or_dash);
             let _ = writeln!(
                 md,
@@ -991,7 +998,7 @@ fn composition_paragraph<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_rundir::eval_report::{RightChoice, StageReport};
+    use hevo_rundir::eval_report::{PhaseShare, RightChoice, StageReport};
 
     fn node(name: &str, source: &str, finished_runs: usize) -> NodeResult {
         let run: RunSummary = serde_json::from_value(serde_json::json!({
@@ -1068,9 +1075,16 @@ mod tests {
         // Run 1 was post-evaluated after hevo counted the choices; it never chose solve maze.
         if let Some(stages) = rescue.runs[1].post_evaluation.stages.as_mut() {
             stages.right_choice = Some(RightChoice {
-                exit_room: Some(1.0),
-                solve_maze: Some(0.0),
-                return_room: Some(0.998),
+                phases: [
+                    ("exit_room", Some(1.0)),
+                    ("solve_maze", Some(0.0)),
+                    ("return_room", Some(0.998)),
+                ]
+                .map(|(phase, right_choice)| PhaseShare {
+                    phase: phase.into(),
+                    right_choice,
+                })
+                .to_vec(),
             });
         }
         let table = rescue_stage_table(&rescue);
@@ -1091,9 +1105,16 @@ mod tests {
             reached_teammate: 0.89,
             returned: 0.75,
             right_choice: Some(RightChoice {
-                exit_room: Some(0.955),
-                solve_maze: Some(0.923),
-                return_room: Some(0.946),
+                phases: [
+                    ("exit_room", Some(0.955)),
+                    ("solve_maze", Some(0.923)),
+                    ("return_room", Some(0.946)),
+                ]
+                .map(|(phase, right_choice)| PhaseShare {
+                    phase: phase.into(),
+                    right_choice,
+                })
+                .to_vec(),
             }),
         });
         let section = ablation_section(&[rescue], &[node("rescue", "main", 3)], &[]);
