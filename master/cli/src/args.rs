@@ -93,7 +93,7 @@ impl TaskArgs {
     }
 }
 
-/// A command about one job (`watch`, `cancel`).
+/// A command about one job (`watch`, `cancel`, `delete`).
 #[derive(Debug, Args)]
 pub struct JobArgs {
     #[command(flatten)]
