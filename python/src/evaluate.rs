@@ -253,25 +253,11 @@ fn stages_of(report: &EvalReport) -> (Vec<String>, Vec<f64>) {
 
 /// A report's phase shares and their names: the rescue's three sub-tasks, or a scenario's.
 fn phases_of(report: &EvalReport) -> (Vec<String>, Vec<f64>) {
-    match report.stages.as_ref().and_then(|s| s.right_choice.as_ref()) {
-        Some(choice) => (
-            vec![
-                "exit_room".into(),
-                "solve_maze".into(),
-                "return_room".into(),
-            ],
-            choice
-                .shares()
-                .iter()
-                .map(|share| share.unwrap_or(f64::NAN))
-                .collect(),
-        ),
-        None => report
-            .per_phase
-            .iter()
-            .map(|phase| (phase.phase.clone(), phase.right_choice.unwrap_or(f64::NAN)))
-            .unzip(),
-    }
+    report
+        .phase_shares()
+        .iter()
+        .map(|phase| (phase.phase.clone(), phase.right_choice.unwrap_or(f64::NAN)))
+        .unzip()
 }
 
 impl Columns {

@@ -1,11 +1,14 @@
-//! The `hevo` command: clap definitions, progress bars and printing, and the client side of the
-//! service (`submit`, `watch`, `jobs`, `fetch`, `cancel`). Everything it does is a call into
-//! the engine, the service or the pictures; this crate only parses, prints and connects.
+//! The `hevo` command: clap definitions ([`cli`]), one module per subcommand ([`commands`]),
+//! progress bars and printing, and the client commands' output (`watch`, `jobs`). Everything
+//! it does is a call into the engine, the service, hevo-client or the pictures; this crate only
+//! parses, prints and connects. Modules import downwards only: `cli` -> `commands` -> `args`,
+//! `inputs`, `runtime`, `client`, `progress`, `output`.
 
+pub mod args;
 pub mod cli;
 pub mod client;
-pub mod export_command;
+pub mod commands;
+pub mod inputs;
 pub mod output;
 pub mod progress;
-pub mod scenario_command;
-pub mod service_commands;
+pub mod runtime;

@@ -364,7 +364,7 @@ pub fn job_header(job: &JobOverview, seed: u64, csrf: Option<&str>) -> String {
 mod tests {
     use super::*;
     use crate::RunView;
-    use hevo_engine::rundir::FitnessRow;
+    use hevo_rundir::FitnessRow;
 
     fn overview() -> JobOverview {
         JobOverview {

@@ -126,12 +126,16 @@ pub fn figure_html(node: &str, figure: &ReplayFigure) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::TaskConfig;
+    use hevo_sim_core::{ControllerFile, TaskConfig};
+
+    /// A controller shipped in `controllers/`.
+    fn shipped_controller(json: &str) -> ControllerFile {
+        ControllerFile::from_json_str(json).unwrap()
+    }
 
     #[test]
     fn a_replay_has_a_pose_per_cycle_inside_its_picture() {
-        let file =
-            hevo_engine::bench::paper_controller(&TaskConfig::shipped("follow_wall").unwrap(), 1);
+        let file = shipped_controller(include_str!("../../../controllers/follow_wall.json"));
         let best = BestController {
             file,
             task: TaskConfig::shipped("follow_wall").unwrap(),
@@ -148,8 +152,7 @@ mod tests {
 
     #[test]
     fn maze_tasks_replay_every_light_configuration() {
-        let file =
-            hevo_engine::bench::paper_controller(&TaskConfig::shipped("solve_maze").unwrap(), 1);
+        let file = shipped_controller(include_str!("../../../controllers/solve_maze.json"));
         let best = BestController {
             file,
             task: TaskConfig::shipped("solve_maze").unwrap(),

@@ -5,8 +5,8 @@
 //! watches the directories' logs and summaries for changes while a local run writes them.
 
 use crate::{BestController, BoxFuture, JobOverview, NodeView, RunView, Source, SourceError};
-use hevo_engine::rundir::{self, NodeSummary, RunSummary};
-use hevo_engine::store::read_json;
+use hevo_rundir::store::read_json;
+use hevo_rundir::{self as rundir, NodeSummary, RunSummary};
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::TaskConfig;
 use std::path::{Path, PathBuf};
@@ -278,7 +278,7 @@ impl Source for RunDirSource {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_engine::rundir::{FitnessRow, fitness_csv};
+    use hevo_rundir::{FitnessRow, fitness_csv};
 
     fn write_log(out: &Path, node: &str, run: u32, generations: u32) {
         let dir = rundir::run_dir(&rundir::node_dir(out, node), run);

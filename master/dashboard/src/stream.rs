@@ -151,7 +151,7 @@ pub fn job_events(
 mod tests {
     use super::*;
     use crate::RunView;
-    use hevo_engine::rundir::FitnessRow;
+    use hevo_rundir::FitnessRow;
 
     fn job(done: u64) -> JobOverview {
         JobOverview {

@@ -4,8 +4,9 @@
 //! default) node by node with checkpoints ([`runner`]), hands batches of genome evaluations
 //! to workers through the [`dispatch`]er, evaluates them on the [`executor`] (in-process
 //! workers: [`local`]; remote workers run the same executor), post-evaluates the results
-//! ([`post_evaluation`]), and owns the format of run directories ([`rundir`]), written
-//! atomically ([`store`]). [`inputs`] reads the task and controller of a one-off evaluation.
+//! ([`post_evaluation`]), and writes run directories in `hevo_rundir`'s format (re-exported
+//! as [`rundir`], with the runner's checkpoints, and [`store`], the atomic writes). [`inputs`]
+//! reads the task and controller of a one-off evaluation.
 //!
 //! The service, the worker, the pictures and the `hevo` command are built on it; it depends on
 //! none of them.
@@ -19,7 +20,8 @@ pub mod local;
 pub mod post_evaluation;
 pub mod rundir;
 pub mod runner;
-pub mod store;
+
+pub use hevo_rundir::store;
 
 pub use dispatch::{DispatchConfig, Dispatcher, EvaluationRequest};
 pub use experiment::Experiment;

@@ -1,15 +1,11 @@
-//! Pictures and reports of what evolved, read from run directories through the engine's
-//! run-directory format: SVG replays of single traced samples (the robot's path through the
-//! world, coloured by the controller that drove it), fitness plots of evolutionary runs, and
-//! REPRODUCTION.md ([`report`]), the paper's figures beside hevo's, with what chance does to
-//! a solve rate measured on finite samples ([`sampling`]). The pictures share one small SVG
-//! writer, so escaping, number formatting, palette and fonts are decided in one place. A traced
-//! sample can also be written as a table ([`trace_table`], CSV or JSON).
-
+//! Pictures of what evolved: SVG replays of single traced samples (the robot's path through the
+//! world, coloured by the controller that drove it) and fitness plots of evolutionary runs, read
+//! from run directories through `hevo_rundir`'s format, without the engine. The pictures share
+//! one small SVG writer, so escaping, number formatting, palette and fonts are decided in one
+//! place. A traced sample can also be written as a table ([`trace_table`], CSV or JSON). The
+//! paper's report, which uses these pictures, is hevo-report's.
 pub mod plot;
 pub mod replay;
-pub mod report;
-pub mod sampling;
 pub mod svg;
 pub mod trace_table;
 

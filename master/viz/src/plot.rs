@@ -5,7 +5,7 @@
 //! lengths: a run still in progress simply ends earlier.
 
 use crate::svg::{INK, PALETTE, SvgDocument, Tag, num_with, text_width};
-use hevo_engine::rundir::{self, FitnessRow, RunDirError};
+use hevo_rundir::{self as rundir, FitnessRow, RunDirError};
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -159,14 +159,15 @@ pub fn trace_json(trace: &Trace, node_paths: &[String]) -> Result<String, serde_
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_sim_core::Controller;
+    use hevo_sim_core::{Controller, ControllerFile};
     use hevo_sim_core::{Evaluator, Sample, TaskConfig};
 
     #[test]
     fn one_row_per_cycle_in_both_forms() {
         let mut task = TaskConfig::shipped("rescue").unwrap();
         task.max_cycles = Some(40);
-        let file = hevo_engine::bench::paper_controller(&task, 3);
+        let file = ControllerFile::from_json_str(include_str!("../../../controllers/rescue.json"))
+            .unwrap();
         let node_paths = file.node_paths();
         let mut controller = Controller::new(&file, None).unwrap();
         let evaluator = Evaluator::new(task).unwrap();

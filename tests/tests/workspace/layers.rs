@@ -158,14 +158,63 @@ const RULES: &[Rule] = &[
             "indicatif",
             "redb",
             "axum",
+            "tokio",
             "hevo-proto",
+            "hevo-evolve",
+            "hevo-engine",
+            "hevo-report",
             "hevo-service",
             "hevo-cli",
             "hevo-worker",
             "pyo3",
             "hevo-python",
         ],
-        why: "pictures and reports read run directories through the engine only",
+        why: "pictures read run directories through hevo-rundir's format, without the engine",
+    },
+    Rule {
+        package: "hevo-report",
+        forbidden: &[
+            "tokio",
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-proto",
+            "hevo-evolve",
+            "hevo-engine",
+            "hevo-service",
+            "hevo-dashboard",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
+        why: "the paper's report reads run directories (hevo-rundir) and draws with hevo-viz; it runs nothing",
+    },
+    Rule {
+        package: "hevo-rundir",
+        forbidden: &[
+            "tokio",
+            "tonic",
+            "prost",
+            "clap",
+            "indicatif",
+            "redb",
+            "axum",
+            "hevo-proto",
+            "hevo-evolve",
+            "hevo-engine",
+            "hevo-service",
+            "hevo-viz",
+            "hevo-dashboard",
+            "hevo-cli",
+            "hevo-worker",
+            "pyo3",
+            "hevo-python",
+        ],
+        why: "the run-directory format is plain data and files: no runtime, network, command line or other layer",
     },
     Rule {
         package: "hevo-proto",
@@ -192,6 +241,8 @@ const RULES: &[Rule] = &[
             "indicatif",
             "redb",
             "hevo-proto",
+            "hevo-evolve",
+            "hevo-engine",
             "hevo-service",
             "hevo-cli",
             "hevo-worker",
@@ -291,7 +342,7 @@ fn the_listing_sees_transitive_dependencies() {
             "hevo-cli without {expected}: {cli:?}"
         );
     }
-    // Through the engine only, never named by hevo-viz itself.
+    // Through sim-core only, never named by hevo-viz itself.
     assert!(dependency_names("hevo-viz").contains("rapier2d"));
 }
 

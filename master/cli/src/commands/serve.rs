@@ -1,14 +1,9 @@
-//! The `hevo` subcommands of the service: `serve`, `submit`, `watch`, `jobs`, `fetch`,
-//! `cancel`, `delete`, and the dispatch load benchmark behind `hevo bench --dispatch-load`. Their
-//! arguments live here (flattened into `cli.rs`'s command enum) so the service's command line
-//! is one module. Every client command takes the master's URL, the token (`--token`,
-//! `--token-file` or `HEVO_TOKEN`) and `--tls-ca`: the flags of `hevo_proto`'s [`MasterArgs`],
-//! which `hevo-worker` shares.
+//! `hevo serve`: the master, its job and worker services (gRPC), the metrics and the dashboard,
+//! with the tokens, limits and retention its flags give.
 
-use crate::client;
-use anyhow::{Context, Result, bail};
+use crate::runtime::runtime;
+use anyhow::{Result, bail};
 use clap::Args;
-use hevo_proto::client::MasterArgs;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -101,45 +96,6 @@ pub struct ServeArgs {
     pub retain_finished_hours: Option<f64>,
 }
 
-/// `hevo submit`.
-#[derive(Debug, Args)]
-pub struct SubmitArgs {
-    #[command(flatten)]
-    pub master: MasterArgs,
-    /// The experiment file (TOML).
-    pub file: PathBuf,
-    #[command(flatten)]
-    pub overrides: crate::cli::OverrideArgs,
-}
-
-/// A command about one job (`watch`, `cancel`).
-#[derive(Debug, Args)]
-pub struct JobArgs {
-    #[command(flatten)]
-    pub master: MasterArgs,
-    /// The job id (as printed by `hevo submit`).
-    pub job: String,
-}
-
-/// `hevo fetch`.
-#[derive(Debug, Args)]
-pub struct FetchArgs {
-    #[command(flatten)]
-    pub master: MasterArgs,
-    /// The job id.
-    pub job: String,
-    /// Where to write the results (the layout of `hevo run --out`).
-    #[arg(long)]
-    pub out: PathBuf,
-}
-
-fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")
-}
-
 /// `hevo serve`.
 pub fn serve(args: ServeArgs) -> Result<()> {
     let tokens = |token: &Option<String>, file: &Option<PathBuf>| -> Result<Vec<String>> {
@@ -220,103 +176,3 @@ pub fn serve(args: ServeArgs) -> Result<()> {
 
 /// How long a stopping master waits for work still on its blocking threads.
 const SHUTDOWN_GRACE: Duration = Duration::from_secs(1);
-
-/// `hevo submit`: prints the job id alone.
-pub fn submit(args: SubmitArgs) -> Result<()> {
-    let options = args.master.options()?;
-    let settings = args.overrides.overrides();
-    let job = runtime()?.block_on(hevo_client::submit(&options, &args.file, settings))?;
-    crate::outln!("{job}");
-    Ok(())
-}
-
-/// `hevo watch`: an error unless the job succeeded.
-pub fn watch(args: JobArgs) -> Result<()> {
-    let options = args.master.options()?;
-    let info = runtime()?.block_on(client::watch(&options, &args.job))?;
-    match hevo_proto::v1::JobState::try_from(info.state) {
-        Ok(hevo_proto::v1::JobState::Succeeded) => Ok(()),
-        Ok(hevo_proto::v1::JobState::Cancelled) => bail!("job {} was cancelled", args.job),
-        _ => bail!("job {} failed: {}", args.job, info.error),
-    }
-}
-
-/// `hevo jobs`.
-pub fn jobs(args: MasterArgs) -> Result<()> {
-    let options = args.options()?;
-    let table = runtime()?.block_on(client::jobs(&options))?;
-    crate::outln!("{}", table.trim_end_matches('\n'));
-    Ok(())
-}
-
-/// `hevo fetch`.
-pub fn fetch(args: FetchArgs) -> Result<()> {
-    let options = args.master.options()?;
-    let (info, files) = runtime()?.block_on(hevo_client::fetch(&options, &args.job, &args.out))?;
-    let state = hevo_client::state_name(info.state);
-    if state != "succeeded" {
-        eprintln!(
-            "warning: job {} is {state}: its results are incomplete",
-            args.job
-        );
-    }
-    crate::outln!(
-        "{files} files of job {} ({state}) -> {}",
-        args.job,
-        args.out.display()
-    );
-    Ok(())
-}
-
-/// `hevo cancel`.
-pub fn cancel(args: JobArgs) -> Result<()> {
-    let options = args.master.options()?;
-    let info = runtime()?.block_on(hevo_client::cancel(&options, &args.job))?;
-    crate::outln!("{}: {}", args.job, hevo_client::state_name(info.state));
-    Ok(())
-}
-
-/// `hevo delete`.
-pub fn delete(args: JobArgs) -> Result<()> {
-    let options = args.master.options()?;
-    runtime()?.block_on(hevo_client::delete(&options, &args.job))?;
-    crate::outln!("{}: deleted", args.job);
-    Ok(())
-}
-
-/// `hevo bench --dispatch-load WORKERS`.
-pub fn dispatch_load(workers: usize, seconds: f64, batch_cost_ms: f64, json: bool) -> Result<()> {
-    if !((1..=5_000).contains(&workers) && seconds > 0.0 && seconds <= 600.0) {
-        bail!("--dispatch-load takes 1 to 5000 workers, for at most 600 seconds");
-    }
-    if !(batch_cost_ms.is_finite() && batch_cost_ms >= 0.0) {
-        bail!("--batch-cost-ms must be a non-negative number");
-    }
-    let config = hevo_service::load::LoadConfig {
-        workers,
-        seconds,
-        batch_cost: Duration::from_secs_f64(batch_cost_ms / 1e3),
-        jobs: 4,
-        genomes: 1_000,
-        samples: 1,
-    };
-    let report = runtime()?.block_on(hevo_service::load::run(config))?;
-    if json {
-        crate::outln!("{}", serde_json::to_string(&report)?);
-    } else {
-        let [p50, p90, p99, max] = report.lease_latency_ms;
-        crate::outln!(
-            "dispatch load: {} fake workers, {:.0} ms per batch, {:.1} s: {:.0} batches/s (ideal {:.0}), {:.0} evaluations/s; \
-             lease latency p50 {p50:.2} ms, p90 {p90:.2} ms, p99 {p99:.2} ms, max {max:.2} ms over {} leases; {} reconnects",
-            report.workers,
-            report.batch_cost_ms,
-            report.seconds,
-            report.batches_per_second,
-            report.ideal_batches_per_second,
-            report.evaluations_per_second,
-            report.leases,
-            report.reconnects
-        );
-    }
-    Ok(())
-}

@@ -7,11 +7,9 @@
 //! rerun it after more runs finish.
 
 use crate::sampling::{BestOfRuns, wilson_interval};
-use hevo_engine::post_evaluation::{percent, percent_or_dash};
-use hevo_engine::rundir::{
-    CHECKPOINT, CheckpointHeader, NodeSummary, RunSummary, SUMMARY, run_dirs,
-};
-use hevo_engine::store::{read_json, write_atomic};
+use hevo_rundir::eval_report::{percent, percent_or_dash};
+use hevo_rundir::store::{read_json, write_atomic};
+use hevo_rundir::{CHECKPOINT, CheckpointHeader, NodeSummary, RunSummary, SUMMARY, run_dirs};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -90,7 +88,7 @@ impl NodeResult {
 }
 
 /// [`read_json`], with an error that names the file.
-fn read_named<T: hevo_engine::store::DeserializeOwned>(
+fn read_named<T: hevo_rundir::store::DeserializeOwned>(
     path: &Path,
 ) -> Result<Option<T>, ReportError> {
     Ok(read_json(path)?)
@@ -101,10 +99,10 @@ fn read_named<T: hevo_engine::store::DeserializeOwned>(
 pub enum ReportError {
     /// A result file exists but cannot be read.
     #[error(transparent)]
-    Read(#[from] hevo_engine::store::ReadJsonError),
+    Read(#[from] hevo_rundir::store::ReadJsonError),
     /// A fitness log cannot be read.
     #[error(transparent)]
-    RunDir(#[from] hevo_engine::rundir::RunDirError),
+    RunDir(#[from] hevo_rundir::RunDirError),
     /// A directory cannot be listed, or the report or a picture cannot be written.
     #[error("{path}: {source}")]
     Io {
@@ -236,6 +234,10 @@ fn sorted_subdirectories(entries: std::fs::ReadDir) -> Vec<PathBuf> {
     dirs
 }
 
+/// The rescue's children, in the order of its phases: the keys of its reports' right choices
+/// and the columns of its stage table.
+const RESCUE_CHILDREN: [&str; 3] = ["exit_room", "solve_maze", "return_room"];
+
 /// Per rescue run: the stage rates, the training f3 and f3's terms over the post-evaluation
 /// (dashes for summaries written before hevo counted them).
 fn rescue_stage_table(rescue: &NodeResult) -> String {
@@ -258,10 +260,13 @@ fn rescue_stage_table(rescue: &NodeResult) -> String {
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
     for run in &rescue.runs {
         if let Some(stages) = &run.post_evaluation.stages {
-            let [room, maze, back] = stages
-                .right_choice
-                .as_ref()
-                .map_or([None; 3], |right_choice| right_choice.shares())
+            let [room, maze, back] = RESCUE_CHILDREN
+                .map(|child| {
+                    stages
+                        .right_choice
+                        .as_ref()
+                        .and_then(|right_choice| right_choice.share(child))
+                })
                 .map(percent_or_dash);
             let _ = writeln!(
                 md,
@@ -527,11 +532,11 @@ fn fitness_picture(
     pictures: &Path,
     base: &Path,
 ) -> Result<Option<String>, ReportError> {
-    let logs = crate::read_run_logs(&node.dir)?;
+    let logs = hevo_viz::read_run_logs(&node.dir)?;
     if logs.is_empty() {
         return Ok(None);
     }
-    let svg = crate::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
+    let svg = hevo_viz::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
     let file = pictures.join(format!("{stem}-fitness.svg"));
     write_atomic(&file, svg.as_bytes()).map_err(io_error(&file))?;
     let relative = file.strip_prefix(base).unwrap_or(&file);
@@ -993,7 +998,7 @@ fn composition_paragraph<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hevo_engine::post_evaluation::{RightChoice, StageReport};
+    use hevo_rundir::eval_report::{PhaseShare, RightChoice, StageReport};
 
     fn node(name: &str, source: &str, finished_runs: usize) -> NodeResult {
         let run: RunSummary = serde_json::from_value(serde_json::json!({
@@ -1015,7 +1020,7 @@ mod tests {
 
     #[test]
     fn tasks_not_in_the_paper_get_their_own_table_with_variant_names() {
-        use hevo_engine::post_evaluation::VariantReport;
+        use hevo_rundir::eval_report::VariantReport;
         let variant = |idx: u32, name: &str, rate: f64| VariantReport {
             variant: idx,
             name: Some(name.to_string()),
@@ -1070,9 +1075,16 @@ mod tests {
         // Run 1 was post-evaluated after hevo counted the choices; it never chose solve maze.
         if let Some(stages) = rescue.runs[1].post_evaluation.stages.as_mut() {
             stages.right_choice = Some(RightChoice {
-                exit_room: Some(1.0),
-                solve_maze: Some(0.0),
-                return_room: Some(0.998),
+                phases: [
+                    ("exit_room", Some(1.0)),
+                    ("solve_maze", Some(0.0)),
+                    ("return_room", Some(0.998)),
+                ]
+                .map(|(phase, right_choice)| PhaseShare {
+                    phase: phase.into(),
+                    right_choice,
+                })
+                .to_vec(),
             });
         }
         let table = rescue_stage_table(&rescue);
@@ -1093,9 +1105,16 @@ mod tests {
             reached_teammate: 0.89,
             returned: 0.75,
             right_choice: Some(RightChoice {
-                exit_room: Some(0.955),
-                solve_maze: Some(0.923),
-                return_room: Some(0.946),
+                phases: [
+                    ("exit_room", Some(0.955)),
+                    ("solve_maze", Some(0.923)),
+                    ("return_room", Some(0.946)),
+                ]
+                .map(|(phase, right_choice)| PhaseShare {
+                    phase: phase.into(),
+                    right_choice,
+                })
+                .to_vec(),
             }),
         });
         let section = ablation_section(&[rescue], &[node("rescue", "main", 3)], &[]);
@@ -1286,7 +1305,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(
-                |(variant, &solve_rate)| hevo_engine::post_evaluation::VariantReport {
+                |(variant, &solve_rate)| hevo_rundir::eval_report::VariantReport {
                     variant: variant as u32,
                     name: None,
                     samples: 100,
@@ -1310,7 +1329,7 @@ mod tests {
 
     #[test]
     fn the_stage_and_phase_tables_show_each_runs_shares_under_the_scenarios_names() {
-        use hevo_engine::post_evaluation::{PhaseShare, StageShare};
+        use hevo_rundir::eval_report::{PhaseShare, StageShare};
         let mut arena = node("forage", "main", 2);
         for (run_idx, run) in arena.runs.iter_mut().enumerate() {
             run.run = run_idx as u32;
@@ -1363,7 +1382,7 @@ mod tests {
 
     #[test]
     fn the_node_use_table_shows_counted_runs_and_names_the_others() {
-        use hevo_engine::post_evaluation::NodeUseReport;
+        use hevo_rundir::eval_report::NodeUseReport;
         let mut maze = node("solve_maze", "main", 3);
         for (run_idx, run) in maze.runs.iter_mut().enumerate() {
             run.run = run_idx as u32;

@@ -9,7 +9,8 @@ use clap::{Args, ValueEnum};
 use hevo_engine::post_evaluation;
 use hevo_export::{ExportOptions, Target, closed_loop, vectors};
 
-use crate::cli::{TaskArgs, default_threads};
+use crate::args::TaskArgs;
+use crate::runtime::default_threads;
 
 /// `hevo export`.
 #[derive(Debug, Args)]

@@ -1,0 +1,10 @@
+//! The paper's report: `hevo report` writes REPRODUCTION.md from run directories, the paper's
+//! figures beside hevo's ([`reproduction`]), with what chance does to a solve rate measured on
+//! finite samples ([`sampling`]). It reads run directories through `hevo_rundir`'s format and
+//! draws its fitness-curve pictures with hevo-viz; the pictures themselves know nothing of the
+//! paper.
+
+pub mod reproduction;
+pub mod sampling;
+
+pub use reproduction::{PAPER, PaperResult, ReportError, write_report};
