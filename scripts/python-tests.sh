@@ -18,13 +18,12 @@ repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 tools=${HEVO_TEST_TOOLS_DIR:-$repo/.tools}
 venv=$tools/python-venv
 
-# Pinned, so that every machine tests with the same packages.
+# Pinned, so that every machine tests with the same packages. The examples' own (pycma,
+# matplotlib) come with the module, as its `examples` extra, pinned in python/pyproject.toml.
 packages=(
     maturin==1.16.0
     numpy==2.4.6
     pytest==9.2.0
-    cma==4.5.0
-    matplotlib==3.11.2
 )
 
 log() {
@@ -58,11 +57,11 @@ log "cargo build -p hevo-cli -p hevo-worker"
 cargo build --locked -p hevo-cli -p hevo-worker
 target=${CARGO_TARGET_DIR:-$repo/target}
 
-log "pip install ./python (dev profile)"
+log "pip install ./python[examples] (dev profile)"
 # maturin, the build backend, runs the venv's `maturin` from PATH and reads extra
 # `maturin build` flags from MATURIN_PEP517_ARGS.
 PATH=$venv/bin:$PATH MATURIN_PEP517_ARGS="--profile dev --locked" \
-    pip install --quiet --no-build-isolation ./python
+    pip install --quiet --no-build-isolation "./python[examples]"
 
 log "pytest python/tests"
 HEVO_TEST_BIN_DIR=$target/debug "$venv/bin/python" -m pytest python/tests "$@"
