@@ -4,6 +4,7 @@ pycma's CMA-ES with `hevo.evaluate` as its fitness function, and hevo's own evol
 algorithm through `hevo.run`. Both final controllers are then post-evaluated on the same fresh
 samples, and the best fitness per evaluation spent is plotted for both.
 
+    pip install "./python[examples]"          # the module with pycma and matplotlib
     python python/examples/cma_maze_arbitrator.py --out cma-vs-ea
     python python/examples/cma_maze_arbitrator.py --out tiny --evaluations 3000   # a quick look
 

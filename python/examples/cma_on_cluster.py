@@ -5,6 +5,7 @@ worker the master has. The genomes go over as pycma makes them, float64 and unbo
 keeps them in hevo's gene range. The last generation is evaluated once more here, with
 `hevo.evaluate`, to show the two give the same numbers.
 
+    pip install "./python[examples]"          # the module with pycma and matplotlib
     hevo serve --listen 0.0.0.0:50051 --token-file clients --worker-token-file workers &
     hevo-worker --master http://HOST:50051 &        # on every machine, HEVO_TOKEN=<worker token>
     python python/examples/cma_on_cluster.py --master http://HOST:50051 --token-file clients

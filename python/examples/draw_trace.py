@@ -2,6 +2,7 @@
 robot's path coloured by the primitive that drove it, and below it the sensor inputs and wheel
 outputs per cycle.
 
+    pip install "./python[examples]"          # the module with pycma and matplotlib
     python python/examples/draw_trace.py                       # the maze controller, variant 2
     python python/examples/draw_trace.py --controller controllers/rescue.json --task rescue \\
         --seed 1 --variant 3 --out rescue_trace.png

@@ -1,14 +1,37 @@
 """The examples in python/examples/ run, at tiny settings, and write what they say
-(`cma_on_cluster.py` against a real master with two workers)."""
+(`cma_on_cluster.py` against a real master with two workers), and what they import comes with
+the module or its `examples` extra."""
 
+import ast
 import pathlib
+import re
 import subprocess
 import sys
+
+import pytest
 
 import hevo
 from conftest import CLIENT_TOKEN, cluster
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_the_examples_extra_has_what_the_examples_import():
+    tomllib = pytest.importorskip("tomllib")
+    project = tomllib.loads((EXAMPLES.parent / "pyproject.toml").read_text())["project"]
+    provided = {re.split(r"[<>=!~ \[;]", requirement)[0] for requirement in
+                project["dependencies"] + project["optional-dependencies"]["examples"]}
+    for example in EXAMPLES.glob("*.py"):
+        tree = ast.parse(example.read_text())
+        imported = {alias.name.split(".")[0] for node in ast.walk(tree)
+                    if isinstance(node, ast.Import) for alias in node.names}
+        imported |= {node.module.split(".")[0] for node in ast.walk(tree)
+                     if isinstance(node, ast.ImportFrom) and node.level == 0}
+        outside = {name for name in imported
+                   if name not in sys.stdlib_module_names and name != "hevo"}
+        # The examples' packages install modules of their own names (cma, matplotlib).
+        missing = outside - provided
+        assert not missing, f"{example.name} imports {sorted(missing)}, not in the examples extra"
 
 
 def run_example(name, *args):
