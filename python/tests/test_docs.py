@@ -7,7 +7,7 @@ reader again. Every ```python block of a document is one of two kinds:
   a reader in a notebook would, in a temporary directory where the repository's input folders
   (controllers/, scenarios/, experiments/) are linked in, so every file a block writes lands
   in the temporary directory. A block whose first line is `# doc-test: needs cluster` runs
-  against a master with one worker started by the test (its address in place of
+  against a master with two workers started by the test (its address in place of
   `http://master:50051`, its client token in HEVO_TOKEN).
 
 No block is skipped: a block that is neither fails the test."""
@@ -130,7 +130,7 @@ def run_code_blocks(doc, directory, binaries):
     else:
         (directory / "cluster").mkdir()
         env["HEVO_TOKEN"] = CLIENT_TOKEN
-        with cluster(binaries, directory / "cluster") as running:
+        with cluster(binaries, directory / "cluster", workers=2) as running:
             completed = run(running.url)
     assert completed.returncode == 0, completed.stdout + completed.stderr
     ran = [int(l.split()[-1]) for l in completed.stdout.splitlines() if l.startswith("doc-test: block")]
