@@ -3,7 +3,7 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
-use hevo_evolve::cmaes::CmaesSettings;
+use hevo_evolve::cmaes::{CmaesSettings, CmaesVariant};
 use hevo_evolve::ga::GaSettings;
 use hevo_evolve::seeds::VariantDraw;
 use hevo_evolve::{StrategyError, StrategySettings};
@@ -231,6 +231,45 @@ pub struct EvolutionParams {
     /// the choice existed stay valid.
     #[serde(default, skip_serializing_if = "TrainingVariants::is_balanced")]
     pub training_variants: TrainingVariants,
+    /// CMA-ES: the full covariance matrix or its diagonal. Left out of the serialized form
+    /// when full, so the fingerprints of CMA-ES runs made before the choice stay valid.
+    #[serde(default, skip_serializing_if = "CmaesVariantName::is_full")]
+    pub cmaes_variant: CmaesVariantName,
+    /// CMA-ES: IPOP restarts at most (0: none). Left out of the serialized form when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub restarts: u32,
+    /// CMA-ES: each restart multiplies the population by this. Left out of the serialized
+    /// form when 2.
+    #[serde(
+        default = "default_restart_population_factor",
+        skip_serializing_if = "is_default_restart_population_factor"
+    )]
+    pub restart_population_factor: u32,
+}
+
+/// CMA-ES's covariance matrix as a file names it (`hevo_evolve`'s [`CmaesVariant`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CmaesVariantName {
+    /// The full matrix.
+    #[default]
+    Full,
+    /// Its diagonal: sep-CMA-ES, for large genomes.
+    Separable,
+}
+
+impl CmaesVariantName {
+    fn is_full(&self) -> bool {
+        *self == CmaesVariantName::Full
+    }
+}
+
+fn default_restart_population_factor() -> u32 {
+    CmaesSettings::default().restart_population_factor
+}
+
+fn is_default_restart_population_factor(factor: &u32) -> bool {
+    *factor == default_restart_population_factor()
 }
 
 /// How the samples of a generation meet a task's light configurations (or start branches). The
@@ -291,6 +330,9 @@ impl Default for EvolutionParams {
             gene_range: ga.gene_range,
             post_evaluation_samples: 100,
             training_variants: TrainingVariants::Balanced,
+            cmaes_variant: CmaesVariantName::Full,
+            restarts: 0,
+            restart_population_factor: default_restart_population_factor(),
         }
     }
 }
@@ -312,6 +354,12 @@ impl EvolutionParams {
                 population: self.population,
                 initial_sigma: self.initial_sigma,
                 gene_range: self.gene_range,
+                variant: match self.cmaes_variant {
+                    CmaesVariantName::Full => CmaesVariant::Full,
+                    CmaesVariantName::Separable => CmaesVariant::Separable,
+                },
+                restarts: self.restarts,
+                restart_population_factor: self.restart_population_factor,
             }),
         }
     }
@@ -347,6 +395,12 @@ pub struct EvolutionOverrides {
     post_evaluation_samples: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     training_variants: Option<TrainingVariants>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cmaes_variant: Option<CmaesVariantName>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    restarts: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    restart_population_factor: Option<u32>,
 }
 
 impl EvolutionOverrides {
@@ -365,24 +419,39 @@ impl EvolutionOverrides {
                 .post_evaluation_samples
                 .unwrap_or(base.post_evaluation_samples),
             training_variants: self.training_variants.unwrap_or(base.training_variants),
+            cmaes_variant: self.cmaes_variant.unwrap_or(base.cmaes_variant),
+            restarts: self.restarts.unwrap_or(base.restarts),
+            restart_population_factor: self
+                .restart_population_factor
+                .unwrap_or(base.restart_population_factor),
         }
     }
 
-    /// The first key set here that only another algorithm than `algorithm` has: a file that
-    /// sets the GA's `elites` for a CMA-ES node is refused rather than silently ignored.
-    fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<&'static str> {
+    /// The first key set here that only another algorithm than `algorithm` has, with that
+    /// algorithm: a file that sets the GA's `elites` for a CMA-ES node is refused rather than
+    /// silently ignored.
+    fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<(&'static str, Algorithm)> {
         let ga_only = [
             ("elites", self.elites.is_some()),
             ("mutation_probability", self.mutation_probability.is_some()),
             ("mutation_sigma", self.mutation_sigma.is_some()),
         ];
-        match algorithm {
-            Algorithm::Ga => None,
-            Algorithm::Cmaes => ga_only
-                .into_iter()
-                .find(|(_, set)| *set)
-                .map(|(key, _)| key),
-        }
+        let cmaes_only = [
+            ("cmaes_variant", self.cmaes_variant.is_some()),
+            ("restarts", self.restarts.is_some()),
+            (
+                "restart_population_factor",
+                self.restart_population_factor.is_some(),
+            ),
+        ];
+        let (others, owner) = match algorithm {
+            Algorithm::Ga => (cmaes_only, Algorithm::Cmaes),
+            Algorithm::Cmaes => (ga_only, Algorithm::Ga),
+        };
+        others
+            .into_iter()
+            .find(|(_, set)| *set)
+            .map(|(key, _)| (key, owner))
     }
 }
 
@@ -697,18 +766,20 @@ impl Experiment {
         let base = parsed.evolution.apply(&EvolutionParams::default());
         // Each `[evolution]` table sets keys of the algorithm in force where it stands: the
         // experiment's for the experiment's algorithm, a node's for the node's.
-        let another_algorithm_s = |path: String, algorithm: Algorithm| {
+        let another_algorithm_s = |path: String, owner: Algorithm, algorithm: Algorithm| {
             invalid(
                 path,
                 format!(
-                    "is a setting of algorithm \"ga\"; the algorithm here is \"{}\"",
+                    "is a setting of algorithm \"{}\"; the algorithm here is \"{}\"",
+                    owner.name(),
                     algorithm.name()
                 ),
             )
         };
-        if let Some(key) = parsed.evolution.key_of_another_algorithm(base.algorithm) {
+        if let Some((key, owner)) = parsed.evolution.key_of_another_algorithm(base.algorithm) {
             return Err(another_algorithm_s(
                 format!("evolution.{key}"),
+                owner,
                 base.algorithm,
             ));
         }
@@ -826,13 +897,14 @@ impl Experiment {
                 .evolution
                 .as_ref()
                 .map_or_else(|| base.clone(), |o| o.apply(&base));
-            if let Some(key) = node
+            if let Some((key, owner)) = node
                 .evolution
                 .as_ref()
                 .and_then(|o| o.key_of_another_algorithm(evolution.algorithm))
             {
                 return Err(another_algorithm_s(
                     at(&format!("evolution.{key}")),
+                    owner,
                     evolution.algorithm,
                 ));
             }
@@ -1148,6 +1220,24 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
                 "must be at most {}, got {}",
                 limits::POPULATION,
                 params.population
+            ),
+        );
+    }
+    // IPOP's last restart asks for population x factor^restarts genomes a generation.
+    if let StrategySettings::Cmaes(settings) = params.strategy_settings()
+        && settings.restarts > 0
+        && settings
+            .largest_population()
+            .is_none_or(|largest| largest > limits::POPULATION)
+    {
+        return fail(
+            "restarts",
+            format!(
+                "the last restart's population, {} x {}^{}, must be at most {}",
+                params.population,
+                params.restart_population_factor,
+                params.restarts,
+                limits::POPULATION
             ),
         );
     }
@@ -1707,6 +1797,9 @@ runs = 1
                 population: 18,
                 initial_sigma: 0.5,
                 gene_range: [-10.0, 10.0],
+                variant: CmaesVariant::Full,
+                restarts: 0,
+                restart_population_factor: 2,
             })
         );
         let json = serde_json::to_string(&tl.evolution).unwrap();
@@ -1766,6 +1859,80 @@ runs = 1
             err.contains("algorithm") && err.contains("novelty"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn cmaes_variant_and_restarts_are_cmaes_keys_checked_and_fingerprinted_when_set() {
+        let cmaes = |keys: &str| {
+            GOOD.replace(
+                "mutation_sigma = 0.5",
+                &format!("algorithm = \"cmaes\"\npopulation = 18\n{keys}"),
+            )
+        };
+        let experiment = parse(&cmaes(
+            "cmaes_variant = \"separable\"\nrestarts = 4\nrestart_population_factor = 3",
+        ))
+        .unwrap();
+        let tl = &experiment.node("tl").unwrap().evolution;
+        assert_eq!(
+            tl.strategy_settings(),
+            StrategySettings::Cmaes(CmaesSettings {
+                population: 18,
+                initial_sigma: 2.0,
+                gene_range: [-10.0, 10.0],
+                variant: CmaesVariant::Separable,
+                restarts: 4,
+                restart_population_factor: 3,
+            })
+        );
+        // Each joins the fingerprint only when set away from its default.
+        let json = serde_json::to_string(tl).unwrap();
+        for key in [
+            "\"cmaes_variant\":\"separable\"",
+            "\"restarts\":4",
+            "\"restart_population_factor\":3",
+        ] {
+            assert!(json.contains(key), "{key} in {json}");
+        }
+        let defaults = parse(&cmaes(
+            "cmaes_variant = \"full\"\nrestarts = 0\nrestart_population_factor = 2",
+        ))
+        .unwrap();
+        let plain = parse(&cmaes("")).unwrap();
+        let json = serde_json::to_string(&defaults.node("tl").unwrap().evolution).unwrap();
+        assert_eq!(
+            json,
+            serde_json::to_string(&plain.node("tl").unwrap().evolution).unwrap()
+        );
+        for key in ["cmaes_variant", "restarts", "restart_population_factor"] {
+            assert!(!json.contains(key), "{key} in {json}");
+        }
+
+        // A GA node may not set them; a wrong value is refused naming its key.
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "restarts = 2"));
+        assert!(
+            err.contains("node[2].evolution.restarts")
+                && err
+                    .contains("is a setting of algorithm \"cmaes\"; the algorithm here is \"ga\""),
+            "{err}"
+        );
+        let err = error_of(&cmaes("cmaes_variant = \"diagonal\""));
+        assert!(
+            err.contains("cmaes_variant") && err.contains("diagonal"),
+            "{err}"
+        );
+        let err = error_of(&cmaes("restarts = 2\nrestart_population_factor = 1"));
+        assert!(
+            err.contains("node[2].evolution.restart_population_factor") && err.contains("2..=16"),
+            "{err}"
+        );
+        // The last restart's population is bounded before any work: 18 x 2^13 > 100,000.
+        let err = error_of(&cmaes("restarts = 13"));
+        assert!(
+            err.contains("node[2].evolution.restarts") && err.contains("18 x 2^13"),
+            "{err}"
+        );
+        assert!(parse(&cmaes("restarts = 12")).is_ok());
     }
 
     #[test]

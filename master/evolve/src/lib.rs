@@ -224,7 +224,19 @@ mod tests {
             StrategySettings::Cmaes(cmaes::CmaesSettings {
                 population: 12,
                 initial_sigma: 2.0,
-                gene_range: [-10.0, 10.0],
+                ..cmaes::CmaesSettings::default()
+            }),
+            StrategySettings::Cmaes(cmaes::CmaesSettings {
+                population: 12,
+                initial_sigma: 2.0,
+                variant: cmaes::CmaesVariant::Separable,
+                ..cmaes::CmaesSettings::default()
+            }),
+            StrategySettings::Cmaes(cmaes::CmaesSettings {
+                population: 12,
+                initial_sigma: 2.0,
+                restarts: 3,
+                ..cmaes::CmaesSettings::default()
             }),
         ]
     }
