@@ -1198,6 +1198,72 @@ runs = 1
         .await;
     }
 
+    /// CMA-ES's settings of `EXPERIMENT`'s node, with extra keys.
+    fn cmaes_experiment(keys: &str) -> String {
+        EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            &format!("post_evaluation_samples = 2\nalgorithm = \"cmaes\"\n{keys}"),
+        )
+    }
+
+    #[tokio::test]
+    async fn a_separable_cmaes_run_with_restarts_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        // The fake fitness of a genome far from the planted one is its sample's offset alone,
+        // the same for every genome: each search ends after its first generation (pycma's
+        // TolFun), so the population doubles from 4 to 32 over generations 0-2, and the pause
+        // after generation 2 saves the state the last restart made.
+        let cmaes = cmaes_experiment("population = 4\ncmaes_variant = \"separable\"\nrestarts = 3");
+        paused_and_resumed_ends_as_straight(&cmaes, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            let StrategyState::Cmaes(state) = checkpoint.strategy else {
+                panic!("the run uses CMA-ES");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 32));
+            assert!(state.covariance.is_empty(), "separable: no full matrix");
+            assert!(state.covariance_diagonal.is_some());
+            let restarts = state.restarts.expect("restarts are on");
+            assert_eq!((restarts.restarts_done, restarts.started_at), (3, 3));
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_changed_cmaes_variant_or_restart_setting_is_refused_by_the_fingerprint() {
+        let dir = tempfile::tempdir().unwrap();
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
+        let settings = RunSettings {
+            out_dir: dir.path().join("out"),
+            overrides: Overrides::default(),
+            job: "changed".into(),
+        };
+        let run = async |keys: &str| {
+            let experiment =
+                Experiment::parse(&cmaes_experiment(keys), &dir.path().join("e.toml")).unwrap();
+            run_experiment(&experiment, &settings, &dispatcher, &Recorder::default()).await
+        };
+        served(run("population = 4\nrestarts = 1"), &mut worker)
+            .await
+            .unwrap();
+        // The same settings again: the finished run is taken as it is.
+        served(run("population = 4\nrestarts = 1"), &mut worker)
+            .await
+            .unwrap();
+        for changed in [
+            "population = 4\nrestarts = 2",
+            "population = 4\nrestarts = 1\nrestart_population_factor = 3",
+            "population = 4\nrestarts = 1\ncmaes_variant = \"separable\"",
+            "population = 4",
+        ] {
+            let error = served(run(changed), &mut worker).await.unwrap_err();
+            assert!(
+                matches!(error, RunError::Fingerprint { .. }),
+                "{changed}: {error}"
+            );
+        }
+        worker.abort();
+    }
+
     /// The run paused on purpose under `experiments/runs/` (exit room's run 4, stopped at
     /// generation 79 with a population-only checkpoint) must stay resumable: its fingerprint is
     /// still the one its experiment gives, and its checkpoint is read as the GA's state.
