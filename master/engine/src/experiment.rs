@@ -5,6 +5,7 @@
 
 use hevo_evolve::cmaes::{CmaesSettings, CmaesVariant};
 use hevo_evolve::ga::GaSettings;
+use hevo_evolve::novelty::NoveltySettings;
 use hevo_evolve::seeds::VariantDraw;
 use hevo_evolve::{StrategyError, StrategySettings};
 use hevo_sim_core::Scenario;
@@ -245,6 +246,35 @@ pub struct EvolutionParams {
         skip_serializing_if = "is_default_restart_population_factor"
     )]
     pub restart_population_factor: u32,
+    /// Novelty search's own settings; absent (and out of the fingerprint) for the others.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub novelty: Option<NoveltyParams>,
+}
+
+/// Novelty search's keys (`novelty_*`), each with its default when the file leaves it out.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoveltyParams {
+    /// k: the nearest neighbours a genome's novelty averages over.
+    pub neighbours: u32,
+    /// Descriptors added to the archive after each generation (its most novel genomes').
+    pub archive_per_generation: u32,
+    /// The most descriptors the archive keeps.
+    pub archive_size: u32,
+    /// The weight of fitness against novelty, in [0, 1].
+    pub fitness_weight: f64,
+}
+
+impl Default for NoveltyParams {
+    fn default() -> NoveltyParams {
+        let defaults = NoveltySettings::default();
+        NoveltyParams {
+            neighbours: defaults.neighbours,
+            archive_per_generation: defaults.archive_per_generation,
+            archive_size: defaults.archive_size,
+            fitness_weight: defaults.fitness_weight,
+        }
+    }
 }
 
 /// CMA-ES's covariance matrix as a file names it (`hevo_evolve`'s [`CmaesVariant`]).
@@ -300,6 +330,8 @@ pub enum Algorithm {
     Ga,
     /// (mu/mu_w, lambda)-CMA-ES with the standard parameters.
     Cmaes,
+    /// Novelty search over behaviour descriptors, bred by the GA's scheme.
+    Novelty,
 }
 
 impl Algorithm {
@@ -312,6 +344,7 @@ impl Algorithm {
         match self {
             Algorithm::Ga => hevo_evolve::ga::ALGORITHM,
             Algorithm::Cmaes => hevo_evolve::cmaes::ALGORITHM,
+            Algorithm::Novelty => hevo_evolve::novelty::ALGORITHM,
         }
     }
 }
@@ -333,6 +366,7 @@ impl Default for EvolutionParams {
             cmaes_variant: CmaesVariantName::Full,
             restarts: 0,
             restart_population_factor: default_restart_population_factor(),
+            novelty: None,
         }
     }
 }
@@ -341,15 +375,26 @@ impl Default for EvolutionParams {
 impl EvolutionParams {
     /// The strategy the node is evolved with, and its settings.
     pub fn strategy_settings(&self) -> StrategySettings {
+        let ga = GaSettings {
+            population: self.population,
+            elites: self.elites,
+            mutation_probability: self.mutation_probability,
+            mutation_sigma: self.mutation_sigma,
+            initial_sigma: self.initial_sigma,
+            gene_range: self.gene_range,
+        };
         match self.algorithm {
-            Algorithm::Ga => StrategySettings::Ga(GaSettings {
-                population: self.population,
-                elites: self.elites,
-                mutation_probability: self.mutation_probability,
-                mutation_sigma: self.mutation_sigma,
-                initial_sigma: self.initial_sigma,
-                gene_range: self.gene_range,
-            }),
+            Algorithm::Ga => StrategySettings::Ga(ga),
+            Algorithm::Novelty => {
+                let novelty = self.novelty.unwrap_or_default();
+                StrategySettings::Novelty(NoveltySettings {
+                    ga,
+                    neighbours: novelty.neighbours,
+                    archive_per_generation: novelty.archive_per_generation,
+                    archive_size: novelty.archive_size,
+                    fitness_weight: novelty.fitness_weight,
+                })
+            }
             Algorithm::Cmaes => StrategySettings::Cmaes(CmaesSettings {
                 population: self.population,
                 initial_sigma: self.initial_sigma,
@@ -401,6 +446,14 @@ pub struct EvolutionOverrides {
     restarts: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     restart_population_factor: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_neighbours: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_archive_per_generation: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_archive_size: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_fitness_weight: Option<f64>,
 }
 
 impl EvolutionOverrides {
@@ -424,34 +477,76 @@ impl EvolutionOverrides {
             restart_population_factor: self
                 .restart_population_factor
                 .unwrap_or(base.restart_population_factor),
+            novelty: self.novelty(base),
         }
     }
 
-    /// The first key set here that only another algorithm than `algorithm` has, with that
-    /// algorithm: a file that sets the GA's `elites` for a CMA-ES node is refused rather than
-    /// silently ignored.
+    /// Novelty search's settings: the base's (or the defaults) with this table's keys; `None`
+    /// unless the algorithm in force is novelty search, so the others' fingerprints keep
+    /// their form.
+    fn novelty(&self, base: &EvolutionParams) -> Option<NoveltyParams> {
+        if self.algorithm.unwrap_or(base.algorithm) != Algorithm::Novelty {
+            return None;
+        }
+        let base = base.novelty.unwrap_or_default();
+        Some(NoveltyParams {
+            neighbours: self.novelty_neighbours.unwrap_or(base.neighbours),
+            archive_per_generation: self
+                .novelty_archive_per_generation
+                .unwrap_or(base.archive_per_generation),
+            archive_size: self.novelty_archive_size.unwrap_or(base.archive_size),
+            fitness_weight: self.novelty_fitness_weight.unwrap_or(base.fitness_weight),
+        })
+    }
+
+    /// The first key set here that `algorithm` does not have, with an algorithm that has it:
+    /// a file that sets the GA's `elites` for a CMA-ES node is refused rather than silently
+    /// ignored. (Novelty search breeds by the GA's scheme, so it has the GA's keys.)
     fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<(&'static str, Algorithm)> {
-        let ga_only = [
-            ("elites", self.elites.is_some()),
-            ("mutation_probability", self.mutation_probability.is_some()),
-            ("mutation_sigma", self.mutation_sigma.is_some()),
-        ];
-        let cmaes_only = [
-            ("cmaes_variant", self.cmaes_variant.is_some()),
-            ("restarts", self.restarts.is_some()),
+        use Algorithm::{Cmaes, Ga, Novelty};
+        let keys: [(&'static str, bool, &[Algorithm]); 10] = [
+            ("elites", self.elites.is_some(), &[Ga, Novelty]),
+            (
+                "mutation_probability",
+                self.mutation_probability.is_some(),
+                &[Ga, Novelty],
+            ),
+            (
+                "mutation_sigma",
+                self.mutation_sigma.is_some(),
+                &[Ga, Novelty],
+            ),
+            ("cmaes_variant", self.cmaes_variant.is_some(), &[Cmaes]),
+            ("restarts", self.restarts.is_some(), &[Cmaes]),
             (
                 "restart_population_factor",
                 self.restart_population_factor.is_some(),
+                &[Cmaes],
+            ),
+            (
+                "novelty_neighbours",
+                self.novelty_neighbours.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_archive_per_generation",
+                self.novelty_archive_per_generation.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_archive_size",
+                self.novelty_archive_size.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_fitness_weight",
+                self.novelty_fitness_weight.is_some(),
+                &[Novelty],
             ),
         ];
-        let (others, owner) = match algorithm {
-            Algorithm::Ga => (cmaes_only, Algorithm::Cmaes),
-            Algorithm::Cmaes => (ga_only, Algorithm::Ga),
-        };
-        others
-            .into_iter()
-            .find(|(_, set)| *set)
-            .map(|(key, _)| (key, owner))
+        keys.into_iter()
+            .find(|(_, set, owners)| *set && !owners.contains(&algorithm))
+            .map(|(key, _, owners)| (key, owners[0]))
     }
 }
 
@@ -1199,7 +1294,7 @@ fn one_line(message: &str) -> String {
 
 fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> {
     let fail = |key: &str, message: String| Err((key.to_string(), message));
-    if params.algorithm == Algorithm::Ga
+    if matches!(params.algorithm, Algorithm::Ga | Algorithm::Novelty)
         && (params.elites == 0
             || params.population < 2
             || !params.population.is_multiple_of(params.elites)
@@ -1854,9 +1949,9 @@ runs = 1
         );
         let err = error_of(&everywhere.replace("population = 10", "population = 1"));
         assert!(err.contains("node[2].evolution.population"), "{err}");
-        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"novelty\""));
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"map_elites\""));
         assert!(
-            err.contains("algorithm") && err.contains("novelty"),
+            err.contains("algorithm") && err.contains("map_elites"),
             "{err}"
         );
     }

@@ -20,9 +20,9 @@ use crate::store::{
     read_json, read_json_with, remove_leftover_temporaries, write_atomic, write_json_atomic,
 };
 use hevo_evolve::{Evaluation, seeds};
-use hevo_sim_core::Sample;
 use hevo_sim_core::task_content_hash;
 use hevo_sim_core::{ControllerFile, NodeSpec};
+use hevo_sim_core::{Sample, SampleSummary};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -686,7 +686,13 @@ async fn run_one(
             cycles,
         });
         log.push(row);
-        let evaluations: Vec<Evaluation> = fitness.into_iter().map(Evaluation::new).collect();
+        let evaluations: Vec<Evaluation> = fitness
+            .into_iter()
+            .zip(&results)
+            .map(|(fitness, samples)| {
+                Evaluation::with_descriptor(fitness, mean_descriptor(samples))
+            })
+            .collect();
         strategy
             .tell(&evaluations)
             .map_err(|e| RunError::Invalid(format!("{name} run {run}: {e}")))?;
@@ -748,6 +754,23 @@ async fn run_one(
         solve_rate: summary.post_evaluation.solve_rate,
     });
     Ok(summary)
+}
+
+/// A genome's behaviour descriptor: each value the mean over its samples (empty when the
+/// samples carry none).
+fn mean_descriptor(samples: &[SampleSummary]) -> Vec<f64> {
+    let Some(first) = samples.first() else {
+        return Vec::new();
+    };
+    (0..first.descriptor.len())
+        .map(|idx| {
+            samples
+                .iter()
+                .map(|s| f64::from(s.descriptor.get(idx).copied().unwrap_or(0.0)))
+                .sum::<f64>()
+                / samples.len() as f64
+        })
+        .collect()
 }
 
 fn remove_if_present(path: &Path) -> Result<(), RunError> {
@@ -859,6 +882,11 @@ runs = 1
                     .map(|sample| SampleSummary {
                         fitness: fake_fitness(genes, sample.seed),
                         cycles: 1,
+                        // A behaviour: where the first two genes point.
+                        descriptor: vec![
+                            genes.first().copied().unwrap_or(0.0),
+                            genes.get(1).copied().unwrap_or(0.0),
+                        ],
                         ..SampleSummary::default()
                     })
                     .collect()

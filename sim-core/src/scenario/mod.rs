@@ -60,6 +60,13 @@ pub const MAX_CELL_SIZE: f32 = 10.0;
 /// The most `[regions]` rectangles, and the most regions a map's legend may name.
 pub const MAX_REGIONS: usize = 256;
 
+/// The most quantities a `[descriptor]` may list.
+pub const MAX_DESCRIPTOR: usize = 16;
+
+/// The behaviour descriptor of a scenario without `[descriptor]` (every shipped one): where
+/// the robot ends. In code rather than in the shipped files, whose text hashes are pinned.
+pub const DEFAULT_DESCRIPTOR: [&str; 2] = ["final.x", "final.y"];
+
 /// The most `[[variant]]`s: every variant's starts are built and checked when a task is made.
 pub const MAX_VARIANTS: usize = 256;
 
@@ -292,8 +299,10 @@ pub struct Scenario {
     pub near_m: f32,
     /// Fitness when solved, after a wrong branch, a collision, a timeout.
     pub fitness: [Formula; 4],
-    /// The quantities the formulas name, each compiled once.
+    /// The quantities the formulas and the descriptor name, each compiled once.
     pub quantities: Quantities,
+    /// The behaviour descriptor: indices into `quantities`, in the descriptor's order.
+    pub descriptor: Vec<usize>,
     /// The derived fitness's phases.
     pub phases: Vec<Phase>,
     /// The stages.
@@ -452,6 +461,22 @@ impl Scenario {
         let mut names: Vec<String> = self.stages.iter().map(|s| s.name.clone()).collect();
         names.push("solved".into());
         names
+    }
+
+    /// The behaviour descriptor's quantities' names, in order.
+    pub fn descriptor_names(&self) -> Vec<&str> {
+        self.descriptor
+            .iter()
+            .map(|&idx| self.quantities[idx].0.as_str())
+            .collect()
+    }
+
+    /// The least and most each of the behaviour descriptor's values can be, in order.
+    pub fn descriptor_ranges(&self) -> Vec<(f32, f32)> {
+        self.descriptor
+            .iter()
+            .map(|&idx| self.quantities[idx].1.range(self.phases.len()))
+            .collect()
     }
 
     /// Whether it has a derived fitness (an arbitrator's scenario).
