@@ -1957,6 +1957,66 @@ runs = 1
     }
 
     #[test]
+    fn novelty_search_has_the_ga_s_keys_and_its_own_checked_and_fingerprinted() {
+        let novelty = |keys: &str| {
+            GOOD.replace(
+                "mutation_sigma = 0.5",
+                &format!("algorithm = \"novelty\"\npopulation = 20\nelites = 4\n{keys}"),
+            )
+        };
+        let experiment = parse(&novelty(
+            "mutation_sigma = 0.5\nnovelty_neighbours = 7\nnovelty_fitness_weight = 0.5",
+        ))
+        .unwrap();
+        let tl = &experiment.node("tl").unwrap().evolution;
+        let StrategySettings::Novelty(settings) = tl.strategy_settings() else {
+            panic!("{tl:?}");
+        };
+        assert_eq!((settings.ga.population, settings.ga.elites), (20, 4));
+        assert_eq!(settings.ga.mutation_sigma, 0.5);
+        assert_eq!((settings.neighbours, settings.fitness_weight), (7, 0.5));
+        assert_eq!(settings.archive_per_generation, 5, "the default");
+        // Its settings join the fingerprint whole; the other algorithms' have no trace of them.
+        let json = serde_json::to_string(tl).unwrap();
+        assert!(
+            json.contains("\"algorithm\":\"novelty\"")
+                && json.contains("\"novelty\":{\"neighbours\":7,"),
+            "{json}"
+        );
+        let plain = parse(&novelty("")).unwrap();
+        assert_ne!(
+            serde_json::to_string(&plain.node("tl").unwrap().evolution).unwrap(),
+            json
+        );
+        let ga = parse(GOOD).unwrap();
+        let json = serde_json::to_string(&ga.node("tl").unwrap().evolution).unwrap();
+        assert!(!json.contains("novelty"), "{json}");
+
+        // Its keys elsewhere, and out of their domain, are refused naming them.
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "novelty_neighbours = 3"));
+        assert!(
+            err.contains("node[2].evolution.novelty_neighbours")
+                && err.contains("is a setting of algorithm \"novelty\""),
+            "{err}"
+        );
+        let err = error_of(&novelty("restarts = 2"));
+        assert!(err.contains("is a setting of algorithm \"cmaes\""), "{err}");
+        let err = error_of(&novelty("novelty_fitness_weight = 2.0"));
+        assert!(
+            err.contains("node[2].evolution.novelty_fitness_weight") && err.contains("[0, 1]"),
+            "{err}"
+        );
+        let err = error_of(&novelty("novelty_neighbours = 0"));
+        assert!(err.contains("novelty_neighbours"), "{err}");
+        // The GA's rule on the population holds for it too.
+        let err = error_of(&novelty("elites = 3").replace("elites = 4\n", ""));
+        assert!(
+            err.contains("node[2].evolution.population") && err.contains("multiple of elites (3)"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn cmaes_variant_and_restarts_are_cmaes_keys_checked_and_fingerprinted_when_set() {
         let cmaes = |keys: &str| {
             GOOD.replace(

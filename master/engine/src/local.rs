@@ -191,11 +191,13 @@ runs = 1
     }
 
     #[test]
-    fn every_cmaes_variant_runs_through_local_mode() {
+    fn every_cmaes_variant_and_novelty_search_run_through_local_mode() {
         for evolution in [
             "algorithm = \"cmaes\"\npopulation = 6",
             "algorithm = \"cmaes\"\npopulation = 6\ncmaes_variant = \"separable\"",
             "algorithm = \"cmaes\"\npopulation = 4\nrestarts = 2\nrestart_population_factor = 3",
+            // Over the simulator's behaviour descriptor, the final position.
+            "algorithm = \"novelty\"\npopulation = 6\nelites = 2\nnovelty_neighbours = 3",
         ] {
             let dir = tempfile::tempdir().unwrap();
             let experiment =

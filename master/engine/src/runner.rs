@@ -1256,6 +1256,26 @@ runs = 1
     }
 
     #[tokio::test]
+    async fn a_novelty_run_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        // The fake behaviour is the first two genes: the archive fills with genomes' positions.
+        let novelty = EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            "post_evaluation_samples = 2\nalgorithm = \"novelty\"\npopulation = 12\nelites = 3\n\
+             novelty_neighbours = 4\nnovelty_archive_per_generation = 3\nnovelty_fitness_weight = 0.25",
+        );
+        paused_and_resumed_ends_as_straight(&novelty, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            let StrategyState::Novelty(state) = checkpoint.strategy else {
+                panic!("the run uses novelty search");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 12));
+            assert_eq!(state.archive.len(), 9);
+            assert!(state.archive.iter().all(|behaviour| behaviour.len() == 2));
+        })
+        .await;
+    }
+
+    #[tokio::test]
     async fn a_changed_cmaes_variant_or_restart_setting_is_refused_by_the_fingerprint() {
         let dir = tempfile::tempdir().unwrap();
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));

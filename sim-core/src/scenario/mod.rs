@@ -813,6 +813,71 @@ mod tests {
     }
 
     #[test]
+    fn a_descriptor_is_the_final_position_unless_the_file_lists_quantities() {
+        for (name, _) in SHIPPED {
+            let scenario = Scenario::shipped(name).unwrap();
+            assert_eq!(scenario.descriptor_names(), DEFAULT_DESCRIPTOR, "{name}");
+        }
+        // A user's copy of exit room: the shipped file under another name, without the keys
+        // reserved for shipped scenarios.
+        let exit_room: String = SHIPPED[0]
+            .1
+            .lines()
+            .filter(|line| !line.starts_with("legacy") && !line.starts_with("aliases"))
+            .map(|line| match line.starts_with("name = ") {
+                true => "name = \"my_exit_room\"\n".to_string(),
+                false => format!("{line}\n"),
+            })
+            .collect();
+        let with = |quantities: &str| {
+            Scenario::parse(
+                &format!("{exit_room}\n[descriptor]\nquantities = [{quantities}]\n"),
+                "test.toml",
+            )
+        };
+        // The formulas' quantities keep their indices; a shared one is compiled once.
+        let plain = Scenario::shipped("exit_room").unwrap();
+        let scenario = with("\"approach room.exit\", \"final.y\", \"time_bonus\"").unwrap();
+        assert_eq!(
+            scenario.descriptor_names(),
+            ["approach room.exit", "final.y", "time_bonus"]
+        );
+        let names = |s: &Scenario| {
+            s.quantities
+                .iter()
+                .map(|(n, _)| n.clone())
+                .collect::<Vec<_>>()
+        };
+        // (Exit room's formulas name neither final.x nor final.y.)
+        let n_formulas = plain.quantities.len() - DEFAULT_DESCRIPTOR.len();
+        assert_eq!(names(&scenario)[..n_formulas], names(&plain)[..n_formulas]);
+        assert_eq!(
+            scenario.quantities.len(),
+            n_formulas + 1,
+            "final.y alone is new"
+        );
+        assert_eq!(
+            scenario.descriptor_ranges()[1],
+            (
+                -blocks::quantities::MAX_FINAL_COORDINATE,
+                blocks::quantities::MAX_FINAL_COORDINATE
+            )
+        );
+        for (quantities, wanted) in [
+            ("", "lists 0 quantities"),
+            ("\"speed\"", "'speed' is not a quantity"),
+            ("\"final.x\", \"final.x\"", "'final.x' is listed twice"),
+            ("\"approach teammate\"", "needs a [teammate]"),
+        ] {
+            let error = with(quantities).unwrap_err().to_string();
+            assert!(
+                error.contains("descriptor.quantities") && error.contains(wanted),
+                "{quantities}: {error}"
+            );
+        }
+    }
+
+    #[test]
     fn the_double_t_maze_map_has_the_paper_layout() {
         let maze = Scenario::shipped("solve_maze").unwrap();
         let map = maze.map.as_ref().unwrap();
