@@ -71,6 +71,7 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
         sub_task_correct,
         node_active_cycles: summary.node_use.active_cycles.clone(),
         node_activations: summary.node_use.activations.clone(),
+        descriptor: summary.descriptor.clone(),
     }
 }
 
@@ -162,6 +163,23 @@ pub fn summary_from_proto(
             format!("{} is not finite", result.fitness),
         ));
     }
+    // The length and each value's range are the task's to check (the dispatcher does).
+    if result.descriptor.len() > hevo_sim_core::MAX_DESCRIPTOR {
+        return Err(field_error(
+            format!("{field}.descriptor"),
+            format!(
+                "{} values, at most {} are accepted",
+                result.descriptor.len(),
+                hevo_sim_core::MAX_DESCRIPTOR
+            ),
+        ));
+    }
+    if let Some(idx) = result.descriptor.iter().position(|v| !v.is_finite()) {
+        return Err(field_error(
+            format!("{field}.descriptor[{idx}]"),
+            format!("{} is not finite", result.descriptor[idx]),
+        ));
+    }
     Ok(SampleSummary {
         fitness: result.fitness,
         solved: result.solved,
@@ -171,6 +189,7 @@ pub fn summary_from_proto(
         cycles: result.cycles,
         sub_task_choices: sub_task_choices_from_proto(result, field)?,
         node_use: node_use_from_proto(result, field)?,
+        descriptor: result.descriptor.clone(),
     })
 }
 
@@ -326,6 +345,7 @@ mod tests {
                 active_cycles: vec![777, 300, 400, 77],
                 activations: vec![1, 2, 2, 1],
             },
+            descriptor: vec![0.25, -1.5],
         };
         let plain = SampleSummary {
             sub_task_choices: SubTaskChoices::default(),

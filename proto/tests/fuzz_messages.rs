@@ -38,6 +38,7 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
         prop::collection::vec(any::<u32>(), 0..5),
         prop::collection::vec(any::<u32>(), 0..5),
         prop::collection::vec(any::<u32>(), 0..5),
+        prop::collection::vec(any::<f32>(), 0..20),
     )
         .prop_map(
             |(
@@ -50,6 +51,7 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
                 sub_correct,
                 active,
                 activations,
+                descriptor,
             )| {
                 v1::SampleResult {
                     fitness,
@@ -62,6 +64,7 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
                     sub_task_correct: sub_correct,
                     node_active_cycles: active,
                     node_activations: activations,
+                    descriptor,
                 }
             },
         )

@@ -45,7 +45,9 @@ pub use outcome::{
     Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
 };
 pub use scenario::file::ChildRef;
-pub use scenario::{MAX_LIGHTS, SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError};
+pub use scenario::{
+    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_LIGHTS, SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError,
+};
 pub use sensors::IrCone;
 pub use sensors::calibration::MeanStd;
 pub use sensors::frame::{InputGroup, N_FLAT, SensorFrame, SensorSet};

@@ -67,6 +67,9 @@ pub struct Outcome {
     pub node_use: NodeUse,
     /// Rescue only: how the root chose in each sub-task (all zero for other tasks).
     pub sub_task_choices: SubTaskChoices,
+    /// The behaviour descriptor: the value of each of the scenario's descriptor quantities
+    /// (the final position unless the scenario says otherwise).
+    pub descriptor: Vec<f32>,
 }
 
 /// How a controller's nodes took turns in one sample, per node in pre-order (the root first):

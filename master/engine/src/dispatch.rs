@@ -868,21 +868,25 @@ fn chosen_for_check(batch_id: u64, share: f64) -> bool {
     ((mixed >> 11) as f64) / ((1u64 << 53) as f64) < share
 }
 
-/// Whether two sets of results are the same bit for bit (fitness compared as bits, so that
-/// even a sign of zero counts).
+/// Whether two sets of results are the same bit for bit (fitness and descriptor compared as
+/// bits, so that even a sign of zero counts).
 fn same_bits(a: &[Vec<SampleSummary>], b: &[Vec<SampleSummary>]) -> bool {
     a.len() == b.len()
         && a.iter().zip(b).all(|(a, b)| {
             a.len() == b.len()
                 && a.iter().zip(b).all(|(a, b)| {
-                    a.fitness.to_bits() == b.fitness.to_bits()
-                        && SampleSummary {
-                            fitness: 0.0,
-                            ..a.clone()
-                        } == SampleSummary {
-                            fitness: 0.0,
-                            ..b.clone()
-                        }
+                    let bits = |s: &SampleSummary| {
+                        std::iter::once(s.fitness)
+                            .chain(s.descriptor.iter().copied())
+                            .map(f32::to_bits)
+                            .collect::<Vec<u32>>()
+                    };
+                    let rest = |s: &SampleSummary| SampleSummary {
+                        fitness: 0.0,
+                        descriptor: Vec::new(),
+                        ..s.clone()
+                    };
+                    bits(a) == bits(b) && rest(a) == rest(b)
                 })
         })
 }
@@ -1240,6 +1244,7 @@ mod tests {
                         stage: 0,
                         variant: 0,
                         cycles: 10,
+                        descriptor: vec![0.0; hevo_sim_core::DEFAULT_DESCRIPTOR.len()],
                         ..SampleSummary::default()
                     })
                     .collect()

@@ -3,8 +3,9 @@
 //! Parsing is strict (unknown keys are errors) and every error names the file, the key path and
 //! what was expected, because a typo in a week-long experiment must fail in the first second.
 
-use hevo_evolve::cmaes::CmaesSettings;
+use hevo_evolve::cmaes::{CmaesSettings, CmaesVariant};
 use hevo_evolve::ga::GaSettings;
+use hevo_evolve::novelty::NoveltySettings;
 use hevo_evolve::seeds::VariantDraw;
 use hevo_evolve::{StrategyError, StrategySettings};
 use hevo_sim_core::Scenario;
@@ -283,6 +284,74 @@ pub struct EvolutionParams {
     /// the choice existed stay valid.
     #[serde(default, skip_serializing_if = "TrainingVariants::is_balanced")]
     pub training_variants: TrainingVariants,
+    /// CMA-ES: the full covariance matrix or its diagonal. Left out of the serialized form
+    /// when full, so the fingerprints of CMA-ES runs made before the choice stay valid.
+    #[serde(default, skip_serializing_if = "CmaesVariantName::is_full")]
+    pub cmaes_variant: CmaesVariantName,
+    /// CMA-ES: IPOP restarts at most (0: none). Left out of the serialized form when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub restarts: u32,
+    /// CMA-ES: each restart multiplies the population by this. Left out of the serialized
+    /// form when 2.
+    #[serde(
+        default = "default_restart_population_factor",
+        skip_serializing_if = "is_default_restart_population_factor"
+    )]
+    pub restart_population_factor: u32,
+    /// Novelty search's own settings; absent (and out of the fingerprint) for the others.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub novelty: Option<NoveltyParams>,
+}
+
+/// Novelty search's keys (`novelty_*`), each with its default when the file leaves it out.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoveltyParams {
+    /// k: the nearest neighbours a genome's novelty averages over.
+    pub neighbours: u32,
+    /// Descriptors added to the archive after each generation (its most novel genomes').
+    pub archive_per_generation: u32,
+    /// The most descriptors the archive keeps.
+    pub archive_size: u32,
+    /// The weight of fitness against novelty, in [0, 1].
+    pub fitness_weight: f64,
+}
+
+impl Default for NoveltyParams {
+    fn default() -> NoveltyParams {
+        let defaults = NoveltySettings::default();
+        NoveltyParams {
+            neighbours: defaults.neighbours,
+            archive_per_generation: defaults.archive_per_generation,
+            archive_size: defaults.archive_size,
+            fitness_weight: defaults.fitness_weight,
+        }
+    }
+}
+
+/// CMA-ES's covariance matrix as a file names it (`hevo_evolve`'s [`CmaesVariant`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CmaesVariantName {
+    /// The full matrix.
+    #[default]
+    Full,
+    /// Its diagonal: sep-CMA-ES, for large genomes.
+    Separable,
+}
+
+impl CmaesVariantName {
+    fn is_full(&self) -> bool {
+        *self == CmaesVariantName::Full
+    }
+}
+
+fn default_restart_population_factor() -> u32 {
+    CmaesSettings::default().restart_population_factor
+}
+
+fn is_default_restart_population_factor(factor: &u32) -> bool {
+    *factor == default_restart_population_factor()
 }
 
 /// How the samples of a generation meet a task's light configurations (or start branches). The
@@ -313,6 +382,8 @@ pub enum Algorithm {
     Ga,
     /// (mu/mu_w, lambda)-CMA-ES with the standard parameters.
     Cmaes,
+    /// Novelty search over behaviour descriptors, bred by the GA's scheme.
+    Novelty,
 }
 
 impl Algorithm {
@@ -325,6 +396,7 @@ impl Algorithm {
         match self {
             Algorithm::Ga => hevo_evolve::ga::ALGORITHM,
             Algorithm::Cmaes => hevo_evolve::cmaes::ALGORITHM,
+            Algorithm::Novelty => hevo_evolve::novelty::ALGORITHM,
         }
     }
 }
@@ -343,6 +415,10 @@ impl Default for EvolutionParams {
             gene_range: ga.gene_range,
             post_evaluation_samples: 100,
             training_variants: TrainingVariants::Balanced,
+            cmaes_variant: CmaesVariantName::Full,
+            restarts: 0,
+            restart_population_factor: default_restart_population_factor(),
+            novelty: None,
         }
     }
 }
@@ -351,19 +427,36 @@ impl Default for EvolutionParams {
 impl EvolutionParams {
     /// The strategy the node is evolved with, and its settings.
     pub fn strategy_settings(&self) -> StrategySettings {
+        let ga = GaSettings {
+            population: self.population,
+            elites: self.elites,
+            mutation_probability: self.mutation_probability,
+            mutation_sigma: self.mutation_sigma,
+            initial_sigma: self.initial_sigma,
+            gene_range: self.gene_range,
+        };
         match self.algorithm {
-            Algorithm::Ga => StrategySettings::Ga(GaSettings {
-                population: self.population,
-                elites: self.elites,
-                mutation_probability: self.mutation_probability,
-                mutation_sigma: self.mutation_sigma,
-                initial_sigma: self.initial_sigma,
-                gene_range: self.gene_range,
-            }),
+            Algorithm::Ga => StrategySettings::Ga(ga),
+            Algorithm::Novelty => {
+                let novelty = self.novelty.unwrap_or_default();
+                StrategySettings::Novelty(NoveltySettings {
+                    ga,
+                    neighbours: novelty.neighbours,
+                    archive_per_generation: novelty.archive_per_generation,
+                    archive_size: novelty.archive_size,
+                    fitness_weight: novelty.fitness_weight,
+                })
+            }
             Algorithm::Cmaes => StrategySettings::Cmaes(CmaesSettings {
                 population: self.population,
                 initial_sigma: self.initial_sigma,
                 gene_range: self.gene_range,
+                variant: match self.cmaes_variant {
+                    CmaesVariantName::Full => CmaesVariant::Full,
+                    CmaesVariantName::Separable => CmaesVariant::Separable,
+                },
+                restarts: self.restarts,
+                restart_population_factor: self.restart_population_factor,
             }),
         }
     }
@@ -399,6 +492,20 @@ pub struct EvolutionOverrides {
     post_evaluation_samples: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     training_variants: Option<TrainingVariants>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cmaes_variant: Option<CmaesVariantName>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    restarts: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    restart_population_factor: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_neighbours: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_archive_per_generation: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_archive_size: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty_fitness_weight: Option<f64>,
 }
 
 impl EvolutionOverrides {
@@ -417,24 +524,81 @@ impl EvolutionOverrides {
                 .post_evaluation_samples
                 .unwrap_or(base.post_evaluation_samples),
             training_variants: self.training_variants.unwrap_or(base.training_variants),
+            cmaes_variant: self.cmaes_variant.unwrap_or(base.cmaes_variant),
+            restarts: self.restarts.unwrap_or(base.restarts),
+            restart_population_factor: self
+                .restart_population_factor
+                .unwrap_or(base.restart_population_factor),
+            novelty: self.novelty(base),
         }
     }
 
-    /// The first key set here that only another algorithm than `algorithm` has: a file that
-    /// sets the GA's `elites` for a CMA-ES node is refused rather than silently ignored.
-    fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<&'static str> {
-        let ga_only = [
-            ("elites", self.elites.is_some()),
-            ("mutation_probability", self.mutation_probability.is_some()),
-            ("mutation_sigma", self.mutation_sigma.is_some()),
-        ];
-        match algorithm {
-            Algorithm::Ga => None,
-            Algorithm::Cmaes => ga_only
-                .into_iter()
-                .find(|(_, set)| *set)
-                .map(|(key, _)| key),
+    /// Novelty search's settings: the base's (or the defaults) with this table's keys; `None`
+    /// unless the algorithm in force is novelty search, so the others' fingerprints keep
+    /// their form.
+    fn novelty(&self, base: &EvolutionParams) -> Option<NoveltyParams> {
+        if self.algorithm.unwrap_or(base.algorithm) != Algorithm::Novelty {
+            return None;
         }
+        let base = base.novelty.unwrap_or_default();
+        Some(NoveltyParams {
+            neighbours: self.novelty_neighbours.unwrap_or(base.neighbours),
+            archive_per_generation: self
+                .novelty_archive_per_generation
+                .unwrap_or(base.archive_per_generation),
+            archive_size: self.novelty_archive_size.unwrap_or(base.archive_size),
+            fitness_weight: self.novelty_fitness_weight.unwrap_or(base.fitness_weight),
+        })
+    }
+
+    /// The first key set here that `algorithm` does not have, with an algorithm that has it:
+    /// a file that sets the GA's `elites` for a CMA-ES node is refused rather than silently
+    /// ignored. (Novelty search breeds by the GA's scheme, so it has the GA's keys.)
+    fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<(&'static str, Algorithm)> {
+        use Algorithm::{Cmaes, Ga, Novelty};
+        let keys: [(&'static str, bool, &[Algorithm]); 10] = [
+            ("elites", self.elites.is_some(), &[Ga, Novelty]),
+            (
+                "mutation_probability",
+                self.mutation_probability.is_some(),
+                &[Ga, Novelty],
+            ),
+            (
+                "mutation_sigma",
+                self.mutation_sigma.is_some(),
+                &[Ga, Novelty],
+            ),
+            ("cmaes_variant", self.cmaes_variant.is_some(), &[Cmaes]),
+            ("restarts", self.restarts.is_some(), &[Cmaes]),
+            (
+                "restart_population_factor",
+                self.restart_population_factor.is_some(),
+                &[Cmaes],
+            ),
+            (
+                "novelty_neighbours",
+                self.novelty_neighbours.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_archive_per_generation",
+                self.novelty_archive_per_generation.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_archive_size",
+                self.novelty_archive_size.is_some(),
+                &[Novelty],
+            ),
+            (
+                "novelty_fitness_weight",
+                self.novelty_fitness_weight.is_some(),
+                &[Novelty],
+            ),
+        ];
+        keys.into_iter()
+            .find(|(_, set, owners)| *set && !owners.contains(&algorithm))
+            .map(|(key, _, owners)| (key, owners[0]))
     }
 }
 
@@ -749,18 +913,20 @@ impl Experiment {
         let base = parsed.evolution.apply(&EvolutionParams::default());
         // Each `[evolution]` table sets keys of the algorithm in force where it stands: the
         // experiment's for the experiment's algorithm, a node's for the node's.
-        let another_algorithm_s = |path: String, algorithm: Algorithm| {
+        let another_algorithm_s = |path: String, owner: Algorithm, algorithm: Algorithm| {
             invalid(
                 path,
                 format!(
-                    "is a setting of algorithm \"ga\"; the algorithm here is \"{}\"",
+                    "is a setting of algorithm \"{}\"; the algorithm here is \"{}\"",
+                    owner.name(),
                     algorithm.name()
                 ),
             )
         };
-        if let Some(key) = parsed.evolution.key_of_another_algorithm(base.algorithm) {
+        if let Some((key, owner)) = parsed.evolution.key_of_another_algorithm(base.algorithm) {
             return Err(another_algorithm_s(
                 format!("evolution.{key}"),
+                owner,
                 base.algorithm,
             ));
         }
@@ -878,13 +1044,14 @@ impl Experiment {
                 .evolution
                 .as_ref()
                 .map_or_else(|| base.clone(), |o| o.apply(&base));
-            if let Some(key) = node
+            if let Some((key, owner)) = node
                 .evolution
                 .as_ref()
                 .and_then(|o| o.key_of_another_algorithm(evolution.algorithm))
             {
                 return Err(another_algorithm_s(
                     at(&format!("evolution.{key}")),
+                    owner,
                     evolution.algorithm,
                 ));
             }
@@ -1179,7 +1346,7 @@ fn one_line(message: &str) -> String {
 
 fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> {
     let fail = |key: &str, message: String| Err((key.to_string(), message));
-    if params.algorithm == Algorithm::Ga
+    if matches!(params.algorithm, Algorithm::Ga | Algorithm::Novelty)
         && (params.elites == 0
             || params.population < 2
             || !params.population.is_multiple_of(params.elites)
@@ -1200,6 +1367,24 @@ fn validate_evolution(params: &EvolutionParams) -> Result<(), (String, String)> 
                 "must be at most {}, got {}",
                 limits::POPULATION,
                 params.population
+            ),
+        );
+    }
+    // IPOP's last restart asks for population x factor^restarts genomes a generation.
+    if let StrategySettings::Cmaes(settings) = params.strategy_settings()
+        && settings.restarts > 0
+        && settings
+            .largest_population()
+            .is_none_or(|largest| largest > limits::POPULATION)
+    {
+        return fail(
+            "restarts",
+            format!(
+                "the last restart's population, {} x {}^{}, must be at most {}",
+                params.population,
+                params.restart_population_factor,
+                params.restarts,
+                limits::POPULATION
             ),
         );
     }
@@ -1759,6 +1944,9 @@ runs = 1
                 population: 18,
                 initial_sigma: 0.5,
                 gene_range: [-10.0, 10.0],
+                variant: CmaesVariant::Full,
+                restarts: 0,
+                restart_population_factor: 2,
             })
         );
         let json = serde_json::to_string(&tl.evolution).unwrap();
@@ -1813,11 +2001,145 @@ runs = 1
         );
         let err = error_of(&everywhere.replace("population = 10", "population = 1"));
         assert!(err.contains("node[2].evolution.population"), "{err}");
-        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"novelty\""));
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"map_elites\""));
         assert!(
-            err.contains("algorithm") && err.contains("novelty"),
+            err.contains("algorithm") && err.contains("map_elites"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn novelty_search_has_the_ga_s_keys_and_its_own_checked_and_fingerprinted() {
+        let novelty = |keys: &str| {
+            GOOD.replace(
+                "mutation_sigma = 0.5",
+                &format!("algorithm = \"novelty\"\npopulation = 20\nelites = 4\n{keys}"),
+            )
+        };
+        let experiment = parse(&novelty(
+            "mutation_sigma = 0.5\nnovelty_neighbours = 7\nnovelty_fitness_weight = 0.5",
+        ))
+        .unwrap();
+        let tl = &experiment.node("tl").unwrap().evolution;
+        let StrategySettings::Novelty(settings) = tl.strategy_settings() else {
+            panic!("{tl:?}");
+        };
+        assert_eq!((settings.ga.population, settings.ga.elites), (20, 4));
+        assert_eq!(settings.ga.mutation_sigma, 0.5);
+        assert_eq!((settings.neighbours, settings.fitness_weight), (7, 0.5));
+        assert_eq!(settings.archive_per_generation, 5, "the default");
+        // Its settings join the fingerprint whole; the other algorithms' have no trace of them.
+        let json = serde_json::to_string(tl).unwrap();
+        assert!(
+            json.contains("\"algorithm\":\"novelty\"")
+                && json.contains("\"novelty\":{\"neighbours\":7,"),
+            "{json}"
+        );
+        let plain = parse(&novelty("")).unwrap();
+        assert_ne!(
+            serde_json::to_string(&plain.node("tl").unwrap().evolution).unwrap(),
+            json
+        );
+        let ga = parse(GOOD).unwrap();
+        let json = serde_json::to_string(&ga.node("tl").unwrap().evolution).unwrap();
+        assert!(!json.contains("novelty"), "{json}");
+
+        // Its keys elsewhere, and out of their domain, are refused naming them.
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "novelty_neighbours = 3"));
+        assert!(
+            err.contains("node[2].evolution.novelty_neighbours")
+                && err.contains("is a setting of algorithm \"novelty\""),
+            "{err}"
+        );
+        let err = error_of(&novelty("restarts = 2"));
+        assert!(err.contains("is a setting of algorithm \"cmaes\""), "{err}");
+        let err = error_of(&novelty("novelty_fitness_weight = 2.0"));
+        assert!(
+            err.contains("node[2].evolution.novelty_fitness_weight") && err.contains("[0, 1]"),
+            "{err}"
+        );
+        let err = error_of(&novelty("novelty_neighbours = 0"));
+        assert!(err.contains("novelty_neighbours"), "{err}");
+        // The GA's rule on the population holds for it too.
+        let err = error_of(&novelty("elites = 3").replace("elites = 4\n", ""));
+        assert!(
+            err.contains("node[2].evolution.population") && err.contains("multiple of elites (3)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn cmaes_variant_and_restarts_are_cmaes_keys_checked_and_fingerprinted_when_set() {
+        let cmaes = |keys: &str| {
+            GOOD.replace(
+                "mutation_sigma = 0.5",
+                &format!("algorithm = \"cmaes\"\npopulation = 18\n{keys}"),
+            )
+        };
+        let experiment = parse(&cmaes(
+            "cmaes_variant = \"separable\"\nrestarts = 4\nrestart_population_factor = 3",
+        ))
+        .unwrap();
+        let tl = &experiment.node("tl").unwrap().evolution;
+        assert_eq!(
+            tl.strategy_settings(),
+            StrategySettings::Cmaes(CmaesSettings {
+                population: 18,
+                initial_sigma: 2.0,
+                gene_range: [-10.0, 10.0],
+                variant: CmaesVariant::Separable,
+                restarts: 4,
+                restart_population_factor: 3,
+            })
+        );
+        // Each joins the fingerprint only when set away from its default.
+        let json = serde_json::to_string(tl).unwrap();
+        for key in [
+            "\"cmaes_variant\":\"separable\"",
+            "\"restarts\":4",
+            "\"restart_population_factor\":3",
+        ] {
+            assert!(json.contains(key), "{key} in {json}");
+        }
+        let defaults = parse(&cmaes(
+            "cmaes_variant = \"full\"\nrestarts = 0\nrestart_population_factor = 2",
+        ))
+        .unwrap();
+        let plain = parse(&cmaes("")).unwrap();
+        let json = serde_json::to_string(&defaults.node("tl").unwrap().evolution).unwrap();
+        assert_eq!(
+            json,
+            serde_json::to_string(&plain.node("tl").unwrap().evolution).unwrap()
+        );
+        for key in ["cmaes_variant", "restarts", "restart_population_factor"] {
+            assert!(!json.contains(key), "{key} in {json}");
+        }
+
+        // A GA node may not set them; a wrong value is refused naming its key.
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "restarts = 2"));
+        assert!(
+            err.contains("node[2].evolution.restarts")
+                && err
+                    .contains("is a setting of algorithm \"cmaes\"; the algorithm here is \"ga\""),
+            "{err}"
+        );
+        let err = error_of(&cmaes("cmaes_variant = \"diagonal\""));
+        assert!(
+            err.contains("cmaes_variant") && err.contains("diagonal"),
+            "{err}"
+        );
+        let err = error_of(&cmaes("restarts = 2\nrestart_population_factor = 1"));
+        assert!(
+            err.contains("node[2].evolution.restart_population_factor") && err.contains("2..=16"),
+            "{err}"
+        );
+        // The last restart's population is bounded before any work: 18 x 2^13 > 100,000.
+        let err = error_of(&cmaes("restarts = 13"));
+        assert!(
+            err.contains("node[2].evolution.restarts") && err.contains("18 x 2^13"),
+            "{err}"
+        );
+        assert!(parse(&cmaes("restarts = 12")).is_ok());
     }
 
     #[test]

@@ -147,3 +147,79 @@ pub fn run_local<T>(
         result
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    //! Local mode as `hevo run` uses it, with the real simulator, on a tiny budget.
+
+    use super::*;
+    use crate::experiment::Experiment;
+    use crate::rundir::{BEST, FITNESS_CSV, SUMMARY, run_dir};
+    use crate::runner::{Overrides, Progress, ProgressEvent, RunSettings, run_experiment};
+
+    struct Quiet;
+
+    impl Progress for Quiet {
+        fn event(&self, _: &ProgressEvent) {}
+    }
+
+    /// One run of three generations of a small exit-room network, with the evolution keys
+    /// given.
+    fn tiny_experiment(evolution: &str) -> String {
+        format!(
+            r#"
+[experiment]
+name = "tiny"
+seed = 7
+
+[evolution]
+post_evaluation_samples = 1
+{evolution}
+
+[[node]]
+name = "exit_room"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 1
+task = "exit_room"
+samples = 2
+cycles = 40
+generations = 3
+runs = 1
+"#
+        )
+    }
+
+    #[test]
+    fn every_cmaes_variant_and_novelty_search_run_through_local_mode() {
+        for evolution in [
+            "algorithm = \"cmaes\"\npopulation = 6",
+            "algorithm = \"cmaes\"\npopulation = 6\ncmaes_variant = \"separable\"",
+            "algorithm = \"cmaes\"\npopulation = 4\nrestarts = 2\nrestart_population_factor = 3",
+            // Over the simulator's behaviour descriptor, the final position.
+            "algorithm = \"novelty\"\npopulation = 6\nelites = 2\nnovelty_neighbours = 3",
+        ] {
+            let dir = tempfile::tempdir().unwrap();
+            let experiment =
+                Experiment::parse(&tiny_experiment(evolution), &dir.path().join("tiny.toml"))
+                    .unwrap();
+            let settings = RunSettings {
+                out_dir: dir.path().join("out"),
+                overrides: Overrides::default(),
+                job: "tiny".into(),
+            };
+            let summaries = run_local(local_dispatcher(2), 2, async |dispatcher| {
+                run_experiment(&experiment, &settings, dispatcher, &Quiet).await
+            })
+            .unwrap()
+            .unwrap_or_else(|e| panic!("{evolution}: {e}"));
+            assert_eq!(summaries.len(), 1, "{evolution}");
+            let run = run_dir(&settings.out_dir.join("exit_room"), 0);
+            for file in [BEST, FITNESS_CSV, SUMMARY] {
+                assert!(run.join(file).is_file(), "{evolution}: {file}");
+            }
+            let rows = std::fs::read_to_string(run.join(FITNESS_CSV)).unwrap();
+            assert_eq!(rows.lines().count(), 1 + 3, "{evolution}: {rows}");
+        }
+    }
+}

@@ -20,9 +20,9 @@ use crate::store::{
     read_json, read_json_with, remove_leftover_temporaries, write_atomic, write_json_atomic,
 };
 use hevo_evolve::{Evaluation, seeds};
-use hevo_sim_core::Sample;
 use hevo_sim_core::task_content_hash;
 use hevo_sim_core::{ControllerFile, NodeSpec};
+use hevo_sim_core::{Sample, SampleSummary};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -686,7 +686,13 @@ async fn run_one(
             cycles,
         });
         log.push(row);
-        let evaluations: Vec<Evaluation> = fitness.into_iter().map(Evaluation::new).collect();
+        let evaluations: Vec<Evaluation> = fitness
+            .into_iter()
+            .zip(&results)
+            .map(|(fitness, samples)| {
+                Evaluation::with_descriptor(fitness, mean_descriptor(samples))
+            })
+            .collect();
         strategy
             .tell(&evaluations)
             .map_err(|e| RunError::Invalid(format!("{name} run {run}: {e}")))?;
@@ -748,6 +754,23 @@ async fn run_one(
         solve_rate: summary.post_evaluation.solve_rate,
     });
     Ok(summary)
+}
+
+/// A genome's behaviour descriptor: each value the mean over its samples (empty when the
+/// samples carry none).
+fn mean_descriptor(samples: &[SampleSummary]) -> Vec<f64> {
+    let Some(first) = samples.first() else {
+        return Vec::new();
+    };
+    (0..first.descriptor.len())
+        .map(|idx| {
+            samples
+                .iter()
+                .map(|s| f64::from(s.descriptor.get(idx).copied().unwrap_or(0.0)))
+                .sum::<f64>()
+                / samples.len() as f64
+        })
+        .collect()
 }
 
 fn remove_if_present(path: &Path) -> Result<(), RunError> {
@@ -859,6 +882,11 @@ runs = 1
                     .map(|sample| SampleSummary {
                         fitness: fake_fitness(genes, sample.seed),
                         cycles: 1,
+                        // A behaviour: where the first two genes point.
+                        descriptor: vec![
+                            genes.first().copied().unwrap_or(0.0),
+                            genes.get(1).copied().unwrap_or(0.0),
+                        ],
                         ..SampleSummary::default()
                     })
                     .collect()
@@ -1196,6 +1224,92 @@ runs = 1
             assert_eq!((state.generation, state.population.len()), (3, 12));
         })
         .await;
+    }
+
+    /// CMA-ES's settings of `EXPERIMENT`'s node, with extra keys.
+    fn cmaes_experiment(keys: &str) -> String {
+        EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            &format!("post_evaluation_samples = 2\nalgorithm = \"cmaes\"\n{keys}"),
+        )
+    }
+
+    #[tokio::test]
+    async fn a_separable_cmaes_run_with_restarts_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        // The fake fitness of a genome far from the planted one is its sample's offset alone,
+        // the same for every genome: each search ends after its first generation (pycma's
+        // TolFun), so the population doubles from 4 to 32 over generations 0-2, and the pause
+        // after generation 2 saves the state the last restart made.
+        let cmaes = cmaes_experiment("population = 4\ncmaes_variant = \"separable\"\nrestarts = 3");
+        paused_and_resumed_ends_as_straight(&cmaes, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            let StrategyState::Cmaes(state) = checkpoint.strategy else {
+                panic!("the run uses CMA-ES");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 32));
+            assert!(state.covariance.is_empty(), "separable: no full matrix");
+            assert!(state.covariance_diagonal.is_some());
+            let restarts = state.restarts.expect("restarts are on");
+            assert_eq!((restarts.restarts_done, restarts.started_at), (3, 3));
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_novelty_run_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        // The fake behaviour is the first two genes: the archive fills with genomes' positions.
+        let novelty = EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            "post_evaluation_samples = 2\nalgorithm = \"novelty\"\npopulation = 12\nelites = 3\n\
+             novelty_neighbours = 4\nnovelty_archive_per_generation = 3\nnovelty_fitness_weight = 0.25",
+        );
+        paused_and_resumed_ends_as_straight(&novelty, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            let StrategyState::Novelty(state) = checkpoint.strategy else {
+                panic!("the run uses novelty search");
+            };
+            assert_eq!((state.generation, state.population.len()), (3, 12));
+            assert_eq!(state.archive.len(), 9);
+            assert!(state.archive.iter().all(|behaviour| behaviour.len() == 2));
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_changed_cmaes_variant_or_restart_setting_is_refused_by_the_fingerprint() {
+        let dir = tempfile::tempdir().unwrap();
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
+        let settings = RunSettings {
+            out_dir: dir.path().join("out"),
+            overrides: Overrides::default(),
+            job: "changed".into(),
+        };
+        let run = async |keys: &str| {
+            let experiment =
+                Experiment::parse(&cmaes_experiment(keys), &dir.path().join("e.toml")).unwrap();
+            run_experiment(&experiment, &settings, &dispatcher, &Recorder::default()).await
+        };
+        served(run("population = 4\nrestarts = 1"), &mut worker)
+            .await
+            .unwrap();
+        // The same settings again: the finished run is taken as it is.
+        served(run("population = 4\nrestarts = 1"), &mut worker)
+            .await
+            .unwrap();
+        for changed in [
+            "population = 4\nrestarts = 2",
+            "population = 4\nrestarts = 1\nrestart_population_factor = 3",
+            "population = 4\nrestarts = 1\ncmaes_variant = \"separable\"",
+            "population = 4",
+        ] {
+            let error = served(run(changed), &mut worker).await.unwrap_err();
+            assert!(
+                matches!(error, RunError::Fingerprint { .. }),
+                "{changed}: {error}"
+            );
+        }
+        worker.abort();
     }
 
     /// The run paused on purpose under `experiments/runs/` (exit room's run 4, stopped at

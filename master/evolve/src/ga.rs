@@ -109,7 +109,8 @@ pub struct GaState {
 #[derive(Debug, Clone)]
 pub struct Ga {
     settings: GaSettings,
-    state: GaState,
+    /// Novelty search reproduces with the GA's scheme and sets the best itself.
+    pub(crate) state: GaState,
 }
 
 impl Ga {

@@ -5,7 +5,8 @@
 //! saved after any generation and continued gives the genomes an uninterrupted run gives.
 //!
 //! The paper's generational GA ([`ga`]) is the default strategy, CMA-ES ([`cmaes`]) the
-//! second; [`seeds`] holds every run-level
+//! second, novelty search over behaviour descriptors ([`novelty`]) the third; [`seeds`] holds
+//! every run-level
 //! seed derivation (a run's seed, its algorithm's streams, its samples' seeds and light
 //! configurations). Pure: no async runtime, network, command line or files; every random draw
 //! comes from a run's seed. The engine converts an experiment file's settings into
@@ -13,23 +14,37 @@
 
 pub mod cmaes;
 pub mod ga;
+pub mod novelty;
 pub mod seeds;
 
 use serde::{Deserialize, Serialize};
 
 /// What a strategy is told about one genome it asked for.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct Evaluation {
     /// The genome's fitness (the mean over its samples); finite, larger is better.
     pub fitness: f64,
+    /// The genome's behaviour descriptor (each value the mean over its samples); empty when
+    /// not known. Strategies that search over behaviours (novelty) need it; others ignore it.
+    pub descriptor: Vec<f64>,
 }
 
 impl Evaluation {
-    /// A genome's result from its fitness alone. (A behaviour descriptor is meant to join the
-    /// fitness here, for strategies that search over behaviours.)
+    /// A genome's result from its fitness alone.
     pub fn new(fitness: f64) -> Evaluation {
-        Evaluation { fitness }
+        Evaluation {
+            fitness,
+            descriptor: Vec::new(),
+        }
+    }
+
+    /// A genome's result with its behaviour descriptor.
+    pub fn with_descriptor(fitness: f64, descriptor: Vec<f64>) -> Evaluation {
+        Evaluation {
+            fitness,
+            descriptor,
+        }
     }
 }
 
@@ -65,6 +80,8 @@ pub enum StrategyState {
     Ga(ga::GaState),
     /// CMA-ES.
     Cmaes(cmaes::CmaesState),
+    /// Novelty search.
+    Novelty(novelty::NoveltyState),
 }
 
 impl StrategyState {
@@ -73,6 +90,7 @@ impl StrategyState {
         match self {
             StrategyState::Ga(_) => ga::ALGORITHM,
             StrategyState::Cmaes(_) => cmaes::ALGORITHM,
+            StrategyState::Novelty(_) => novelty::ALGORITHM,
         }
     }
 }
@@ -84,6 +102,8 @@ pub enum StrategySettings {
     Ga(ga::GaSettings),
     /// CMA-ES.
     Cmaes(cmaes::CmaesSettings),
+    /// Novelty search.
+    Novelty(novelty::NoveltySettings),
 }
 
 impl StrategySettings {
@@ -92,6 +112,7 @@ impl StrategySettings {
         match self {
             StrategySettings::Ga(_) => ga::ALGORITHM,
             StrategySettings::Cmaes(_) => cmaes::ALGORITHM,
+            StrategySettings::Novelty(_) => novelty::ALGORITHM,
         }
     }
 
@@ -100,6 +121,7 @@ impl StrategySettings {
         match self {
             StrategySettings::Ga(settings) => settings.check(),
             StrategySettings::Cmaes(settings) => settings.check(),
+            StrategySettings::Novelty(settings) => settings.check(),
         }
     }
 
@@ -112,6 +134,11 @@ impl StrategySettings {
                 run_seed,
             )?)),
             StrategySettings::Cmaes(settings) => Ok(Box::new(cmaes::Cmaes::start(
+                settings.clone(),
+                n_genes,
+                run_seed,
+            )?)),
+            StrategySettings::Novelty(settings) => Ok(Box::new(novelty::Novelty::start(
                 settings.clone(),
                 n_genes,
                 run_seed,
@@ -132,6 +159,9 @@ impl StrategySettings {
             }
             (StrategySettings::Cmaes(settings), StrategyState::Cmaes(state)) => Ok(Box::new(
                 cmaes::Cmaes::resume(settings.clone(), n_genes, state)?,
+            )),
+            (StrategySettings::Novelty(settings), StrategyState::Novelty(state)) => Ok(Box::new(
+                novelty::Novelty::resume(settings.clone(), n_genes, state)?,
             )),
             (settings, state) => Err(StrategyError::State(format!(
                 "the state is of algorithm '{}', the settings are for '{}'",
@@ -199,10 +229,14 @@ mod tests {
     fn evolve(strategy: &mut dyn Strategy, generations: u32) -> Vec<f64> {
         (0..generations)
             .map(|_| {
+                // The behaviour: the genes themselves.
                 let results: Vec<Evaluation> = strategy
                     .ask()
                     .iter()
-                    .map(|genes| Evaluation::new(toy_fitness(genes)))
+                    .map(|genes| {
+                        let descriptor = genes.iter().map(|&g| f64::from(g)).collect();
+                        Evaluation::with_descriptor(toy_fitness(genes), descriptor)
+                    })
                     .collect();
                 strategy.tell(&results).unwrap();
                 results
@@ -224,7 +258,31 @@ mod tests {
             StrategySettings::Cmaes(cmaes::CmaesSettings {
                 population: 12,
                 initial_sigma: 2.0,
-                gene_range: [-10.0, 10.0],
+                ..cmaes::CmaesSettings::default()
+            }),
+            StrategySettings::Cmaes(cmaes::CmaesSettings {
+                population: 12,
+                initial_sigma: 2.0,
+                variant: cmaes::CmaesVariant::Separable,
+                ..cmaes::CmaesSettings::default()
+            }),
+            StrategySettings::Cmaes(cmaes::CmaesSettings {
+                population: 12,
+                initial_sigma: 2.0,
+                restarts: 3,
+                ..cmaes::CmaesSettings::default()
+            }),
+            // Novelty blended with fitness, so that it too approaches the optimum.
+            StrategySettings::Novelty(novelty::NoveltySettings {
+                ga: ga::GaSettings {
+                    population: 20,
+                    elites: 4,
+                    ..ga::GaSettings::default()
+                },
+                neighbours: 5,
+                archive_per_generation: 2,
+                archive_size: 30,
+                fitness_weight: 0.8,
             }),
         ]
     }

@@ -353,6 +353,8 @@ async fn lease_and_complete(
         sub_task_correct: Vec::new(),
         node_active_cycles: vec![100],
         node_activations: vec![1],
+        // The final position, every shipped task's descriptor.
+        descriptor: vec![0.0; hevo_sim_core::DEFAULT_DESCRIPTOR.len()],
     };
     let genomes = batch
         .genomes

@@ -157,6 +157,9 @@ pub struct SampleSummary {
     /// How the controller's nodes took turns; empty when not known.
     #[serde(default)]
     pub node_use: NodeUse,
+    /// The behaviour descriptor, one value per quantity of the scenario's descriptor.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub descriptor: Vec<f32>,
 }
 
 impl SampleSummary {
@@ -219,6 +222,22 @@ impl SampleSummary {
                 self.cycles
             ));
         }
+        let ranges = task.scenario.descriptor_ranges();
+        if self.descriptor.len() != ranges.len() {
+            return Err(format!(
+                "a descriptor of {} values, the task's has {}",
+                self.descriptor.len(),
+                ranges.len()
+            ));
+        }
+        for (idx, (&value, (low, high))) in self.descriptor.iter().zip(ranges).enumerate() {
+            if !(value.is_finite() && (low..=high).contains(&value)) {
+                return Err(format!(
+                    "descriptor value {idx} ({}) is {value}, outside its range [{low}, {high}]",
+                    task.scenario.descriptor_names()[idx]
+                ));
+            }
+        }
         let node_use = &self.node_use;
         if !node_use.active_cycles.is_empty() || !node_use.activations.is_empty() {
             if node_use.active_cycles.len() != n_nodes || node_use.activations.len() != n_nodes {
@@ -255,6 +274,7 @@ impl From<&Outcome> for SampleSummary {
             cycles: outcome.cycles,
             sub_task_choices: outcome.sub_task_choices,
             node_use: outcome.node_use.clone(),
+            descriptor: outcome.descriptor.clone(),
         }
     }
 }
@@ -349,12 +369,13 @@ mod tests {
             stage: 1,
             variant: 2,
             cycles: 500,
+            descriptor: vec![0.5, -0.25],
             ..SampleSummary::default()
         };
         assert_eq!(good.check(&task, 4, &sample), Ok(()));
         // A change that makes the summary impossible, and what the refusal must say.
         type Damage = (fn(&mut SampleSummary), &'static str);
-        let cases: [Damage; 7] = [
+        let cases: [Damage; 10] = [
             (|s| s.fitness = 2.5, "fitness 2.5 is outside"),
             (|s| s.fitness = f32::NAN, "fitness NaN"),
             (|s| s.cycles = 1001, "cycles 1001 exceeds"),
@@ -364,6 +385,18 @@ mod tests {
             (
                 |s| s.sub_task_choices.cycles[0] = 1,
                 "sub-task choices for a task without",
+            ),
+            (
+                |s| s.descriptor.clear(),
+                "a descriptor of 0 values, the task's has 2",
+            ),
+            (
+                |s| s.descriptor[1] = f32::INFINITY,
+                "descriptor value 1 (final.y) is inf, outside its range",
+            ),
+            (
+                |s| s.descriptor[0] = 2.0e6,
+                "descriptor value 0 (final.x) is 2000000, outside its range [-1000000, 1000000]",
             ),
         ];
         for (spoil, expected) in cases {

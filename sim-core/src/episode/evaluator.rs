@@ -524,7 +524,7 @@ impl<'e> SampleRun<'e> {
     /// The sample's outcome, its world (for a trace) and the robot's final pose.
     pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
         let judge = self.judge;
-        let fitness = judge.fitness(
+        let (fitness, descriptor) = judge.fitness_and_descriptor(
             ending,
             self.cycles_run,
             &self.robot,
@@ -546,6 +546,7 @@ impl<'e> SampleRun<'e> {
                 activations: self.activations,
             },
             sub_task_choices: self.sub_task_choices,
+            descriptor,
         };
         env.ground = judge.ground;
         (outcome, env, self.robot)

@@ -149,14 +149,16 @@ impl<'a> Judge<'a> {
         scenario.solved.holds(&view).then_some(Ending::Solved)
     }
 
-    pub(crate) fn fitness(
+    /// The fitness of the ending and the behaviour descriptor, from what the quantities kept
+    /// and see at the end.
+    pub(crate) fn fitness_and_descriptor(
         &self,
         ending: Ending,
         cycles: u32,
         robot: &Pose,
         teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
-    ) -> f32 {
+    ) -> (f32, Vec<f32>) {
         let end = EndView {
             cycle: self.view(robot, teammate),
             cycles,
@@ -167,13 +169,37 @@ impl<'a> Judge<'a> {
                 .1
                 .value(&self.tracked[idx], &end)
         };
+        let descriptor = self
+            .scenario
+            .descriptor
+            .iter()
+            .map(|&idx| value_of(idx))
+            .collect();
+        (self.fitness_of(ending, cycles, &value_of), descriptor)
+    }
+
+    /// The fitness alone (the tests' view).
+    #[cfg(test)]
+    pub(crate) fn fitness(
+        &self,
+        ending: Ending,
+        cycles: u32,
+        robot: &Pose,
+        teammate: Option<TeammateView>,
+        sub_task_choices: &SubTaskChoices,
+    ) -> f32 {
+        self.fitness_and_descriptor(ending, cycles, robot, teammate, sub_task_choices)
+            .0
+    }
+
+    fn fitness_of(&self, ending: Ending, cycles: u32, value_of: &dyn Fn(usize) -> f32) -> f32 {
         let slot = match ending {
             Ending::Solved => ending_slot::SOLVED,
             Ending::WrongBranch => ending_slot::WRONG_BRANCH,
             Ending::Collision => ending_slot::COLLISION,
             Ending::Timeout => ending_slot::TIMEOUT,
         };
-        let fitness = self.scenario.fitness[slot].eval(&value_of);
+        let fitness = self.scenario.fitness[slot].eval(value_of);
         // The authors' code rewards finishing: a solved derived fitness earns the time bonus.
         if self.task.rescue_time_bonus && ending == Ending::Solved {
             fitness + blocks::quantities::time_bonus(cycles, self.max_cycles)

@@ -7,12 +7,12 @@
 use super::blocks::atoms::RegionTest;
 use super::blocks::{self, Facts, World};
 use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
-use super::formula::{Condition, Formula, Quantities};
+use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
-    CompiledMap, Facing, LightDef, MAX_LIGHTS, MAX_PHASES, MAX_REGIONS, MAX_SOLID_COORDINATE,
-    MAX_SOLIDS, MAX_VARIANTS, Phase, Place, PlaceAt, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario,
-    ScenarioError, Stage, TeammatePlan, Variant, compile_map, formula, is_proper_rect,
-    line_of_path, shipped_map,
+    CompiledMap, DEFAULT_DESCRIPTOR, Facing, LightDef, MAX_DESCRIPTOR, MAX_LIGHTS, MAX_PHASES,
+    MAX_REGIONS, MAX_SOLID_COORDINATE, MAX_SOLIDS, MAX_VARIANTS, Phase, Place, PlaceAt, SCHEMA,
+    SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant, compile_map,
+    formula, is_proper_rect, line_of_path, shipped_map,
 };
 use crate::geometry::scene::{Rect, RectKind};
 use crate::sensors::frame::{InputGroup, SensorSet};
@@ -112,7 +112,8 @@ pub(super) fn compile(
     };
 
     let (solved, wrong_branch, forbidden) = endings(&file, &facts, goals_in_cells, &error)?;
-    let (fitness, quantities) = fitness(&file, &facts, &error)?;
+    let (fitness, mut quantities) = fitness(&file, &facts, &error)?;
+    let descriptor = descriptor(&file, &facts, &mut quantities, &error)?;
     let (phases, stages) = phases_and_stages(&file, &facts, &error)?;
     goals_reachable(map.as_deref(), &variants, &place, &error)?;
 
@@ -136,10 +137,56 @@ pub(super) fn compile(
         near_m: end.near_m,
         fitness,
         quantities,
+        descriptor,
         phases,
         stages,
         file,
     })
+}
+
+/// `[descriptor]`: its quantities, compiled after (and shared with) the formulas', so the
+/// formulas' indices and what the judge tracks for them stay as they were; the final position
+/// when the file has none.
+fn descriptor(
+    file: &ScenarioFile,
+    facts: &Facts<'_>,
+    quantities: &mut Quantities,
+    error: Refuse<'_>,
+) -> Result<Vec<usize>, ScenarioError> {
+    let texts: Vec<&str> = match &file.descriptor {
+        Some(decl) => decl.quantities.iter().map(String::as_str).collect(),
+        None => DEFAULT_DESCRIPTOR.to_vec(),
+    };
+    if texts.is_empty() || texts.len() > MAX_DESCRIPTOR {
+        return Err(error(
+            "descriptor.quantities",
+            format!(
+                "lists {} quantities, 1 to {MAX_DESCRIPTOR} are accepted",
+                texts.len()
+            ),
+        ));
+    }
+    let mut indices = Vec::with_capacity(texts.len());
+    for (position, text) in texts.iter().enumerate() {
+        let key = format!("descriptor.quantities[{position}]");
+        let idx = quantity_index(text.trim(), facts, quantities)
+            .unwrap_or_else(|| {
+                Err(format!(
+                    "'{text}' is not a quantity: expected {}",
+                    blocks::listed(
+                        blocks::QUANTITIES
+                            .iter()
+                            .flat_map(|k| k.syntax.iter().copied())
+                    )
+                ))
+            })
+            .map_err(|message| error(&key, message))?;
+        if indices.contains(&idx) {
+            return Err(error(&key, format!("'{text}' is listed twice")));
+        }
+        indices.push(idx);
+    }
+    Ok(indices)
 }
 
 /// The schema, the name, the cycle limit.

@@ -81,6 +81,19 @@ pub struct ScenarioFile {
     /// The stages post-evaluation reports, in order; a solved sample has passed them all.
     #[serde(default, rename = "stage", skip_serializing_if = "Vec::is_empty")]
     pub stages: Vec<StageDecl>,
+    /// The behaviour descriptor: the quantities that say what a sample's robot did, for
+    /// searches over behaviours; the final position when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub descriptor: Option<DescriptorDecl>,
+}
+
+/// `[descriptor]`: the quantities of a sample's behaviour descriptor, in order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DescriptorDecl {
+    /// Each a fitness quantity's text (`final.x`, `approach room.exit`, ...), which also
+    /// names it.
+    pub quantities: Vec<String>,
 }
 
 impl ScenarioFile {

@@ -46,9 +46,29 @@ pub struct Formula {
     pub terms: Vec<Term>,
 }
 
-/// The quantities a scenario's formulas use, each compiled once and kept under the text that
-/// names it (two formulas naming `approach room.exit` share one).
+/// The quantities a scenario's formulas and behaviour descriptor use, each compiled once and
+/// kept under the text that names it (two formulas naming `approach room.exit` share one).
 pub type Quantities = Vec<(String, Box<dyn Quantity>)>;
+
+/// The index in `quantities` of the quantity `text` names, compiled into them first if it is
+/// not there yet; `None` when the text names no quantity, an error when it names one this
+/// scenario cannot have.
+pub fn quantity_index(
+    text: &str,
+    facts: &Facts<'_>,
+    quantities: &mut Quantities,
+) -> Option<Result<usize, String>> {
+    if let Some(idx) = quantities.iter().position(|(name, _)| name == text) {
+        return Some(Ok(idx));
+    }
+    let compiled = blocks::QUANTITIES
+        .iter()
+        .find_map(|kind| (kind.compile)(text, facts))?;
+    Some(compiled.map(|quantity| {
+        quantities.push((text.to_string(), quantity));
+        quantities.len() - 1
+    }))
+}
 
 impl Formula {
     /// Parses a formula, compiling each quantity it names into `quantities` (unless one of
@@ -76,17 +96,8 @@ impl Formula {
                 }
                 None => (raw, None),
             };
-            let base = if let Some(idx) = quantities.iter().position(|(name, _)| name == base) {
-                TermBase::Quantity(idx)
-            } else if let Some(compiled) = blocks::QUANTITIES
-                .iter()
-                .find_map(|kind| (kind.compile)(base, facts))
-            {
-                quantities.push((
-                    base.to_string(),
-                    compiled.map_err(|why| format!("'{raw}': {why}"))?,
-                ));
-                TermBase::Quantity(quantities.len() - 1)
+            let base = if let Some(idx) = quantity_index(base, facts, quantities) {
+                TermBase::Quantity(idx.map_err(|why| format!("'{raw}': {why}"))?)
             } else if base.parse::<f32>().is_ok() {
                 TermBase::Number(
                     formula_number(base).map_err(|why| format!("'{raw}': '{base}' {why}"))?,
@@ -273,7 +284,7 @@ mod tests {
             (
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
-                 approach teammate or approach LIGHT",
+                 approach teammate, approach LIGHT, final.x or final.y",
             ),
             ("approach beacon", "no light is named 'beacon'"),
             ("progress", "'progress': needs a goal in cells"),

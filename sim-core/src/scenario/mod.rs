@@ -60,6 +60,13 @@ pub const MAX_CELL_SIZE: f32 = 10.0;
 /// The most `[regions]` rectangles, and the most regions a map's legend may name.
 pub const MAX_REGIONS: usize = 256;
 
+/// The most quantities a `[descriptor]` may list.
+pub const MAX_DESCRIPTOR: usize = 16;
+
+/// The behaviour descriptor of a scenario without `[descriptor]` (every shipped one): where
+/// the robot ends. In code rather than in the shipped files, whose text hashes are pinned.
+pub const DEFAULT_DESCRIPTOR: [&str; 2] = ["final.x", "final.y"];
+
 /// The most `[[variant]]`s: every variant's starts are built and checked when a task is made.
 pub const MAX_VARIANTS: usize = 256;
 
@@ -292,8 +299,10 @@ pub struct Scenario {
     pub near_m: f32,
     /// Fitness when solved, after a wrong branch, a collision, a timeout.
     pub fitness: [Formula; 4],
-    /// The quantities the formulas name, each compiled once.
+    /// The quantities the formulas and the descriptor name, each compiled once.
     pub quantities: Quantities,
+    /// The behaviour descriptor: indices into `quantities`, in the descriptor's order.
+    pub descriptor: Vec<usize>,
     /// The derived fitness's phases.
     pub phases: Vec<Phase>,
     /// The stages.
@@ -452,6 +461,22 @@ impl Scenario {
         let mut names: Vec<String> = self.stages.iter().map(|s| s.name.clone()).collect();
         names.push("solved".into());
         names
+    }
+
+    /// The behaviour descriptor's quantities' names, in order.
+    pub fn descriptor_names(&self) -> Vec<&str> {
+        self.descriptor
+            .iter()
+            .map(|&idx| self.quantities[idx].0.as_str())
+            .collect()
+    }
+
+    /// The least and most each of the behaviour descriptor's values can be, in order.
+    pub fn descriptor_ranges(&self) -> Vec<(f32, f32)> {
+        self.descriptor
+            .iter()
+            .map(|&idx| self.quantities[idx].1.range(self.phases.len()))
+            .collect()
     }
 
     /// Whether it has a derived fitness (an arbitrator's scenario).
@@ -785,6 +810,71 @@ mod tests {
             "solve_maze"
         );
         assert!(Scenario::shipped("nope").is_none());
+    }
+
+    #[test]
+    fn a_descriptor_is_the_final_position_unless_the_file_lists_quantities() {
+        for (name, _) in SHIPPED {
+            let scenario = Scenario::shipped(name).unwrap();
+            assert_eq!(scenario.descriptor_names(), DEFAULT_DESCRIPTOR, "{name}");
+        }
+        // A user's copy of exit room: the shipped file under another name, without the keys
+        // reserved for shipped scenarios.
+        let exit_room: String = SHIPPED[0]
+            .1
+            .lines()
+            .filter(|line| !line.starts_with("legacy") && !line.starts_with("aliases"))
+            .map(|line| match line.starts_with("name = ") {
+                true => "name = \"my_exit_room\"\n".to_string(),
+                false => format!("{line}\n"),
+            })
+            .collect();
+        let with = |quantities: &str| {
+            Scenario::parse(
+                &format!("{exit_room}\n[descriptor]\nquantities = [{quantities}]\n"),
+                "test.toml",
+            )
+        };
+        // The formulas' quantities keep their indices; a shared one is compiled once.
+        let plain = Scenario::shipped("exit_room").unwrap();
+        let scenario = with("\"approach room.exit\", \"final.y\", \"time_bonus\"").unwrap();
+        assert_eq!(
+            scenario.descriptor_names(),
+            ["approach room.exit", "final.y", "time_bonus"]
+        );
+        let names = |s: &Scenario| {
+            s.quantities
+                .iter()
+                .map(|(n, _)| n.clone())
+                .collect::<Vec<_>>()
+        };
+        // (Exit room's formulas name neither final.x nor final.y.)
+        let n_formulas = plain.quantities.len() - DEFAULT_DESCRIPTOR.len();
+        assert_eq!(names(&scenario)[..n_formulas], names(&plain)[..n_formulas]);
+        assert_eq!(
+            scenario.quantities.len(),
+            n_formulas + 1,
+            "final.y alone is new"
+        );
+        assert_eq!(
+            scenario.descriptor_ranges()[1],
+            (
+                -blocks::quantities::MAX_FINAL_COORDINATE,
+                blocks::quantities::MAX_FINAL_COORDINATE
+            )
+        );
+        for (quantities, wanted) in [
+            ("", "lists 0 quantities"),
+            ("\"speed\"", "'speed' is not a quantity"),
+            ("\"final.x\", \"final.x\"", "'final.x' is listed twice"),
+            ("\"approach teammate\"", "needs a [teammate]"),
+        ] {
+            let error = with(quantities).unwrap_err().to_string();
+            assert!(
+                error.contains("descriptor.quantities") && error.contains(wanted),
+                "{quantities}: {error}"
+            );
+        }
     }
 
     #[test]

@@ -28,6 +28,8 @@ fn forged(batch: &v1::Batch, forge: impl Fn(&mut v1::SampleResult)) -> Vec<v1::G
                     let mut result = v1::SampleResult {
                         fitness: 0.5,
                         cycles: 10,
+                        // Where the robot ended: the shipped tasks' behaviour descriptor.
+                        descriptor: vec![0.1, 0.2],
                         ..v1::SampleResult::default()
                     };
                     forge(&mut result);
@@ -76,6 +78,8 @@ fn forged_and_foreign_results_change_nothing() {
             |r: &mut v1::SampleResult| r.fitness = 1e30,
             |r: &mut v1::SampleResult| r.variant = 4_000_000_000,
             |r: &mut v1::SampleResult| r.stage = 9,
+            |r: &mut v1::SampleResult| r.descriptor.truncate(1),
+            |r: &mut v1::SampleResult| r.descriptor[0] = f32::NAN,
         ] {
             let held = lease(&mut thief, "thief", Duration::from_secs(10))
                 .await

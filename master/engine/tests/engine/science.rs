@@ -384,6 +384,7 @@ fn unsolved(batch: &Batch) -> Vec<Vec<SampleSummary>> {
                 .map(|sample| SampleSummary {
                     cycles: 1,
                     variant: sample.variant.unwrap_or(0),
+                    descriptor: vec![0.0; hevo_sim_core::DEFAULT_DESCRIPTOR.len()],
                     ..SampleSummary::default()
                 })
                 .collect()

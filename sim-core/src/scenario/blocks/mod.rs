@@ -62,6 +62,7 @@ pub static QUANTITIES: &[QuantityKind] = &[
     quantities::PROGRESS,
     quantities::DERIVED,
     quantities::APPROACH,
+    quantities::FINAL_POSITION,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the

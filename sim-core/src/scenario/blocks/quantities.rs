@@ -1,6 +1,7 @@
 //! The fitness quantities a formula's terms name: the time left, the progress along the
-//! corridor distance, a closest approach, the derived fitness. Each is a number in a known
-//! range when the sample ends; an approach keeps its closest distance cycle by cycle.
+//! corridor distance, a closest approach, the derived fitness, the robot's final position.
+//! Each is a number in a known range when the sample ends; an approach keeps its closest
+//! distance cycle by cycle. A scenario's behaviour descriptor is a list of them too.
 
 use super::{CycleView, EndView, Quantity, QuantityKind, Tracked, fixed_word};
 use crate::math::float::hypot;
@@ -49,6 +50,36 @@ impl Quantity for Progress {
             goal.distance_from(end.cycle.robot.position())
                 .map_or(0.0, |current| share_covered(goal.total_distance, current))
         })
+    }
+}
+
+/// The largest |coordinate| `final.x` and `final.y` may report, metres: a bound far outside
+/// any world (a map spans at most 16,384 cells of at most 10 m) that still refuses garbage.
+pub const MAX_FINAL_COORDINATE: f32 = 1.0e6;
+
+/// `final.x`, `final.y`: where the robot's centre is when the sample ends, metres.
+pub const FINAL_POSITION: QuantityKind = QuantityKind {
+    syntax: &["final.x", "final.y"],
+    compile: |text, _| match text {
+        "final.x" => Some(Ok(Box::new(FinalPosition { axis: 0 }) as Box<dyn Quantity>)),
+        "final.y" => Some(Ok(Box::new(FinalPosition { axis: 1 }) as Box<dyn Quantity>)),
+        _ => None,
+    },
+};
+
+#[derive(Debug)]
+struct FinalPosition {
+    /// 0 for x, 1 for y.
+    axis: usize,
+}
+
+impl Quantity for FinalPosition {
+    fn value(&self, _tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        end.cycle.robot.position()[self.axis]
+    }
+
+    fn range(&self, _n_phases: usize) -> (f32, f32) {
+        (-MAX_FINAL_COORDINATE, MAX_FINAL_COORDINATE)
     }
 }
 
