@@ -380,4 +380,25 @@ mod tests {
             .unwrap();
         assert_eq!(best.task.name(), "turn_left");
     }
+
+    #[test]
+    fn a_node_with_an_unfinished_runs_extension_is_not_finished() {
+        let runs =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/runs-wide-turn-starts");
+        let source = RunDirSource::new(&[runs]).unwrap();
+        let job = &source.jobs()[0];
+        let node = source.nodes(&job.id).unwrap().remove(0);
+        assert!(node.finished(), "{}", node.name);
+        let n_runs = node.runs.len() as u32;
+        let mut extended = node.clone();
+        extended.runs.push(crate::RunView {
+            run: n_runs,
+            rows: Vec::new(),
+            summary: None,
+        });
+        assert!(!extended.finished());
+        let mut planned_more = node.clone();
+        planned_more.planned = Some((n_runs + 1, 10));
+        assert!(!planned_more.finished());
+    }
 }
