@@ -146,12 +146,23 @@ pub fn run_logs(node: &NodeView) -> Vec<RunLog> {
         .collect()
 }
 
-/// The fitness plot of a node (hevo-viz's).
+/// The fitness plot of a node (hevo-viz's); while it runs, its title says how many of the
+/// planned generations are done, since the curves' axis reaches only as far as they do.
 pub fn plot_svg(node: &NodeView) -> String {
-    hevo_viz::fitness_plot_svg(
-        &format!("{}: fitness per generation", node.name),
-        &run_logs(node),
-    )
+    hevo_viz::fitness_plot_svg(&plot_title(node), &run_logs(node))
+}
+
+/// `follow_wall: fitness per generation (137 of 500 generations)`.
+fn plot_title(node: &NodeView) -> String {
+    let planned = match node.planned {
+        Some((runs, generations)) if !node.finished() => format!(
+            " ({} of {} generations)",
+            node.generations_done(),
+            u64::from(runs) * u64::from(generations)
+        ),
+        _ => String::new(),
+    };
+    format!("{}: fitness per generation{planned}", node.name)
 }
 
 /// One run's line of progress: `run 0: generation 12 of 50, best 1.234, mean 0.567`.
@@ -489,6 +500,10 @@ mod tests {
         assert!(html.contains("run 0: 1 generation of 5, best 1.000, mean 0.500"));
         assert!(html.contains("<p class=\"node-state\">running,"));
         assert_eq!(node_state(&node, false), "unfinished (0 run(s) finished)");
+        assert_eq!(
+            plot_title(&node),
+            "follow_wall: fitness per generation (1 of 5 generations)"
+        );
         assert!(html.contains("data-plot=\"/jobs/job-1/plot.svg?node=follow_wall\""));
         assert!(html.contains("<svg"));
         assert!(!html.contains("post-evaluation"));
