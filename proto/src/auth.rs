@@ -21,12 +21,13 @@ pub const AUTHORIZATION: &str = "authorization";
 #[derive(Debug, thiserror::Error)]
 pub enum TokenError {
     /// The token file cannot be read.
-    #[error("cannot read the token file {path}: {source}")]
+    #[error("cannot read the token file {path}: {cause}")]
     File {
         /// The file.
         path: std::path::PathBuf,
         /// Why.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
     /// Nothing but whitespace.
     #[error("the token is empty")]
@@ -39,9 +40,9 @@ pub enum TokenError {
 /// Every token of a token file: one per line; blank lines and `#` comments are skipped (a
 /// master's file may list several during a rotation). Each must be non-empty printable ASCII.
 pub fn read_token_file(path: &Path) -> Result<Vec<String>, TokenError> {
-    let text = std::fs::read_to_string(path).map_err(|source| TokenError::File {
+    let text = std::fs::read_to_string(path).map_err(|cause| TokenError::File {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     let tokens: Vec<String> = text
         .lines()

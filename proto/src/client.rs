@@ -35,12 +35,13 @@ pub enum ConnectError {
         url: String,
     },
     /// The CA certificate cannot be read.
-    #[error("cannot read the CA certificate {path}: {source}")]
+    #[error("cannot read the CA certificate {path}: {cause}")]
     CaFile {
         /// The file.
         path: PathBuf,
         /// Why.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
     /// TLS could not be configured.
     #[error("TLS setup failed: {0}")]
@@ -136,9 +137,9 @@ impl ClientOptions {
                     url: self.url.clone(),
                 });
             }
-            let pem = std::fs::read(ca).map_err(|source| ConnectError::CaFile {
+            let pem = std::fs::read(ca).map_err(|cause| ConnectError::CaFile {
                 path: ca.clone(),
-                source,
+                cause,
             })?;
             let tls = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(pem));
             endpoint = endpoint

@@ -73,9 +73,14 @@ pub struct NodeView {
 }
 
 impl NodeView {
-    /// Whether every run has finished and the node's best controller is chosen.
+    /// Whether every run has finished and the node's best controller is chosen. A summary
+    /// that covers fewer runs than the directory holds (or the job plans) is an earlier one,
+    /// left by a `--runs` extension that has not finished.
     pub fn finished(&self) -> bool {
-        self.summary.is_some()
+        self.summary.as_ref().is_some_and(|summary| {
+            let planned_runs = self.planned.map_or(0, |(runs, _)| runs as usize);
+            summary.runs.len() >= self.runs.len().max(planned_runs)
+        })
     }
 
     /// Generations with a fitness row, over all runs.

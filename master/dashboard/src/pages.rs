@@ -146,12 +146,23 @@ pub fn run_logs(node: &NodeView) -> Vec<RunLog> {
         .collect()
 }
 
-/// The fitness plot of a node (hevo-viz's).
+/// The fitness plot of a node (hevo-viz's); while it runs, its title says how many of the
+/// planned generations are done, since the curves' axis reaches only as far as they do.
 pub fn plot_svg(node: &NodeView) -> String {
-    hevo_viz::fitness_plot_svg(
-        &format!("{}: fitness per generation", node.name),
-        &run_logs(node),
-    )
+    hevo_viz::fitness_plot_svg(&plot_title(node), &run_logs(node))
+}
+
+/// `follow_wall: fitness per generation (137 of 500 generations)`.
+fn plot_title(node: &NodeView) -> String {
+    let planned = match node.planned {
+        Some((runs, generations)) if !node.finished() => format!(
+            " ({} of {} generations)",
+            node.generations_done(),
+            u64::from(runs) * u64::from(generations)
+        ),
+        _ => String::new(),
+    };
+    format!("{}: fitness per generation{planned}", node.name)
 }
 
 /// One run's line of progress: `run 0: generation 12 of 50, best 1.234, mean 0.567`.
@@ -254,11 +265,28 @@ fn post_evaluation_table(node: &NodeView) -> String {
     out
 }
 
+/// A node's state in words. An unfinished node is `running` only while its job runs: a
+/// stopped job's, or a run directory's (which cannot tell whether a process still writes it),
+/// says how far it got.
+pub fn node_state(node: &NodeView, job_running: bool) -> String {
+    if node.finished() {
+        "finished".to_string()
+    } else if node.runs.is_empty() {
+        "not started".to_string()
+    } else if job_running {
+        "running".to_string()
+    } else {
+        let finished_runs = node.runs.iter().filter(|r| r.summary.is_some()).count();
+        format!("unfinished ({finished_runs} run(s) finished)")
+    }
+}
+
 /// A node's section of the job page; `replays` are its best controller's, or the reason
-/// there are none.
+/// there are none; `job_running` whether its job is running (see [`node_state`]).
 pub fn node_section(
     job_id: &str,
     node: &NodeView,
+    job_running: bool,
     replays: Option<Result<&[ReplayFigure], &str>>,
 ) -> String {
     let mut out = format!(
@@ -273,13 +301,7 @@ pub fn node_section(
     let _ = writeln!(
         out,
         "<p class=\"node-state\">{}{planned}</p>",
-        if node.finished() {
-            "finished"
-        } else if node.runs.is_empty() {
-            "not started"
-        } else {
-            "running"
-        }
+        node_state(node, job_running)
     );
     out.push_str("<ul class=\"runs\">\n");
     for run in &node.runs {
@@ -298,7 +320,10 @@ pub fn node_section(
         job = escape(job_id),
         svg = plot_svg(node),
     );
+    // Scrolls inside its card rather than overflowing it (the rescue's stage columns).
+    out.push_str("<div class=\"table-scroll\">\n");
     out.push_str(&post_evaluation_table(node));
+    out.push_str("</div>\n");
     match replays {
         Some(Ok(figures)) => {
             out.push_str("<h3>The best controller's replays</h3>\n<div class=\"replays\">\n");
@@ -471,8 +496,14 @@ mod tests {
             summary: None,
             planned: Some((1, 5)),
         };
-        let html = node_section("job-1", &node, None);
+        let html = node_section("job-1", &node, true, None);
         assert!(html.contains("run 0: 1 generation of 5, best 1.000, mean 0.500"));
+        assert!(html.contains("<p class=\"node-state\">running,"));
+        assert_eq!(node_state(&node, false), "unfinished (0 run(s) finished)");
+        assert_eq!(
+            plot_title(&node),
+            "follow_wall: fitness per generation (1 of 5 generations)"
+        );
         assert!(html.contains("data-plot=\"/jobs/job-1/plot.svg?node=follow_wall\""));
         assert!(html.contains("<svg"));
         assert!(!html.contains("post-evaluation"));

@@ -201,8 +201,24 @@ impl RunDirSource {
             finished,
             generations_done: nodes.iter().map(|n| n.generations_done() as u64).sum(),
             generations_total: None,
-            created_unix_ms: None,
-            finished_unix_ms: None,
+            // What the directory knows: when it was made, and when its last node summary
+            // was written.
+            created_unix_ms: std::fs::metadata(dir)
+                .and_then(|m| m.created())
+                .ok()
+                .and_then(unix_ms),
+            finished_unix_ms: finished
+                .then(|| {
+                    names
+                        .iter()
+                        .filter_map(|name| {
+                            let summary = rundir::node_dir(dir, name).join(rundir::SUMMARY);
+                            std::fs::metadata(summary).and_then(|m| m.modified()).ok()
+                        })
+                        .max()
+                        .and_then(unix_ms)
+                })
+                .flatten(),
             error: None,
             nodes: names,
             cancellable: false,
@@ -234,6 +250,12 @@ impl RunDirSource {
             }
         });
     }
+}
+
+/// A file time as ms since the Unix epoch; `None` before it.
+fn unix_ms(time: std::time::SystemTime) -> Option<i64> {
+    let since = time.duration_since(std::time::UNIX_EPOCH).ok()?;
+    i64::try_from(since.as_millis()).ok()
 }
 
 impl Source for RunDirSource {
@@ -308,6 +330,7 @@ mod tests {
         assert_eq!(jobs[0].nodes, ["follow_wall"]);
         assert_eq!(jobs[0].generations_done, 5);
         assert!(!jobs[0].finished);
+        assert_eq!(jobs[0].finished_unix_ms, None);
         let nodes = source.nodes(&jobs[0].id).unwrap();
         assert_eq!(nodes[0].runs.len(), 2);
         assert!(!nodes[0].finished());
@@ -350,10 +373,32 @@ mod tests {
         let source = RunDirSource::new(&[runs]).unwrap();
         let job = &source.jobs()[0];
         assert!(job.finished, "{job:?}");
+        assert!(job.finished_unix_ms.is_some(), "{job:?}");
         let best = source
             .best_controller(&job.id, "turn_left")
             .unwrap()
             .unwrap();
         assert_eq!(best.task.name(), "turn_left");
+    }
+
+    #[test]
+    fn a_node_with_an_unfinished_runs_extension_is_not_finished() {
+        let runs =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/runs-wide-turn-starts");
+        let source = RunDirSource::new(&[runs]).unwrap();
+        let job = &source.jobs()[0];
+        let node = source.nodes(&job.id).unwrap().remove(0);
+        assert!(node.finished(), "{}", node.name);
+        let n_runs = node.runs.len() as u32;
+        let mut extended = node.clone();
+        extended.runs.push(crate::RunView {
+            run: n_runs,
+            rows: Vec::new(),
+            summary: None,
+        });
+        assert!(!extended.finished());
+        let mut planned_more = node.clone();
+        planned_more.planned = Some((n_runs + 1, 10));
+        assert!(!planned_more.finished());
     }
 }

@@ -404,6 +404,7 @@ async fn job_page(
         let job = source.job(&id).map_err(source_refusal)?;
         let nodes = source.nodes(&id).map_err(source_refusal)?;
         let mut body = pages::job_header(&job, seed, csrf.as_deref());
+        let job_running = job.state == "running";
         for node in &nodes {
             let replays = node
                 .finished()
@@ -415,7 +416,7 @@ async fn job_page(
                     .map(Vec::as_slice)
                     .map_err(String::as_str)
             });
-            body.push_str(&pages::node_section(&id, node, replays));
+            body.push_str(&pages::node_section(&id, node, job_running, replays));
         }
         Ok((job.name, body))
     })

@@ -32,9 +32,9 @@ pub fn make(dir: &Path, target: &str) -> Result<String, ExportError> {
         .arg(target)
         .stdin(Stdio::null())
         .output()
-        .map_err(|source| ExportError::Io {
+        .map_err(|cause| ExportError::Io {
             path: dir.to_path_buf(),
-            source,
+            cause,
         })?;
     let text = format!(
         "{}{}",
@@ -81,9 +81,9 @@ impl CProgram {
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()
-            .map_err(|source| ExportError::Io {
+            .map_err(|cause| ExportError::Io {
                 path: program.to_path_buf(),
-                source,
+                cause,
             })?;
         let (Some(stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
             return Err(ExportError::Unsupported(

@@ -69,12 +69,13 @@ pub enum ExportError {
     #[error("recording test vectors: {0}")]
     Vectors(String),
     /// Writing the files.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file or directory.
         path: PathBuf,
         /// What went wrong.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
 }
 
@@ -107,7 +108,7 @@ impl Bundle {
     pub fn write(&self, dir: &Path) -> Result<(), ExportError> {
         let io = |path: &Path| {
             let path = path.to_path_buf();
-            move |source| ExportError::Io { path, source }
+            move |cause| ExportError::Io { path, cause }
         };
         std::fs::create_dir_all(dir).map_err(io(dir))?;
         for (name, content) in &self.files {

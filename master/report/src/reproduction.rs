@@ -104,19 +104,20 @@ pub enum ReportError {
     #[error(transparent)]
     RunDir(#[from] hevo_rundir::RunDirError),
     /// A directory cannot be listed, or the report or a picture cannot be written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file or directory.
         path: PathBuf,
         /// Why.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
-    move |source| ReportError::Io {
+    move |cause| ReportError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 

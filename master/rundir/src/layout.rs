@@ -117,20 +117,22 @@ pub struct NodeSummary {
 #[derive(Debug, thiserror::Error)]
 pub enum RunDirError {
     /// A directory or file could not be read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}: {cause}")]
     Io {
         /// What was being read.
         path: PathBuf,
         /// Why not.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
     /// A fitness log does not parse.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     FitnessLog {
         /// The log.
         path: PathBuf,
         /// Where and what.
-        source: FitnessLogError,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: FitnessLogError,
     },
 }
 
@@ -138,9 +140,9 @@ pub enum RunDirError {
 /// order (run 10 after run 9), each with its run index. A run without a log yet is left out;
 /// a log that does not parse is an error naming its file.
 pub fn fitness_logs(node_dir: &Path) -> Result<Vec<(u32, Vec<FitnessRow>)>, RunDirError> {
-    let runs = run_dirs(node_dir).map_err(|source| RunDirError::Io {
+    let runs = run_dirs(node_dir).map_err(|cause| RunDirError::Io {
         path: node_dir.to_path_buf(),
-        source,
+        cause,
     })?;
     let mut logs = Vec::new();
     for (run, dir) in runs {
@@ -149,7 +151,7 @@ pub fn fitness_logs(node_dir: &Path) -> Result<Vec<(u32, Vec<FitnessRow>)>, RunD
             continue;
         };
         let rows =
-            parse_fitness_csv(&text).map_err(|source| RunDirError::FitnessLog { path, source })?;
+            parse_fitness_csv(&text).map_err(|cause| RunDirError::FitnessLog { path, cause })?;
         logs.push((run, rows));
     }
     Ok(logs)
@@ -159,6 +161,26 @@ pub fn fitness_logs(node_dir: &Path) -> Result<Vec<(u32, Vec<FitnessRow>)>, RunD
 mod tests {
     use super::*;
     use crate::fitness_log::FITNESS_CSV_HEADER;
+
+    /// The message with its chain of causes, as `{:#}` (anyhow) prints it.
+    fn with_chain(error: &dyn std::error::Error) -> String {
+        let mut text = error.to_string();
+        let mut cause = error.source();
+        while let Some(next) = cause {
+            text.push_str(&format!(": {next}"));
+            cause = next.source();
+        }
+        text
+    }
+
+    #[test]
+    fn a_missing_node_directory_names_its_cause_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let error = fitness_logs(&dir.path().join("nowhere")).unwrap_err();
+        let text = with_chain(&error);
+        assert!(text.starts_with("cannot read "), "{text}");
+        assert_eq!(text.matches("os error 2").count(), 1, "{text}");
+    }
 
     #[test]
     fn fitness_logs_are_read_in_run_order_and_a_broken_log_is_named() {

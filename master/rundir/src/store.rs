@@ -79,20 +79,21 @@ pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Resul
 #[derive(Debug, thiserror::Error)]
 pub enum ReadJsonError {
     /// Reading failed.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
         /// Why.
-        source: std::io::Error,
+        /// Part of the message, not a `source()`, so `{:#}` prints it once.
+        cause: std::io::Error,
     },
     /// It is not the JSON expected.
-    #[error("{path}: malformed JSON: {source}")]
+    #[error("{path}: malformed JSON: {cause}")]
     Malformed {
         /// The file.
         path: PathBuf,
         /// Where and what.
-        source: serde_json::Error,
+        cause: serde_json::Error,
     },
 }
 
@@ -110,14 +111,14 @@ pub fn read_json_with<T>(
     match std::fs::read_to_string(path) {
         Ok(text) => parse(&text)
             .map(Some)
-            .map_err(|source| ReadJsonError::Malformed {
+            .map_err(|cause| ReadJsonError::Malformed {
                 path: path.to_path_buf(),
-                source,
+                cause,
             }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(source) => Err(ReadJsonError::Io {
+        Err(cause) => Err(ReadJsonError::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         }),
     }
 }

@@ -426,15 +426,24 @@ pub fn replay_svg(
     options: &ReplayOptions,
     cones: &dyn Fn(&Pose) -> Vec<IrCone>,
 ) -> String {
-    render(trace, options, &[], cones)
+    render(trace, options, &[], cones, Legend::Controllers)
 }
 
 /// Draws a scenario's world as one traced sample starts in it (`hevo scenario draw`): the
 /// replay's picture with every named region shaded under the walls and labelled by name,
 /// to scale (`regions` from `hevo_sim_core::named_regions` for the same sample).
 /// The world is fitted to hold the regions too, so a rectangle outside the walls is seen.
+/// No controller drives it, so it has no legend of controllers.
 pub fn scenario_svg(trace: &Trace, options: &ReplayOptions, regions: &[NamedRegion]) -> String {
-    render(trace, options, regions, &|_| Vec::new())
+    render(trace, options, regions, &|_| Vec::new(), Legend::None)
+}
+
+/// Whether a picture names the controllers that drove the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Legend {
+    Controllers,
+    /// The trace's policy is a stand-in (a scenario's world before any controller).
+    None,
 }
 
 fn render(
@@ -442,6 +451,7 @@ fn render(
     options: &ReplayOptions,
     regions: &[NamedRegion],
     cones: &dyn Fn(&Pose) -> Vec<IrCone>,
+    legend: Legend,
 ) -> String {
     let robot_radius = if options.robot_radius.is_finite() && options.robot_radius > 0.0 {
         options.robot_radius as f64
@@ -471,7 +481,11 @@ fn render(
     }
 
     // Everything below the scene is laid out first, so the document's height is known.
-    let legend_entries: Vec<(Option<u16>, String, String)> = active_counts
+    let named_counts = match legend {
+        Legend::Controllers => &active_counts,
+        Legend::None => &BTreeMap::new(),
+    };
+    let legend_entries: Vec<(Option<u16>, String, String)> = named_counts
         .iter()
         .map(|(&node, &count)| {
             let share = 100.0 * count as f64 / trace.cycles.len().max(1) as f64;
@@ -504,7 +518,10 @@ fn render(
     let legend_title_y = caption_top + 2.0 * 22.0 + 10.0;
     let legend_top = legend_title_y + 24.0;
     let key_items = key_items(trace, options);
-    let key_top = legend_top + legend_rows as f64 * 22.0 + 8.0;
+    let key_top = match legend {
+        Legend::Controllers => legend_top + legend_rows as f64 * 22.0 + 8.0,
+        Legend::None => legend_title_y,
+    };
     let key_rows = layout_key(&key_items).last().map_or(0, |item| item.row + 1);
     let height = key_top + key_rows as f64 * 24.0 + PAD;
 
@@ -616,16 +633,18 @@ fn render(
     } else {
         "Path colour: the controller driving the robot (leaf of the active path)"
     };
-    doc.text(
-        Tag::new("text")
-            .class("legend-title")
-            .num("x", PAD)
-            .num("y", legend_title_y)
-            .num("font-size", LEGEND_FONT)
-            .attr("font-weight", "bold")
-            .attr("fill", INK),
-        legend_title,
-    );
+    if legend == Legend::Controllers {
+        doc.text(
+            Tag::new("text")
+                .class("legend-title")
+                .num("x", PAD)
+                .num("y", legend_title_y)
+                .num("font-size", LEGEND_FONT)
+                .attr("font-weight", "bold")
+                .attr("fill", INK),
+            legend_title,
+        );
+    }
     let column_width = (WIDTH - 2.0 * PAD) / legend_columns as f64;
     // The cycle counts of a legend column line up after its longest name, so they read as a
     // column of numbers rather than trailing each name at a different place.
@@ -1678,6 +1697,10 @@ mod tests {
             let region_names: BTreeSet<&str> = regions.iter().map(|r| r.name.as_str()).collect();
             assert_eq!(label_names, region_names, "{name}");
             assert_eq!(labels.len(), regions.len(), "{name}: one label per region");
+            // No controller drove it: no legend naming one.
+            for class in ["legend-title", "legend", "legend-swatch", "legend-cycles"] {
+                assert!(with_class(&elements, class).is_empty(), "{name}: {class}");
+            }
             for region in &regions {
                 let shaded: Vec<&Element> = with_class(&elements, "region-rect")
                     .into_iter()

@@ -45,11 +45,19 @@ impl Recorder for Vec<TraceCycle> {
 pub enum TaskError {
     /// A number out of range, or an option where it does not apply.
     #[error("invalid task configuration: {0}")]
-    Config(#[from] ConfigError),
+    Config(ConfigError),
     /// The scenario's worlds, as the task builds them, break a rule of every world (a start
     /// touching a solid): the file, key and line.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+}
+
+// By hand rather than `#[from]`, which would also make the cause a `source()` that `{:#}`
+// prints a second time after the message.
+impl From<ConfigError> for TaskError {
+    fn from(error: ConfigError) -> Self {
+        TaskError::Config(error)
+    }
 }
 
 /// Samples per variant whose worlds [`Evaluator::new`] builds to check their starts: a start

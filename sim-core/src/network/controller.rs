@@ -169,7 +169,15 @@ pub enum NodeProblem {
     SecondFreeNode { first_free_path: String },
     /// The network could not be built (validation normally catches this first).
     #[error("network: {0}")]
-    Network(#[from] CtrnnError),
+    Network(CtrnnError),
+}
+
+// By hand rather than `#[from]`, which would also make the cause a `source()` that `{:#}`
+// prints a second time after the message.
+impl From<CtrnnError> for NodeProblem {
+    fn from(error: CtrnnError) -> Self {
+        NodeProblem::Network(error)
+    }
 }
 
 /// Everything that can be wrong with a controller file or with building a controller from it.
@@ -177,7 +185,7 @@ pub enum NodeProblem {
 pub enum ControllerError {
     /// The text is not JSON of the controller file shape (includes unknown fields).
     #[error("controller file does not parse: {0}")]
-    Json(#[from] serde_json::Error),
+    Json(serde_json::Error),
     /// The schema string is not the one this code reads.
     #[error("schema is {found:?}, expected {expected:?}", expected = CONTROLLER_SCHEMA)]
     WrongSchema { found: String },
@@ -187,6 +195,13 @@ pub enum ControllerError {
     /// A free genome was supplied but every node already has its genome.
     #[error("a free genome was given, but the controller has no free node")]
     NoFreeNode,
+}
+
+// By hand rather than `#[from]`: see `NodeProblem`'s.
+impl From<serde_json::Error> for ControllerError {
+    fn from(error: serde_json::Error) -> Self {
+        ControllerError::Json(error)
+    }
 }
 
 impl ControllerError {

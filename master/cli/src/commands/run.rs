@@ -66,7 +66,16 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     let progress = crate::progress::for_stderr();
     let summaries = with_local_workers(threads, async |dispatcher| {
-        runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()).await
+        tokio::select! {
+            summaries = runner::run_experiment(&experiment, &settings, dispatcher, progress.as_ref()) => summaries,
+            _ = tokio::signal::ctrl_c() => {
+                // Every finished generation is checkpointed and the runner writes only between
+                // its awaits, so stopping here loses at most the generation in flight; exiting
+                // at once spares the wait for the workers' current batches.
+                eprintln!("{}", progress.interrupted());
+                std::process::exit(130);
+            }
+        }
     })?;
     crate::outln!("results in {}", args.out.display());
     for summary in &summaries {
