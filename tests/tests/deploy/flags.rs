@@ -123,7 +123,7 @@ fn a_wrong_flag_is_reported() {
                 path: "deploy/README.md",
                 from: "--wrap 'srun hevo-worker --master",
                 to: "--wrap 'srun hevo-worker --masters",
-                expected: "deploy/README.md:271: `hevo-worker` has no option `--masters`",
+                expected: "deploy/README.md:270: `hevo-worker` has no option `--masters`",
             },
         ],
     );
