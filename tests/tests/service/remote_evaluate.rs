@@ -204,6 +204,9 @@ fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
                                 fitness: 0.5,
                                 cycles: 10,
                                 variant: sample.variant.unwrap_or(0),
+                                // Where the robot ended: the maze's behaviour descriptor, so the
+                                // lie is plausible and only a spot check can catch it.
+                                descriptor: vec![0.1, 0.2],
                                 ..v1::SampleResult::default()
                             })
                             .collect(),
