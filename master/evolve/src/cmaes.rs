@@ -1111,13 +1111,8 @@ mod tests {
         let mut told = Vec::new();
         while cmaes.restarts_done() < restarts {
             assert!(told.len() < 20_000, "no restart in 20,000 generations");
-            let results: Vec<Evaluation> = cmaes
-                .ask()
-                .iter()
-                .map(|genes| {
-                    Evaluation::new(-f(&genes.iter().map(|&g| f64::from(g)).collect::<Vec<_>>()))
-                })
-                .collect();
+            let results: Vec<Evaluation> =
+                cmaes.ask().iter().map(|genes| scored(f, genes)).collect();
             let best = results
                 .iter()
                 .map(|r| r.fitness)
@@ -1221,16 +1216,16 @@ mod tests {
         assert!(Cmaes::resume(ipop(6, 4), 3, plain).is_err());
     }
 
+    /// A genome's evaluation on the minimised benchmark function `f` (fitness is maximised).
+    fn scored(f: fn(&[f64]) -> f64, genes: &[f32]) -> Evaluation {
+        Evaluation::new(-f(&genes.iter().map(|&g| f64::from(g)).collect::<Vec<_>>()))
+    }
+
     /// Asks and tells on `f` for `generations` generations.
     fn drive(cmaes: &mut Cmaes, f: fn(&[f64]) -> f64, generations: u32) {
         for _ in 0..generations {
-            let results: Vec<Evaluation> = cmaes
-                .ask()
-                .iter()
-                .map(|genes| {
-                    Evaluation::new(-f(&genes.iter().map(|&g| f64::from(g)).collect::<Vec<_>>()))
-                })
-                .collect();
+            let results: Vec<Evaluation> =
+                cmaes.ask().iter().map(|genes| scored(f, genes)).collect();
             cmaes.tell(&results).unwrap();
         }
     }
@@ -1338,7 +1333,7 @@ mod tests {
                 .iter()
                 .map(|genes| {
                     bits.extend(genes.iter().map(|g| g.to_bits()));
-                    Evaluation::new(-f(&genes.iter().map(|&g| f64::from(g)).collect::<Vec<_>>()))
+                    scored(f, genes)
                 })
                 .collect();
             cmaes.tell(&results).unwrap();
