@@ -103,51 +103,82 @@ pub async fn starts_tls(stream: &GuardedStream, wait: std::time::Duration) -> Op
     }
 }
 
+/// The client preface every HTTP/2 (so every gRPC) connection opens with.
+const HTTP2_PREFACE: &[u8] = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n";
+
+/// How long a plain-text client has to finish the request it is refused on.
+const REFUSAL_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// Answers a client that spoke plain text to the TLS port with [`PLAIN_ON_TLS`], in its own
-/// protocol (an HTTP/2 GOAWAY with the sentence as its debug data for gRPC, a 400 for HTTP/1),
-/// then closes the connection.
-pub async fn refuse_plain_text(mut stream: GuardedStream) {
-    use tokio::io::{AsyncReadExt, AsyncWriteExt};
-    let wait = std::time::Duration::from_millis(200);
-    // Read what the client sent first: closing with unread bytes would reset the connection
-    // and lose the answer.
-    let mut request = [0u8; 4096];
-    let read = tokio::time::timeout(wait, stream.read(&mut request))
-        .await
-        .ok()
-        .and_then(Result::ok)
-        .unwrap_or(0);
-    let answer = if request[..read].starts_with(b"PRI * HTTP/2.0") {
-        // The server's preface (an empty SETTINGS frame), then GOAWAY(PROTOCOL_ERROR).
-        let debug = PLAIN_ON_TLS.as_bytes();
-        let length = 8 + debug.len();
-        let mut frames = vec![0, 0, 0, 0x4, 0, 0, 0, 0, 0];
-        frames.extend_from_slice(&[
-            (length >> 16) as u8,
-            (length >> 8) as u8,
-            length as u8,
-            0x7,
-            0,
-            0,
-            0,
-            0,
-            0,
-        ]);
-        frames.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0, 1]);
-        frames.extend_from_slice(debug);
-        frames
-    } else {
-        format!(
-            "HTTP/1.1 400 Bad Request\r\nContent-Type: text/plain\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{PLAIN_ON_TLS}\n",
-            PLAIN_ON_TLS.len() + 1
-        )
-        .into_bytes()
-    };
-    let _ = stream.write_all(&answer).await;
-    let _ = stream.shutdown().await;
-    // Let the client read it before the connection goes.
-    let _ = tokio::time::timeout(std::time::Duration::from_secs(1), async {
-        while matches!(stream.read(&mut request).await, Ok(n) if n > 0) {}
+/// protocol, then closes the connection: a gRPC client gets its calls answered with status
+/// FAILED_PRECONDITION and the sentence (not retried: the address is wrong, not the master
+/// away), a browser or curl a 400.
+pub async fn refuse_plain_text(stream: GuardedStream) {
+    let _ = tokio::time::timeout(REFUSAL_WAIT, async {
+        if speaks_http2(&stream).await {
+            refuse_grpc(stream).await;
+        } else {
+            refuse_http1(stream).await;
+        }
     })
     .await;
+}
+
+/// Whether the connection opens with the HTTP/2 preface; peeks (reads nothing) until enough
+/// bytes arrived to tell.
+async fn speaks_http2(stream: &GuardedStream) -> bool {
+    let mut opening = [0u8; HTTP2_PREFACE.len()];
+    loop {
+        match stream.tcp().peek(&mut opening).await {
+            Ok(0) | Err(_) => return false,
+            Ok(n) if n == opening.len() || !HTTP2_PREFACE.starts_with(&opening[..n]) => {
+                return opening[..n] == *HTTP2_PREFACE;
+            }
+            // A prefix of the preface so far: wait for the rest.
+            Ok(_) => tokio::time::sleep(std::time::Duration::from_millis(5)).await,
+        }
+    }
+}
+
+/// Serves the connection as HTTP/2 and answers every call with a trailers-only gRPC status,
+/// so the client reads the sentence as the call's error, whatever the order in which its
+/// request and the connection's closing arrive.
+async fn refuse_grpc(stream: GuardedStream) {
+    let Ok(mut connection) = h2::server::handshake(stream).await else {
+        return;
+    };
+    while let Some(Ok((_, mut respond))) = connection.accept().await {
+        let refusal = http::Response::builder()
+            .status(200)
+            .header("content-type", "application/grpc")
+            .header(
+                "grpc-status",
+                (tonic::Code::FailedPrecondition as i32).to_string(),
+            )
+            .header("grpc-message", PLAIN_ON_TLS)
+            .body(())
+            .expect("a fixed, valid response");
+        let _ = respond.send_response(refusal, true);
+        connection.graceful_shutdown();
+    }
+}
+
+/// Reads the request (closing with unread bytes would reset the connection and lose the
+/// answer) and answers a 400 that says why.
+async fn refuse_http1(mut stream: GuardedStream) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut request = [0u8; 4096];
+    let _ = tokio::time::timeout(
+        std::time::Duration::from_millis(200),
+        stream.read(&mut request),
+    )
+    .await;
+    let answer = format!(
+        "HTTP/1.1 400 Bad Request\r\nContent-Type: text/plain\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{PLAIN_ON_TLS}\n",
+        PLAIN_ON_TLS.len() + 1
+    );
+    let _ = stream.write_all(answer.as_bytes()).await;
+    let _ = stream.shutdown().await;
+    // Let the client read it before the connection goes.
+    while matches!(stream.read(&mut request).await, Ok(n) if n > 0) {}
 }

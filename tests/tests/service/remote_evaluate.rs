@@ -70,20 +70,6 @@ fn wait_for(what: &str, mut condition: impl FnMut() -> bool) {
 fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
     let scratch = Scratch::new("remote-evaluate");
     let master = master_with_roles(&scratch, &["--verify-share", "0.2"]);
-    let mut killed = start_worker(
-        &master.url,
-        WORKER_TOKEN,
-        "w0",
-        &[],
-        &scratch.join("w0.log"),
-    );
-    let _other = start_worker(
-        &master.url,
-        WORKER_TOKEN,
-        "w1",
-        &[],
-        &scratch.join("w1.log"),
-    );
     let (template, task) = maze_template();
     let genomes = genomes_near(40);
     let (samples, seed) = (3, 11);
@@ -91,10 +77,36 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
     let (remote, _) = std::thread::scope(|scope| {
         let evaluation =
             scope.spawn(|| evaluate_remotely(&master, &template, &task, &genomes, samples, seed));
-        wait_for("both workers to hold a batch", || {
-            metric(&metrics_text(&master), "hevo_batches_leased") >= 2.0
+        // One worker first, so a leased batch is its own; stopped (SIGSTOP) before the kill so
+        // it cannot finish the batch while the test looks, and still holding it once stopped.
+        let mut doomed = start_worker(
+            &master.url,
+            WORKER_TOKEN,
+            "w0",
+            &[],
+            &scratch.join("w0.log"),
+        );
+        wait_for("the worker to be stopped holding a batch", || {
+            if metric(&metrics_text(&master), "hevo_batches_leased") < 1.0 {
+                return false;
+            }
+            doomed.signal("STOP");
+            // Results sent just before the stop reach the master within this pause.
+            std::thread::sleep(Duration::from_millis(200));
+            let holding = metric(&metrics_text(&master), "hevo_batches_leased") >= 1.0;
+            if !holding {
+                doomed.signal("CONT");
+            }
+            holding
         });
-        killed.kill();
+        doomed.kill();
+        let _survivor = start_worker(
+            &master.url,
+            WORKER_TOKEN,
+            "w1",
+            &[],
+            &scratch.join("w1.log"),
+        );
         evaluation.join().unwrap()
     });
     let after = metrics_text(&master);
