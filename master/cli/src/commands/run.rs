@@ -78,9 +78,11 @@ pub fn run(args: RunArgs) -> Result<()> {
         }
     })?;
     crate::outln!("results in {}", args.out.display());
+    let node_width = column_width(summaries.iter().map(|summary| summary.node.as_str()), 14);
+    let task_width = column_width(summaries.iter().map(|summary| summary.task.as_str()), 12);
     for summary in &summaries {
         crate::outln!(
-            "  {:<14} {:<12} runs {:>2}  best run {:>2}: {:>5.1}% solved   mean over runs {:>5.1}%   -> {}",
+            "  {:<node_width$} {:<task_width$} runs {:>2}  best run {:>2}: {:>5.1}% solved   mean over runs {:>5.1}%   -> {}",
             summary.node,
             summary.task,
             summary.runs.len(),
@@ -107,8 +109,10 @@ fn describe_plan(
 ) -> Result<String> {
     use std::fmt::Write as _;
     let mut speeds: std::collections::BTreeMap<String, f64> = Default::default();
+    let node_width = column_width(statuses.iter().map(|status| status.node.as_str()), 14);
+    let task_width = column_width(statuses.iter().map(|status| status.task.as_str()), 12);
     let mut text = format!(
-        "{:<14} {:<12} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14} {:>10}\n",
+        "{:<node_width$} {:<task_width$} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14} {:>10}\n",
         "node",
         "task",
         "runs",
@@ -164,7 +168,7 @@ fn describe_plan(
         );
         let _ = writeln!(
             text,
-            "{:<14} {:<12} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14.3e} {:>10}",
+            "{:<node_width$} {:<task_width$} {:>5} {:>6} {:>10} {:>9} {:<24} {:>14.3e} {:>10}",
             status.node,
             status.task,
             status.runs,
@@ -184,6 +188,14 @@ fn describe_plan(
     Ok(text)
 }
 
+/// The width of a text column: its longest entry, at least `minimum`, so long node names keep
+/// the columns after them aligned.
+fn column_width<'a>(entries: impl Iterator<Item = &'a str>, minimum: usize) -> usize {
+    entries
+        .map(|entry| entry.chars().count())
+        .fold(minimum, usize::max)
+}
+
 /// `42 s`, `12 min`, `3.4 h`, `2.1 days`.
 fn human_duration(seconds: f64) -> String {
     if seconds < 90.0 {
@@ -194,5 +206,26 @@ fn human_duration(seconds: f64) -> String {
         format!("{:.1} h", seconds / 3600.0)
     } else {
         format!("{:.1} days", seconds / 86400.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_column_is_as_wide_as_its_longest_entry_and_never_narrower_than_its_minimum() {
+        let names = ["exit_room", "rescue_over_primitives_cmaes"];
+        assert_eq!(column_width(names.into_iter(), 14), 28);
+        assert_eq!(column_width(["a", "bb"].into_iter(), 14), 14);
+        assert_eq!(column_width(std::iter::empty(), 12), 12);
+    }
+
+    #[test]
+    fn durations_read_in_the_unit_that_fits() {
+        assert_eq!(human_duration(42.0), "42 s");
+        assert_eq!(human_duration(720.0), "12 min");
+        assert_eq!(human_duration(3.4 * 3600.0), "3.4 h");
+        assert_eq!(human_duration(2.1 * 86400.0), "2.1 days");
     }
 }
