@@ -146,10 +146,14 @@ pub fn run_logs(node: &NodeView) -> Vec<RunLog> {
         .collect()
 }
 
-/// The fitness plot of a node (hevo-viz's); while it runs, its title says how many of the
-/// planned generations are done, since the curves' axis reaches only as far as they do.
+/// The fitness plot of a node (hevo-viz's); while it runs, its generation axis reaches the
+/// planned end of a run and its title says how many of the planned generations are done.
 pub fn plot_svg(node: &NodeView) -> String {
-    hevo_viz::fitness_plot_svg(&plot_title(node), &run_logs(node))
+    let planned_generations = node
+        .planned
+        .filter(|_| !node.finished())
+        .map(|(_, generations)| generations);
+    hevo_viz::fitness_plot_svg(&plot_title(node), &run_logs(node), planned_generations)
 }
 
 /// `follow_wall: fitness per generation (137 of 500 generations)`.

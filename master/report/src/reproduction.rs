@@ -537,7 +537,7 @@ fn fitness_picture(
     if logs.is_empty() {
         return Ok(None);
     }
-    let svg = hevo_viz::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs);
+    let svg = hevo_viz::fitness_plot_svg(&format!("{title}: fitness per generation"), &logs, None);
     let file = pictures.join(format!("{stem}-fitness.svg"));
     write_atomic(&file, svg.as_bytes()).map_err(io_error(&file))?;
     let relative = file.strip_prefix(base).unwrap_or(&file);

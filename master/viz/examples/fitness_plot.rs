@@ -23,7 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .file_name()
             .map_or_else(|| "runs".into(), |n| n.to_string_lossy())
     );
-    std::fs::write(&out, hevo_viz::fitness_plot_svg(&title, &runs))
+    std::fs::write(&out, hevo_viz::fitness_plot_svg(&title, &runs, None))
         .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
     println!("{} runs -> {}", runs.len(), out.display());
     Ok(())

@@ -208,8 +208,10 @@ enum LegendStyle {
 }
 
 /// Draws the fitness of every run by generation. Rows with a non-finite value are left out;
-/// with no rows at all the picture says so instead of failing.
-pub fn fitness_plot_svg(title: &str, runs: &[RunLog]) -> String {
+/// with no rows at all the picture says so instead of failing. With `planned_generations` (a
+/// run still evolving), the generation axis reaches the planned end, so a live curve shows how
+/// far it has to go.
+pub fn fitness_plot_svg(title: &str, runs: &[RunLog], planned_generations: Option<u32>) -> String {
     let finite_row = |row: &&FitnessRow| row.best.is_finite() && row.mean.is_finite();
     let aggregates = aggregate_best(runs);
     let segments = aggregate_segments(&aggregates);
@@ -224,6 +226,8 @@ pub fn fitness_plot_svg(title: &str, runs: &[RunLog]) -> String {
         last_generation = last_generation.max(row.generation);
         any_data = true;
     }
+    // The last generation's index is one less than the count.
+    let last_generation = last_generation.max(planned_generations.unwrap_or(0).saturating_sub(1));
     let (y_min, y_max, y_step) = if any_data {
         axis_range(y_low, y_high, 6.0)
     } else {
@@ -584,7 +588,7 @@ mod tests {
     }
 
     fn render(runs: &[RunLog]) -> Vec<Element> {
-        let svg = fitness_plot_svg("Solve maze: 3 runs <test> & more", runs);
+        let svg = fitness_plot_svg("Solve maze: 3 runs <test> & more", runs, None);
         parse(&svg).unwrap_or_else(|e| panic!("malformed SVG: {e}"))
     }
 
@@ -659,6 +663,21 @@ mod tests {
     }
 
     #[test]
+    fn a_live_run_is_drawn_against_its_planned_generations() {
+        let runs = [synthetic_run("run 0", 12, 0)];
+        let live = fitness_plot_svg("t", &runs, Some(500));
+        let elements = parse(&live).expect("well-formed");
+        let area = with_class(&elements, "plot-area")[0];
+        assert_eq!(area.number("data-x-max"), 500.0);
+        // Without a plan the axis ends just past the data, and a plan already passed changes
+        // nothing.
+        let elements = render(&runs);
+        assert!(with_class(&elements, "plot-area")[0].number("data-x-max") < 20.0);
+        let past = fitness_plot_svg("t", &runs, Some(5));
+        assert_eq!(past, fitness_plot_svg("t", &runs, None));
+    }
+
+    #[test]
     fn degenerate_inputs_still_draw() {
         let elements = render(&[]);
         assert_eq!(with_class(&elements, "no-data").len(), 1);
@@ -682,7 +701,7 @@ mod tests {
         );
         let mut broken = synthetic_run("broken", 5, 0);
         broken.rows[2].best = f64::NAN;
-        let svg = fitness_plot_svg("t", &[broken]);
+        let svg = fitness_plot_svg("t", &[broken], None);
         assert!(!svg.contains("NaN"));
         let elements = parse(&svg).expect("well-formed");
         assert_eq!(with_class(&elements, "run-best")[0].points().len(), 4);

@@ -39,7 +39,7 @@ pub fn plot(args: PlotArgs) -> Result<()> {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default()
     );
-    let svg = hevo_viz::fitness_plot_svg(&title, &runs);
+    let svg = hevo_viz::fitness_plot_svg(&title, &runs, None);
     hevo_engine::store::write_atomic(&args.out, svg.as_bytes())
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     crate::outln!("{} runs plotted -> {}", runs.len(), args.out.display());
