@@ -173,12 +173,11 @@ impl<'e> Episode<'e> {
         }
     }
 
-    /// The outcome of an ended sample; the episode back while it runs.
-    pub fn into_outcome(self) -> Result<Outcome, Episode<'e>> {
-        match self.ending {
-            Some(ending) => Ok(self.run.finish(ending).0),
-            None => Err(self),
-        }
+    /// The outcome of an ended sample; `None` for one still running (an episode ends when
+    /// [`Episode::step`] returns its ending).
+    pub fn into_outcome(self) -> Option<Outcome> {
+        let ending = self.ending?;
+        Some(self.run.finish(ending).0)
     }
 
     /// The outcome, the sample's world (for a trace) and the robot's final pose, the sample
