@@ -8,6 +8,9 @@ The same engine the ``hevo`` command runs, bound with PyO3:
   the same samples, all cores, the GIL released; the numbers ``hevo eval --json`` prints, bit
   for bit, and each sample's outcome;
 - ``trace``: one sample cycle by cycle as numpy arrays, and the replay picture;
+- ``Env``, ``VectorEnv``: a task as an environment any policy drives (Gymnasium's
+  conventions: observations the robot's sensor frame, actions its wheel outputs, reward the
+  task's fitness at the end); ``VectorEnv`` steps N of them in Rust per call;
 - ``run``: an experiment evolved by the resumable runner of ``hevo run``;
 - ``Client``: a master's job service (submit, watch, jobs, fetch, cancel), and ``evaluate`` on
   the master's workers with the results of ``hevo.evaluate``, bit for bit.
@@ -22,13 +25,16 @@ from ._hevo import (
     ConfigError,
     Controller,
     ControllerError,
+    Env,
     Evaluation,
     GENE_RANGE,
     HevoError,
     JobWatch,
     RunError,
+    Space,
     Task,
     Trace,
+    VectorEnv,
     __version__,
     bench_controller,
     evaluate,
@@ -43,13 +49,16 @@ __all__ = [
     "ConfigError",
     "Controller",
     "ControllerError",
+    "Env",
     "Evaluation",
     "GENE_RANGE",
     "HevoError",
     "JobWatch",
     "RunError",
+    "Space",
     "Task",
     "Trace",
+    "VectorEnv",
     "__version__",
     "bench_controller",
     "evaluate",

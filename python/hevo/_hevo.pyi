@@ -197,6 +197,98 @@ def trace(
 ) -> Trace:
     """One sample of a complete controller, as `hevo replay --seed SEED --light-config VARIANT`."""
 
+class Space:
+    """The bounds of observations or actions, as Gymnasium's `Box` gives them (without
+    Gymnasium): `gymnasium.spaces.Box(space.low, space.high, dtype=space.dtype)` makes one."""
+
+    @property
+    def shape(self) -> Tuple[int, ...]: ...
+    low: npt.NDArray[np.float32]
+    """Each element's lowest value, shape `shape`."""
+    high: npt.NDArray[np.float32]
+    """Each element's highest value, shape `shape`."""
+    @property
+    def dtype(self) -> str:
+        """`"float32"`."""
+
+class Env:
+    """One sample of a task at a time as an environment, with Gymnasium's conventions.
+    Observations: the robot's sensor frame, float32 (7,) in [0, 1], columns as
+    `observation_names`. Actions: the two wheel outputs (left, right) in [0, 1] (0 full speed
+    backwards, 0.5 still, 1 full speed forwards; `trace.outputs`), any float dtype, clipped to
+    the range; NaN and infinity raise ValueError. Reward: 0 until the end, then the task's
+    fitness. `terminated` when the task ends the sample (solved, collision, wrong branch),
+    `truncated` at its cycle limit. Episode k after `reset(seed=s)` runs the sample of seed
+    `derive_seed(s, [k])`, named in every info as `sample_seed`."""
+
+    observation_space: Space
+    action_space: Space
+    def __init__(self, task: Task, seed: Optional[int] = None) -> None:
+        """`seed` seeds the episodes as `reset(seed=...)` does (entropy when None)."""
+    def reset(
+        self, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None
+    ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]:
+        """Starts an episode: `(observation, info)`; info has `sample_seed` and `variant`.
+        `seed` restarts the episodes from that seed; `options={"sample_seed": s, "variant": v}`
+        runs that sample exactly, as `trace(controller, task, seed=s, variant=v)` does."""
+    def step(
+        self, action: npt.ArrayLike
+    ) -> Tuple[npt.NDArray[np.float32], float, bool, bool, Dict[str, Any]]:
+        """One control cycle: `(observation, reward, terminated, truncated, info)`. At the end,
+        info holds the outcome: fitness, solved, collided, ending, stage, variant, cycles,
+        sample_seed; the observation is the last cycle's frame. RunError before `reset()` and
+        after the end."""
+    @property
+    def observation_names(self) -> List[str]:
+        """The observation's columns (`trace.input_names`)."""
+    @property
+    def max_episode_steps(self) -> int:
+        """The task's cycle limit."""
+    @property
+    def running(self) -> bool:
+        """Whether an episode is running."""
+    def close(self) -> None: ...
+
+class VectorEnv:
+    """`n_envs` environments stepped together in Rust, the GIL released, with Gymnasium's
+    vector conventions: `Env`'s arrays with a leading `n_envs` axis (rewards float64). Autoreset
+    in Gymnasium's next-step mode: the step after an episode's end starts the next one, returns
+    its first observation with reward 0, and ignores that environment's action. Environment i
+    is seeded `seed + i`: it runs the episodes of `Env(task, seed + i)`."""
+
+    num_envs: int
+    single_observation_space: Space
+    single_action_space: Space
+    observation_space: Space
+    action_space: Space
+    def __init__(self, task: Task, n_envs: int, seed: Optional[int] = None) -> None: ...
+    def reset(
+        self, seed: Union[int, Sequence[int], None] = None, options: Optional[Dict[str, Any]] = None
+    ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]:
+        """Starts an episode in every environment: `(observations (n_envs, 7), info)`, info
+        with `sample_seed` and `variant` arrays and their masks. `seed`: an int (environment i
+        seeded `seed + i`) or one seed per environment; no options."""
+    def step(
+        self, actions: npt.ArrayLike
+    ) -> Tuple[
+        npt.NDArray[np.float32],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        Dict[str, Any],
+    ]:
+        """One control cycle of every environment, `actions` (n_envs, 2) of any float dtype:
+        `(observations, rewards, terminated, truncated, info)`. info: the outcome of each
+        episode that ended (fitness, solved, collided, ending, stage, variant, cycles,
+        sample_seed) and the `sample_seed` and `variant` of each that began, every key with
+        its mask (`_fitness`, ...); empty when none ended or began."""
+    @property
+    def observation_names(self) -> List[str]: ...
+    @property
+    def max_episode_steps(self) -> int: ...
+    def close(self) -> None: ...
+    def __len__(self) -> int: ...
+
 def run(
     experiment: PathLike,
     out: PathLike,

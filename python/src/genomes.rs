@@ -63,7 +63,7 @@ fn rows_of<T: Copy + Into<f64>>(array: ArrayView2<'_, T>, clip: bool) -> PyResul
 }
 
 /// A 2-D float array's values, as they are stored.
-enum Floats<'py> {
+pub(crate) enum Floats<'py> {
     Single(PyReadonlyArray2<'py, f32>),
     Double(PyReadonlyArray2<'py, f64>),
 }
@@ -71,7 +71,7 @@ enum Floats<'py> {
 /// `value` (a numpy array, or anything `numpy.asarray` makes a float array of) as a float
 /// array, its shape checked by `check_shape`; `name` names it in errors. TypeError for a dtype
 /// that is not a float.
-fn float_array<'py>(
+pub(crate) fn float_array<'py>(
     value: &Bound<'py, PyAny>,
     name: &str,
     check_shape: impl FnOnce(&[usize]) -> PyResult<()>,
@@ -96,7 +96,7 @@ fn float_array<'py>(
 
 /// A 2-D float array's values: float32 as they are, float64 as they are, other float dtypes
 /// (float16 exactly, longdouble rounded) as float64.
-fn floats_2d(array: Bound<'_, PyAny>) -> PyResult<Floats<'_>> {
+pub(crate) fn floats_2d(array: Bound<'_, PyAny>) -> PyResult<Floats<'_>> {
     if let Ok(single) = array.extract::<PyReadonlyArray2<'_, f32>>() {
         return Ok(Floats::Single(single));
     }

@@ -7,6 +7,7 @@
 
 mod client;
 mod controller;
+mod env;
 mod evaluate;
 mod genomes;
 mod interrupt;
@@ -172,6 +173,9 @@ fn hevo_module(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_class::<trace::Trace>()?;
     module.add_class::<client::Client>()?;
     module.add_class::<client::JobWatch>()?;
+    module.add_class::<env::Env>()?;
+    module.add_class::<env::VectorEnv>()?;
+    module.add_class::<env::Space>()?;
     module.add_function(wrap_pyfunction!(shipped_tasks, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::evaluate, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::bench_controller, module)?)?;

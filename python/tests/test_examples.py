@@ -72,3 +72,12 @@ def test_cma_on_a_cluster(tmp_path, binaries):
     assert "the same numbers as the cluster's: True" in out, out
     best = hevo.Controller.load(tmp_path / "best.json")
     assert best.free_node is None
+
+
+def test_linear_policy_on_the_vector_env():
+    out = run_example(
+        "linear_policy_env.py", "--iterations", 2, "--population", 4, "--episodes", 2,
+        "--max-cycles", 60,
+    )
+    assert out.count("iteration") == 2, out
+    assert "the policy on 50 new samples of exit_room: mean fitness" in out, out

@@ -6,15 +6,14 @@
 
 use super::judge::{Judge, phase_children};
 use super::setup::{self, Statics};
+use super::stepping::{Episode, Recorder};
 use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::config::ConfigError;
 use crate::geometry::scene::Scene;
 use crate::math::rng::{SimRng, Stream, stream_rng};
 use crate::math::trig;
 use crate::network::Policy;
-use crate::outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
-};
+use crate::outcome::{Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace};
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
@@ -23,22 +22,6 @@ use crate::sensors::{IrCone, SenseView, Sensor, SensorRun};
 use crate::task::TaskConfig;
 use crate::world::Environment;
 use crate::world::lights::{LiveLight, trigger_lights};
-
-/// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
-trait Recorder {
-    fn record(&mut self, make: impl FnOnce() -> TraceCycle);
-}
-
-impl Recorder for () {
-    #[inline(always)]
-    fn record(&mut self, _make: impl FnOnce() -> TraceCycle) {}
-}
-
-impl Recorder for Vec<TraceCycle> {
-    fn record(&mut self, make: impl FnOnce() -> TraceCycle) {
-        self.push(make());
-    }
-}
 
 /// Errors in a task configuration.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -251,32 +234,21 @@ impl Evaluator {
     ) -> (Outcome, Environment, Pose) {
         let dt = self.task.params.robot.cycle_seconds;
         policy.reset();
-        let mut run = SampleRun::new(
+        let mut episode = Episode::for_policy(
             self,
             sample,
             policy.n_nodes(),
             phase_children(&self.task.scenario, policy),
         );
         let ending = loop {
-            let frame = run.sense();
-            let wheels = policy.step(&frame, dt);
-            run.count_decision(policy.active_path(), policy.root_choice());
-            let (before, collided) = run.move_robot(wheels);
-            recorder.record(|| TraceCycle {
-                robot: before,
-                teammate: run.teammate.as_ref().map(|m| m.pose),
-                frame,
-                wheels,
-                active_path: policy.active_path().iter().map(|&n| n as u16).collect(),
-                collided,
-                lit_lights: run.lit_mask,
-                sub_task: run.sub_task.unwrap_or(0),
-            });
-            if let Some(ending) = run.finish_cycle(&before, collided) {
+            let wheels = policy.step(episode.frame(), dt);
+            if let Some(ending) =
+                episode.cycle(wheels, policy.active_path(), policy.root_choice(), recorder)
+            {
                 break ending;
             }
         };
-        run.finish(ending)
+        episode.finish(ending)
     }
 }
 
@@ -372,6 +344,35 @@ impl<'e> SampleRun<'e> {
             sub_task: None,
             lit_mask: 0,
         }
+    }
+
+    /// Cycles begun, the current one included.
+    #[inline]
+    pub(crate) fn cycles_run(&self) -> u32 {
+        self.cycles_run
+    }
+
+    /// The variant the sample runs.
+    pub(crate) fn variant(&self) -> u32 {
+        self.env.variant
+    }
+
+    /// The teammate's pose, where the task has one.
+    #[inline]
+    pub(crate) fn teammate_pose(&self) -> Option<Pose> {
+        self.teammate.as_ref().map(|mate| mate.pose)
+    }
+
+    /// The lights lit in the current cycle.
+    #[inline]
+    pub(crate) fn lit_mask(&self) -> u32 {
+        self.lit_mask
+    }
+
+    /// The current cycle's rescue sub-task, if any.
+    #[inline]
+    pub(crate) fn sub_task(&self) -> Option<u8> {
+        self.sub_task
     }
 
     /// Begins a cycle: reads every sensor at the robot's pose and notes the sub-task in force.

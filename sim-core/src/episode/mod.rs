@@ -8,3 +8,4 @@ pub mod judge;
 pub mod lockstep;
 pub mod regions;
 pub mod setup;
+pub mod stepping;

@@ -16,7 +16,7 @@ use rand::{RngExt, SeedableRng};
 use crate::support::example_task;
 
 /// Every task the property draws from: the shipped scenarios and the examples.
-fn tasks() -> Vec<TaskConfig> {
+pub(crate) fn tasks() -> Vec<TaskConfig> {
     let mut tasks: Vec<TaskConfig> = Scenario::shipped_names()
         .into_iter()
         .map(|name| TaskConfig::shipped(name).expect("shipped"))
@@ -70,7 +70,7 @@ fn random_node(name: String, depth: u32, rng: &mut SimRng) -> NodeSpec {
 
 /// A random tree for `task`: when its phases name children, an arbitrator over random
 /// subtrees of those names (the evaluators refuse a root that lacks one), else any tree.
-fn random_root(task: &TaskConfig, depth: u32, rng: &mut SimRng) -> NodeSpec {
+pub(crate) fn random_root(task: &TaskConfig, depth: u32, rng: &mut SimRng) -> NodeSpec {
     let names = task.scenario.named_phase_children();
     if names.is_empty() {
         return random_node("root".into(), depth, rng);

@@ -10,6 +10,7 @@ mod golden;
 mod lockstep;
 mod scenario_files;
 mod scripted;
+mod stepping;
 mod support;
 mod wanderer;
 mod world_properties;
