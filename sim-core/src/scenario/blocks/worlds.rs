@@ -73,7 +73,12 @@ impl World for StandaloneRoom {
         _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
-        let room = room::generate(&params.room, Placement::Standalone, rng);
+        let room = room::generate(
+            &params.room,
+            Placement::Standalone,
+            params.robot.radius,
+            rng,
+        );
         let scene = Arc::new(Scene::new(room.rects.clone(), params.query_margin()));
         Built {
             scene,
@@ -266,6 +271,7 @@ fn room_below(
         Placement::Below {
             exit_center: room_exit,
         },
+        params.robot.radius,
         rng,
     );
     let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
