@@ -1086,3 +1086,75 @@ fn a_huge_unknown_key_is_quoted_only_in_part() {
     assert!(error.contains("kkkk"), "{error}");
     assert!(error.len() < 2_000, "{} characters", error.len());
 }
+
+#[test]
+fn the_authors_room_keys_are_checked_before_any_room_is_drawn() {
+    let authors = example("exit_room_authors");
+    // A count per area beyond the bound: refused by the task's check, naming the key.
+    let scenario = Scenario::parse(
+        &authors.replace("obstacles_per_m2 = 3.0", "obstacles_per_m2 = 1e9"),
+        "mine.toml",
+    )
+    .expect("the file's syntax is fine");
+    let error = TaskConfig::from_scenario(Arc::new(scenario))
+        .validate()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("room.obstacles_per_m2 ") && error.contains("at most 64 obstacles"),
+        "{error}"
+    );
+    // A placement that does not exist: refused by the parser, naming the key and the line.
+    let error = edit_refusal(
+        authors,
+        "obstacle_placement = \"jbotevolver\"",
+        "obstacle_placement = \"anywhere\"",
+    );
+    assert!(
+        error.contains("at `room.obstacle_placement`")
+            && error.contains("expected one of `spaced`, `uniform`, `jbotevolver`"),
+        "{error}"
+    );
+}
+
+/// The TOML blocks of docs/scenario-file.md, as a reader copies them (the list item's
+/// indentation taken off).
+fn scenario_doc_toml_blocks() -> Vec<String> {
+    let doc = include_str!("../../../docs/scenario-file.md");
+    let mut blocks = Vec::new();
+    let mut open: Option<(usize, String)> = None;
+    for line in doc.lines() {
+        let trimmed = line.trim_start();
+        let indent = line.len() - trimmed.len();
+        match (&mut open, trimmed) {
+            (None, "```toml") => open = Some((indent, String::new())),
+            (Some(_), "```") => blocks.push(open.take().unwrap().1),
+            (Some((indent, block)), _) => {
+                *block += line.get(*indent..).unwrap_or("");
+                *block += "\n";
+            }
+            (None, _) => {}
+        }
+    }
+    blocks
+}
+
+#[test]
+fn the_docs_room_block_is_the_authors_room_of_the_example() {
+    let authors = example("exit_room_authors");
+    let room_block = scenario_doc_toml_blocks()
+        .into_iter()
+        .find(|block| block.starts_with("[room]"))
+        .expect("docs/scenario-file.md shows a [room] block");
+    // The example with its own [room] table replaced by the docs' block.
+    let (head, rest) = authors.split_at(authors.find("[room]").unwrap());
+    let tail = &rest[rest.find("[world]").unwrap()..];
+    let from_docs = format!("{head}{room_block}\n{tail}");
+    let scenario = Scenario::parse(&from_docs, "docs.toml").unwrap_or_else(|e| panic!("{e}"));
+    let task = TaskConfig::from_scenario(Arc::new(scenario));
+    assert_eq!(task.validate(), Ok(()));
+    assert_eq!(
+        task.params.room,
+        example_task("exit_room_authors").params.room
+    );
+}
