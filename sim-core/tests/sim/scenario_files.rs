@@ -1158,3 +1158,77 @@ fn the_docs_room_block_is_the_authors_room_of_the_example() {
         example_task("exit_room_authors").params.room
     );
 }
+
+/// An open arena 2 m wide, the robot at its centre facing east; `end` is the `[end]` table.
+fn arena_with_regions(end: &str) -> TaskConfig {
+    let text = format!(
+        r#"schema = "hevo.scenario/1"
+name = "arena"
+max_cycles = 400
+
+[world]
+solids = [
+    [-1.05, -1.05, 1.05, -1.0],
+    [-1.05, 1.0, 1.05, 1.05],
+    [-1.05, -1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.05, 1.0],
+]
+
+[regions]
+middle = {{ rect = [-0.1, -0.1, 0.1, 0.1] }}
+west = {{ rect = [-0.9, -0.2, -0.5, 0.2] }}
+east = {{ rect = [0.5, -0.2, 0.9, 0.2] }}
+north = {{ rect = [-0.2, 0.5, 0.2, 0.9] }}
+
+[place]
+at = "middle"
+facing = "right"
+
+[end]
+{end}
+
+[fitness]
+solved = "1"
+otherwise = "0"
+"#
+    );
+    TaskConfig::from_scenario(Arc::new(
+        Scenario::parse(&text, "arena.toml").unwrap_or_else(|e| panic!("{e}")),
+    ))
+}
+
+#[test]
+fn or_joins_clauses_of_atoms_joined_by_and() {
+    // The robot drives east from the centre for 120 cycles (0.72 m) into `east` and stops
+    // there, never in `west` or `north`.
+    for (end, ending) in [
+        (r#"solved = "in east""#, Ending::Solved),
+        (r#"solved = "in west""#, Ending::Timeout),
+        (r#"solved = "in west or in east""#, Ending::Solved),
+        (r#"solved = "in east or in west""#, Ending::Solved),
+        (r#"solved = "in west or in north""#, Ending::Timeout),
+        // `and` binds tighter: (in west and in east) or in east.
+        (
+            r#"solved = "in west and in east or in east""#,
+            Ending::Solved,
+        ),
+        // in west and (in east or in east) would never hold.
+        (
+            r#"solved = "in east and in west or in north""#,
+            Ending::Timeout,
+        ),
+        (r#"solved = "not in east or in west""#, Ending::Solved),
+        (
+            "solved = \"in north\"\nforbidden = \"in west or in east\"",
+            Ending::WrongBranch,
+        ),
+    ] {
+        let evaluator = Evaluator::new(arena_with_regions(end)).unwrap();
+        let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(0));
+        assert_eq!(outcome.ending, ending, "{end}");
+    }
+    // The east is reached after some cycles, not at once: `not in east` holds at the first.
+    let evaluator = Evaluator::new(arena_with_regions(r#"solved = "in east""#)).unwrap();
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(0));
+    assert!(outcome.cycles > 20, "{}", outcome.cycles);
+}
