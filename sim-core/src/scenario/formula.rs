@@ -7,8 +7,10 @@
 //! goal covered, in [0, 1]), `approach room.exit` (the share of the way from the room's centre to
 //! its exit that the robot's closest approach covered, in [0, 1]), `approach NAME` (the same
 //! for a light, from the start), `approach teammate` (the same for the other robot, which may
-//! move), and `derived` (the derived fitness: the sum over the phases
-//! reached of the share of cycles the arbitrator chose the phase's child).
+//! move), `derived` (the derived fitness: the sum over the phases
+//! reached of the share of cycles the arbitrator chose the phase's child), `final.x` and
+//! `final.y`, `distance` (metres travelled) and `energy` (the wheels' mean absolute speed over
+//! the cycles, a share of full speed for the whole cycle limit).
 //!
 //! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
 //! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
@@ -281,6 +283,19 @@ mod tests {
     }
 
     #[test]
+    fn distance_is_metres_up_to_its_bound_and_energy_a_share() {
+        let mut quantities = Quantities::new();
+        let f = Formula::parse("distance / 1000 + energy", &facts(), &mut quantities).unwrap();
+        let range_of = |idx: usize| quantities[idx].1.range(0);
+        assert_eq!(f.range(&range_of), (0.0, 1001.0));
+        // The docs' saving on energy: 1 for none spent, 0 for all.
+        let saving = Formula::parse("1 + energy * -1", &facts(), &mut quantities).unwrap();
+        let range_of = |idx: usize| quantities[idx].1.range(0);
+        assert_eq!(saving.range(&range_of), (0.0, 1.0));
+        assert_eq!(saving.eval(&|_| 0.25), 0.75);
+    }
+
+    #[test]
     fn a_quantity_named_twice_is_compiled_once() {
         let mut quantities = Quantities::new();
         Formula::parse("progress + 2 * 1", &facts(), &mut quantities).unwrap();
@@ -310,7 +325,7 @@ mod tests {
             (
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
-                 approach teammate, approach LIGHT, final.x or final.y",
+                 approach teammate, approach LIGHT, final.x, final.y, distance or energy",
             ),
             ("approach beacon", "no light is named 'beacon'"),
             ("progress", "'progress': needs a goal in cells"),

@@ -1232,3 +1232,56 @@ fn or_joins_clauses_of_atoms_joined_by_and() {
     let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(0));
     assert!(outcome.cycles > 20, "{}", outcome.cycles);
 }
+
+#[test]
+fn distance_and_energy_follow_the_wheels() {
+    let task = arena_with_regions(
+        "solved = \"in north\"\n\n[descriptor]\nquantities = [\"distance\", \"energy\", \"final.x\"]",
+    );
+    let evaluator = Evaluator::new(task).unwrap();
+    let max_cycles = 400.0;
+    let v_max = 0.1;
+    let step = v_max * 0.1;
+    // Wheels at 0.6 of full speed for 120 cycles, then still: 0.72 m travelled (5 % wheel
+    // noise either way), straight ahead, and 0.6 x 120 / 400 = 0.18 of the energy.
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(3));
+    let [distance, energy, final_x] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert_eq!(outcome.ending, Ending::Timeout);
+    assert!((distance - 0.6 * step * 120.0).abs() < 0.02, "{distance}");
+    assert!(
+        distance >= final_x && distance - final_x < 0.01,
+        "{distance} {final_x}"
+    );
+    assert!(
+        (energy - 0.6 * 120.0 / max_cycles).abs() < 0.005,
+        "{energy}"
+    );
+    // Spinning on the spot: full speed, the wheels opposed; the centre hardly moves (the wheel
+    // noise makes it wander a few centimetres, against the 4 m of driving straight as long).
+    let outcome = evaluator.evaluate(&mut Fixed::new([1.0, 0.0], u32::MAX), Sample::seeded(3));
+    let [distance, energy, _] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert!(distance < 0.1, "{distance}");
+    assert!(energy > 0.95 && energy <= 1.0, "{energy}");
+    // Standing still: nothing at all.
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.5, 0.5], u32::MAX), Sample::seeded(3));
+    assert_eq!(outcome.descriptor, [0.0, 0.0, 0.0]);
+    // Into the east wall at full speed: the moves a collision undid count nothing.
+    let crash = arena_with_regions(
+        "solved = \"in north\"\n\n[descriptor]\nquantities = [\"distance\", \"final.x\"]",
+    );
+    let outcome = Evaluator::new(crash)
+        .unwrap()
+        .evaluate(&mut Fixed::straight(), Sample::seeded(3));
+    assert_eq!(outcome.ending, Ending::Collision);
+    let [distance, final_x] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert!(
+        distance >= final_x && distance - final_x < 0.01,
+        "{distance} {final_x}"
+    );
+}
