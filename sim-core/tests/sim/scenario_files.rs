@@ -1285,3 +1285,57 @@ fn distance_and_energy_follow_the_wheels() {
         "{distance} {final_x}"
     );
 }
+
+#[test]
+fn a_random_maze_is_drawn_per_sample_with_its_goal_reachable_from_the_start() {
+    let evaluator = Evaluator::new(example_task("random_maze")).unwrap();
+    let mut layouts = std::collections::BTreeSet::new();
+    for seed in 0..40 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let goal = env.ground.goal.as_ref().expect("a goal in cells");
+        assert_eq!(goal.map.cells.len(), 36);
+        // The goal, the top-right cell, is a finite corridor distance from every cell.
+        assert_eq!(goal.map.cells[goal.goal].at, [5, 5]);
+        assert!(goal.distances.iter().all(|d| d.is_finite()), "seed {seed}");
+        // The robot starts in the bottom-left cell, on the path, touching nothing.
+        let start_cell = goal.map.cell_at([env.start.x, env.start.y]);
+        assert_eq!(start_cell, Some(0), "seed {seed}");
+        assert!(goal.on_path[0] && goal.on_path[goal.goal]);
+        assert!(!env.scene.disc_hits([env.start.x, env.start.y], 0.0375));
+        // The same seed, the same maze.
+        let again = evaluator.environment(Sample::seeded(seed));
+        let walls: Vec<[bool; 4]> = goal.map.cells.iter().map(|c| c.walls).collect();
+        let again_goal = again.ground.goal.as_ref().unwrap();
+        let walls_again: Vec<[bool; 4]> = again_goal.map.cells.iter().map(|c| c.walls).collect();
+        assert_eq!(walls, walls_again);
+        layouts.insert(walls);
+    }
+    assert_eq!(layouts.len(), 40, "each seed its own maze");
+}
+
+#[test]
+fn a_random_maze_of_no_size_or_beside_another_world_is_refused() {
+    let maze = example("random_maze");
+    for (to, wanted) in [
+        (
+            "maze = { cols = 0, rows = 6 }",
+            "at `world.maze.cols`: 0 cells: a random maze has 1 to 32 a side",
+        ),
+        (
+            "maze = { cols = 6, rows = 33 }",
+            "at `world.maze.rows`: 33 cells",
+        ),
+        (
+            "maze = { cols = 1, rows = 1 }",
+            "at `world.maze`: a maze of one cell has no way to its goal",
+        ),
+        (
+            "maze = { cols = 6, rows = 6 }\ncorridor = \"left\"",
+            "at `world.maze`: a random maze stands alone",
+        ),
+        ("maze = { cols = 6 }", "missing field `rows`"),
+    ] {
+        let error = edit_refusal(maze, "maze = { cols = 6, rows = 6 }", to);
+        assert!(error.contains(wanted), "{to}: {error}");
+    }
+}

@@ -1,6 +1,6 @@
 //! `hevo scenario check` and `hevo scenario draw` as a user runs them, on the examples with a
-//! wandering teammate, with a room joined under a corridor and with the authors' room, and on
-//! the rescue: check
+//! wandering teammate, with a room joined under a corridor, with the authors' room and with a
+//! random maze, and on the rescue: check
 //! accepts them, and every region `draw` should name (the map's, the generators') is in the
 //! picture, shaded and labelled.
 
@@ -35,6 +35,11 @@ fn check_accepts_and_draw_names_every_region() {
             "scenarios/examples/exit_room_authors.toml",
             "3",
             &["room", "room.exit"][..],
+        ),
+        (
+            "scenarios/examples/random_maze.toml",
+            "4",
+            &["corridor.start", "corridor.end"][..],
         ),
         (
             "rescue",

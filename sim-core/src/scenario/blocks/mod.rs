@@ -33,8 +33,10 @@ use atoms::RegionTest;
 use std::fmt::Debug;
 use std::sync::Arc;
 
-/// The worlds (the combinations of `map`, `room` and `corridor` they recognise are disjoint).
+/// The worlds (the combinations of `map`, `room` and `corridor` they recognise are disjoint; a
+/// random maze, first, takes every table with a `maze`).
 pub static WORLDS: &[WorldKind] = &[
+    worlds::RANDOM_MAZE,
     worlds::MAP,
     worlds::ROOM,
     worlds::CORRIDOR,
