@@ -13,7 +13,7 @@ pub use corridor::{CorridorConfig, MAZE_CELL_SIZE, StartConfig};
 pub use ir::{CurveChoice, IrConfig, IrMapping};
 pub use light::{LightConfig, N_LIGHT};
 pub use robot::RobotConfig;
-pub use room::RoomConfig;
+pub use room::{ObstaclePlacement, RoomConfig};
 
 /// Every number of the robot, its sensors and the world's generators: the six tables a
 /// scenario file and a task carry.

@@ -33,7 +33,56 @@ pub struct RoomConfig {
     pub exit_clearance: f32,
     /// Length of the corridor stub outside the exit of the stand-alone room, metres.
     pub exit_corridor_length: f32,
+    /// Obstacles per square metre of interior: a room gets int(this x its area) obstacles,
+    /// as the authors' room does with 3. Unset (the default): two or three, by
+    /// `three_obstacles_above_area`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub obstacles_per_m2: Option<f32>,
+    /// Square obstacles aligned with the walls, their side drawn from
+    /// `obstacle_min_side..=obstacle_max_side`, in place of rectangles (two sides drawn) at
+    /// any angle.
+    #[serde(skip_serializing_if = "is_false")]
+    pub square_obstacles: bool,
+    /// Where obstacles may stand.
+    #[serde(skip_serializing_if = "ObstaclePlacement::is_spaced")]
+    pub obstacle_placement: ObstaclePlacement,
 }
+
+/// Where a room's obstacles may stand. Absent from a serialised task at its default, so task
+/// hashes and run fingerprints made before the other placements existed stay valid.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObstaclePlacement {
+    /// hevo's room: rejection sampling keeping `obstacle_clearance` from the walls and each
+    /// other, `start_clearance` from the centre and `exit_clearance` from the exit; never
+    /// overlapping.
+    #[default]
+    Spaced,
+    /// Centres uniform over the interior, `obstacle_clearance` in from every wall, still
+    /// `start_clearance` from the centre and `exit_clearance` from the exit: obstacles may
+    /// overlap each other and touch or cross into a wall.
+    Uniform,
+    /// JBotEvolver's `ClutteredMazeEnvironment`: centres uniform across the width,
+    /// `obstacle_clearance` in from the side walls, and at 0.6 x (depth / 2 - side - u x depth
+    /// / 2) from the centre towards the exit wall (u uniform in [0, 1)), overlapping and
+    /// touching as they fall; no start or exit clearance. The start is moved instead until the
+    /// robot touches nothing ([`crate::world::room`]).
+    Jbotevolver,
+}
+
+impl ObstaclePlacement {
+    fn is_spaced(&self) -> bool {
+        *self == ObstaclePlacement::Spaced
+    }
+}
+
+fn is_false(value: &bool) -> bool {
+    !value
+}
+
+/// The most obstacles a room may get: `obstacles_per_m2` times the largest area is checked
+/// against it before any room is drawn.
+pub const MAX_ROOM_OBSTACLES: f32 = 64.0;
 
 impl Default for RoomConfig {
     fn default() -> Self {
@@ -50,6 +99,9 @@ impl Default for RoomConfig {
             start_clearance: 0.25,
             exit_clearance: 0.30,
             exit_corridor_length: 0.30,
+            obstacles_per_m2: None,
+            square_obstacles: false,
+            obstacle_placement: ObstaclePlacement::Spaced,
         }
     }
 }
@@ -132,9 +184,40 @@ impl RoomConfig {
                 "must be >= 0",
             ),
         ];
-        match checks.iter().find(|(ok, _, _)| !ok) {
-            Some((_, key, message)) => Err(invalid(key, (*message).to_string())),
-            None => Ok(()),
+        if let Some((_, key, message)) = checks.iter().find(|(ok, _, _)| !ok) {
+            return Err(invalid(key, (*message).to_string()));
+        }
+        self.validate_obstacle_count()
+    }
+
+    /// The obstacle count per area: finite, not negative, and at most
+    /// [`MAX_ROOM_OBSTACLES`] in the largest room, so the cost of drawing a room is bounded
+    /// before any is drawn.
+    fn validate_obstacle_count(&self) -> Result<(), ConfigError> {
+        let Some(per_m2) = self.obstacles_per_m2 else {
+            return Ok(());
+        };
+        let most = per_m2 * self.max_side * self.max_side;
+        if per_m2.is_finite() && per_m2 >= 0.0 && most <= MAX_ROOM_OBSTACLES {
+            return Ok(());
+        }
+        Err(invalid(
+            "room.obstacles_per_m2",
+            format!(
+                "must be a finite number >= 0 giving at most {MAX_ROOM_OBSTACLES} obstacles in \
+                 the largest room (room.max_side {} m), got {per_m2}",
+                self.max_side
+            ),
+        ))
+    }
+
+    /// How many obstacles a room of interior `width` x `depth` gets.
+    pub fn obstacle_count(&self, width: f32, depth: f32) -> usize {
+        match self.obstacles_per_m2 {
+            // As the authors' `(int)(objects * (width * height))`: truncated.
+            Some(per_m2) => (per_m2 * (width * depth)) as usize,
+            None if width * depth > self.three_obstacles_above_area => 3,
+            None => 2,
         }
     }
 
@@ -148,7 +231,11 @@ impl RoomConfig {
 
     /// Refuses a start clearance that lets an obstacle cover a start: such a robot would
     /// begin inside a solid, and the sample could never be solved.
+    /// The authors' placement keeps no start clearance: it moves the start instead.
     pub fn validate_start_clearance(&self, robot_radius: f32) -> Result<(), ConfigError> {
+        if self.obstacle_placement == ObstaclePlacement::Jbotevolver {
+            return Ok(());
+        }
         let needed = self.min_start_clearance(robot_radius);
         if self.start_clearance >= needed {
             return Ok(());
@@ -208,5 +295,76 @@ mod tests {
             ..RoomConfig::default()
         };
         assert!(near_centre.validate_start_clearance(EPUCK_RADIUS).is_ok());
+    }
+
+    #[test]
+    fn the_new_keys_are_absent_from_a_default_room_serialised() {
+        let json = serde_json::to_string(&RoomConfig::default()).unwrap();
+        for key in ["obstacles_per_m2", "square_obstacles", "obstacle_placement"] {
+            assert!(!json.contains(key), "{json}");
+        }
+        let authors = RoomConfig {
+            obstacles_per_m2: Some(3.0),
+            square_obstacles: true,
+            obstacle_placement: ObstaclePlacement::Jbotevolver,
+            ..RoomConfig::default()
+        };
+        let json = serde_json::to_string(&authors).unwrap();
+        assert!(
+            json.contains(r#""obstacle_placement":"jbotevolver""#),
+            "{json}"
+        );
+        let back: RoomConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, authors);
+    }
+
+    #[test]
+    fn obstacle_counts_follow_the_area_and_are_bounded_before_any_room_is_drawn() {
+        let per_area = RoomConfig {
+            obstacles_per_m2: Some(3.0),
+            ..RoomConfig::default()
+        };
+        assert!(per_area.validate().is_ok());
+        // int(3 x area), truncated as the authors' code does.
+        assert_eq!(per_area.obstacle_count(1.0, 1.0), 3);
+        assert_eq!(per_area.obstacle_count(1.1, 1.2), 3);
+        assert_eq!(per_area.obstacle_count(1.2, 1.2), 4);
+        // Without a count per area: the paper's two or three.
+        assert_eq!(RoomConfig::default().obstacle_count(1.0, 1.0), 2);
+        assert_eq!(RoomConfig::default().obstacle_count(1.2, 1.2), 3);
+        for bad in [f32::NAN, f32::INFINITY, -1.0, 45.0] {
+            let config = RoomConfig {
+                obstacles_per_m2: Some(bad),
+                ..RoomConfig::default()
+            };
+            let message = config.validate().unwrap_err().to_string();
+            assert!(
+                message.starts_with("room.obstacles_per_m2 "),
+                "{bad}: {message}"
+            );
+            assert!(message.contains("at most 64 obstacles"), "{message}");
+        }
+        // The bound follows the largest room: 10 per m² is fine in 1.2 m rooms, not in 3 m ones.
+        let big = RoomConfig {
+            obstacles_per_m2: Some(10.0),
+            max_side: 3.0,
+            ..RoomConfig::default()
+        };
+        assert!(big.validate().is_err());
+    }
+
+    #[test]
+    fn the_authors_placement_needs_no_start_clearance() {
+        let config = RoomConfig {
+            obstacle_placement: ObstaclePlacement::Jbotevolver,
+            start_clearance: 0.0,
+            ..RoomConfig::default()
+        };
+        assert!(config.validate_start_clearance(EPUCK_RADIUS).is_ok());
+        let uniform = RoomConfig {
+            obstacle_placement: ObstaclePlacement::Uniform,
+            ..config
+        };
+        assert!(uniform.validate_start_clearance(EPUCK_RADIUS).is_err());
     }
 }

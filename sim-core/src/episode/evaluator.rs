@@ -284,6 +284,8 @@ pub(crate) struct SampleRun<'e> {
     sub_task: Option<u8>,
     /// The lights lit in the current cycle, from `sense`.
     lit_mask: u32,
+    /// The wheel speeds driven in the current cycle (noise included), m/s, from `plan_move`.
+    wheel_speeds: [f32; 2],
 }
 
 impl<'e> SampleRun<'e> {
@@ -343,6 +345,7 @@ impl<'e> SampleRun<'e> {
             sub_task_choices: SubTaskChoices::default(),
             sub_task: None,
             lit_mask: 0,
+            wheel_speeds: [0.0; 2],
         }
     }
 
@@ -475,6 +478,7 @@ impl<'e> SampleRun<'e> {
             robot_config,
             &mut self.noise,
         );
+        self.wheel_speeds = [left, right];
         Arc::of(&self.robot, left, right, robot_config)
     }
 
@@ -521,10 +525,11 @@ impl<'e> SampleRun<'e> {
         if collided && task.end_on_collision {
             return Some(Ending::Collision);
         }
-        if let Some(end) = self
-            .judge
-            .check(&self.robot, self.teammate.as_ref().map(Teammate::view))
-        {
+        if let Some(end) = self.judge.check(
+            &self.robot,
+            self.teammate.as_ref().map(Teammate::view),
+            self.wheel_speeds,
+        ) {
             return Some(end);
         }
         (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)

@@ -110,10 +110,16 @@ impl<'a> Judge<'a> {
             .map(|idx| idx as u8)
     }
 
-    /// After a cycle's move: the quantities observe, stages are reached, and the sample ends
-    /// if it took a wrong branch, entered a forbidden region, or is solved.
+    /// After a cycle's move at `wheel_speeds` (m/s, as driven): the quantities observe, stages
+    /// are reached, and the sample ends if it took a wrong branch, entered a forbidden region,
+    /// or is solved.
     #[inline]
-    pub(crate) fn check(&mut self, robot: &Pose, teammate: Option<TeammateView>) -> Option<Ending> {
+    pub(crate) fn check(
+        &mut self,
+        robot: &Pose,
+        teammate: Option<TeammateView>,
+        wheel_speeds: [f32; 2],
+    ) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
         let view = CycleView::new(
             robot,
@@ -122,7 +128,8 @@ impl<'a> Judge<'a> {
             scenario,
             &task.params,
             self.max_cycles,
-        );
+        )
+        .with_wheel_speeds(wheel_speeds);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -496,7 +503,7 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None), None);
+            assert_eq!(judge.check(&at(0.0, y), None, [0.0; 2]), None);
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -519,9 +526,9 @@ mod tests {
         // Exited: the centre a body radius beyond the exit wall's outer face, 0.10 + 0.0375 m
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
-        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None), None);
+        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None, [0.0; 2]), None);
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None),
+            judge.check(&at(0.0, 0.5 + 0.138), None, [0.0; 2]),
             Some(Ending::Solved)
         );
     }

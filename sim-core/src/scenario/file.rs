@@ -134,6 +134,19 @@ pub struct WorldDecl {
     /// or, alone, the whole world.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub solids: Vec<[f32; 4]>,
+    /// A random maze, drawn anew for each sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maze: Option<MazeDecl>,
+}
+
+/// `world.maze`: a random perfect maze of corridor cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MazeDecl {
+    /// Cells across (x), 1 to 32.
+    pub cols: u32,
+    /// Cells up (y), 1 to 32.
+    pub rows: u32,
 }
 
 /// A map, by shipped name or written out.

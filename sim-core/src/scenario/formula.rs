@@ -7,11 +7,13 @@
 //! goal covered, in [0, 1]), `approach room.exit` (the share of the way from the room's centre to
 //! its exit that the robot's closest approach covered, in [0, 1]), `approach NAME` (the same
 //! for a light, from the start), `approach teammate` (the same for the other robot, which may
-//! move), and `derived` (the derived fitness: the sum over the phases
-//! reached of the share of cycles the arbitrator chose the phase's child).
+//! move), `derived` (the derived fitness: the sum over the phases
+//! reached of the share of cycles the arbitrator chose the phase's child), `final.x` and
+//! `final.y`, `distance` (metres travelled) and `energy` (the wheels' mean absolute speed over
+//! the cycles, a share of full speed for the whole cycle limit).
 //!
 //! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
-//! joined by `and`, each optionally preceded by `not`: `in maze` (the robot's centre in a map
+//! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
 //! cell), `in goal`, `in REGION`, `teammate following` (or `teammate met`), `teammate in room`,
 //! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `always`.
 //!
@@ -167,44 +169,70 @@ fn formula_number(text: &str) -> Result<f32, String> {
     }
 }
 
-/// A condition: every atom (or its negation) holds.
+/// A condition: clauses joined by `or`, each atoms (each perhaps negated) joined by `and`;
+/// `and` binds tighter, so `in a and not teammate met or in b` is `(in a and not teammate met)
+/// or in b`. It holds when every atom of some clause does.
 #[derive(Debug)]
 pub struct Condition {
-    /// (negated, atom).
-    pub atoms: Vec<(bool, Box<dyn Atom>)>,
+    /// The clauses, each (negated, atom) pairs.
+    pub clauses: Vec<Vec<(bool, Box<dyn Atom>)>>,
 }
 
 impl Condition {
     /// Parses a condition, compiling each atom by the first registered kind that knows it.
     pub fn parse(text: &str, facts: &Facts<'_>) -> Result<Condition, String> {
-        let mut atoms = Vec::new();
-        for raw in text.split(" and ") {
-            let raw = raw.trim();
-            let (negated, body) = match raw.strip_prefix("not ") {
-                Some(rest) => (true, rest.trim()),
-                None => (false, raw),
-            };
-            let atom = blocks::ATOMS
-                .iter()
-                .find_map(|kind| (kind.compile)(body, facts))
-                .ok_or_else(|| {
-                    format!(
-                        "'{raw}': expected {}, each perhaps after 'not', joined by 'and'",
-                        blocks::listed(blocks::ATOMS.iter().flat_map(|k| k.syntax.iter().copied()))
-                    )
-                })?
-                .map_err(|why| format!("'{raw}': {why}"))?;
-            atoms.push((negated, atom));
+        // Words joined by single spaces, so that a joining word at either end or two in a row
+        // is seen, and said, as an atom missing.
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let joins = |word: &str| word == "and" || word == "or";
+        if let Some(at) = (0..words.len()).find(|&idx| {
+            joins(words[idx]) && (idx == 0 || idx + 1 == words.len() || joins(words[idx + 1]))
+        }) {
+            return Err(format!(
+                "'{text}': an atom is missing beside '{}'",
+                words[at]
+            ));
         }
-        Ok(Condition { atoms })
+        let clauses = words
+            .join(" ")
+            .split(" or ")
+            .map(|clause| {
+                clause
+                    .split(" and ")
+                    .map(|raw| Self::atom(raw.trim(), facts))
+                    .collect::<Result<Vec<_>, String>>()
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        Ok(Condition { clauses })
+    }
+
+    /// One atom, perhaps after `not`.
+    fn atom(raw: &str, facts: &Facts<'_>) -> Result<(bool, Box<dyn Atom>), String> {
+        let (negated, body) = match raw.strip_prefix("not ") {
+            Some(rest) => (true, rest.trim()),
+            None => (false, raw),
+        };
+        let atom = blocks::ATOMS
+            .iter()
+            .find_map(|kind| (kind.compile)(body, facts))
+            .ok_or_else(|| {
+                format!(
+                    "'{raw}': expected {}, each perhaps after 'not', joined by 'and' or 'or'",
+                    blocks::listed(blocks::ATOMS.iter().flat_map(|k| k.syntax.iter().copied()))
+                )
+            })?
+            .map_err(|why| format!("'{raw}': {why}"))?;
+        Ok((negated, atom))
     }
 
     /// Whether the condition holds in this cycle.
     #[inline]
     pub fn holds(&self, view: &CycleView<'_>) -> bool {
-        self.atoms
-            .iter()
-            .all(|(negated, atom)| atom.holds(view) != *negated)
+        self.clauses.iter().any(|atoms| {
+            atoms
+                .iter()
+                .all(|(negated, atom)| atom.holds(view) != *negated)
+        })
     }
 }
 
@@ -255,6 +283,19 @@ mod tests {
     }
 
     #[test]
+    fn distance_is_metres_up_to_its_bound_and_energy_a_share() {
+        let mut quantities = Quantities::new();
+        let f = Formula::parse("distance / 1000 + energy", &facts(), &mut quantities).unwrap();
+        let range_of = |idx: usize| quantities[idx].1.range(0);
+        assert_eq!(f.range(&range_of), (0.0, 1001.0));
+        // The docs' saving on energy: 1 for none spent, 0 for all.
+        let saving = Formula::parse("1 + energy * -1", &facts(), &mut quantities).unwrap();
+        let range_of = |idx: usize| quantities[idx].1.range(0);
+        assert_eq!(saving.range(&range_of), (0.0, 1.0));
+        assert_eq!(saving.eval(&|_| 0.25), 0.75);
+    }
+
+    #[test]
     fn a_quantity_named_twice_is_compiled_once() {
         let mut quantities = Quantities::new();
         Formula::parse("progress + 2 * 1", &facts(), &mut quantities).unwrap();
@@ -284,7 +325,7 @@ mod tests {
             (
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
-                 approach teammate, approach LIGHT, final.x or final.y",
+                 approach teammate, approach LIGHT, final.x, final.y, distance or energy",
             ),
             ("approach beacon", "no light is named 'beacon'"),
             ("progress", "'progress': needs a goal in cells"),
@@ -303,8 +344,26 @@ mod tests {
     #[test]
     fn conditions_compile_their_atoms_and_refuse_what_the_scenario_lacks() {
         let c = Condition::parse("in maze and not teammate following", &facts()).unwrap();
-        assert_eq!(c.atoms.len(), 2);
-        assert!(!c.atoms[0].0 && c.atoms[1].0);
+        assert_eq!(c.clauses.len(), 1);
+        assert_eq!(c.clauses[0].len(), 2);
+        assert!(!c.clauses[0][0].0 && c.clauses[0][1].0);
+        let c = Condition::parse("in maze and not teammate met or in goal", &facts()).unwrap();
+        let shape: Vec<Vec<bool>> = c
+            .clauses
+            .iter()
+            .map(|clause| clause.iter().map(|(negated, _)| *negated).collect())
+            .collect();
+        assert_eq!(shape, [vec![false, true], vec![false]]);
+        for (text, wanted) in [
+            ("in maze or", "an atom is missing beside 'or'"),
+            ("or in maze", "an atom is missing beside 'or'"),
+            ("in maze and or in goal", "an atom is missing beside 'and'"),
+            ("in maze or in kitchen", "no region is named 'kitchen'"),
+            ("in maze or flying", "joined by 'and' or 'or'"),
+        ] {
+            let error = Condition::parse(text, &facts()).unwrap_err();
+            assert!(error.contains(wanted), "{text}: {error}");
+        }
         let error = Condition::parse("in kitchen", &facts()).unwrap_err();
         assert!(error.contains("no region is named 'kitchen'"), "{error}");
         let error = Condition::parse("flying", &facts()).unwrap_err();

@@ -1,13 +1,14 @@
 //! The world's floor: what a sample's world is made of, with no notion of a scenario file.
-//! The generators ([`room`], [`corridor`], the paper's maze in [`maze`]), the lights and what
-//! triggers them ([`lights`]), and one sample's environment as the episode sets it up
-//! ([`Environment`]: the scene, the start, the teammate, the lights and the ground truth the
-//! task judges against).
+//! The generators ([`room`], [`corridor`], [`random_maze`], the paper's maze in [`maze`]), the
+//! lights and what triggers them ([`lights`]), and one sample's environment as the episode sets
+//! it up ([`Environment`]: the scene, the start, the teammate, the lights and the ground truth
+//! the task judges against).
 
 pub mod corridor;
 pub mod lights;
 #[cfg(test)]
 pub mod maze;
+pub mod random_maze;
 pub mod room;
 
 use crate::body::Pose;

@@ -5,7 +5,7 @@
 //! room (exit in any wall) and the rescue room (exit under the maze's stem) share one generator.
 
 use crate::body::Pose;
-use crate::config::RoomConfig;
+use crate::config::{ObstaclePlacement, RoomConfig};
 use crate::geometry::scene::{Rect, RectKind};
 use crate::math::float::hypot;
 use crate::math::rng::SimRng;
@@ -41,8 +41,14 @@ pub enum Placement {
     },
 }
 
-/// Draws a room from the environment stream.
-pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> Room {
+/// Draws a room from the environment stream, for a robot of `robot_radius` (the authors'
+/// placement moves the start until such a robot touches nothing).
+pub fn generate(
+    config: &RoomConfig,
+    placement: Placement,
+    robot_radius: f32,
+    rng: &mut SimRng,
+) -> Room {
     let width = rng.random_range(config.min_side..=config.max_side);
     let depth = rng.random_range(config.min_side..=config.max_side);
     let t = config.wall_thickness;
@@ -82,56 +88,25 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
 
     let center = [0.5 * width, 0.5 * depth];
     let exit_center = [exit_x, depth];
-    let n_obstacles = if width * depth > config.three_obstacles_above_area {
-        3
-    } else {
-        2
-    };
-    let mut obstacles: Vec<Rect> = Vec::new();
-    // Rejection sampling with a fixed attempt budget: deterministic for a seed, and a room in
-    // which an obstacle finds no legal place simply has one fewer (never seen with defaults).
-    for _ in 0..n_obstacles {
-        for _attempt in 0..1000 {
-            let half_extents = [
-                0.5 * rng.random_range(config.obstacle_min_side..=config.obstacle_max_side),
-                0.5 * rng.random_range(config.obstacle_min_side..=config.obstacle_max_side),
-            ];
-            let angle = rng.random_range(0.0..PI);
-            let candidate = Rect {
-                center: [0.0, 0.0],
-                half_extents,
-                angle,
-                kind: RectKind::Obstacle,
-            };
-            let reach = candidate.circumradius() + config.obstacle_clearance;
-            if 2.0 * reach >= width || 2.0 * reach >= depth {
-                continue;
-            }
-            let c = [
-                rng.random_range(reach..width - reach),
-                rng.random_range(reach..depth - reach),
-            ];
-            let dist = |p: [f32; 2]| hypot(c[0] - p[0], c[1] - p[1]);
-            let clear_of_start = dist(center) > config.start_clearance + candidate.circumradius();
-            let clear_of_exit =
-                dist(exit_center) > config.exit_clearance + candidate.circumradius();
-            let clear_of_others = obstacles
-                .iter()
-                .all(|o| dist(o.center) > o.circumradius() + reach);
-            if clear_of_start && clear_of_exit && clear_of_others {
-                obstacles.push(Rect {
-                    center: c,
-                    ..candidate
-                });
-                break;
-            }
+    let n_obstacles = config.obstacle_count(width, depth);
+    let obstacles = match config.obstacle_placement {
+        ObstaclePlacement::Spaced | ObstaclePlacement::Uniform => {
+            place_with_clearances(config, n_obstacles, [width, depth], exit_center, rng)
         }
-    }
+        ObstaclePlacement::Jbotevolver => {
+            place_as_the_authors(config, n_obstacles, [width, depth], rng)
+        }
+    };
     local.extend(obstacles);
-    let start_local = Pose {
-        x: center[0] + rng.random_range(-config.start_offset..=config.start_offset),
-        y: center[1] + rng.random_range(-config.start_offset..=config.start_offset),
-        heading: rng.random_range(-PI..PI),
+    let start_local = match config.obstacle_placement {
+        ObstaclePlacement::Jbotevolver => {
+            start_clear_of_solids(config, &local, [width, depth], robot_radius, rng)
+        }
+        _ => Pose {
+            x: center[0] + rng.random_range(-config.start_offset..=config.start_offset),
+            y: center[1] + rng.random_range(-config.start_offset..=config.start_offset),
+            heading: rng.random_range(-PI..PI),
+        },
     };
 
     // Placement: a rotation by a multiple of 90 degrees about the local origin, then a shift.
@@ -173,6 +148,178 @@ pub fn generate(config: &RoomConfig, placement: Placement, rng: &mut SimRng) -> 
     }
 }
 
+/// One obstacle's sides: two drawn for a rectangle at any angle, one for a square aligned with
+/// the walls.
+fn draw_obstacle(config: &RoomConfig, rng: &mut SimRng) -> Rect {
+    let side_range = config.obstacle_min_side..=config.obstacle_max_side;
+    let (half_extents, angle) = if config.square_obstacles {
+        let half = 0.5 * rng.random_range(side_range);
+        ([half, half], 0.0)
+    } else {
+        let half_extents = [
+            0.5 * rng.random_range(side_range.clone()),
+            0.5 * rng.random_range(side_range),
+        ];
+        (half_extents, rng.random_range(0.0..PI))
+    };
+    Rect {
+        center: [0.0, 0.0],
+        half_extents,
+        angle,
+        kind: RectKind::Obstacle,
+    }
+}
+
+/// hevo's placements, in the room's local frame (interior `[0, size[0]] x [0, size[1]]`, exit
+/// in the top wall): rejection sampling with a fixed attempt budget, deterministic for a seed;
+/// an obstacle that finds no legal place is left out (never seen with the defaults). Spaced
+/// obstacles keep `obstacle_clearance` (between circumscribed circles) from the walls and
+/// each other; uniform ones only keep their centres that far in from the walls, and may
+/// overlap.
+fn place_with_clearances(
+    config: &RoomConfig,
+    n_obstacles: usize,
+    [width, depth]: [f32; 2],
+    exit_center: [f32; 2],
+    rng: &mut SimRng,
+) -> Vec<Rect> {
+    let spaced = config.obstacle_placement == ObstaclePlacement::Spaced;
+    let center = [0.5 * width, 0.5 * depth];
+    let mut obstacles: Vec<Rect> = Vec::new();
+    for _ in 0..n_obstacles {
+        for _attempt in 0..1000 {
+            let candidate = draw_obstacle(config, rng);
+            let reach = if spaced {
+                candidate.circumradius() + config.obstacle_clearance
+            } else {
+                config.obstacle_clearance
+            };
+            if 2.0 * reach >= width || 2.0 * reach >= depth {
+                continue;
+            }
+            let c = [
+                rng.random_range(reach..width - reach),
+                rng.random_range(reach..depth - reach),
+            ];
+            let dist = |p: [f32; 2]| hypot(c[0] - p[0], c[1] - p[1]);
+            let clear_of_start = dist(center) > config.start_clearance + candidate.circumradius();
+            let clear_of_exit =
+                dist(exit_center) > config.exit_clearance + candidate.circumradius();
+            let clear_of_others = !spaced
+                || obstacles
+                    .iter()
+                    .all(|o| dist(o.center) > o.circumradius() + reach);
+            if clear_of_start && clear_of_exit && clear_of_others {
+                obstacles.push(Rect {
+                    center: c,
+                    ..candidate
+                });
+                break;
+            }
+        }
+    }
+    obstacles
+}
+
+/// The authors' placement (JBotEvolver's `ClutteredMazeEnvironment`), in the local frame:
+/// each obstacle's centre uniform across the width, `obstacle_clearance` in from the side
+/// walls, and `0.6 x (depth / 2 - side - u x depth / 2)` above the room's centre (u uniform in
+/// [0, 1); a larger obstacle stands lower), wherever that puts it: on another obstacle, into a
+/// side wall, over the centre. Every obstacle is placed; none is refused.
+fn place_as_the_authors(
+    config: &RoomConfig,
+    n_obstacles: usize,
+    [width, depth]: [f32; 2],
+    rng: &mut SimRng,
+) -> Vec<Rect> {
+    let margin = config.obstacle_clearance.min(0.5 * width);
+    (0..n_obstacles)
+        .map(|_| {
+            let candidate = draw_obstacle(config, rng);
+            // The side along the depth, for a rectangle as for a square.
+            let side = 2.0 * candidate.half_extents[1];
+            let x = rng.random_range(margin..=width - margin);
+            let u = rng.random_range(0.0..1.0f32);
+            let y = 0.5 * depth + 0.6 * (0.5 * depth - side - u * 0.5 * depth);
+            Rect {
+                center: [x, y],
+                ..candidate
+            }
+        })
+        .collect()
+}
+
+/// The most starts the authors' placement tries before it gives up.
+const START_ATTEMPTS: u32 = 100;
+
+/// How much clear of every solid a searched start must be, metres: a margin over the robot's
+/// radius so that the scene's own test, in the placed room's coordinates, agrees.
+const START_MARGIN: f32 = 1e-4;
+
+/// The authors' start: the centre plus a uniform offset of up to `start_offset` per axis,
+/// drawn again until the robot's disc, inside the interior, touches none of `solids`; after
+/// every ten tries the offset grows by 0.1 m, as in the authors' code. After
+/// [`START_ATTEMPTS`] the centre, touching or not (the start check of every evaluator then
+/// refuses the world, naming the seed).
+fn start_clear_of_solids(
+    config: &RoomConfig,
+    solids: &[Rect],
+    [width, depth]: [f32; 2],
+    robot_radius: f32,
+    rng: &mut SimRng,
+) -> Pose {
+    let center = [0.5 * width, 0.5 * depth];
+    let heading = rng.random_range(-PI..PI);
+    let clear = |p: [f32; 2]| {
+        let inside = p[0] >= robot_radius
+            && p[0] <= width - robot_radius
+            && p[1] >= robot_radius
+            && p[1] <= depth - robot_radius;
+        inside
+            && solids
+                .iter()
+                .all(|solid| distance_to_rect(solid, p) >= robot_radius + START_MARGIN)
+    };
+    let mut offset = config.start_offset;
+    for attempt in 1..=START_ATTEMPTS {
+        let p = if offset > 0.0 {
+            [
+                center[0] + rng.random_range(-offset..=offset),
+                center[1] + rng.random_range(-offset..=offset),
+            ]
+        } else {
+            center
+        };
+        if clear(p) {
+            return Pose {
+                x: p[0],
+                y: p[1],
+                heading,
+            };
+        }
+        if attempt % 10 == 0 {
+            offset += 0.1;
+        }
+    }
+    Pose {
+        x: center[0],
+        y: center[1],
+        heading,
+    }
+}
+
+/// The distance from `p` to the nearest point of `rect` (0 inside it).
+fn distance_to_rect(rect: &Rect, p: [f32; 2]) -> f32 {
+    let (s, c) = rect.angle.sin_cos();
+    let d = [p[0] - rect.center[0], p[1] - rect.center[1]];
+    let local = [c * d[0] + s * d[1], -s * d[0] + c * d[1]];
+    let outside = [
+        (local[0].abs() - rect.half_extents[0]).max(0.0),
+        (local[1].abs() - rect.half_extents[1]).max(0.0),
+    ];
+    hypot(outside[0], outside[1])
+}
+
 /// Rotates a point about the origin by `quarter_turns` times 90 degrees, exactly.
 fn rotate(p: [f32; 2], quarter_turns: u32) -> [f32; 2] {
     match quarter_turns % 4 {
@@ -198,12 +345,14 @@ mod tests {
     use crate::geometry::scene::Scene;
     use crate::math::rng::{Stream, stream_rng};
 
+    const EPUCK_RADIUS: f32 = 0.0375;
+
     #[test]
     fn rooms_respect_the_spec_ranges() {
         let config = RoomConfig::default();
         for seed in 0..300 {
             let mut rng = stream_rng(seed, Stream::Environment);
-            let room = generate(&config, Placement::Standalone, &mut rng);
+            let room = generate(&config, Placement::Standalone, EPUCK_RADIUS, &mut rng);
             assert!(room.size.iter().all(|&s| (1.0..=1.2).contains(&s)));
             let obstacles: Vec<&Rect> = room
                 .rects
@@ -305,6 +454,154 @@ mod tests {
         }
     }
 
+    /// The authors' room as `scenarios/examples/exit_room_authors.toml` writes it.
+    fn authors_room() -> RoomConfig {
+        RoomConfig {
+            obstacles_per_m2: Some(3.0),
+            square_obstacles: true,
+            obstacle_min_side: 0.125,
+            obstacle_max_side: 0.375,
+            obstacle_placement: ObstaclePlacement::Jbotevolver,
+            obstacle_clearance: 0.1,
+            start_offset: 0.0,
+            ..RoomConfig::default()
+        }
+    }
+
+    /// Each obstacle of a room, in its local frame (exit wall up, interior from the origin).
+    fn local_obstacles(room: &Room) -> Vec<Rect> {
+        let turns = (0..4u32)
+            .find(|&t| rotate([0.0, 1.0], t) == room.exit_outward)
+            .unwrap();
+        let shift = [
+            0.5 * room.size[0] - rotate(room.center, 4 - turns)[0],
+            0.5 * room.size[1] - rotate(room.center, 4 - turns)[1],
+        ];
+        room.rects
+            .iter()
+            .filter(|r| r.kind == RectKind::Obstacle)
+            .map(|r| {
+                let c = rotate(r.center, 4 - turns);
+                Rect {
+                    center: [c[0] + shift[0], c[1] + shift[1]],
+                    ..*r
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_authors_room_has_int_3_area_squares_in_their_band_and_a_clear_start() {
+        let config = authors_room();
+        let mut counts = [0usize; 5];
+        let mut any_overlap = false;
+        for seed in 0..500 {
+            let mut rng = stream_rng(seed, Stream::Environment);
+            let room = generate(&config, Placement::Standalone, EPUCK_RADIUS, &mut rng);
+            let [width, depth] = room.size;
+            let obstacles = local_obstacles(&room);
+            assert_eq!(
+                obstacles.len(),
+                (3.0 * width * depth) as usize,
+                "seed {seed}"
+            );
+            counts[obstacles.len()] += 1;
+            for o in &obstacles {
+                let [hx, hy] = o.half_extents;
+                assert_eq!(hx, hy, "seed {seed}: a square");
+                assert!(
+                    (0.0625..=0.1875).contains(&hx),
+                    "seed {seed}: side {}",
+                    2.0 * hx
+                );
+                // Aligned with the walls: a whole number of quarter turns.
+                let quarters = o.angle / FRAC_PI_2;
+                assert!((quarters - quarters.round()).abs() < 1e-5, "seed {seed}");
+                let [x, y] = o.center;
+                assert!(
+                    x >= 0.1 - 1e-4 && x <= width - 0.1 + 1e-4,
+                    "seed {seed}: x {x}"
+                );
+                let above_centre = y - 0.5 * depth;
+                let side = 2.0 * hx;
+                assert!(
+                    above_centre >= 0.6 * -side - 1e-4
+                        && above_centre <= 0.6 * (0.5 * depth - side) + 1e-4,
+                    "seed {seed}: {above_centre} above the centre, side {side}"
+                );
+            }
+            any_overlap |= obstacles.iter().enumerate().any(|(i, a)| {
+                obstacles[i + 1..].iter().any(|b| {
+                    (a.center[0] - b.center[0]).abs() < a.half_extents[0] + b.half_extents[0]
+                        && (a.center[1] - b.center[1]).abs() < a.half_extents[1] + b.half_extents[1]
+                })
+            });
+            let scene = Scene::new(room.rects.clone(), 0.25);
+            assert!(
+                !scene.disc_hits(room.start.position(), EPUCK_RADIUS),
+                "seed {seed}: the start touches a solid"
+            );
+            assert_exit_in_the_wall_face(&config, &room, &format!("seed {seed}"));
+        }
+        // Areas 1.0-1.44 m²: three obstacles, four above 4/3 m² (both sides near 1.2 m,
+        // about one room in sixteen); and some overlap.
+        assert_eq!(counts[0] + counts[1] + counts[2], 0, "{counts:?}");
+        assert!(counts[3] > 400 && counts[4] > 10, "{counts:?}");
+        assert!(any_overlap, "overlap is allowed and happens");
+    }
+
+    #[test]
+    fn uniform_obstacles_may_overlap_but_keep_off_the_start() {
+        let config = RoomConfig {
+            obstacles_per_m2: Some(8.0),
+            obstacle_placement: ObstaclePlacement::Uniform,
+            ..RoomConfig::default()
+        };
+        let mut any_overlap = false;
+        for seed in 0..200 {
+            let mut rng = stream_rng(seed, Stream::Environment);
+            let room = generate(&config, Placement::Standalone, EPUCK_RADIUS, &mut rng);
+            let obstacles = local_obstacles(&room);
+            assert!(obstacles.len() <= (8.0 * room.size[0] * room.size[1]) as usize);
+            any_overlap |= obstacles.iter().enumerate().any(|(i, a)| {
+                obstacles[i + 1..].iter().any(|b| {
+                    hypot(a.center[0] - b.center[0], a.center[1] - b.center[1])
+                        < a.circumradius() + b.circumradius() + config.obstacle_clearance
+                })
+            });
+            let scene = Scene::new(room.rects.clone(), 0.25);
+            assert!(
+                !scene.disc_hits(room.start.position(), EPUCK_RADIUS),
+                "seed {seed}"
+            );
+        }
+        assert!(any_overlap, "closer than spaced obstacles may be");
+    }
+
+    #[test]
+    fn spaced_rooms_with_a_count_per_area_keep_their_gaps() {
+        let config = RoomConfig {
+            obstacles_per_m2: Some(4.0),
+            square_obstacles: true,
+            ..RoomConfig::default()
+        };
+        for seed in 0..200 {
+            let mut rng = stream_rng(seed, Stream::Environment);
+            let room = generate(&config, Placement::Standalone, EPUCK_RADIUS, &mut rng);
+            let obstacles = local_obstacles(&room);
+            assert!(obstacles.len() <= (4.0 * room.size[0] * room.size[1]) as usize);
+            for (i, a) in obstacles.iter().enumerate() {
+                assert_eq!(a.half_extents[0], a.half_extents[1]);
+                for b in &obstacles[i + 1..] {
+                    let gap = hypot(a.center[0] - b.center[0], a.center[1] - b.center[1])
+                        - a.circumradius()
+                        - b.circumradius();
+                    assert!(gap > config.obstacle_clearance, "seed {seed}: gap {gap}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn rescue_room_puts_its_exit_where_asked() {
         let mut rng = stream_rng(3, Stream::Environment);
@@ -313,6 +610,7 @@ mod tests {
             Placement::Below {
                 exit_center: [0.0, -1.7],
             },
+            EPUCK_RADIUS,
             &mut rng,
         );
         assert!(room.exit_center[0].abs() < 1e-5 && (room.exit_center[1] + 1.7).abs() < 1e-5);

@@ -24,7 +24,7 @@ use hevo_sim_core::SHIPPED_NAMES;
 use hevo_sim_core::{Controller, ControllerFile, InputGroup, NodeSpec};
 use hevo_sim_core::{Ending, Evaluator, Policy, Sample, TaskConfig, Trace};
 
-use crate::support::Scripted;
+use crate::support::{Scripted, example_task};
 
 /// A pose as the bit patterns of x, y and heading.
 type PoseBits = [u32; 3];
@@ -47,7 +47,8 @@ struct Golden {
     points: [(u32, PoseBits); 4],
 }
 
-/// The samples recorded, in the tasks' default configurations: each task with its scripted
+/// The samples recorded, in the tasks' default configurations (a task ending in `.toml` is the
+/// example scenario of that name): each task with its scripted
 /// policy, two seeds each, and the maze in all four light configurations; then the shipped
 /// evolved controllers (a CTRNN primitive, an arbitrator over primitives, an arbitrator over
 /// arbitrators), and the failing networks on exit room and the maze, so f1's and f2's failure
@@ -78,6 +79,11 @@ const CASES: &[(&str, &str, u64, Option<u32>)] = &[
     ("straight", "solve_maze", 20, Some(0)),
     ("standing", "exit_room", 21, None),
     ("standing", "solve_maze", 22, Some(3)),
+    // The authors' room (an example scenario file): the shipped exit room controller in it,
+    // and a robot that drives straight into its clutter.
+    ("exit_room.json", "exit_room_authors.toml", 23, None),
+    ("exit_room.json", "exit_room_authors.toml", 24, None),
+    ("straight", "exit_room_authors.toml", 25, None),
 ];
 
 fn pose_bits(pose: &Pose) -> PoseBits {
@@ -110,8 +116,11 @@ fn shipped_controller(file: &str) -> ControllerFile {
 }
 
 fn traced(policy: &'static str, kind: &'static str, sample: Sample) -> Trace {
-    let evaluator = Evaluator::new(TaskConfig::shipped(kind).unwrap())
-        .expect("the paper's task configurations are valid");
+    let task = match kind.strip_suffix(".toml") {
+        Some(example) => example_task(example),
+        None => TaskConfig::shipped(kind).unwrap(),
+    };
+    let evaluator = Evaluator::new(task).expect("the task configurations are valid");
     if policy != "scripted" {
         let file = if policy.ends_with(".json") {
             shipped_controller(policy)
@@ -638,5 +647,41 @@ const EXPECTED: &[Golden] = &[
         stage: 0,
         final_pose: [0xbc9f3e36, 0xbfc00000, 0x3fc34362],
         points: [(0, [0xbc9f3e36, 0xbfc00000, 0x3fc34362]), (250, [0xbc9f3e36, 0xbfc00000, 0x3fc34362]), (500, [0xbc9f3e36, 0xbfc00000, 0x3fc34362]), (750, [0xbc9f3e36, 0xbfc00000, 0x3fc34362])],
+    },
+    Golden {
+        policy: "exit_room.json",
+        task: "exit_room_authors.toml",
+        seed: 23,
+        variant: None,
+        fitness_bits: 0x00000000, // 0
+        cycles: 1000,
+        ending: Ending::Timeout,
+        stage: 0,
+        final_pose: [0x3f03e85f, 0xbea0e3cf, 0x3fc4eb90],
+        points: [(0, [0xbd09f600, 0xbd9b2968, 0xbff0d8a7]), (250, [0x3eb7479f, 0xbe553ca9, 0x40440ede]), (500, [0xbc94ca88, 0xbf034e72, 0xbcf2a50b]), (750, [0xbe5cd874, 0xbe807d4f, 0xc01130bb])],
+    },
+    Golden {
+        policy: "exit_room.json",
+        task: "exit_room_authors.toml",
+        seed: 24,
+        variant: None,
+        fitness_bits: 0x40b94fdf, // 5.791
+        cycles: 209,
+        ending: Ending::Solved,
+        stage: 1,
+        final_pose: [0x3f2e805b, 0x3cb6022b, 0xbeb03af1],
+        points: [(0, [0x3da02860, 0xbc954d80, 0x408c8526]), (52, [0x3d1ee651, 0xbee08770, 0xc001b9c8]), (104, [0x3eb3d8c6, 0xbef1ed19, 0xbd774b21]), (156, [0x3eeed109, 0xbe7273b3, 0x3fc52895])],
+    },
+    Golden {
+        policy: "straight",
+        task: "exit_room_authors.toml",
+        seed: 25,
+        variant: None,
+        fitness_bits: 0x00000000, // 0
+        cycles: 59,
+        ending: Ending::Collision,
+        stage: 0,
+        final_pose: [0x3f07a04d, 0x3e551ad2, 0x3ec10d8c],
+        points: [(0, [0x00000000, 0x00000000, 0x3ecf18f0]), (14, [0x3e0322e7, 0x3d5c57e7, 0x3eca0589]), (29, [0x3e87f030, 0x3dd749f4, 0x3eb512da]), (44, [0x3ece51fb, 0x3e21053d, 0x3ebd060d])],
     },
 ];

@@ -1086,3 +1086,256 @@ fn a_huge_unknown_key_is_quoted_only_in_part() {
     assert!(error.contains("kkkk"), "{error}");
     assert!(error.len() < 2_000, "{} characters", error.len());
 }
+
+#[test]
+fn the_authors_room_keys_are_checked_before_any_room_is_drawn() {
+    let authors = example("exit_room_authors");
+    // A count per area beyond the bound: refused by the task's check, naming the key.
+    let scenario = Scenario::parse(
+        &authors.replace("obstacles_per_m2 = 3.0", "obstacles_per_m2 = 1e9"),
+        "mine.toml",
+    )
+    .expect("the file's syntax is fine");
+    let error = TaskConfig::from_scenario(Arc::new(scenario))
+        .validate()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("room.obstacles_per_m2 ") && error.contains("at most 64 obstacles"),
+        "{error}"
+    );
+    // A placement that does not exist: refused by the parser, naming the key and the line.
+    let error = edit_refusal(
+        authors,
+        "obstacle_placement = \"jbotevolver\"",
+        "obstacle_placement = \"anywhere\"",
+    );
+    assert!(
+        error.contains("at `room.obstacle_placement`")
+            && error.contains("expected one of `spaced`, `uniform`, `jbotevolver`"),
+        "{error}"
+    );
+}
+
+/// The TOML blocks of docs/scenario-file.md, as a reader copies them (the list item's
+/// indentation taken off).
+fn scenario_doc_toml_blocks() -> Vec<String> {
+    let doc = include_str!("../../../docs/scenario-file.md");
+    let mut blocks = Vec::new();
+    let mut open: Option<(usize, String)> = None;
+    for line in doc.lines() {
+        let trimmed = line.trim_start();
+        let indent = line.len() - trimmed.len();
+        match (&mut open, trimmed) {
+            (None, "```toml") => open = Some((indent, String::new())),
+            (Some(_), "```") => blocks.push(open.take().unwrap().1),
+            (Some((indent, block)), _) => {
+                *block += line.get(*indent..).unwrap_or("");
+                *block += "\n";
+            }
+            (None, _) => {}
+        }
+    }
+    blocks
+}
+
+#[test]
+fn the_docs_room_block_is_the_authors_room_of_the_example() {
+    let authors = example("exit_room_authors");
+    let room_block = scenario_doc_toml_blocks()
+        .into_iter()
+        .find(|block| block.starts_with("[room]"))
+        .expect("docs/scenario-file.md shows a [room] block");
+    // The example with its own [room] table replaced by the docs' block.
+    let (head, rest) = authors.split_at(authors.find("[room]").unwrap());
+    let tail = &rest[rest.find("[world]").unwrap()..];
+    let from_docs = format!("{head}{room_block}\n{tail}");
+    let scenario = Scenario::parse(&from_docs, "docs.toml").unwrap_or_else(|e| panic!("{e}"));
+    let task = TaskConfig::from_scenario(Arc::new(scenario));
+    assert_eq!(task.validate(), Ok(()));
+    assert_eq!(
+        task.params.room,
+        example_task("exit_room_authors").params.room
+    );
+}
+
+/// An open arena 2 m wide, the robot at its centre facing east; `end` is the `[end]` table.
+fn arena_with_regions(end: &str) -> TaskConfig {
+    let text = format!(
+        r#"schema = "hevo.scenario/1"
+name = "arena"
+max_cycles = 400
+
+[world]
+solids = [
+    [-1.05, -1.05, 1.05, -1.0],
+    [-1.05, 1.0, 1.05, 1.05],
+    [-1.05, -1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.05, 1.0],
+]
+
+[regions]
+middle = {{ rect = [-0.1, -0.1, 0.1, 0.1] }}
+west = {{ rect = [-0.9, -0.2, -0.5, 0.2] }}
+east = {{ rect = [0.5, -0.2, 0.9, 0.2] }}
+north = {{ rect = [-0.2, 0.5, 0.2, 0.9] }}
+
+[place]
+at = "middle"
+facing = "right"
+
+[end]
+{end}
+
+[fitness]
+solved = "1"
+otherwise = "0"
+"#
+    );
+    TaskConfig::from_scenario(Arc::new(
+        Scenario::parse(&text, "arena.toml").unwrap_or_else(|e| panic!("{e}")),
+    ))
+}
+
+#[test]
+fn or_joins_clauses_of_atoms_joined_by_and() {
+    // The robot drives east from the centre for 120 cycles (0.72 m) into `east` and stops
+    // there, never in `west` or `north`.
+    for (end, ending) in [
+        (r#"solved = "in east""#, Ending::Solved),
+        (r#"solved = "in west""#, Ending::Timeout),
+        (r#"solved = "in west or in east""#, Ending::Solved),
+        (r#"solved = "in east or in west""#, Ending::Solved),
+        (r#"solved = "in west or in north""#, Ending::Timeout),
+        // `and` binds tighter: (in west and in east) or in east.
+        (
+            r#"solved = "in west and in east or in east""#,
+            Ending::Solved,
+        ),
+        // in west and (in east or in east) would never hold.
+        (
+            r#"solved = "in east and in west or in north""#,
+            Ending::Timeout,
+        ),
+        (r#"solved = "not in east or in west""#, Ending::Solved),
+        (
+            "solved = \"in north\"\nforbidden = \"in west or in east\"",
+            Ending::WrongBranch,
+        ),
+    ] {
+        let evaluator = Evaluator::new(arena_with_regions(end)).unwrap();
+        let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(0));
+        assert_eq!(outcome.ending, ending, "{end}");
+    }
+    // The east is reached after some cycles, not at once: `not in east` holds at the first.
+    let evaluator = Evaluator::new(arena_with_regions(r#"solved = "in east""#)).unwrap();
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(0));
+    assert!(outcome.cycles > 20, "{}", outcome.cycles);
+}
+
+#[test]
+fn distance_and_energy_follow_the_wheels() {
+    let task = arena_with_regions(
+        "solved = \"in north\"\n\n[descriptor]\nquantities = [\"distance\", \"energy\", \"final.x\"]",
+    );
+    let evaluator = Evaluator::new(task).unwrap();
+    let max_cycles = 400.0;
+    let v_max = 0.1;
+    let step = v_max * 0.1;
+    // Wheels at 0.6 of full speed for 120 cycles, then still: 0.72 m travelled (5 % wheel
+    // noise either way), straight ahead, and 0.6 x 120 / 400 = 0.18 of the energy.
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.8, 0.8], 120), Sample::seeded(3));
+    let [distance, energy, final_x] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert_eq!(outcome.ending, Ending::Timeout);
+    assert!((distance - 0.6 * step * 120.0).abs() < 0.02, "{distance}");
+    assert!(
+        distance >= final_x && distance - final_x < 0.01,
+        "{distance} {final_x}"
+    );
+    assert!(
+        (energy - 0.6 * 120.0 / max_cycles).abs() < 0.005,
+        "{energy}"
+    );
+    // Spinning on the spot: full speed, the wheels opposed; the centre hardly moves (the wheel
+    // noise makes it wander a few centimetres, against the 4 m of driving straight as long).
+    let outcome = evaluator.evaluate(&mut Fixed::new([1.0, 0.0], u32::MAX), Sample::seeded(3));
+    let [distance, energy, _] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert!(distance < 0.1, "{distance}");
+    assert!(energy > 0.95 && energy <= 1.0, "{energy}");
+    // Standing still: nothing at all.
+    let outcome = evaluator.evaluate(&mut Fixed::new([0.5, 0.5], u32::MAX), Sample::seeded(3));
+    assert_eq!(outcome.descriptor, [0.0, 0.0, 0.0]);
+    // Into the east wall at full speed: the moves a collision undid count nothing.
+    let crash = arena_with_regions(
+        "solved = \"in north\"\n\n[descriptor]\nquantities = [\"distance\", \"final.x\"]",
+    );
+    let outcome = Evaluator::new(crash)
+        .unwrap()
+        .evaluate(&mut Fixed::straight(), Sample::seeded(3));
+    assert_eq!(outcome.ending, Ending::Collision);
+    let [distance, final_x] = outcome.descriptor[..] else {
+        panic!("{:?}", outcome.descriptor)
+    };
+    assert!(
+        distance >= final_x && distance - final_x < 0.01,
+        "{distance} {final_x}"
+    );
+}
+
+#[test]
+fn a_random_maze_is_drawn_per_sample_with_its_goal_reachable_from_the_start() {
+    let evaluator = Evaluator::new(example_task("random_maze")).unwrap();
+    let mut layouts = std::collections::BTreeSet::new();
+    for seed in 0..40 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let goal = env.ground.goal.as_ref().expect("a goal in cells");
+        assert_eq!(goal.map.cells.len(), 36);
+        // The goal, the top-right cell, is a finite corridor distance from every cell.
+        assert_eq!(goal.map.cells[goal.goal].at, [5, 5]);
+        assert!(goal.distances.iter().all(|d| d.is_finite()), "seed {seed}");
+        // The robot starts in the bottom-left cell, on the path, touching nothing.
+        let start_cell = goal.map.cell_at([env.start.x, env.start.y]);
+        assert_eq!(start_cell, Some(0), "seed {seed}");
+        assert!(goal.on_path[0] && goal.on_path[goal.goal]);
+        assert!(!env.scene.disc_hits([env.start.x, env.start.y], 0.0375));
+        // The same seed, the same maze.
+        let again = evaluator.environment(Sample::seeded(seed));
+        let walls: Vec<[bool; 4]> = goal.map.cells.iter().map(|c| c.walls).collect();
+        let again_goal = again.ground.goal.as_ref().unwrap();
+        let walls_again: Vec<[bool; 4]> = again_goal.map.cells.iter().map(|c| c.walls).collect();
+        assert_eq!(walls, walls_again);
+        layouts.insert(walls);
+    }
+    assert_eq!(layouts.len(), 40, "each seed its own maze");
+}
+
+#[test]
+fn a_random_maze_of_no_size_or_beside_another_world_is_refused() {
+    let maze = example("random_maze");
+    for (to, wanted) in [
+        (
+            "maze = { cols = 0, rows = 6 }",
+            "at `world.maze.cols`: 0 cells: a random maze has 1 to 32 a side",
+        ),
+        (
+            "maze = { cols = 6, rows = 33 }",
+            "at `world.maze.rows`: 33 cells",
+        ),
+        (
+            "maze = { cols = 1, rows = 1 }",
+            "at `world.maze`: a maze of one cell has no way to its goal",
+        ),
+        (
+            "maze = { cols = 6, rows = 6 }\ncorridor = \"left\"",
+            "at `world.maze`: a random maze stands alone",
+        ),
+        ("maze = { cols = 6 }", "missing field `rows`"),
+    ] {
+        let error = edit_refusal(maze, "maze = { cols = 6, rows = 6 }", to);
+        assert!(error.contains(wanted), "{to}: {error}");
+    }
+}

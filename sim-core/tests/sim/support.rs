@@ -17,7 +17,7 @@ pub const ROOM_TO_CORRIDOR: &str =
     include_str!("../../../scenarios/examples/room_to_corridor.toml");
 
 /// The example scenarios of `scenarios/examples/`, by name.
-pub const EXAMPLES: [(&str, &str); 7] = [
+pub const EXAMPLES: [(&str, &str); 9] = [
     ("t_maze", T_MAZE),
     (
         "triple_t_maze",
@@ -36,6 +36,14 @@ pub const EXAMPLES: [(&str, &str); 7] = [
     (
         "phototaxis",
         include_str!("../../../scenarios/examples/phototaxis.toml"),
+    ),
+    (
+        "exit_room_authors",
+        include_str!("../../../scenarios/examples/exit_room_authors.toml"),
+    ),
+    (
+        "random_maze",
+        include_str!("../../../scenarios/examples/random_maze.toml"),
     ),
 ];
 

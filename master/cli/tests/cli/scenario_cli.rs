@@ -1,5 +1,6 @@
 //! `hevo scenario check` and `hevo scenario draw` as a user runs them, on the examples with a
-//! wandering teammate and with a room joined under a corridor, and on the rescue: check
+//! wandering teammate, with a room joined under a corridor, with the authors' room and with a
+//! random maze, and on the rescue: check
 //! accepts them, and every region `draw` should name (the map's, the generators') is in the
 //! picture, shaded and labelled.
 
@@ -29,6 +30,16 @@ fn check_accepts_and_draw_names_every_region() {
             "scenarios/examples/room_to_corridor.toml",
             "2",
             &["room", "room.exit", "corridor.start", "corridor.end"][..],
+        ),
+        (
+            "scenarios/examples/exit_room_authors.toml",
+            "3",
+            &["room", "room.exit"][..],
+        ),
+        (
+            "scenarios/examples/random_maze.toml",
+            "4",
+            &["corridor.start", "corridor.end"][..],
         ),
         (
             "rescue",

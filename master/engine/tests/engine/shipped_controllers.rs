@@ -142,6 +142,16 @@ const SHIPPED: &[Floor] = &[
         stages: None,
         solved_samples: "97793c63a7e1ab06",
     },
+    // A shipped controller on a task it was not evolved for: exit room in the authors' room
+    // (docs/decisions/model/0044-the-authors-room.md).
+    Floor {
+        file: "exit_room.json",
+        task: "scenarios/examples/exit_room_authors.toml",
+        solved: 85, // measured 88 of 100
+        per_variant: &[],
+        stages: None,
+        solved_samples: "b873af4df46cd00f",
+    },
 ];
 
 fn controllers_dir() -> PathBuf {
@@ -170,6 +180,8 @@ fn every_shipped_controller_is_listed_here() {
     found.sort();
     let mut listed: Vec<String> = SHIPPED.iter().map(|f| f.file.to_string()).collect();
     listed.sort();
+    // A controller judged on more than one task is listed once per task.
+    listed.dedup();
     assert_eq!(
         found, listed,
         "add new controllers to SHIPPED with their floor"

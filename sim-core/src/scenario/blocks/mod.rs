@@ -33,8 +33,10 @@ use atoms::RegionTest;
 use std::fmt::Debug;
 use std::sync::Arc;
 
-/// The worlds (the combinations of `map`, `room` and `corridor` they recognise are disjoint).
+/// The worlds (the combinations of `map`, `room` and `corridor` they recognise are disjoint; a
+/// random maze, first, takes every table with a `maze`).
 pub static WORLDS: &[WorldKind] = &[
+    worlds::RANDOM_MAZE,
     worlds::MAP,
     worlds::ROOM,
     worlds::CORRIDOR,
@@ -63,6 +65,8 @@ pub static QUANTITIES: &[QuantityKind] = &[
     quantities::DERIVED,
     quantities::APPROACH,
     quantities::FINAL_POSITION,
+    quantities::DISTANCE,
+    quantities::ENERGY,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
@@ -134,6 +138,9 @@ pub struct CycleView<'a> {
     pub params: &'a Params,
     /// The cycle limit in force.
     pub max_cycles: u32,
+    /// The wheel speeds driven in the cycle just judged (noise included), m/s; 0 before the
+    /// first cycle and where no cycle is judged.
+    pub wheel_speeds: [f32; 2],
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -161,7 +168,17 @@ impl<'a> CycleView<'a> {
             scenario,
             params,
             max_cycles,
+            wheel_speeds: [0.0; 2],
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
+        }
+    }
+
+    /// The view of a cycle whose wheels drove at `wheel_speeds` (m/s).
+    #[inline]
+    pub fn with_wheel_speeds(self, wheel_speeds: [f32; 2]) -> CycleView<'a> {
+        CycleView {
+            wheel_speeds,
+            ..self
         }
     }
 
@@ -299,13 +316,17 @@ pub struct QuantityKind {
 }
 
 /// What a quantity keeps during a sample: its value at the start and the best so far (a
-/// closest approach, say).
+/// closest approach, say), or a running sum and the last position (a distance travelled).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Tracked {
     /// At the start.
     pub start: f32,
     /// The best so far.
     pub best: f32,
+    /// A running sum.
+    pub sum: f32,
+    /// The robot's position when last seen.
+    pub last: [f32; 2],
 }
 
 /// A compiled fitness quantity: its value when the sample ends, from what it kept.

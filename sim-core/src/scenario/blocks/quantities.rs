@@ -1,5 +1,6 @@
 //! The fitness quantities a formula's terms name: the time left, the progress along the
-//! corridor distance, a closest approach, the derived fitness, the robot's final position.
+//! corridor distance, a closest approach, the derived fitness, the robot's final position, the
+//! distance it travelled and the energy its wheels spent.
 //! Each is a number in a known range when the sample ends; an approach keeps its closest
 //! distance cycle by cycle. A scenario's behaviour descriptor is a list of them too.
 
@@ -152,6 +153,7 @@ impl Quantity for ApproachExit {
         Tracked {
             start: closest,
             best: closest,
+            ..Tracked::default()
         }
     }
 
@@ -186,7 +188,11 @@ impl Quantity for ApproachLight {
 
     fn start(&self, view: &CycleView<'_>) -> Tracked {
         let d = view.robot.distance_to(self.position);
-        Tracked { start: d, best: d }
+        Tracked {
+            start: d,
+            best: d,
+            ..Tracked::default()
+        }
     }
 
     #[inline]
@@ -212,7 +218,11 @@ impl Quantity for ApproachTeammate {
         let d = view.teammate.map_or(f32::INFINITY, |mate| {
             view.robot.distance_to(mate.pose.position())
         });
-        Tracked { start: d, best: d }
+        Tracked {
+            start: d,
+            best: d,
+            ..Tracked::default()
+        }
     }
 
     #[inline]
@@ -230,5 +240,77 @@ impl Quantity for ApproachTeammate {
         } else {
             0.0
         }
+    }
+}
+
+/// The most `distance` may report, metres: far beyond what any robot can drive in a sample (at
+/// 0.1 m/s for 1,000,000 cycles of 0.1 s, 10 km), and still a bound remote results are checked
+/// against.
+pub const MAX_DISTANCE: f32 = 1.0e6;
+
+/// `distance`: how far the robot's centre travelled, metres: the sum of each cycle's straight
+/// move (a move a collision undid counts nothing).
+pub const DISTANCE: QuantityKind = QuantityKind {
+    syntax: &["distance"],
+    compile: |text, _| fixed_word::<dyn Quantity>(text, &["distance"], None, || Box::new(Distance)),
+};
+
+#[derive(Debug)]
+struct Distance;
+
+impl Quantity for Distance {
+    fn tracks(&self) -> bool {
+        true
+    }
+
+    fn start(&self, view: &CycleView<'_>) -> Tracked {
+        Tracked {
+            last: view.robot.position(),
+            ..Tracked::default()
+        }
+    }
+
+    #[inline]
+    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
+        let now = view.robot.position();
+        tracked.sum += hypot(now[0] - tracked.last[0], now[1] - tracked.last[1]);
+        tracked.last = now;
+    }
+
+    fn value(&self, tracked: &Tracked, _end: &EndView<'_>) -> f32 {
+        tracked.sum.min(MAX_DISTANCE)
+    }
+
+    fn range(&self, _n_phases: usize) -> (f32, f32) {
+        (0.0, MAX_DISTANCE)
+    }
+}
+
+/// `energy`: the sum over the cycles judged of the mean absolute speed of the two wheels (as
+/// driven, noise included), in units of `robot.v_max`, divided by the cycle limit: 0 for a
+/// robot that never moves its wheels, 1 for one that drives them at full speed, either way, for
+/// the whole cycle limit. A sample that ends early has spent less. (The cycle of a collision
+/// that ends the sample is not judged, and not counted.)
+pub const ENERGY: QuantityKind = QuantityKind {
+    syntax: &["energy"],
+    compile: |text, _| fixed_word::<dyn Quantity>(text, &["energy"], None, || Box::new(Energy)),
+};
+
+#[derive(Debug)]
+struct Energy;
+
+impl Quantity for Energy {
+    fn tracks(&self) -> bool {
+        true
+    }
+
+    #[inline]
+    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
+        let [left, right] = view.wheel_speeds;
+        tracked.sum += 0.5 * (left.abs() + right.abs()) / view.params.robot.v_max;
+    }
+
+    fn value(&self, tracked: &Tracked, end: &EndView<'_>) -> f32 {
+        (tracked.sum / end.cycle.max_cycles as f32).clamp(0.0, 1.0)
     }
 }

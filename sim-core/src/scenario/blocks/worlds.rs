@@ -1,5 +1,6 @@
 //! The worlds a scenario's `[world]` table names: a fixed map, a generated room, a generated
-//! corridor, and the joins (a room below the map's entrance, a room below a corridor). Each
+//! corridor, the joins (a room below the map's entrance, a room below a corridor), and a
+//! random maze. Each
 //! recognises its combination of `map`, `room` and `corridor`, and draws one sample's layout
 //! from the environment stream in a fixed order.
 
@@ -11,6 +12,7 @@ use crate::math::rng::SimRng;
 use crate::scenario::file::WorldDecl;
 use crate::scenario::{CompiledMap, Scenario};
 use crate::world::corridor::{self, Junction, Turn};
+use crate::world::random_maze::{self, MAX_MAZE_SIDE};
 use crate::world::room::{self, Placement, Room};
 use rand::RngExt;
 use std::sync::Arc;
@@ -73,7 +75,12 @@ impl World for StandaloneRoom {
         _statics: Option<&FixedLayout>,
         rng: &mut SimRng,
     ) -> Built {
-        let room = room::generate(&params.room, Placement::Standalone, rng);
+        let room = room::generate(
+            &params.room,
+            Placement::Standalone,
+            params.robot.radius,
+            rng,
+        );
         let scene = Arc::new(Scene::new(room.rects.clone(), params.query_margin()));
         Built {
             scene,
@@ -266,6 +273,7 @@ fn room_below(
         Placement::Below {
             exit_center: room_exit,
         },
+        params.robot.radius,
         rng,
     );
     let mut rects: Vec<Rect> = map.wall_rects(&[(entrance, Side::Bottom)]);
@@ -330,6 +338,73 @@ impl World for Solids {
             Arc::new(Scene::new(Vec::new(), params.query_margin())),
             None,
         ))
+    }
+}
+
+/// `maze = { cols, rows }`: a random perfect maze of 0.30 m cells, drawn anew for each sample,
+/// from its bottom-left cell (`corridor.start`) to its top-right one (`corridor.end`, the
+/// goal): a world of cells with a path to its goal, as a generated corridor is.
+pub const RANDOM_MAZE: WorldKind = WorldKind {
+    syntax: "a random maze (`maze = { cols, rows }`)",
+    compile: |decl, _| {
+        let maze = decl.maze?;
+        if decl.map.is_some() || decl.room.is_some() || decl.corridor.is_some() {
+            return Some(Err((
+                "world.maze",
+                "a random maze stands alone: no map, room or corridor beside it".into(),
+            )));
+        }
+        for (key, cells) in [
+            ("world.maze.cols", maze.cols),
+            ("world.maze.rows", maze.rows),
+        ] {
+            if !(1..=MAX_MAZE_SIDE).contains(&cells) {
+                return Some(Err((
+                    key,
+                    format!("{cells} cells: a random maze has 1 to {MAX_MAZE_SIDE} a side"),
+                )));
+            }
+        }
+        if maze.cols * maze.rows < 2 {
+            return Some(Err((
+                "world.maze",
+                "a maze of one cell has no way to its goal: give at least two cells".into(),
+            )));
+        }
+        Some(Ok(Box::new(Maze {
+            cols: maze.cols,
+            rows: maze.rows,
+        })))
+    },
+};
+
+#[derive(Debug)]
+struct Maze {
+    cols: u32,
+    rows: u32,
+}
+
+impl World for Maze {
+    fn has_corridor(&self) -> bool {
+        true
+    }
+
+    fn build(
+        &self,
+        _scenario: &Scenario,
+        params: &Params,
+        _statics: Option<&FixedLayout>,
+        rng: &mut SimRng,
+    ) -> Built {
+        let maze = random_maze::generate(self.cols, self.rows, rng);
+        let map = Arc::new(maze.map);
+        Built {
+            scene: Arc::new(Scene::new(map.wall_rects(&[]), params.query_margin())),
+            cells: Some(map),
+            room: None,
+            corridor_path: Some(maze.path),
+            shape: None,
+        }
     }
 }
 
