@@ -451,7 +451,7 @@ impl MapElites {
     }
 
     /// The archive.
-    pub fn grid(&self) -> &GridArchive {
+    pub fn archive(&self) -> &GridArchive {
         &self.archive
     }
 

@@ -11,10 +11,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// A MAP-Elites run's archive: [`ArchiveFile`] as JSON.
-pub const ARCHIVE_JSON: &str = "archive.json";
-/// A MAP-Elites run's archive measures per generation, one [`QdRow`] a line.
-pub const QD_CSV: &str = "qd.csv";
+pub use crate::layout::{ARCHIVE_JSON, QD_CSV};
 /// The format tag of [`ArchiveFile`].
 pub const ARCHIVE_FORMAT: &str = "hevo.archive/1";
 /// The header a `qd.csv` starts with.

@@ -27,16 +27,14 @@ pub const SUMMARY: &str = "summary.json";
 pub const CHECKPOINT: &str = "checkpoint.json";
 /// A run's fitness log, one [`FitnessRow`] per generation.
 pub const FITNESS_CSV: &str = "fitness.csv";
+/// A MAP-Elites run's archive: [`crate::archive::ArchiveFile`] as JSON.
+pub const ARCHIVE_JSON: &str = "archive.json";
+/// A MAP-Elites run's archive measures per generation, one [`crate::archive::QdRow`] a line.
+pub const QD_CSV: &str = "qd.csv";
 
 /// The files a finished run keeps, and a fetch or a copy of a run directory carries (the
 /// archive's two only for MAP-Elites runs).
-pub const FINISHED_RUN_FILES: [&str; 5] = [
-    FITNESS_CSV,
-    BEST,
-    SUMMARY,
-    crate::archive::ARCHIVE_JSON,
-    crate::archive::QD_CSV,
-];
+pub const FINISHED_RUN_FILES: [&str; 5] = [FITNESS_CSV, BEST, SUMMARY, ARCHIVE_JSON, QD_CSV];
 /// The files a finished node keeps beside its runs.
 pub const FINISHED_NODE_FILES: [&str; 2] = [BEST, SUMMARY];
 
