@@ -4,8 +4,8 @@
 
 use crate::args::JobArgs;
 use crate::commands::{
-    bench, cancel, dashboard, delete, eval, export, fetch, jobs, plot, replay, report, run,
-    scenario, serve, submit, watch,
+    archive, bench, cancel, dashboard, delete, eval, export, fetch, jobs, plot, replay, report,
+    run, scenario, serve, submit, watch,
 };
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -58,6 +58,8 @@ pub enum Command {
     Dashboard(dashboard::DashboardArgs),
     /// Export a controller tree as a C library for the e-puck, with test vectors.
     Export(export::ExportArgs),
+    /// A MAP-Elites run's archive: export every elite as a controller file.
+    Archive(archive::ArchiveArgs),
 }
 
 /// Parses the command line and runs it; the exit code of `hevo`.
@@ -105,6 +107,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Scenario(args) => scenario::scenario(args),
         Command::Dashboard(args) => dashboard::dashboard(args),
         Command::Export(args) => export::export(args),
+        Command::Archive(args) => archive::archive(args),
         Command::Report(args) => report::report(args),
     }
 }

@@ -1,8 +1,9 @@
 //! How a run shows its progress: a progress bar per node on a terminal (run, generation, best
-//! and mean fitness, simulated cycles per second, the node's ETA), structured tracing lines
+//! and mean fitness, or for MAP-Elites the archive's coverage, QD-score and best elite,
+//! simulated cycles per second, the node's ETA), structured tracing lines
 //! otherwise (CI, log files, a service's job log); and the line an interruption prints.
 
-use hevo_engine::runner::{Progress, ProgressEvent};
+use hevo_engine::runner::{ArchiveProgress, Progress, ProgressEvent};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::Mutex;
@@ -179,8 +180,25 @@ impl Progress for LogProgress {
                 best,
                 mean,
                 cycles,
+                archive,
             } => {
                 let rate = *cycles as f64 / now.duration_since(previous).as_secs_f64().max(1e-3);
+                if let Some(archive) = archive {
+                    tracing::info!(
+                        node,
+                        run,
+                        generation,
+                        generations,
+                        coverage = format!("{:.1}%", 100.0 * archive.coverage()),
+                        filled = format!("{}/{}", archive.filled, archive.cells),
+                        qd_score = format!("{:.4}", archive.qd_score),
+                        best_elite = format!("{:.4}", archive.best_elite),
+                        best = format!("{best:.4}"),
+                        cycles_per_second = format!("{rate:.0}"),
+                        "generation"
+                    );
+                    return;
+                }
                 tracing::info!(
                     node,
                     run,
@@ -273,6 +291,22 @@ impl BarProgress {
     }
 }
 
+/// What a generation's line says of the search: the generation's best and mean fitness, or,
+/// for a grid archive (MAP-Elites), what it optimises: coverage, QD-score and the best elite.
+fn fitness_message(best: f64, mean: f64, archive: Option<&ArchiveProgress>) -> String {
+    match archive {
+        None => format!("best {best:.3}  mean {mean:.3}"),
+        Some(archive) => format!(
+            "coverage {:.1}% ({}/{})  QD-score {:.3}  best elite {:.3}",
+            100.0 * archive.coverage(),
+            archive.filled,
+            archive.cells,
+            archive.qd_score,
+            archive.best_elite
+        ),
+    }
+}
+
 /// Seconds left for `remaining` generations at the pace of `done_here` generations in
 /// `elapsed` seconds.
 fn eta_seconds(elapsed: f64, done_here: u64, remaining: u64) -> f64 {
@@ -297,7 +331,11 @@ impl Progress for BarProgress {
         let BarState { position, bar } = &mut *state;
         match event {
             ProgressEvent::Generation {
-                best, mean, cycles, ..
+                best,
+                mean,
+                cycles,
+                archive,
+                ..
             } => {
                 let node_bar = bar.get_or_insert_with(|| {
                     // Drawn only once placed, so a resumed run never shows 0/N first.
@@ -334,7 +372,8 @@ impl Progress for BarProgress {
                 bar.set_length(position.node_total());
                 bar.set_position(position.node_done());
                 bar.set_message(format!(
-                    "best {best:.3}  mean {mean:.3}  {:.2}M cycles/s  node eta {}",
+                    "{}  {:.2}M cycles/s  node eta {}",
+                    fitness_message(*best, *mean, archive.as_ref()),
                     rate / 1e6,
                     indicatif::HumanDuration(std::time::Duration::from_secs_f64(eta))
                 ));
@@ -403,6 +442,7 @@ mod tests {
             best: 0.5,
             mean: 0.25,
             cycles: 1000,
+            archive: None,
         }
     }
 
@@ -456,6 +496,21 @@ mod tests {
         assert_eq!(
             bar_of(&progress),
             (238, Some(500), "follow_wall run 2 (3 of 5)".into())
+        );
+    }
+
+    #[test]
+    fn a_map_elites_generation_says_what_the_archive_gained() {
+        assert_eq!(fitness_message(0.5, 0.25, None), "best 0.500  mean 0.250");
+        let archive = ArchiveProgress {
+            filled: 37,
+            cells: 400,
+            qd_score: 12.3456,
+            best_elite: 0.875,
+        };
+        assert_eq!(
+            fitness_message(0.5, 0.25, Some(&archive)),
+            "coverage 9.2% (37/400)  QD-score 12.346  best elite 0.875"
         );
     }
 

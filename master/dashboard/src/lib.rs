@@ -20,6 +20,7 @@ pub mod server;
 pub mod stream;
 
 use hevo_rundir::eval_report::EvalReport;
+use hevo_rundir::archive::{ArchiveFile, QdRow};
 use hevo_rundir::{FitnessRow, NodeSummary, RunSummary};
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::TaskConfig;
@@ -98,6 +99,10 @@ pub struct RunView {
     pub rows: Vec<FitnessRow>,
     /// Its summary, once finished.
     pub summary: Option<RunSummary>,
+    /// A MAP-Elites run's archive as last written; `None` for the other algorithms.
+    pub archive: Option<ArchiveFile>,
+    /// A MAP-Elites run's QD-score and coverage per generation; empty for the others.
+    pub qd: Vec<QdRow>,
 }
 
 impl RunView {

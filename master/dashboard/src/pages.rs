@@ -1,6 +1,7 @@
 //! The pages' HTML: the login form, the job list (with the master's workers) and a job's
-//! page (its nodes, each with its runs' progress, the fitness plot, the post-evaluation table
-//! once finished and the best controller's replays). The HTML is complete without scripts;
+//! page (its nodes, each with its runs' progress, the fitness plot, for MAP-Elites the QD-score
+//! curves and an archive's heatmap, the post-evaluation table once finished and the best
+//! controller's replays). The HTML is complete without scripts;
 //! `data-` attributes tell the script what to update.
 
 use crate::html::{escape, percent, utc};
@@ -154,6 +155,58 @@ pub fn plot_svg(node: &NodeView) -> String {
         .filter(|_| !node.finished())
         .map(|(_, generations)| generations);
     hevo_viz::fitness_plot_svg(&plot_title(node), &run_logs(node), planned_generations)
+}
+
+/// A MAP-Elites node's QD-score and coverage curves and the heatmap of one run's archive: the
+/// best run's once the node is finished, else the latest run's; nothing for other algorithms.
+fn archive_html(node: &NodeView) -> String {
+    let qd: Vec<(String, Vec<hevo_rundir::archive::QdRow>)> = node
+        .runs
+        .iter()
+        .filter(|r| !r.qd.is_empty())
+        .map(|r| (format!("run {}", r.run), r.qd.clone()))
+        .collect();
+    let best_run = node.summary.as_ref().map(|s| s.best_run);
+    let shown = node
+        .runs
+        .iter()
+        .filter(|r| r.archive.is_some())
+        .find(|r| Some(r.run) == best_run)
+        .or_else(|| node.runs.iter().rev().find(|r| r.archive.is_some()));
+    let mut out = String::new();
+    if !qd.is_empty() {
+        let svg = hevo_viz::qd_plot_svg(&format!("{}: QD-score and coverage", node.name), &qd);
+        let _ = writeln!(out, "<figure class=\"qd\">\n{svg}\n</figure>");
+    }
+    if let Some(run) = shown
+        && let Some(archive) = &run.archive
+    {
+        let title = format!(
+            "{} run {}: archive after {} generations ({} of {} cells)",
+            node.name,
+            run.run,
+            archive.generation,
+            archive.elites.len(),
+            archive.n_cells()
+        );
+        match hevo_viz::archive_heatmap_svg(&title, archive) {
+            Ok(svg) => {
+                let _ = writeln!(
+                    out,
+                    "<figure class=\"archive\" data-run=\"{}\">\n{svg}\n</figure>",
+                    run.run
+                );
+            }
+            Err(reason) => {
+                let _ = writeln!(
+                    out,
+                    "<p class=\"error-message\">No archive picture: {}</p>",
+                    escape(&reason)
+                );
+            }
+        }
+    }
+    out
 }
 
 /// `follow_wall: fitness per generation (137 of 500 generations)`.
@@ -324,6 +377,7 @@ pub fn node_section(
         job = escape(job_id),
         svg = plot_svg(node),
     );
+    out.push_str(&archive_html(node));
     // Scrolls inside its card rather than overflowing it (the rescue's stage columns).
     out.push_str("<div class=\"table-scroll\">\n");
     out.push_str(&post_evaluation_table(node));
@@ -482,10 +536,57 @@ mod tests {
     }
 
     #[test]
+    fn a_map_elites_node_shows_its_qd_curves_and_its_archive() {
+        use hevo_rundir::archive::{ARCHIVE_FORMAT, ArchiveElite, ArchiveFile, QdRow};
+        let run = |run: u32, fitness: f64| RunView {
+            run,
+            rows: Vec::new(),
+            summary: None,
+            archive: Some(ArchiveFile {
+                format: ARCHIVE_FORMAT.into(),
+                generation: 2,
+                descriptor: vec!["final.x".into(), "final.y".into()],
+                bins: vec![4, 4],
+                ranges: vec![[-1.0, 1.0]; 2],
+                elites: vec![ArchiveElite {
+                    cell: 5,
+                    bins: vec![1, 1],
+                    fitness,
+                    descriptor: vec![-0.4, -0.4],
+                    genes: vec![0.5],
+                }],
+            }),
+            qd: vec![QdRow {
+                generation: 0,
+                filled: 1,
+                cells: 16,
+                qd_score: fitness,
+                best: fitness,
+            }],
+        };
+        let node = NodeView {
+            name: "maze".into(),
+            runs: vec![run(0, 0.25), run(1, 0.75)],
+            summary: None,
+            planned: Some((2, 5)),
+        };
+        let html = node_section("job-1", &node, true, None);
+        assert!(html.contains("<figure class=\"qd\">"), "{html}");
+        // Unfinished: the latest run's archive.
+        assert!(html.contains("<figure class=\"archive\" data-run=\"1\">"), "{html}");
+        assert!(html.contains("maze run 1: archive after 2 generations (1 of 16 cells)"));
+        // The other algorithms' nodes have neither.
+        let plain = node_section("job-1", &NodeView { runs: vec![], ..node }, true, None);
+        assert!(!plain.contains("class=\"qd\"") && !plain.contains("class=\"archive\""));
+    }
+
+    #[test]
     fn a_node_shows_its_runs_and_plot() {
         let node = NodeView {
             name: "follow_wall".into(),
             runs: vec![RunView {
+                archive: None,
+                qd: Vec::new(),
                 run: 0,
                 rows: vec![FitnessRow {
                     generation: 0,

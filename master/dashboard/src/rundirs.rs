@@ -5,6 +5,7 @@
 //! watches the directories' logs and summaries for changes while a local run writes them.
 
 use crate::{BestController, BoxFuture, JobOverview, NodeView, RunView, Source, SourceError};
+use hevo_rundir::archive::{ArchiveFile, parse_qd_csv};
 use hevo_rundir::store::read_json;
 use hevo_rundir::{self as rundir, NodeSummary, RunSummary};
 use hevo_sim_core::ControllerFile;
@@ -41,6 +42,11 @@ pub fn read_nodes(
                     summary: read_json::<RunSummary>(&dir.join(rundir::SUMMARY))
                         .ok()
                         .flatten(),
+                    archive: ArchiveFile::read(&dir.join(rundir::ARCHIVE_JSON)).ok(),
+                    qd: std::fs::read_to_string(dir.join(rundir::QD_CSV))
+                        .ok()
+                        .and_then(|text| parse_qd_csv(&text).ok())
+                        .unwrap_or_default(),
                 })
                 .collect();
             NodeView {
@@ -395,6 +401,8 @@ mod tests {
             run: n_runs,
             rows: Vec::new(),
             summary: None,
+            archive: None,
+            qd: Vec::new(),
         });
         assert!(!extended.finished());
         let mut planned_more = node.clone();

@@ -174,6 +174,8 @@ mod tests {
         NodeView {
             name: "n".into(),
             runs: vec![RunView {
+                archive: None,
+                qd: Vec::new(),
                 run: 0,
                 rows: (0..generations)
                     .map(|generation| FitnessRow {

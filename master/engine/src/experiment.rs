@@ -5,6 +5,7 @@
 
 use hevo_evolve::cmaes::{CmaesSettings, CmaesVariant};
 use hevo_evolve::ga::GaSettings;
+use hevo_evolve::map_elites::{MapElitesSettings, Variation};
 use hevo_evolve::novelty::NoveltySettings;
 use hevo_evolve::seeds::VariantDraw;
 use hevo_evolve::{StrategyError, StrategySettings};
@@ -301,6 +302,84 @@ pub struct EvolutionParams {
     /// Novelty search's own settings; absent (and out of the fingerprint) for the others.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub novelty: Option<NoveltyParams>,
+    /// MAP-Elites' own settings; absent (and out of the fingerprint) for the others.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_elites: Option<MapElitesParams>,
+}
+
+/// MAP-Elites' keys (`map_elites_*`). The grid's ranges are required (a descriptor quantity's
+/// own range, e.g. a position's, is far wider than any world); bins left out are 10 per
+/// descriptor value, filled in when the experiment is read, so a plan (and its fingerprint)
+/// always holds the grid it runs on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapElitesParams {
+    /// Bins along each descriptor value.
+    pub bins: Vec<u32>,
+    /// Each descriptor value's range, `[lo, hi]`.
+    pub ranges: Vec<[f64; 2]>,
+    /// `gaussian` or `iso_line`.
+    pub variation: Variation,
+    /// The Gaussian offset's standard deviation (iso+line's sigma_iso).
+    pub sigma: f64,
+    /// Iso+line's sigma_line.
+    pub line_sigma: f64,
+    /// Random genomes before variation starts; one population when left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial: Option<u32>,
+}
+
+impl Default for MapElitesParams {
+    /// `hevo_evolve`'s defaults, with the grid still to be filled in from the descriptor.
+    fn default() -> MapElitesParams {
+        let defaults = MapElitesSettings::default();
+        MapElitesParams {
+            bins: Vec::new(),
+            ranges: Vec::new(),
+            variation: defaults.variation,
+            sigma: defaults.sigma,
+            line_sigma: defaults.line_sigma,
+            initial: None,
+        }
+    }
+}
+
+/// Bins per descriptor value when a file names none.
+pub const DEFAULT_MAP_ELITES_BINS: u32 = 10;
+
+impl MapElitesParams {
+    /// The grid's bins filled in for the node's descriptor where the file left them out, and
+    /// the grid checked against it: one bin count and one range per descriptor value.
+    fn with_descriptor(mut self, names: &[&str]) -> Result<MapElitesParams, (String, String)> {
+        if self.bins.is_empty() {
+            self.bins = vec![DEFAULT_MAP_ELITES_BINS; names.len()];
+        }
+        if self.ranges.is_empty() {
+            return Err((
+                "map_elites_ranges".into(),
+                format!(
+                    "required: the range [lo, hi] of each descriptor value ({}) to cut into bins",
+                    names.join(", ")
+                ),
+            ));
+        }
+        for (key, len) in [
+            ("map_elites_bins", self.bins.len()),
+            ("map_elites_ranges", self.ranges.len()),
+        ] {
+            if len != names.len() {
+                return Err((
+                    key.to_string(),
+                    format!(
+                        "has {len} entries; the task's descriptor has {} values ({})",
+                        names.len(),
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(self)
+    }
 }
 
 /// Novelty search's keys (`novelty_*`), each with its default when the file leaves it out.
@@ -384,6 +463,8 @@ pub enum Algorithm {
     Cmaes,
     /// Novelty search over behaviour descriptors, bred by the GA's scheme.
     Novelty,
+    /// MAP-Elites: a grid archive over behaviour descriptors.
+    MapElites,
 }
 
 impl Algorithm {
@@ -397,6 +478,7 @@ impl Algorithm {
             Algorithm::Ga => hevo_evolve::ga::ALGORITHM,
             Algorithm::Cmaes => hevo_evolve::cmaes::ALGORITHM,
             Algorithm::Novelty => hevo_evolve::novelty::ALGORITHM,
+            Algorithm::MapElites => hevo_evolve::map_elites::ALGORITHM,
         }
     }
 }
@@ -419,6 +501,7 @@ impl Default for EvolutionParams {
             restarts: 0,
             restart_population_factor: default_restart_population_factor(),
             novelty: None,
+            map_elites: None,
         }
     }
 }
@@ -445,6 +528,20 @@ impl EvolutionParams {
                     archive_per_generation: novelty.archive_per_generation,
                     archive_size: novelty.archive_size,
                     fitness_weight: novelty.fitness_weight,
+                })
+            }
+            Algorithm::MapElites => {
+                let map_elites = self.map_elites.clone().unwrap_or_default();
+                StrategySettings::MapElites(MapElitesSettings {
+                    population: self.population,
+                    initial_sigma: self.initial_sigma,
+                    gene_range: self.gene_range,
+                    bins: map_elites.bins,
+                    ranges: map_elites.ranges,
+                    variation: map_elites.variation,
+                    sigma: map_elites.sigma,
+                    line_sigma: map_elites.line_sigma,
+                    initial: map_elites.initial.unwrap_or(self.population),
                 })
             }
             Algorithm::Cmaes => StrategySettings::Cmaes(CmaesSettings {
@@ -506,6 +603,18 @@ pub struct EvolutionOverrides {
     novelty_archive_size: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     novelty_fitness_weight: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_bins: Option<Vec<u32>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_ranges: Option<Vec<[f64; 2]>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_variation: Option<Variation>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_sigma: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_line_sigma: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    map_elites_initial: Option<u32>,
 }
 
 impl EvolutionOverrides {
@@ -530,7 +639,24 @@ impl EvolutionOverrides {
                 .restart_population_factor
                 .unwrap_or(base.restart_population_factor),
             novelty: self.novelty(base),
+            map_elites: self.map_elites(base),
         }
+    }
+
+    /// MAP-Elites' settings, as [`EvolutionOverrides::novelty`] has novelty search's.
+    fn map_elites(&self, base: &EvolutionParams) -> Option<MapElitesParams> {
+        if self.algorithm.unwrap_or(base.algorithm) != Algorithm::MapElites {
+            return None;
+        }
+        let base = base.map_elites.clone().unwrap_or_default();
+        Some(MapElitesParams {
+            bins: self.map_elites_bins.clone().unwrap_or(base.bins),
+            ranges: self.map_elites_ranges.clone().unwrap_or(base.ranges),
+            variation: self.map_elites_variation.unwrap_or(base.variation),
+            sigma: self.map_elites_sigma.unwrap_or(base.sigma),
+            line_sigma: self.map_elites_line_sigma.unwrap_or(base.line_sigma),
+            initial: self.map_elites_initial.or(base.initial),
+        })
     }
 
     /// Novelty search's settings: the base's (or the defaults) with this table's keys; `None`
@@ -555,8 +681,8 @@ impl EvolutionOverrides {
     /// a file that sets the GA's `elites` for a CMA-ES node is refused rather than silently
     /// ignored. (Novelty search breeds by the GA's scheme, so it has the GA's keys.)
     fn key_of_another_algorithm(&self, algorithm: Algorithm) -> Option<(&'static str, Algorithm)> {
-        use Algorithm::{Cmaes, Ga, Novelty};
-        let keys: [(&'static str, bool, &[Algorithm]); 10] = [
+        use Algorithm::{Cmaes, Ga, MapElites, Novelty};
+        let keys: [(&'static str, bool, &[Algorithm]); 16] = [
             ("elites", self.elites.is_some(), &[Ga, Novelty]),
             (
                 "mutation_probability",
@@ -594,6 +720,36 @@ impl EvolutionOverrides {
                 "novelty_fitness_weight",
                 self.novelty_fitness_weight.is_some(),
                 &[Novelty],
+            ),
+            (
+                "map_elites_bins",
+                self.map_elites_bins.is_some(),
+                &[MapElites],
+            ),
+            (
+                "map_elites_ranges",
+                self.map_elites_ranges.is_some(),
+                &[MapElites],
+            ),
+            (
+                "map_elites_variation",
+                self.map_elites_variation.is_some(),
+                &[MapElites],
+            ),
+            (
+                "map_elites_sigma",
+                self.map_elites_sigma.is_some(),
+                &[MapElites],
+            ),
+            (
+                "map_elites_line_sigma",
+                self.map_elites_line_sigma.is_some(),
+                &[MapElites],
+            ),
+            (
+                "map_elites_initial",
+                self.map_elites_initial.is_some(),
+                &[MapElites],
             ),
         ];
         keys.into_iter()
@@ -1040,10 +1196,17 @@ impl Experiment {
                     ));
                 }
             }
-            let evolution = node
+            let mut evolution = node
                 .evolution
                 .as_ref()
                 .map_or_else(|| base.clone(), |o| o.apply(&base));
+            let evolution_key = |key: &str| {
+                if node.evolution.is_some() {
+                    at(&format!("evolution.{key}"))
+                } else {
+                    format!("evolution.{key}")
+                }
+            };
             if let Some((key, owner)) = node
                 .evolution
                 .as_ref()
@@ -1055,14 +1218,26 @@ impl Experiment {
                     evolution.algorithm,
                 ));
             }
-            validate_evolution(&evolution).map_err(|(key, message)| {
-                let path = if node.evolution.is_some() {
-                    at(&format!("evolution.{key}"))
-                } else {
-                    format!("evolution.{key}")
-                };
-                invalid(path, message)
-            })?;
+            if let Some(map_elites) = evolution.map_elites.take() {
+                let filled = map_elites
+                    .with_descriptor(&scenario.descriptor_names())
+                    .map_err(|(key, message)| invalid(evolution_key(&key), message))?;
+                evolution.map_elites = Some(filled);
+            }
+            validate_evolution(&evolution)
+                .map_err(|(key, message)| invalid(evolution_key(&key), message))?;
+            // A full archive holds a genome per cell: refused before anything runs when large.
+            if let StrategySettings::MapElites(settings) = evolution.strategy_settings() {
+                settings
+                    .check_archive_size(declared_genes(node))
+                    .map_err(|error| {
+                        let message = match error {
+                            StrategyError::Settings { message, .. } => message,
+                            other => other.to_string(),
+                        };
+                        invalid(evolution_key("map_elites_bins"), message)
+                    })?;
+            }
             check_node_cost(node, &evolution, &scenario)
                 .map_err(|(key, message)| invalid(at(&key), message))?;
             if scenario.has_phases() {
@@ -2001,9 +2176,9 @@ runs = 1
         );
         let err = error_of(&everywhere.replace("population = 10", "population = 1"));
         assert!(err.contains("node[2].evolution.population"), "{err}");
-        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"map_elites\""));
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "algorithm = \"nsga2\""));
         assert!(
-            err.contains("algorithm") && err.contains("map_elites"),
+            err.contains("algorithm") && err.contains("nsga2") && err.contains("map_elites"),
             "{err}"
         );
     }
@@ -2064,6 +2239,130 @@ runs = 1
         let err = error_of(&novelty("elites = 3").replace("elites = 4\n", ""));
         assert!(
             err.contains("node[2].evolution.population") && err.contains("multiple of elites (3)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn map_elites_keys_are_checked_and_fingerprinted_and_its_grid_ranges_required() {
+        let map_elites = |keys: &str| {
+            GOOD.replace(
+                "mutation_sigma = 0.5",
+                &format!("algorithm = \"map_elites\"\npopulation = 16\n{keys}"),
+            )
+            .replace("elites = 4\n", "")
+            .replace("population = 20\n", "")
+        };
+        // Bins left out: 10 per descriptor value; one batch random.
+        const RANGES: &str = "map_elites_ranges = [[-1.0, 1.0], [0.0, 2.0]]";
+        let experiment = parse(&map_elites(RANGES)).unwrap();
+        let tl = experiment.node("tl").unwrap();
+        let StrategySettings::MapElites(settings) = tl.evolution.strategy_settings() else {
+            panic!("{:?}", tl.evolution);
+        };
+        assert_eq!(tl.task.scenario.descriptor_names(), ["final.x", "final.y"]);
+        assert_eq!(settings.bins, [10, 10]);
+        assert_eq!(settings.ranges, [[-1.0, 1.0], [0.0, 2.0]]);
+        assert_eq!((settings.population, settings.initial), (16, 16));
+        assert_eq!(settings.variation, Variation::Gaussian);
+        let err = error_of(&map_elites(""));
+        assert!(
+            err.contains("node[2].evolution.map_elites_ranges")
+                && err.contains(
+                    "required: the range [lo, hi] of each descriptor value (final.x, final.y)"
+                ),
+            "{err}"
+        );
+
+        let experiment = parse(&map_elites(
+            "map_elites_bins = [20, 5]\nmap_elites_ranges = [[-1.0, 1.0], [0.0, 2.0]]\n\
+             map_elites_variation = \"iso_line\"\nmap_elites_sigma = 0.1\n\
+             map_elites_line_sigma = 0.3\nmap_elites_initial = 40",
+        ))
+        .unwrap();
+        let tl = &experiment.node("tl").unwrap().evolution;
+        let StrategySettings::MapElites(settings) = tl.strategy_settings() else {
+            panic!("{tl:?}");
+        };
+        assert_eq!(settings.bins, [20, 5]);
+        assert_eq!(settings.ranges, [[-1.0, 1.0], [0.0, 2.0]]);
+        assert_eq!(settings.variation, Variation::IsoLine);
+        assert_eq!((settings.sigma, settings.line_sigma), (0.1, 0.3));
+        assert_eq!(settings.initial, 40);
+        // Its settings, the filled-in grid too, join the fingerprint; the others have none.
+        let json = serde_json::to_string(tl).unwrap();
+        assert!(
+            json.contains("\"algorithm\":\"map_elites\"")
+                && json.contains("\"map_elites\":{\"bins\":[20,5],\"ranges\":[[-1.0,1.0],[0.0,2.0]],\"variation\":\"iso_line\""),
+            "{json}"
+        );
+        let plain = parse(&map_elites(RANGES)).unwrap();
+        let plain_json = serde_json::to_string(&plain.node("tl").unwrap().evolution).unwrap();
+        assert!(plain_json.contains("\"bins\":[10,10]"), "{plain_json}");
+        let ga = parse(GOOD).unwrap();
+        let json = serde_json::to_string(&ga.node("tl").unwrap().evolution).unwrap();
+        assert!(!json.contains("map_elites"), "{json}");
+
+        // Each key out of its domain, or elsewhere, is refused naming it.
+        for (keys, key, says) in [
+            (
+                "map_elites_bins = [0, 5]",
+                "map_elites_bins",
+                "between 1 and 1000",
+            ),
+            (
+                "map_elites_bins = [10]",
+                "map_elites_bins",
+                "descriptor has 2 values (final.x, final.y)",
+            ),
+            (
+                "map_elites_ranges = [[0.0, 1.0]]",
+                "map_elites_ranges",
+                "descriptor has 2 values",
+            ),
+            (
+                "map_elites_ranges = [[1.0, 1.0], [0.0, 1.0]]",
+                "map_elites_ranges",
+                "lo < hi",
+            ),
+            ("map_elites_sigma = -0.5", "map_elites_sigma", ">= 0"),
+            (
+                "map_elites_line_sigma = -1.0",
+                "map_elites_line_sigma",
+                ">= 0",
+            ),
+        ] {
+            let keys = if keys.starts_with("map_elites_ranges") {
+                keys.to_string()
+            } else {
+                format!("{keys}\n{RANGES}")
+            };
+            let err = error_of(&map_elites(&keys));
+            assert!(
+                err.contains(&format!("node[2].evolution.{key}")) && err.contains(says),
+                "{keys}: {err}"
+            );
+        }
+        // A grid too large for the node's genomes is refused before anything runs.
+        let wide = map_elites(&format!("map_elites_bins = [1000, 1000]\n{RANGES}"));
+        assert!(parse(&wide).is_ok());
+        let err = error_of(&wide.replace(
+            "hidden = 3\ntask = \"turn_left\"",
+            "hidden = 200\ntask = \"turn_left\"",
+        ));
+        assert!(
+            err.contains("node[2].evolution.map_elites_bins")
+                && err.contains("a full archive of 1000000 cells"),
+            "{err}"
+        );
+        let err = error_of(&map_elites("map_elites_variation = \"line\""));
+        assert!(err.contains("map_elites_variation"), "{err}");
+        let err = error_of(&map_elites("elites = 2"));
+        assert!(err.contains("is a setting of algorithm \"ga\""), "{err}");
+        let err = error_of(&GOOD.replace("mutation_sigma = 0.5", "map_elites_sigma = 0.5"));
+        assert!(
+            err.contains("node[2].evolution.map_elites_sigma")
+                && err.contains("is a setting of algorithm \"map_elites\""),
             "{err}"
         );
     }

@@ -3,6 +3,7 @@
 //! The rest of the format (names, paths, summaries, fitness logs) is `hevo_rundir`'s, which
 //! the pictures and the dashboard read without the engine; it is re-exported here.
 
+pub use hevo_rundir::archive;
 pub use hevo_rundir::fitness_log::*;
 pub use hevo_rundir::layout::*;
 

@@ -19,7 +19,11 @@ use crate::rundir::{
 use crate::store::{
     read_json, read_json_with, remove_leftover_temporaries, write_atomic, write_json_atomic,
 };
+use hevo_evolve::map_elites::{GridArchive, QdPoint};
 use hevo_evolve::{Evaluation, seeds};
+use hevo_rundir::archive::{
+    ARCHIVE_FORMAT, ARCHIVE_JSON, ArchiveElite, ArchiveFile, QD_CSV, QdRow, qd_csv,
+};
 use hevo_sim_core::task_content_hash;
 use hevo_sim_core::{ControllerFile, NodeSpec};
 use hevo_sim_core::{Sample, SampleSummary};
@@ -134,6 +138,10 @@ pub enum ProgressEvent {
         mean: f64,
         /// Control cycles simulated for this generation.
         cycles: u64,
+        /// A grid archive's measures once the generation was told (MAP-Elites runs), which is
+        /// what such a run optimises; absent for the other algorithms.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        archive: Option<ArchiveProgress>,
     },
     /// A run finished post-evaluation.
     RunFinished {
@@ -160,6 +168,26 @@ pub enum ProgressEvent {
         /// Text.
         message: String,
     },
+}
+
+/// A grid archive's measures after a generation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ArchiveProgress {
+    /// Cells filled.
+    pub filled: u64,
+    /// The grid's cells.
+    pub cells: u64,
+    /// QD-score: the sum of the elites' fitness.
+    pub qd_score: f64,
+    /// The best elite's fitness.
+    pub best_elite: f64,
+}
+
+impl ArchiveProgress {
+    /// The share of cells filled.
+    pub fn coverage(&self) -> f64 {
+        self.filled as f64 / self.cells.max(1) as f64
+    }
 }
 
 /// Receives progress events.
@@ -676,15 +704,6 @@ async fn run_one(
             .collect();
         let cycles: u64 = results.iter().flatten().map(|s| u64::from(s.cycles)).sum();
         let row = log_row(generation, &fitness);
-        progress.event(&ProgressEvent::Generation {
-            node: name.clone(),
-            run,
-            generation,
-            generations,
-            best: row.best,
-            mean: row.mean,
-            cycles,
-        });
         log.push(row);
         let evaluations: Vec<Evaluation> = fitness
             .into_iter()
@@ -696,6 +715,20 @@ async fn run_one(
         strategy
             .tell(&evaluations)
             .map_err(|e| RunError::Invalid(format!("{name} run {run}: {e}")))?;
+        let archive = match strategy.grid() {
+            Some(grid) => Some(write_archive(run_dir, grid, plan, generation + 1)?),
+            None => None,
+        };
+        progress.event(&ProgressEvent::Generation {
+            node: name.clone(),
+            run,
+            generation,
+            generations,
+            best: row.best,
+            mean: row.mean,
+            cycles,
+            archive,
+        });
         write_fitness_csv(&run_dir.join(FITNESS_CSV), &log)?;
         let checkpoint = Checkpoint {
             format: CHECKPOINT_FORMAT.into(),
@@ -771,6 +804,65 @@ fn mean_descriptor(samples: &[SampleSummary]) -> Vec<f64> {
                 / samples.len() as f64
         })
         .collect()
+}
+
+/// Writes a grid archive's `archive.json` and `qd.csv` (the format of
+/// [`hevo_rundir::archive`]) after `generation` generations; its latest measures.
+fn write_archive(
+    run_dir: &Path,
+    grid: &GridArchive,
+    plan: &NodePlan,
+    generation: u32,
+) -> Result<ArchiveProgress, RunError> {
+    let cells = grid.n_cells();
+    let file = ArchiveFile {
+        format: ARCHIVE_FORMAT.into(),
+        generation,
+        descriptor: plan
+            .task
+            .scenario
+            .descriptor_names()
+            .into_iter()
+            .map(String::from)
+            .collect(),
+        bins: grid.bins().to_vec(),
+        ranges: grid.ranges().to_vec(),
+        elites: grid
+            .elites()
+            .map(|elite| ArchiveElite {
+                cell: elite.cell,
+                bins: grid.bins_of(elite.cell),
+                fitness: elite.fitness,
+                descriptor: elite.descriptor.clone(),
+                genes: elite.genes.clone(),
+            })
+            .collect(),
+    };
+    let path = run_dir.join(ARCHIVE_JSON);
+    write_json_atomic(&path, &file).map_err(|e| io_error(&path, e))?;
+    let rows: Vec<QdRow> = (0u32..)
+        .zip(grid.history())
+        .map(|(generation, point)| QdRow {
+            generation,
+            filled: point.filled,
+            cells,
+            qd_score: point.qd_score,
+            best: point.best,
+        })
+        .collect();
+    let path = run_dir.join(QD_CSV);
+    write_atomic(&path, qd_csv(&rows).as_bytes()).map_err(|e| io_error(&path, e))?;
+    let last = grid.history().last().copied().unwrap_or(QdPoint {
+        filled: 0,
+        qd_score: 0.0,
+        best: f64::NEG_INFINITY,
+    });
+    Ok(ArchiveProgress {
+        filled: last.filled,
+        cells,
+        qd_score: last.qd_score,
+        best_elite: last.best,
+    })
 }
 
 fn remove_if_present(path: &Path) -> Result<(), RunError> {
@@ -1273,6 +1365,103 @@ runs = 1
             assert!(state.archive.iter().all(|behaviour| behaviour.len() == 2));
         })
         .await;
+    }
+
+    fn map_elites_experiment(keys: &str) -> String {
+        EXPERIMENT.replace(
+            "post_evaluation_samples = 2",
+            &format!(
+                "post_evaluation_samples = 2\nalgorithm = \"map_elites\"\npopulation = 10\n\
+                 map_elites_bins = [5, 4]\nmap_elites_ranges = [[-4.0, 4.0], [-4.0, 4.0]]\n{keys}"
+            ),
+        )
+    }
+
+    #[tokio::test]
+    async fn a_map_elites_run_paused_and_resumed_ends_as_an_uninterrupted_one() {
+        // The fake behaviour is the first two genes: the grid fills with genomes' positions.
+        let map_elites =
+            map_elites_experiment("map_elites_variation = \"iso_line\"\nmap_elites_initial = 15");
+        paused_and_resumed_ends_as_straight(&map_elites, |checkpoint_path| {
+            let checkpoint = read_checkpoint(checkpoint_path);
+            let StrategyState::MapElites(state) = checkpoint.strategy else {
+                panic!("the run uses MAP-Elites");
+            };
+            assert_eq!((state.generation, state.batch.len()), (3, 10));
+            assert_eq!(state.history.len(), 3);
+            // The archive beside the checkpoint is the state's, with the grid's shape.
+            let run_dir = checkpoint_path.parent().unwrap();
+            let archive = ArchiveFile::read(&run_dir.join(ARCHIVE_JSON)).unwrap();
+            assert_eq!(archive.generation, 3);
+            assert_eq!(archive.descriptor, ["final.x", "final.y"]);
+            assert_eq!(
+                (archive.bins.as_slice(), archive.n_cells()),
+                (&[5, 4][..], 20)
+            );
+            let cells: Vec<u64> = state.elites.iter().map(|e| e.cell).collect();
+            let saved: Vec<u64> = archive.elites.iter().map(|e| e.cell).collect();
+            assert_eq!(saved, cells);
+            assert!(cells.len() > 3, "{cells:?}");
+            let qd = std::fs::read_to_string(run_dir.join(QD_CSV)).unwrap();
+            let rows = hevo_rundir::archive::parse_qd_csv(&qd).unwrap();
+            assert_eq!(rows.len(), 3);
+            assert_eq!(rows[2].filled, cells.len() as u64);
+            let qd_score: f64 = archive.elites.iter().map(|e| e.fitness).sum();
+            assert_eq!(rows[2].qd_score, qd_score);
+        })
+        .await;
+    }
+
+    #[tokio::test]
+    async fn a_changed_map_elites_setting_is_refused_by_the_fingerprint() {
+        let dir = tempfile::tempdir().unwrap();
+        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
+        let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
+        let settings = RunSettings {
+            out_dir: dir.path().join("out"),
+            overrides: Overrides::default(),
+            job: "changed".into(),
+        };
+        let run = async |keys: &str| {
+            let experiment =
+                Experiment::parse(&map_elites_experiment(keys), &dir.path().join("e.toml"))
+                    .unwrap();
+            run_experiment(&experiment, &settings, &dispatcher, &Recorder::default()).await
+        };
+        served(run("map_elites_sigma = 0.25"), &mut worker)
+            .await
+            .unwrap();
+        let run_dir = run_dir(&settings.out_dir.join("exit_room"), 0);
+        let archive = ArchiveFile::read(&run_dir.join(ARCHIVE_JSON)).unwrap();
+        assert_eq!(archive.generation, GENERATIONS);
+        // The node's controller is the best elite's genome.
+        let best = archive.elites.iter().fold(&archive.elites[0], |b, e| {
+            if e.fitness > b.fitness { e } else { b }
+        });
+        let controller =
+            ControllerFile::from_json_str(&std::fs::read_to_string(run_dir.join(BEST)).unwrap())
+                .unwrap();
+        assert_eq!(
+            controller.root.genome.as_deref(),
+            Some(best.genes.as_slice())
+        );
+        // The same settings again: the finished run is taken as it is.
+        served(run("map_elites_sigma = 0.25"), &mut worker)
+            .await
+            .unwrap();
+        for changed in [
+            "map_elites_sigma = 0.5",
+            "map_elites_sigma = 0.25\nmap_elites_variation = \"iso_line\"",
+            "map_elites_sigma = 0.25\nmap_elites_initial = 20",
+            "map_elites_sigma = 0.25\nmap_elites_line_sigma = 0.3",
+        ] {
+            let error = served(run(changed), &mut worker).await.unwrap_err();
+            assert!(
+                matches!(error, RunError::Fingerprint { .. }),
+                "{changed}: {error}"
+            );
+        }
+        worker.abort();
     }
 
     #[tokio::test]

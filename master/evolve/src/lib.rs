@@ -5,7 +5,8 @@
 //! saved after any generation and continued gives the genomes an uninterrupted run gives.
 //!
 //! The paper's generational GA ([`ga`]) is the default strategy, CMA-ES ([`cmaes`]) the
-//! second, novelty search over behaviour descriptors ([`novelty`]) the third; [`seeds`] holds
+//! second, novelty search over behaviour descriptors ([`novelty`]) the third, MAP-Elites'
+//! grid archive over them ([`map_elites`]) the fourth; [`seeds`] holds
 //! every run-level
 //! seed derivation (a run's seed, its algorithm's streams, its samples' seeds and light
 //! configurations). Pure: no async runtime, network, command line or files; every random draw
@@ -14,6 +15,7 @@
 
 pub mod cmaes;
 pub mod ga;
+pub mod map_elites;
 pub mod novelty;
 pub mod seeds;
 
@@ -70,6 +72,12 @@ pub trait Strategy: std::fmt::Debug + Send {
 
     /// The whole state: with the settings, it determines every genome asked for from here on.
     fn state(&self) -> StrategyState;
+
+    /// The grid archive of a quality-diversity strategy (MAP-Elites), which a run saves and
+    /// plots; `None` for the others.
+    fn grid(&self) -> Option<&map_elites::GridArchive> {
+        None
+    }
 }
 
 /// A strategy's whole state, tagged with its algorithm: `{"algorithm": "ga", "state": {...}}`.
@@ -82,6 +90,8 @@ pub enum StrategyState {
     Cmaes(cmaes::CmaesState),
     /// Novelty search.
     Novelty(novelty::NoveltyState),
+    /// MAP-Elites.
+    MapElites(map_elites::MapElitesState),
 }
 
 impl StrategyState {
@@ -91,6 +101,7 @@ impl StrategyState {
             StrategyState::Ga(_) => ga::ALGORITHM,
             StrategyState::Cmaes(_) => cmaes::ALGORITHM,
             StrategyState::Novelty(_) => novelty::ALGORITHM,
+            StrategyState::MapElites(_) => map_elites::ALGORITHM,
         }
     }
 }
@@ -104,6 +115,8 @@ pub enum StrategySettings {
     Cmaes(cmaes::CmaesSettings),
     /// Novelty search.
     Novelty(novelty::NoveltySettings),
+    /// MAP-Elites.
+    MapElites(map_elites::MapElitesSettings),
 }
 
 impl StrategySettings {
@@ -113,6 +126,7 @@ impl StrategySettings {
             StrategySettings::Ga(_) => ga::ALGORITHM,
             StrategySettings::Cmaes(_) => cmaes::ALGORITHM,
             StrategySettings::Novelty(_) => novelty::ALGORITHM,
+            StrategySettings::MapElites(_) => map_elites::ALGORITHM,
         }
     }
 
@@ -122,6 +136,7 @@ impl StrategySettings {
             StrategySettings::Ga(settings) => settings.check(),
             StrategySettings::Cmaes(settings) => settings.check(),
             StrategySettings::Novelty(settings) => settings.check(),
+            StrategySettings::MapElites(settings) => settings.check(),
         }
     }
 
@@ -139,6 +154,11 @@ impl StrategySettings {
                 run_seed,
             )?)),
             StrategySettings::Novelty(settings) => Ok(Box::new(novelty::Novelty::start(
+                settings.clone(),
+                n_genes,
+                run_seed,
+            )?)),
+            StrategySettings::MapElites(settings) => Ok(Box::new(map_elites::MapElites::start(
                 settings.clone(),
                 n_genes,
                 run_seed,
@@ -163,6 +183,13 @@ impl StrategySettings {
             (StrategySettings::Novelty(settings), StrategyState::Novelty(state)) => Ok(Box::new(
                 novelty::Novelty::resume(settings.clone(), n_genes, state)?,
             )),
+            (StrategySettings::MapElites(settings), StrategyState::MapElites(state)) => {
+                Ok(Box::new(map_elites::MapElites::resume(
+                    settings.clone(),
+                    n_genes,
+                    state,
+                )?))
+            }
             (settings, state) => Err(StrategyError::State(format!(
                 "the state is of algorithm '{}', the settings are for '{}'",
                 state.algorithm(),
@@ -229,12 +256,13 @@ mod tests {
     fn evolve(strategy: &mut dyn Strategy, generations: u32) -> Vec<f64> {
         (0..generations)
             .map(|_| {
-                // The behaviour: the genes themselves.
+                // The behaviour: the first and the last gene.
                 let results: Vec<Evaluation> = strategy
                     .ask()
                     .iter()
                     .map(|genes| {
-                        let descriptor = genes.iter().map(|&g| f64::from(g)).collect();
+                        let descriptor =
+                            vec![f64::from(genes[0]), f64::from(genes[genes.len() - 1])];
                         Evaluation::with_descriptor(toy_fitness(genes), descriptor)
                     })
                     .collect();
@@ -283,6 +311,25 @@ mod tests {
                 archive_per_generation: 2,
                 archive_size: 30,
                 fitness_weight: 0.8,
+            }),
+            StrategySettings::MapElites(map_elites::MapElitesSettings {
+                population: 20,
+                // A coarse grid, so that most parents are near the optimum's cell.
+                bins: vec![2, 2],
+                ranges: vec![[0.0, 6.0]; 2],
+                sigma: 0.2,
+                initial: 20,
+                ..map_elites::MapElitesSettings::default()
+            }),
+            StrategySettings::MapElites(map_elites::MapElitesSettings {
+                population: 20,
+                bins: vec![2, 2],
+                ranges: vec![[0.0, 6.0]; 2],
+                variation: map_elites::Variation::IsoLine,
+                sigma: 0.1,
+                line_sigma: 0.2,
+                initial: 30,
+                ..map_elites::MapElitesSettings::default()
             }),
         ]
     }

@@ -23,6 +23,8 @@ pub enum RunStream {
     Variants = 15,
     /// CMA-ES's samples of generation g.
     Cmaes = 16,
+    /// MAP-Elites' genomes of generation g.
+    MapElites = 17,
 }
 
 /// The seed of one run of one node: from the experiment's seed, the node's name and the run

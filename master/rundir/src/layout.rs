@@ -9,6 +9,8 @@
 //! <out>/<node>/run-<k>/checkpoint.json   the runner's checkpoint, while the run is in progress
 //! <out>/<node>/run-<k>/best.json    the run's best controller
 //! <out>/<node>/run-<k>/summary.json RunSummary, once the run is finished
+//! <out>/<node>/run-<k>/archive.json MAP-Elites runs: the grid archive (crate::archive)
+//! <out>/<node>/run-<k>/qd.csv       MAP-Elites runs: coverage and QD-score per generation
 //! ```
 
 use crate::eval_report::EvalReport;
@@ -25,9 +27,14 @@ pub const SUMMARY: &str = "summary.json";
 pub const CHECKPOINT: &str = "checkpoint.json";
 /// A run's fitness log, one [`FitnessRow`] per generation.
 pub const FITNESS_CSV: &str = "fitness.csv";
+/// A MAP-Elites run's archive: [`crate::archive::ArchiveFile`] as JSON.
+pub const ARCHIVE_JSON: &str = "archive.json";
+/// A MAP-Elites run's archive measures per generation, one [`crate::archive::QdRow`] a line.
+pub const QD_CSV: &str = "qd.csv";
 
-/// The files a finished run keeps, and a fetch or a copy of a run directory carries.
-pub const FINISHED_RUN_FILES: [&str; 3] = [FITNESS_CSV, BEST, SUMMARY];
+/// The files a finished run keeps, and a fetch or a copy of a run directory carries (the
+/// archive's two only for MAP-Elites runs).
+pub const FINISHED_RUN_FILES: [&str; 5] = [FITNESS_CSV, BEST, SUMMARY, ARCHIVE_JSON, QD_CSV];
 /// The files a finished node keeps beside its runs.
 pub const FINISHED_NODE_FILES: [&str; 2] = [BEST, SUMMARY];
 

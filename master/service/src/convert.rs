@@ -77,6 +77,7 @@ pub fn event_to_proto(job: &str, event: &ProgressEvent, done: u64, total: u64) -
             best,
             mean,
             cycles,
+            ..
         } => Event::Generation(v1::GenerationDone {
             node: node.clone(),
             run: *run,

@@ -51,7 +51,7 @@ const EXTRA_RUN_COLOURS: [&str; 3] = ["#332288", "#882255", "#999933"];
 
 /// Run colours: the shared palette without black, which marks the across-run mean, then the
 /// extra colours, so ten runs get ten colours; more wrap around.
-fn run_colour(run: usize) -> &'static str {
+pub(crate) fn run_colour(run: usize) -> &'static str {
     let colours: Vec<&'static str> = PALETTE
         .iter()
         .copied()
@@ -62,7 +62,7 @@ fn run_colour(run: usize) -> &'static str {
 }
 
 /// A tick step of 1, 2 or 5 times a power of ten giving about `target` ticks over `span`.
-fn nice_step(span: f64, target: f64) -> f64 {
+pub(crate) fn nice_step(span: f64, target: f64) -> f64 {
     let raw = (span / target).max(f64::MIN_POSITIVE);
     let magnitude = 10f64.powf(raw.log10().floor());
     let fraction = raw / magnitude;
@@ -80,7 +80,7 @@ fn nice_step(span: f64, target: f64) -> f64 {
 
 /// Axis bounds snapped outward to whole tick steps, and the step. A flat range is widened so
 /// the line sits inside the plot rather than on its edge.
-fn axis_range(low: f64, high: f64, target_ticks: f64) -> (f64, f64, f64) {
+pub(crate) fn axis_range(low: f64, high: f64, target_ticks: f64) -> (f64, f64, f64) {
     let (mut low, mut high) = (low, high);
     if !(low.is_finite() && high.is_finite()) {
         return (0.0, 1.0, 0.2);
@@ -101,7 +101,7 @@ fn axis_range(low: f64, high: f64, target_ticks: f64) -> (f64, f64, f64) {
 }
 
 /// A tick label with as many decimals as the step needs.
-fn tick_label(value: f64, step: f64) -> String {
+pub(crate) fn tick_label(value: f64, step: f64) -> String {
     let decimals = if step >= 1.0 {
         0
     } else {

@@ -2,6 +2,7 @@
 //! `cli.rs` lists them and dispatches; shared flags are in `args.rs`, the runtime in
 //! `runtime.rs`.
 
+pub mod archive;
 pub mod bench;
 pub mod cancel;
 pub mod dashboard;
