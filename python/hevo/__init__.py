@@ -9,6 +9,9 @@ The same engine the ``hevo`` command runs, bound with PyO3:
   for bit, and each sample's outcome;
 - ``trace``: one sample cycle by cycle as numpy arrays, and the replay picture;
 - ``run``: an experiment evolved by the resumable runner of ``hevo run``;
+- ``Strategy``: hevo's search algorithms (the paper's GA, CMA-ES, novelty search, ...) with
+  ask/tell over numpy, set up by an experiment file's ``[evolution]`` keys, saved and resumed
+  bit for bit;
 - ``Client``: a master's job service (submit, watch, jobs, fetch, cancel), and ``evaluate`` on
   the master's workers with the results of ``hevo.evaluate``, bit for bit.
 
@@ -27,6 +30,7 @@ from ._hevo import (
     HevoError,
     JobWatch,
     RunError,
+    Strategy,
     Task,
     Trace,
     __version__,
@@ -48,6 +52,7 @@ __all__ = [
     "HevoError",
     "JobWatch",
     "RunError",
+    "Strategy",
     "Task",
     "Trace",
     "__version__",

@@ -71,7 +71,7 @@ enum Floats<'py> {
 /// `value` (a numpy array, or anything `numpy.asarray` makes a float array of) as a float
 /// array, its shape checked by `check_shape`; `name` names it in errors. TypeError for a dtype
 /// that is not a float.
-fn float_array<'py>(
+pub(crate) fn float_array<'py>(
     value: &Bound<'py, PyAny>,
     name: &str,
     check_shape: impl FnOnce(&[usize]) -> PyResult<()>,

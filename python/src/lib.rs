@@ -11,6 +11,7 @@ mod evaluate;
 mod genomes;
 mod interrupt;
 mod run;
+mod strategies;
 mod task;
 mod trace;
 
@@ -172,6 +173,7 @@ fn hevo_module(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_class::<trace::Trace>()?;
     module.add_class::<client::Client>()?;
     module.add_class::<client::JobWatch>()?;
+    module.add_class::<strategies::Strategy>()?;
     module.add_function(wrap_pyfunction!(shipped_tasks, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::evaluate, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::bench_controller, module)?)?;
