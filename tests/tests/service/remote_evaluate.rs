@@ -117,6 +117,11 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
         "the killed worker's lease was not taken back:\n{after}"
     );
     assert_local_results(&remote, &template, &task, &genomes, samples, seed);
+    // Why each sample ended came over the wire too (compared with the rest above): these
+    // genomes end their samples in more than one way, so a lost field would show.
+    let endings: std::collections::BTreeSet<u8> =
+        remote.iter().flatten().map(|s| s.ending.code()).collect();
+    assert!(endings.len() >= 2, "endings {endings:?}");
 }
 
 /// `hevo_client::evaluate_genomes` on `master`: the results, `[genome][sample]`, and how many
@@ -181,11 +186,6 @@ fn assert_local_results(
     .unwrap()
     .unwrap();
     assert_eq!(remote.len(), genomes.len());
-    // Why each sample ended comes over the wire too (compared below with the rest): these
-    // genomes end their samples in more than one way, so a lost field would show.
-    let endings: std::collections::BTreeSet<u8> =
-        local.iter().flatten().map(|s| s.ending.code()).collect();
-    assert!(endings.len() >= 2, "endings {endings:?}");
     for (genome_idx, (remote, local)) in remote.iter().zip(&local).enumerate() {
         assert_eq!(remote, local, "genome {genome_idx}");
         for (r, l) in remote.iter().zip(local) {
