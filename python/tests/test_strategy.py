@@ -4,6 +4,7 @@ and descriptors of any float dtype are taken, bad ones refused naming the row; s
 experiment file's `[evolution]` table, with its keys, defaults and messages."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -191,3 +192,22 @@ def test_bad_arguments_and_states_are_refused():
     saved["n_genes"] = 4
     with pytest.raises(hevo.ConfigError, match="the saved state does not fit"):
         hevo.Strategy.from_state(json.dumps(saved))
+
+
+def test_every_algorithm_the_settings_reader_knows_works_here():
+    # The reader's own list, from its message for an unknown one: an algorithm added to the
+    # experiment file's schema is tested here without a change to this test.
+    with pytest.raises(hevo.ConfigError) as error:
+        hevo.Strategy("no such algorithm", n_genes=2)
+    known = re.findall(r"`(\w+)`", str(error.value).split("expected one of", 1)[1])
+    assert {"ga", "cmaes", "novelty"} <= set(known), known
+    for algorithm in known:
+        strategy = hevo.Strategy(algorithm, n_genes=3, seed=1)
+        assert strategy.algorithm == algorithm
+        # Two generations with the shipped tasks' descriptor width (final x and y).
+        step_2d = lambda g: strategy.tell(sphere(g), descriptors=g[:, :2])  # noqa: E731
+        step_2d(strategy.ask())
+        step_2d(strategy.ask())
+        resumed = hevo.Strategy.from_state(strategy.state())
+        assert np.array_equal(resumed.ask(), strategy.ask()), algorithm
+        assert resumed.generation == 2 and strategy.best is not None
