@@ -85,8 +85,8 @@ fn ending_to_proto(ending: Ending) -> v1::SampleEnding {
     }
 }
 
-/// The ending from the wire. Unset is what a worker built before the field sends: the message
-/// says so, since the fix is to update that worker.
+/// The ending from the wire. Unset is what a hevo built before the field sends (a worker to a
+/// master, or a master to a client): the message says so, since the fix is to update it.
 fn ending_from_proto(result: &v1::SampleResult, field: &str) -> Result<Ending, ConvertError> {
     match v1::SampleEnding::try_from(result.ending) {
         Ok(v1::SampleEnding::Solved) => Ok(Ending::Solved),
@@ -95,8 +95,8 @@ fn ending_from_proto(result: &v1::SampleResult, field: &str) -> Result<Ending, C
         Ok(v1::SampleEnding::Timeout) => Ok(Ending::Timeout),
         Ok(v1::SampleEnding::Unspecified) => Err(field_error(
             format!("{field}.ending"),
-            "not set: the worker is older than the master (it does not send why a sample \
-             ended); update hevo-worker",
+            "not set: the sender is a hevo older than this one (it does not say why a \
+             sample ended); update it (a worker: hevo-worker)",
         )),
         Err(_) => Err(field_error(
             format!("{field}.ending"),
@@ -427,8 +427,8 @@ mod tests {
         unset[0].samples[1].ending = 0;
         assert_eq!(
             results_from_proto(&unset).unwrap_err().to_string(),
-            "genomes[0].samples[1].ending: not set: the worker is older than the master (it \
-             does not send why a sample ended); update hevo-worker"
+            "genomes[0].samples[1].ending: not set: the sender is a hevo older than this one \
+             (it does not say why a sample ended); update it (a worker: hevo-worker)"
         );
         let mut unknown = wire.clone();
         unknown[0].samples[0].ending = 9;

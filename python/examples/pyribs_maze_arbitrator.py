@@ -115,7 +115,7 @@ def main():
     figure.colorbar(image, label="fitness of the cell's elite")
     axes.set_xlabel(result.descriptor_names[0] + " (m)")
     axes.set_ylabel(result.descriptor_names[1] + " (m)")
-    axes.set_title("MAP-Elites archive: where the maze's arbitrators end")
+    axes.set_title("where the arbitrators end (pyribs archive)")
     figure.tight_layout()
     figure.savefig(args.out / "ribs_archive.png", dpi=120)
     print(f"archive -> {args.out / 'ribs_archive.png'}")

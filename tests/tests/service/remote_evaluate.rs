@@ -308,7 +308,7 @@ fn a_worker_older_than_the_ending_field_is_refused_naming_it() {
             assert_eq!(refused.code(), tonic::Code::InvalidArgument, "{refused:?}");
             assert!(
                 refused.message().contains(
-                    "genomes[0].samples[0].ending: not set: the worker is older than the master"
+                    "genomes[0].samples[0].ending: not set: the sender is a hevo older than this one"
                 ),
                 "{refused:?}"
             );
