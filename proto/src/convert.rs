@@ -9,7 +9,7 @@ use crate::v1;
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Sample;
 use hevo_sim_core::TaskConfig;
-use hevo_sim_core::{N_SUB_TASKS, NodeUse, SubTaskChoices};
+use hevo_sim_core::{Ending, N_SUB_TASKS, NodeUse, SubTaskChoices};
 use hevo_sim_core::{SampleSummary, task_content_hash};
 
 /// Why a message could not be turned into sim-core values.
@@ -72,6 +72,36 @@ pub fn summary_to_proto(summary: &SampleSummary) -> v1::SampleResult {
         node_active_cycles: summary.node_use.active_cycles.clone(),
         node_activations: summary.node_use.activations.clone(),
         descriptor: summary.descriptor.clone(),
+        ending: ending_to_proto(summary.ending).into(),
+    }
+}
+
+fn ending_to_proto(ending: Ending) -> v1::SampleEnding {
+    match ending {
+        Ending::Solved => v1::SampleEnding::Solved,
+        Ending::Collision => v1::SampleEnding::Collision,
+        Ending::WrongBranch => v1::SampleEnding::WrongBranch,
+        Ending::Timeout => v1::SampleEnding::Timeout,
+    }
+}
+
+/// The ending from the wire. Unset is what a hevo built before the field sends (a worker to a
+/// master, or a master to a client): the message says so, since the fix is to update it.
+fn ending_from_proto(result: &v1::SampleResult, field: &str) -> Result<Ending, ConvertError> {
+    match v1::SampleEnding::try_from(result.ending) {
+        Ok(v1::SampleEnding::Solved) => Ok(Ending::Solved),
+        Ok(v1::SampleEnding::Collision) => Ok(Ending::Collision),
+        Ok(v1::SampleEnding::WrongBranch) => Ok(Ending::WrongBranch),
+        Ok(v1::SampleEnding::Timeout) => Ok(Ending::Timeout),
+        Ok(v1::SampleEnding::Unspecified) => Err(field_error(
+            format!("{field}.ending"),
+            "not set: the sender is a hevo older than this one (it does not say why a \
+             sample ended); update it (a worker: hevo-worker)",
+        )),
+        Err(_) => Err(field_error(
+            format!("{field}.ending"),
+            format!("{} is not an ending", result.ending),
+        )),
     }
 }
 
@@ -184,6 +214,7 @@ pub fn summary_from_proto(
         fitness: result.fitness,
         solved: result.solved,
         collided: result.collided,
+        ending: ending_from_proto(result, field)?,
         stage,
         variant: result.variant,
         cycles: result.cycles,
@@ -346,6 +377,7 @@ mod tests {
                 activations: vec![1, 2, 2, 1],
             },
             descriptor: vec![0.25, -1.5],
+            ending: Ending::Solved,
         };
         let plain = SampleSummary {
             sub_task_choices: SubTaskChoices::default(),
@@ -382,6 +414,27 @@ mod tests {
                 .unwrap_err()
                 .to_string(),
             "genomes[1].samples[0].node_activations[3]: 78 activations in 77 active cycles"
+        );
+        // Each ending travels as itself; unset (an older worker) and unknown are refused.
+        for ending in Ending::ALL {
+            let one = vec![vec![SampleSummary {
+                ending,
+                ..SampleSummary::default()
+            }]];
+            assert_eq!(results_from_proto(&results_to_proto(&one)).unwrap(), one);
+        }
+        let mut unset = wire.clone();
+        unset[0].samples[1].ending = 0;
+        assert_eq!(
+            results_from_proto(&unset).unwrap_err().to_string(),
+            "genomes[0].samples[1].ending: not set: the sender is a hevo older than this one \
+             (it does not say why a sample ended); update it (a worker: hevo-worker)"
+        );
+        let mut unknown = wire.clone();
+        unknown[0].samples[0].ending = 9;
+        assert_eq!(
+            results_from_proto(&unknown).unwrap_err().to_string(),
+            "genomes[0].samples[0].ending: 9 is not an ending"
         );
         let mut bad = wire.clone();
         bad[1].samples[0].stage = 300;

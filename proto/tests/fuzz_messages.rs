@@ -39,6 +39,8 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
         prop::collection::vec(any::<u32>(), 0..5),
         prop::collection::vec(any::<u32>(), 0..5),
         prop::collection::vec(any::<f32>(), 0..20),
+        // The endings, unset and values no hevo sends.
+        -1i32..6,
     )
         .prop_map(
             |(
@@ -52,6 +54,7 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
                 active,
                 activations,
                 descriptor,
+                ending,
             )| {
                 v1::SampleResult {
                     fitness,
@@ -65,6 +68,7 @@ fn sample_result() -> impl Strategy<Value = v1::SampleResult> {
                     node_active_cycles: active,
                     node_activations: activations,
                     descriptor,
+                    ending,
                 }
             },
         )

@@ -85,6 +85,11 @@ def run_hevo_ea(out: pathlib.Path, args):
     return curve, best.genome("solve_maze")
 
 
+def generation_seed(generation: int) -> int:
+    """The seed of a CMA-ES generation's samples: fresh samples every generation."""
+    return 10_000 + generation
+
+
 def run_cma(template: hevo.Controller, task: hevo.Task, args):
     """CMA-ES: each generation's candidates on fresh samples (per variant, so
     `samples // n_variants` of each of the maze's light configurations)."""
@@ -108,7 +113,7 @@ def run_cma(template: hevo.Controller, task: hevo.Task, args):
             candidates,
             task,
             samples=per_variant,
-            seed=10_000 + generation,
+            seed=generation_seed(generation),
             threads=args.threads,
         )
         # CMA-ES minimises.

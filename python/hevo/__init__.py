@@ -12,6 +12,9 @@ The same engine the ``hevo`` command runs, bound with PyO3:
   conventions: observations the robot's sensor frame, actions its wheel outputs, reward the
   task's fitness at the end); ``VectorEnv`` steps N of them in Rust per call;
 - ``run``: an experiment evolved by the resumable runner of ``hevo run``;
+- ``Strategy``: hevo's search algorithms (the paper's GA, CMA-ES, novelty search, ...) with
+  ask/tell over numpy, set up by an experiment file's ``[evolution]`` keys, saved and resumed
+  bit for bit;
 - ``Client``: a master's job service (submit, watch, jobs, fetch, cancel), and ``evaluate`` on
   the master's workers with the results of ``hevo.evaluate``, bit for bit.
 
@@ -32,6 +35,7 @@ from ._hevo import (
     JobWatch,
     RunError,
     Space,
+    Strategy,
     Task,
     Trace,
     VectorEnv,
@@ -56,6 +60,7 @@ __all__ = [
     "JobWatch",
     "RunError",
     "Space",
+    "Strategy",
     "Task",
     "Trace",
     "VectorEnv",

@@ -104,6 +104,9 @@ class Evaluation:
     """Share of samples that reached each stage, shape (n, len(stage_names))."""
     per_phase: npt.NDArray[np.float64]
     """Share of right choices per phase of a derived fitness (NaN: no sample reached it)."""
+    descriptor: npt.NDArray[np.float64]
+    """The behaviour descriptor, each value the mean over the samples, shape
+    (n, len(descriptor_names)): what a strategy is told in `hevo run`."""
     sample_fitness: npt.NDArray[np.float32]
     """Each sample's fitness, shape (n, samples); columns in the order of `sample_seeds`."""
     sample_solved: npt.NDArray[np.bool_]
@@ -111,11 +114,19 @@ class Evaluation:
     sample_cycles: npt.NDArray[np.uint32]
     sample_stage: npt.NDArray[np.uint8]
     sample_variant: npt.NDArray[np.uint32]
+    sample_ending: npt.NDArray[np.uint8]
+    """Why each sample ended, shape (n, samples): an index into `ending_names`."""
+    sample_descriptor: npt.NDArray[np.float32]
+    """Each sample's behaviour descriptor, shape (n, samples, len(descriptor_names))."""
     sample_seeds: npt.NDArray[np.uint64]
     """The samples' seeds, shape (samples,): `trace(controller, task, seed, variant)` replays one."""
     variant_names: List[str]
     stage_names: List[str]
     phase_names: List[str]
+    descriptor_names: List[str]
+    """The descriptor's quantities: the scenario's `[descriptor]`, ["final.x", "final.y"] by default."""
+    ending_names: List[str]
+    """["solved", "collision", "wrong_branch", "timeout"]: what `sample_ending`'s codes stand for."""
     samples: int
     """Samples each genome ran (samples per variant times variants)."""
     def __len__(self) -> int: ...
@@ -135,6 +146,47 @@ def evaluate(
     --seed K --json` prints, bit for bit, and each sample's outcome. Genes outside GENE_RANGE
     are clipped with `clip=True`, else refused (ControllerError naming the row and gene); NaN
     and infinity are refused either way."""
+
+class Strategy:
+    """One of hevo's search algorithms ("ga", "cmaes", "novelty", ...) with ask/tell over numpy.
+    The settings are an experiment file's `[evolution]` table: `settings` as a dict or TOML
+    text, `algorithm` and keyword keys over it, with the file's keys, defaults and messages
+    (ConfigError naming `evolution.KEY`)."""
+
+    def __init__(
+        self,
+        algorithm: Optional[str] = None,
+        *,
+        n_genes: int,
+        seed: int = 0,
+        settings: Optional[Union[Dict[str, Any], str]] = None,
+        **keys: Any,
+    ) -> None: ...
+    @property
+    def algorithm(self) -> str: ...
+    @property
+    def n_genes(self) -> int: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def generation(self) -> int:
+        """Generations told so far."""
+    @property
+    def best(self) -> Optional[Tuple[npt.NDArray[np.float64], float]]:
+        """(genes, the fitness they were told with) of the strategy's best; None before a tell."""
+    def settings(self) -> Dict[str, Any]:
+        """The settings table as given."""
+    def ask(self) -> npt.NDArray[np.float64]:
+        """The genomes to evaluate next, float64 (n, n_genes), each gene a float32 value
+        exactly, within the settings' gene_range; the same until `tell`."""
+    def tell(self, fitness: npt.ArrayLike, descriptors: Optional[npt.ArrayLike] = None) -> None:
+        """The results of `ask()`'s genomes in order: fitness (n,), descriptors (n, d), any
+        float dtype, larger fitness better. NaN, infinity or a wrong shape: ValueError naming
+        the row, and nothing changes."""
+    def state(self) -> bytes:
+        """The whole state as JSON text: `Strategy.from_state` continues it bit for bit."""
+    @staticmethod
+    def from_state(state: Union[bytes, str]) -> Strategy: ...
 
 def bench_controller(task: Task, seed: int = 1) -> Controller:
     """The controller `hevo bench` measures `task` with, random genes drawn from `seed`."""

@@ -9,17 +9,17 @@
 //!
 //! Memory: genomes go to the dispatcher in chunks, at most two in flight, and each chunk's
 //! per-sample outcomes are reduced to its rows of the result arrays as soon as it is in, so
-//! 10,000 genomes hold their result arrays (18 bytes per genome and sample for the per-sample
-//! outcomes) and a chunk's summaries, never every sample's summary.
+//! 10,000 genomes hold their result arrays (19 bytes per genome and sample for the per-sample
+//! outcomes, and 4 per descriptor value) and a chunk's summaries, never every sample's summary.
 
 use crate::controller::Controller;
 use crate::task::Task;
 use crate::{ControllerError, RunError};
 use hevo_engine::dispatch::{DispatchError, EvaluationRequest, RequestShared};
 use hevo_engine::post_evaluation::{self, EvalReport};
-use hevo_sim_core::{ControllerFile, Sample, SampleSummary, TaskConfig};
-use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
+use hevo_sim_core::{ControllerFile, Ending, Sample, SampleSummary, TaskConfig};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{PyArray1, PyArray2, PyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -34,8 +34,9 @@ const CHUNK_GENOMES: usize = 256;
 /// `mean_cycles`; `per_variant[:, v]` is `per_variant[v].solve_rate`; `per_stage` the share of
 /// samples that reached each stage (`stages` for the rescue, `per_stage` for other scenarios);
 /// `per_phase` the share of right choices per phase of a derived fitness (NaN where no sample
-/// reached it). The `sample_*` arrays are each sample's outcome, shape (n, samples), columns
-/// in the order of `sample_seeds`.
+/// reached it); `descriptor` the behaviour descriptor, each value the mean over the samples.
+/// The `sample_*` arrays are each sample's outcome, shape (n, samples), columns in the order
+/// of `sample_seeds`.
 #[pyclass(module = "hevo", frozen)]
 #[derive(Debug)]
 pub struct Evaluation {
@@ -60,6 +61,10 @@ pub struct Evaluation {
     /// Share of right choices per phase of a derived fitness: float64 (n, len(phase_names)).
     #[pyo3(get)]
     per_phase: Py<PyArray2<f64>>,
+    /// The behaviour descriptor, each value the mean over the samples (what a strategy is told
+    /// in `hevo run`): float64 (n, len(descriptor_names)).
+    #[pyo3(get)]
+    descriptor: Py<PyArray2<f64>>,
     /// Each sample's fitness: float32 (n, samples).
     #[pyo3(get)]
     sample_fitness: Py<PyArray2<f32>>,
@@ -75,6 +80,12 @@ pub struct Evaluation {
     /// The furthest stage each sample reached: uint8 (n, samples).
     #[pyo3(get)]
     sample_stage: Py<PyArray2<u8>>,
+    /// Why each sample ended, as an index into `ending_names`: uint8 (n, samples).
+    #[pyo3(get)]
+    sample_ending: Py<PyArray2<u8>>,
+    /// Each sample's behaviour descriptor: float32 (n, samples, len(descriptor_names)).
+    #[pyo3(get)]
+    sample_descriptor: Py<PyArray3<f32>>,
     /// Each sample's variant (light configuration, start branch): uint32 (n, samples).
     #[pyo3(get)]
     sample_variant: Py<PyArray2<u32>>,
@@ -91,6 +102,14 @@ pub struct Evaluation {
     /// The phases' names (columns of `per_phase`).
     #[pyo3(get)]
     phase_names: Vec<String>,
+    /// The descriptor's quantities (columns of `descriptor`): the scenario's `[descriptor]`,
+    /// `["final.x", "final.y"]` unless it says otherwise.
+    #[pyo3(get)]
+    descriptor_names: Vec<String>,
+    /// What the codes of `sample_ending` stand for: the endings as a trace's outcome names
+    /// them, `["solved", "collision", "wrong_branch", "timeout"]`.
+    #[pyo3(get)]
+    ending_names: Vec<&'static str>,
     /// Samples each genome ran (samples per variant times variants).
     #[pyo3(get)]
     samples: u32,
@@ -188,6 +207,17 @@ impl EvaluationInput {
             Vec::new()
         };
         let n_samples = self.sample_list.len();
+        let descriptor_names: Vec<String> = self
+            .task
+            .scenario
+            .descriptor_names()
+            .into_iter()
+            .map(str::to_string)
+            .collect();
+        let n_descriptor = descriptor_names.len();
+        let sample_descriptor =
+            Array3::from_shape_vec((n, n_samples, n_descriptor), columns.sample_descriptor)
+                .map_err(|error| RunError::new_err(format!("internal: result shape: {error}")))?;
         let seeds: Vec<u64> = self.sample_list.iter().map(|sample| sample.seed).collect();
         Ok(Evaluation {
             fitness: PyArray1::from_vec(py, columns.fitness).unbind(),
@@ -197,16 +227,21 @@ impl EvaluationInput {
             per_variant: matrix(py, n, columns.per_variant)?.unbind(),
             per_stage: matrix(py, n, columns.per_stage)?.unbind(),
             per_phase: matrix(py, n, columns.per_phase)?.unbind(),
+            descriptor: shaped(py, n, n_descriptor, columns.descriptor)?.unbind(),
             sample_fitness: shaped(py, n, n_samples, columns.sample_fitness)?.unbind(),
             sample_solved: shaped(py, n, n_samples, columns.sample_solved)?.unbind(),
             sample_collided: shaped(py, n, n_samples, columns.sample_collided)?.unbind(),
             sample_cycles: shaped(py, n, n_samples, columns.sample_cycles)?.unbind(),
             sample_stage: shaped(py, n, n_samples, columns.sample_stage)?.unbind(),
+            sample_ending: shaped(py, n, n_samples, columns.sample_ending)?.unbind(),
+            sample_descriptor: PyArray3::from_owned_array(py, sample_descriptor).unbind(),
             sample_variant: shaped(py, n, n_samples, columns.sample_variant)?.unbind(),
             sample_seeds: PyArray1::from_vec(py, seeds).unbind(),
             variant_names,
             stage_names: columns.stage_names,
             phase_names: columns.phase_names,
+            descriptor_names,
+            ending_names: Ending::ALL.iter().map(|ending| ending.name()).collect(),
             samples: n_samples as u32,
         })
     }
@@ -222,12 +257,15 @@ pub(crate) struct Columns {
     per_variant: Vec<f64>,
     per_stage: Vec<f64>,
     per_phase: Vec<f64>,
+    descriptor: Vec<f64>,
     sample_fitness: Vec<f32>,
     sample_solved: Vec<bool>,
     sample_collided: Vec<bool>,
     sample_cycles: Vec<u32>,
     sample_stage: Vec<u8>,
     sample_variant: Vec<u32>,
+    sample_ending: Vec<u8>,
+    sample_descriptor: Vec<f32>,
     stage_names: Vec<String>,
     phase_names: Vec<String>,
 }
@@ -271,12 +309,15 @@ impl Columns {
             per_variant: Vec::new(),
             per_stage: Vec::new(),
             per_phase: Vec::new(),
+            descriptor: Vec::new(),
             sample_fitness: Vec::with_capacity(cells),
             sample_solved: Vec::with_capacity(cells),
             sample_collided: Vec::with_capacity(cells),
             sample_cycles: Vec::with_capacity(cells),
             sample_stage: Vec::with_capacity(cells),
             sample_variant: Vec::with_capacity(cells),
+            sample_ending: Vec::with_capacity(cells),
+            sample_descriptor: Vec::new(),
             stage_names: Vec::new(),
             phase_names: Vec::new(),
         }
@@ -295,6 +336,8 @@ impl Columns {
         let (phase_names, phases) = phases_of(report);
         self.per_phase.extend(phases);
         self.phase_names = phase_names;
+        self.descriptor
+            .extend(hevo_engine::runner::mean_descriptor(summaries));
         for summary in summaries {
             self.sample_fitness.push(summary.fitness);
             self.sample_solved.push(summary.solved);
@@ -302,6 +345,8 @@ impl Columns {
             self.sample_cycles.push(summary.cycles);
             self.sample_stage.push(summary.stage);
             self.sample_variant.push(summary.variant);
+            self.sample_ending.push(summary.ending.code());
+            self.sample_descriptor.extend(&summary.descriptor);
         }
     }
 }

@@ -12,6 +12,7 @@ mod evaluate;
 mod genomes;
 mod interrupt;
 mod run;
+mod strategies;
 mod task;
 mod trace;
 
@@ -176,6 +177,7 @@ fn hevo_module(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_class::<env::Env>()?;
     module.add_class::<env::VectorEnv>()?;
     module.add_class::<env::Space>()?;
+    module.add_class::<strategies::Strategy>()?;
     module.add_function(wrap_pyfunction!(shipped_tasks, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::evaluate, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate::bench_controller, module)?)?;

@@ -149,8 +149,9 @@ def test_ten_thousand_genomes_keep_only_their_result_arrays(repo):
 
 ARRAYS = (
     "fitness", "solve_rate", "collision_rate", "mean_cycles", "per_variant", "per_stage",
-    "per_phase", "sample_fitness", "sample_solved", "sample_collided", "sample_cycles",
-    "sample_stage", "sample_variant", "sample_seeds",
+    "per_phase", "descriptor", "sample_fitness", "sample_solved", "sample_collided",
+    "sample_cycles", "sample_stage", "sample_variant", "sample_ending", "sample_descriptor",
+    "sample_seeds",
 )
 
 
@@ -160,8 +161,9 @@ def assert_same_evaluation(a, b):
         x, y = getattr(a, name), getattr(b, name)
         assert x.dtype == y.dtype and x.shape == y.shape, name
         assert x.tobytes() == y.tobytes(), name
-    assert (a.variant_names, a.stage_names, a.phase_names, a.samples) == (
-        b.variant_names, b.stage_names, b.phase_names, b.samples)
+    names = ("variant_names", "stage_names", "phase_names", "descriptor_names", "ending_names",
+             "samples")
+    assert [getattr(a, name) for name in names] == [getattr(b, name) for name in names]
 
 
 def maze_setup(repo):
@@ -234,6 +236,7 @@ def test_per_sample_outcomes(repo):
         ("sample_fitness", np.float32), ("sample_solved", np.bool_),
         ("sample_collided", np.bool_), ("sample_cycles", np.uint32),
         ("sample_stage", np.uint8), ("sample_variant", np.uint32),
+        ("sample_ending", np.uint8),
     ):
         array = getattr(result, name)
         assert array.shape == (2, n_samples) and array.dtype == dtype, name
@@ -244,6 +247,22 @@ def test_per_sample_outcomes(repo):
     np.testing.assert_allclose(result.sample_collided.mean(axis=1), result.collision_rate)
     np.testing.assert_allclose(result.sample_cycles.mean(axis=1), result.mean_cycles)
     assert set(result.sample_variant[0]) == set(range(task.n_variants))
+    # The behaviour descriptor: the maze's default, where the robot ended; per genome the
+    # samples' mean (summed in order in float64, as the runner tells a strategy).
+    assert result.descriptor_names == ["final.x", "final.y"]
+    assert result.ending_names == ["solved", "collision", "wrong_branch", "timeout"]
+    assert result.sample_descriptor.shape == (2, n_samples, 2)
+    assert result.sample_descriptor.dtype == np.float32
+    assert result.descriptor.shape == (2, 2) and result.descriptor.dtype == np.float64
+    for i in range(2):
+        for d in range(2):
+            total = 0.0
+            for value in result.sample_descriptor[i, :, d]:
+                total += float(value)
+            assert result.descriptor[i, d] == total / n_samples
+    # A solved sample, and only one, ends as solved.
+    solved_code = result.ending_names.index("solved")
+    np.testing.assert_array_equal(result.sample_ending == solved_code, result.sample_solved)
     # Each column is the sample `hevo.trace` replays from its seed and variant.
     for i, genes in enumerate(genomes):
         controller = template.with_genome(genes)
@@ -256,3 +275,5 @@ def test_per_sample_outcomes(repo):
             assert outcome["collided"] == result.sample_collided[i, j]
             assert outcome["cycles"] == result.sample_cycles[i, j]
             assert outcome["stage"] == result.sample_stage[i, j]
+            assert outcome["ending"] == result.ending_names[result.sample_ending[i, j]]
+            assert [np.float32(v) for v in outcome["descriptor"]] == list(result.sample_descriptor[i, j])

@@ -1,13 +1,16 @@
 """The examples in python/examples/ run, at tiny settings, and write what they say
 (`cma_on_cluster.py` against a real master with two workers), and what they import comes with
-the module or its `examples` extra."""
+the module or one of its extras (`examples`; `evotorch`, whose example runs only where it
+is installed)."""
 
 import ast
+import importlib.util
 import pathlib
 import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import hevo
@@ -19,17 +22,22 @@ EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 def test_the_examples_extra_has_what_the_examples_import():
     tomllib = pytest.importorskip("tomllib")
     project = tomllib.loads((EXAMPLES.parent / "pyproject.toml").read_text())["project"]
-    provided = {re.split(r"[<>=!~ \[;]", requirement)[0] for requirement in
-                project["dependencies"] + project["optional-dependencies"]["examples"]}
+    extras = project["optional-dependencies"]
+    requirements = project["dependencies"] + [r for extra in extras.values() for r in extra]
+    provided = {re.split(r"[<>=!~ \[;]", requirement)[0] for requirement in requirements}
+    # What a package brings that an example imports by its own name.
+    provided |= {"torch"} if "evotorch" in provided else set()
     for example in EXAMPLES.glob("*.py"):
         tree = ast.parse(example.read_text())
         imported = {alias.name.split(".")[0] for node in ast.walk(tree)
                     if isinstance(node, ast.Import) for alias in node.names}
         imported |= {node.module.split(".")[0] for node in ast.walk(tree)
                      if isinstance(node, ast.ImportFrom) and node.level == 0}
+        # An example may take a function from another (python/examples/ is its sys.path[0]).
+        siblings = {path.stem for path in EXAMPLES.glob("*.py")}
         outside = {name for name in imported
-                   if name not in sys.stdlib_module_names and name != "hevo"}
-        # The examples' packages install modules of their own names (cma, matplotlib).
+                   if name not in sys.stdlib_module_names and name != "hevo" and name not in siblings}
+        # The examples' packages install modules of their own names (cma, matplotlib, ribs).
         missing = outside - provided
         assert not missing, f"{example.name} imports {sorted(missing)}, not in the examples extra"
 
@@ -53,6 +61,70 @@ def test_cma_against_hevos_ea(tmp_path):
     assert "hevo EA" in out and "CMA-ES" in out
     assert (tmp_path / "cma_vs_ea.png").stat().st_size > 1000
     assert (tmp_path / "cma_best.json").is_file() and (tmp_path / "ea_best.json").is_file()
+
+
+def test_hevo_cmaes_beside_pycma_and_resumed(tmp_path):
+    tiny = ["--population", 6, "--samples", 4, "--post-samples", 1, "--threads", 2]
+    out = run_example("hevo_cmaes_maze_arbitrator.py", "--out", tmp_path / "both",
+                      "--evaluations", 72, *tiny)
+    assert "hevo CMA-ES" in out and "pycma" in out
+    assert (tmp_path / "both" / "hevo_cmaes.png").stat().st_size > 1000
+    assert hevo.Controller.load(tmp_path / "both" / "hevo_best.json").free_node is None
+    # Two generations, then one more: the state is the one three straight generations leave.
+    split = tmp_path / "split"
+    run_example("hevo_cmaes_maze_arbitrator.py", "--out", split, "--evaluations", 48,
+                "--without-pycma", *tiny)
+    out = run_example("hevo_cmaes_maze_arbitrator.py", "--out", split, "--evaluations", 72,
+                      "--without-pycma", *tiny)
+    assert "resumed at generation 2" in out, out
+    state = (split / "hevo_cmaes.state").read_bytes()
+    assert hevo.Strategy.from_state(state).generation == 3
+    assert state == (tmp_path / "both" / "hevo_cmaes.state").read_bytes()
+
+
+def test_pyribs_map_elites_over_hevo_s_descriptors(tmp_path):
+    pytest.importorskip("ribs")
+    out = run_example(
+        "pyribs_maze_arbitrator.py", "--out", tmp_path, "--iterations", 3, "--batch", 8,
+        "--samples", 1, "--bins", 5, "--post-samples", 1, "--threads", 2,
+    )
+    assert "QD-score" in out and "coverage" in out, out
+    # The elites spread over more than one cell: hevo's descriptors reached the archive.
+    elites = int(re.search(r"archive: (\d+) elites of 25 cells", out).group(1))
+    assert elites >= 2, out
+    assert (tmp_path / "ribs_archive.png").stat().st_size > 1000
+    assert hevo.Controller.load(tmp_path / "ribs_best.json").free_node is None
+
+
+def load_example(name):
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_evotorch_adapter_s_fitness_is_hevo_evaluate_s(repo):
+    # The numpy half of the adapter, which needs neither EvoTorch nor PyTorch.
+    example = load_example("evotorch_maze_arbitrator")
+    task = hevo.Task("solve_maze", max_cycles=100)
+    template = hevo.Controller.load(repo / "controllers" / "solve_maze.json").without_genome("solve_maze")
+    genomes = np.random.default_rng(3).normal(0, 4, (5, template.n_genes))  # some beyond 10
+    fitness = example.HevoFitness(template, task, samples=1, first_seed=40)
+    first, second = fitness(genomes), fitness(genomes)
+    for seed, got in ((40, first), (41, second)):
+        expected = hevo.evaluate(template, genomes, task, samples=1, seed=seed, clip=True)
+        assert got.dtype == np.float64 and got.tobytes() == expected.fitness.tobytes()
+    assert fitness.last.descriptor.shape == (5, 2)
+
+
+def test_the_evotorch_example(tmp_path):
+    # EvoTorch brings PyTorch, too heavy for the test environment: this runs only where the
+    # `evotorch` extra is installed.
+    pytest.importorskip("evotorch")
+    out = run_example("evotorch_maze_arbitrator.py", "--generations", 2, "--population", 6,
+                      "--samples", 1, "--post-samples", 1, "--out", tmp_path / "best.json")
+    assert out.count("generation ") == 2, out
+    assert hevo.Controller.load(tmp_path / "best.json").free_node is None
 
 
 def test_draw_trace(tmp_path):

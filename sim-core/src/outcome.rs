@@ -30,7 +30,7 @@ impl Sample {
 }
 
 /// Why a sample ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Ending {
     /// The task's goal was reached.
@@ -39,8 +39,36 @@ pub enum Ending {
     Collision,
     /// The robot entered a branch off the correct path, or a region the scenario forbids.
     WrongBranch,
-    /// The cycle limit ran out.
+    /// The cycle limit ran out. The default: a summary made without an outcome (a test's)
+    /// claims nothing happened.
+    #[default]
     Timeout,
+}
+
+impl Ending {
+    /// Every ending, in the order of their codes (`Ending::ALL[code]`), as Python arrays and
+    /// other tables number them.
+    pub const ALL: [Ending; 4] = [
+        Ending::Solved,
+        Ending::Collision,
+        Ending::WrongBranch,
+        Ending::Timeout,
+    ];
+
+    /// The name a trace's outcome writes (`"wrong_branch"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Ending::Solved => "solved",
+            Ending::Collision => "collision",
+            Ending::WrongBranch => "wrong_branch",
+            Ending::Timeout => "timeout",
+        }
+    }
+
+    /// Its index in [`Ending::ALL`].
+    pub fn code(self) -> u8 {
+        self as u8
+    }
 }
 
 /// The result of one sample.

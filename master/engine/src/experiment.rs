@@ -567,6 +567,69 @@ impl EvolutionParams {
     }
 }
 
+/// An `[evolution]` table read on its own, by an experiment file's rules: the same keys,
+/// defaults, checks and messages (each naming `evolution.KEY`), for what drives a strategy
+/// without an experiment (the Python module's `hevo.Strategy`). `table` holds the table's keys
+/// as a JSON object ([`evolution_table_from_toml`] makes one of TOML text); `file` names where
+/// it came from in messages. Algorithms added to the file's schema work here unchanged.
+pub fn evolution_from_table(
+    table: serde_json::Value,
+    file: &Path,
+) -> Result<EvolutionParams, ExperimentError> {
+    let overrides: EvolutionOverrides = serde_path_to_error::deserialize(table).map_err(|e| {
+        let path = e.path().to_string();
+        ExperimentError::Syntax {
+            file: file.to_path_buf(),
+            path: if path == "." {
+                "evolution".to_string()
+            } else {
+                format!("evolution.{}", cut(&path, MAX_EXCERPT_CHARS))
+            },
+            message: bounded_excerpt(&e.inner().to_string()),
+        }
+    })?;
+    let invalid = |key: &str, message: String| ExperimentError::Invalid {
+        file: file.to_path_buf(),
+        path: format!("evolution.{key}"),
+        message,
+    };
+    let params = overrides.apply(&EvolutionParams::default());
+    if let Some((key, owner)) = overrides.key_of_another_algorithm(params.algorithm) {
+        return Err(invalid(
+            key,
+            format!(
+                "is a setting of algorithm \"{}\"; the algorithm here is \"{}\"",
+                owner.name(),
+                params.algorithm.name()
+            ),
+        ));
+    }
+    validate_evolution(&params).map_err(|(key, message)| invalid(&key, message))?;
+    Ok(params)
+}
+
+/// TOML text of an `[evolution]` table's keys, with or without the `[evolution]` line, as the
+/// JSON object [`evolution_from_table`] reads; `file` names it in messages.
+pub fn evolution_table_from_toml(
+    text: &str,
+    file: &Path,
+) -> Result<serde_json::Value, ExperimentError> {
+    let syntax = |message: String| ExperimentError::Syntax {
+        file: file.to_path_buf(),
+        path: String::new(),
+        message: bounded_excerpt(&message),
+    };
+    let mut table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| syntax(e.to_string()))?;
+    if table.len() == 1
+        && let Some(toml::Value::Table(inner)) = table.remove("evolution")
+    {
+        table = inner;
+    }
+    serde_json::to_value(table).map_err(|e| syntax(e.to_string()))
+}
+
 /// Partial evolution parameters: what a file sets.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -2439,6 +2502,63 @@ runs = 1
             "{err}"
         );
         assert!(parse(&cmaes("restarts = 12")).is_ok());
+    }
+
+    #[test]
+    fn a_lone_evolution_table_reads_as_an_experiment_file_s() {
+        let file = Path::new("settings");
+        let table =
+            |text: &str| evolution_from_table(evolution_table_from_toml(text, file).unwrap(), file);
+        // The same settings as the file's `[evolution]` table gives, with or without its line.
+        let keys = "algorithm = \"cmaes\"\npopulation = 18\ninitial_sigma = 2\ncmaes_variant = \"separable\"";
+        let in_file = parse(&format!(
+            "[experiment]\nname = \"t\"\n[evolution]\n{keys}\n[[node]]\nname = \"fw\"\n\
+             kind = \"primitive\"\ninputs = [\"ir\"]\nhidden = 3\ntask = \"follow_wall\"\n\
+             samples = 4\ngenerations = 3\nruns = 2"
+        ))
+        .unwrap()
+        .node("fw")
+        .unwrap()
+        .evolution
+        .clone();
+        assert_eq!(in_file.algorithm, Algorithm::Cmaes);
+        assert_eq!(table(keys).unwrap(), in_file);
+        assert_eq!(table(&format!("[evolution]\n{keys}")).unwrap(), in_file);
+        assert_eq!(table("").unwrap(), EvolutionParams::default());
+        let json = serde_json::json!({"algorithm": "cmaes", "population": 18,
+            "initial_sigma": 2.0, "cmaes_variant": "separable"});
+        assert_eq!(evolution_from_table(json, file).unwrap(), in_file);
+
+        // The file's messages, each naming its key.
+        let err = table("populaton = 3").unwrap_err().to_string();
+        assert!(
+            err.starts_with("settings: at `evolution") && err.contains("populaton"),
+            "{err}"
+        );
+        let err = table("population = \"many\"").unwrap_err().to_string();
+        assert!(err.contains("evolution.population"), "{err}");
+        assert_eq!(
+            table("restarts = 2").unwrap_err().to_string(),
+            "settings: at `evolution.restarts`: is a setting of algorithm \"cmaes\"; the algorithm here is \"ga\""
+        );
+        assert_eq!(
+            table("population = 30\nelites = 4")
+                .unwrap_err()
+                .to_string(),
+            "settings: at `evolution.population`: population (30) must be a multiple of elites (4) and larger, so each elite gets the same number of mutated copies"
+        );
+        let err = table("algorithm = \"annealing\"").unwrap_err().to_string();
+        assert!(
+            err.contains("evolution.algorithm") && err.contains("annealing"),
+            "{err}"
+        );
+        let err = evolution_table_from_toml("population = [", file)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("settings:") && err.contains("unclosed array"),
+            "{err}"
+        );
     }
 
     #[test]

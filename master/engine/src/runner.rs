@@ -790,8 +790,8 @@ async fn run_one(
 }
 
 /// A genome's behaviour descriptor: each value the mean over its samples (empty when the
-/// samples carry none).
-fn mean_descriptor(samples: &[SampleSummary]) -> Vec<f64> {
+/// samples carry none). What a strategy is told, and what `hevo.evaluate` reports.
+pub fn mean_descriptor(samples: &[SampleSummary]) -> Vec<f64> {
     let Some(first) = samples.first() else {
         return Vec::new();
     };

@@ -355,6 +355,7 @@ async fn lease_and_complete(
         node_activations: vec![1],
         // The final position, every shipped task's descriptor.
         descriptor: vec![0.0; hevo_sim_core::DEFAULT_DESCRIPTOR.len()],
+        ending: v1::SampleEnding::Timeout.into(),
     };
     let genomes = batch
         .genomes

@@ -6,7 +6,7 @@
 use crate::episode::evaluator::{Evaluator, TaskError};
 use crate::episode::lockstep::LaneController;
 use crate::network::controller::{Controller, ControllerError, ControllerFile, NodeKind};
-use crate::outcome::{NodeUse, Outcome, Sample, SubTaskChoices};
+use crate::outcome::{Ending, NodeUse, Outcome, Sample, SubTaskChoices};
 use crate::scenario::Scenario;
 use crate::task::TaskConfig;
 
@@ -145,6 +145,9 @@ pub struct SampleSummary {
     pub solved: bool,
     /// Whether the robot touched a wall at any time.
     pub collided: bool,
+    /// Why the sample ended.
+    #[serde(default)]
+    pub ending: Ending,
     /// Furthest stage (rescue 0..3, else 1 when solved).
     pub stage: u8,
     /// Light configuration or start branch.
@@ -179,6 +182,17 @@ impl SampleSummary {
             return Err(format!(
                 "cycles {} exceeds the task's limit {max_cycles}",
                 self.cycles
+            ));
+        }
+        if self.solved != (self.ending == Ending::Solved)
+            || (self.ending == Ending::Collision && !(self.collided && task.end_on_collision))
+        {
+            return Err(format!(
+                "ending '{}' does not fit (solved: {}, collided: {}, the task ends on collisions: {})",
+                self.ending.name(),
+                self.solved,
+                self.collided,
+                task.end_on_collision
             ));
         }
         let max_stage = task.scenario.max_stage();
@@ -269,6 +283,7 @@ impl From<&Outcome> for SampleSummary {
             fitness: outcome.fitness,
             solved: outcome.solved,
             collided: outcome.collided,
+            ending: outcome.ending,
             stage: outcome.stage,
             variant: outcome.variant,
             cycles: outcome.cycles,
@@ -366,6 +381,7 @@ mod tests {
         let good = SampleSummary {
             fitness: 1.5,
             solved: true,
+            ending: Ending::Solved,
             stage: 1,
             variant: 2,
             cycles: 500,
@@ -375,8 +391,20 @@ mod tests {
         assert_eq!(good.check(&task, 4, &sample), Ok(()));
         // A change that makes the summary impossible, and what the refusal must say.
         type Damage = (fn(&mut SampleSummary), &'static str);
-        let cases: [Damage; 10] = [
+        let cases: [Damage; 12] = [
             (|s| s.fitness = 2.5, "fitness 2.5 is outside"),
+            (
+                |s| s.ending = Ending::Timeout,
+                "ending 'timeout' does not fit (solved: true",
+            ),
+            (
+                |s| {
+                    s.solved = false;
+                    s.stage = 0;
+                    s.ending = Ending::Collision;
+                },
+                "ending 'collision' does not fit (solved: false, collided: false",
+            ),
             (|s| s.fitness = f32::NAN, "fitness NaN"),
             (|s| s.cycles = 1001, "cycles 1001 exceeds"),
             (|s| s.stage = 0, "stage 0 does not fit"),

@@ -30,6 +30,7 @@ fn forged(batch: &v1::Batch, forge: impl Fn(&mut v1::SampleResult)) -> Vec<v1::G
                         cycles: 10,
                         // Where the robot ended: the shipped tasks' behaviour descriptor.
                         descriptor: vec![0.1, 0.2],
+                        ending: v1::SampleEnding::Timeout.into(),
                         ..v1::SampleResult::default()
                     };
                     forge(&mut result);
@@ -80,6 +81,9 @@ fn forged_and_foreign_results_change_nothing() {
             |r: &mut v1::SampleResult| r.stage = 9,
             |r: &mut v1::SampleResult| r.descriptor.truncate(1),
             |r: &mut v1::SampleResult| r.descriptor[0] = f32::NAN,
+            // A worker older than the field, and an ending that contradicts `solved`.
+            |r: &mut v1::SampleResult| r.ending = 0,
+            |r: &mut v1::SampleResult| r.ending = v1::SampleEnding::Solved.into(),
         ] {
             let held = lease(&mut thief, "thief", Duration::from_secs(10))
                 .await

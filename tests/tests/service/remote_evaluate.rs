@@ -117,6 +117,11 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
         "the killed worker's lease was not taken back:\n{after}"
     );
     assert_local_results(&remote, &template, &task, &genomes, samples, seed);
+    // Why each sample ended came over the wire too (compared with the rest above): these
+    // genomes end their samples in more than one way, so a lost field would show.
+    let endings: std::collections::BTreeSet<u8> =
+        remote.iter().flatten().map(|s| s.ending.code()).collect();
+    assert!(endings.len() >= 2, "endings {endings:?}");
 }
 
 /// `hevo_client::evaluate_genomes` on `master`: the results, `[genome][sample]`, and how many
@@ -219,6 +224,7 @@ fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
                                 // Where the robot ended: the maze's behaviour descriptor, so the
                                 // lie is plausible and only a spot check can catch it.
                                 descriptor: vec![0.1, 0.2],
+                                ending: v1::SampleEnding::Timeout.into(),
                                 ..v1::SampleResult::default()
                             })
                             .collect(),
@@ -256,6 +262,76 @@ fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
     );
     assert!(attempts >= 2, "the caught evaluation was not started again");
     assert_local_results(&remote, &template, &task, &genomes, 2, 5);
+}
+
+#[test]
+fn a_worker_older_than_the_ending_field_is_refused_naming_it() {
+    let scratch = Scratch::new("remote-evaluate-old-worker");
+    let master = master_with_roles(&scratch, &[]);
+    let (template, task) = maze_template();
+    let genomes = genomes_near(4);
+    let (remote, _) = std::thread::scope(|scope| {
+        let evaluation =
+            scope.spawn(|| evaluate_remotely(&master, &template, &task, &genomes, 1, 3));
+        runtime().block_on(async {
+            let mut old = workers(&master.url, WORKER_TOKEN);
+            let batch = lease(&mut old, "old", Duration::from_secs(30))
+                .await
+                .expect("a batch for the old worker");
+            // What a worker built before the field sends: everything but the ending.
+            let results = batch
+                .genomes
+                .iter()
+                .map(|_| v1::GenomeResult {
+                    samples: (batch.samples.iter())
+                        .map(|sample| v1::SampleResult {
+                            fitness: 0.5,
+                            cycles: 10,
+                            variant: sample.variant.unwrap_or(0),
+                            descriptor: vec![0.1, 0.2],
+                            ..v1::SampleResult::default()
+                        })
+                        .collect(),
+                })
+                .collect();
+            let refused = old
+                .complete_batch(v1::CompleteBatchRequest {
+                    worker: "old".into(),
+                    lease_id: batch.lease_id,
+                    batch_id: batch.batch_id,
+                    epoch: batch.epoch,
+                    genomes: results,
+                    elapsed_ms: 1,
+                })
+                .await
+                .unwrap_err();
+            assert_eq!(refused.code(), tonic::Code::InvalidArgument, "{refused:?}");
+            assert!(
+                refused.message().contains(
+                    "genomes[0].samples[0].ending: not set: the sender is a hevo older than this one"
+                ),
+                "{refused:?}"
+            );
+            // Handed back, so the current worker need not wait for the lease to run out
+            // (the master may have taken it back already).
+            let _ = old
+                .release_batch(v1::ReleaseBatchRequest {
+                    epoch: batch.epoch,
+                    lease_id: batch.lease_id,
+                    worker: "old".into(),
+                })
+                .await;
+        });
+        let _current = start_worker(
+            &master.url,
+            WORKER_TOKEN,
+            "current",
+            &[],
+            &scratch.join("current.log"),
+        );
+        evaluation.join().unwrap()
+    });
+    assert_local_results(&remote, &template, &task, &genomes, 1, 3);
 }
 
 /// A request for `genomes` of the maze template, as the client builds it.
