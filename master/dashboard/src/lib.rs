@@ -19,8 +19,8 @@ pub mod rundirs;
 pub mod server;
 pub mod stream;
 
-use hevo_rundir::eval_report::EvalReport;
 use hevo_rundir::archive::{ArchiveFile, QdRow};
+use hevo_rundir::eval_report::EvalReport;
 use hevo_rundir::{FitnessRow, NodeSummary, RunSummary};
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::TaskConfig;

@@ -573,10 +573,21 @@ mod tests {
         let html = node_section("job-1", &node, true, None);
         assert!(html.contains("<figure class=\"qd\">"), "{html}");
         // Unfinished: the latest run's archive.
-        assert!(html.contains("<figure class=\"archive\" data-run=\"1\">"), "{html}");
+        assert!(
+            html.contains("<figure class=\"archive\" data-run=\"1\">"),
+            "{html}"
+        );
         assert!(html.contains("maze run 1: archive after 2 generations (1 of 16 cells)"));
         // The other algorithms' nodes have neither.
-        let plain = node_section("job-1", &NodeView { runs: vec![], ..node }, true, None);
+        let plain = node_section(
+            "job-1",
+            &NodeView {
+                runs: vec![],
+                ..node
+            },
+            true,
+            None,
+        );
         assert!(!plain.contains("class=\"qd\"") && !plain.contains("class=\"archive\""));
     }
 
