@@ -63,12 +63,13 @@ pub const PAPER: &[PaperResult] = &[
 
 /// What the report found for one node.
 #[derive(Debug, Clone)]
-struct NodeResult {
-    name: String,
-    runs: Vec<RunSummary>,
+pub(crate) struct NodeResult {
+    pub(crate) name: String,
+    pub(crate) runs: Vec<RunSummary>,
     complete: bool,
-    runs_in_progress: usize,
-    dir: PathBuf,
+    /// The runs under way, each with the next generation its checkpoint evaluates.
+    pub(crate) in_progress: Vec<(u32, u32)>,
+    pub(crate) dir: PathBuf,
     /// The setup fingerprints of its finished runs and checkpoints: an ablation's node is one
     /// whose fingerprints the main results' node of the same name does not share.
     fingerprints: Vec<String>,
@@ -77,7 +78,7 @@ struct NodeResult {
 impl NodeResult {
     /// The paper's "avg" and "best": the mean and the highest post-evaluation solve rate over
     /// the finished runs; `None` before any run has finished.
-    fn avg_and_best(&self) -> Option<(f64, f64)> {
+    pub(crate) fn avg_and_best(&self) -> Option<(f64, f64)> {
         if self.runs.is_empty() {
             return None;
         }
@@ -88,7 +89,7 @@ impl NodeResult {
 }
 
 /// [`read_json`], with an error that names the file.
-fn read_named<T: hevo_rundir::store::DeserializeOwned>(
+pub(crate) fn read_named<T: hevo_rundir::store::DeserializeOwned>(
     path: &Path,
 ) -> Result<Option<T>, ReportError> {
     Ok(read_json(path)?)
@@ -103,6 +104,14 @@ pub enum ReportError {
     /// A fitness log cannot be read.
     #[error(transparent)]
     RunDir(#[from] hevo_rundir::RunDirError),
+    /// A study file is not one (see [`crate::study::StudyFile`]).
+    #[error("{path}: {what}")]
+    Study {
+        /// The study file.
+        path: PathBuf,
+        /// What is wrong in it.
+        what: String,
+    },
     /// A directory cannot be listed, or the report or a picture cannot be written.
     #[error("{path}: {cause}")]
     Io {
@@ -114,7 +123,7 @@ pub enum ReportError {
     },
 }
 
-fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
+pub(crate) fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
     move |cause| ReportError::Io {
         path: path.to_path_buf(),
         cause,
@@ -125,14 +134,14 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
 /// still under way (a checkpoint, no summary yet), and whether the node is complete (it has a
 /// node summary and no run under way, so a node whose runs are being extended with `--runs`
 /// shows its new runs as they finish, and as not complete until they all have).
-fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
+pub(crate) fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let node_summary = read_named::<NodeSummary>(&dir.join(SUMMARY))?;
     let mut runs = Vec::new();
-    let mut in_progress = 0;
+    let mut in_progress = Vec::new();
     let mut fingerprints: Vec<String> = node_summary
         .iter()
         .map(|summary| summary.fingerprint.clone())
@@ -140,14 +149,14 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
     let Ok(run_dirs) = run_dirs(dir) else {
         return Ok(None);
     };
-    for (_, run_dir) in run_dirs {
+    for (run_idx, run_dir) in run_dirs {
         if let Some(run) = read_named::<RunSummary>(&run_dir.join(SUMMARY))? {
             fingerprints.push(run.fingerprint.clone());
             runs.push(run);
         } else if let Some(checkpoint) = read_named::<CheckpointHeader>(&run_dir.join(CHECKPOINT))?
         {
             fingerprints.push(checkpoint.fingerprint);
-            in_progress += 1;
+            in_progress.push((run_idx, checkpoint.generation));
         }
     }
     if runs.is_empty()
@@ -157,14 +166,14 @@ fn load_node(dir: &Path) -> Result<Option<NodeResult>, ReportError> {
         runs.clone_from(&summary.runs);
     }
     runs.sort_by_key(|r| r.run);
-    if runs.is_empty() && in_progress == 0 {
+    if runs.is_empty() && in_progress.is_empty() {
         return Ok(None);
     }
     Ok(Some(NodeResult {
         name,
         runs,
-        complete: node_summary.is_some() && in_progress == 0,
-        runs_in_progress: in_progress,
+        complete: node_summary.is_some() && in_progress.is_empty(),
+        in_progress,
         dir: dir.to_path_buf(),
         fingerprints,
     }))
@@ -526,7 +535,7 @@ pub fn write_report(
 /// Draws `node`'s fitness curves (every run's, and their mean) to `pictures/{stem}-fitness.svg`
 /// under `title` and returns the Markdown that shows it, or `None` when no run has logged a
 /// generation.
-fn fitness_picture(
+pub(crate) fn fitness_picture(
     node: &NodeResult,
     stem: &str,
     title: &str,
@@ -909,7 +918,7 @@ fn status(node: &NodeResult) -> String {
         format!(
             "{} run(s) finished, {} in progress",
             node.runs.len(),
-            node.runs_in_progress
+            node.in_progress.len()
         )
     }
 }
@@ -1013,7 +1022,7 @@ mod tests {
             name: name.into(),
             runs: vec![run; finished_runs],
             complete: false,
-            runs_in_progress: 1,
+            in_progress: vec![(finished_runs as u32, 5)],
             dir: Path::new(source).join(name),
             fingerprints: vec![format!("{source}-fingerprint")],
         }
@@ -1442,7 +1451,7 @@ mod tests {
         );
         let loaded = load_node(&node_dir).unwrap().unwrap();
         assert!(loaded.complete);
-        assert_eq!((loaded.runs.len(), loaded.runs_in_progress), (1, 0));
+        assert_eq!((loaded.runs.len(), loaded.in_progress.len()), (1, 0));
 
         write(
             node_dir.join("run-1/checkpoint.json"),
@@ -1450,7 +1459,7 @@ mod tests {
         );
         let loaded = load_node(&node_dir).unwrap().unwrap();
         assert!(!loaded.complete);
-        assert_eq!((loaded.runs.len(), loaded.runs_in_progress), (1, 1));
+        assert_eq!((loaded.runs.len(), loaded.in_progress.len()), (1, 1));
         assert_eq!(status(&loaded), "1 run(s) finished, 1 in progress");
     }
 }
