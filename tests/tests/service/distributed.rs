@@ -4,7 +4,8 @@
 //! master is killed with SIGKILL and restarted on the same state directory; requests without
 //! the token are refused; a broken experiment file is refused naming the key; TLS with a
 //! private CA works; jobs can be cancelled; a job on a scenario file of one's own runs on a
-//! worker that has no file and gives the local results. The tests that evolve share one local
+//! worker that has no file and gives the local results; so does a job of every search
+//! algorithm. The tests that evolve share one local
 //! reference run and take turns with every other cluster test of the binary
 //! ([`hevo_tests::cluster_turn`]), so timings stay realistic on a two-core machine.
 //!
@@ -284,6 +285,88 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
     assert_same_results(&local, &scratch.join("fetched"), None);
     let summary = std::fs::read_to_string(scratch.join("fetched/pit_maze/summary.json")).unwrap();
     assert!(summary.contains("\"task\": \"pit_maze\""), "{summary}");
+}
+
+/// One small node per search algorithm besides the GA, each named by its `[node.evolution]`:
+/// a worker evaluates genomes and never knows which algorithm asked for them.
+const ALGORITHMS_EXPERIMENT: &str = r#"
+[experiment]
+name = "algorithms"
+
+[evolution]
+population = 8
+post_evaluation_samples = 4
+
+[[node]]
+name = "by_cmaes"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "exit_room"
+samples = 4
+generations = 3
+runs = 1
+evolution = { algorithm = "cmaes" }
+
+[[node]]
+name = "by_sep_cmaes_ipop"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "exit_room"
+samples = 4
+generations = 3
+runs = 1
+evolution = { algorithm = "cmaes", cmaes_variant = "separable", restarts = 2 }
+
+[[node]]
+name = "by_novelty"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "exit_room"
+samples = 4
+generations = 3
+runs = 1
+evolution = { algorithm = "novelty", elites = 2, novelty_neighbours = 3 }
+
+[[node]]
+name = "by_map_elites"
+kind = "primitive"
+inputs = ["ir"]
+hidden = 3
+task = "exit_room"
+samples = 4
+generations = 3
+runs = 1
+evolution = { algorithm = "map_elites", map_elites_bins = [3, 3], map_elites_ranges = [[-2.0, 2.0], [-2.0, 2.0]] }
+"#;
+
+#[test]
+fn every_algorithm_on_two_workers_gives_the_local_results() {
+    let _turn = cluster_turn();
+    let scratch = Scratch::new("algorithms");
+    let file = scratch.join("algorithms.toml");
+    std::fs::write(&file, ALGORITHMS_EXPERIMENT).unwrap();
+    let local = scratch.join("local");
+    run_locally(&file, &local, LOCAL);
+    assert!(
+        local.join("by_map_elites/run-0/archive.json").is_file(),
+        "MAP-Elites keeps its archive"
+    );
+
+    let master = master_with(&scratch, "state", &[], "master.log");
+    let _workers = two_workers(&master, &scratch, "a");
+    let job = submit(&master, &file, &[]);
+    watch_until_done(&master, &job, &[], 12);
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        &job,
+        &scratch.join("fetched"),
+        &[],
+    );
+    assert_same_results(&local, &scratch.join("fetched"), None);
 }
 
 /// A `name=value` field of a log line.

@@ -92,15 +92,48 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     ]);
     assert_same_tree(&straight, &single);
 
-    // Kill -9 in the middle of the run, then run the same command again. The kill comes at
-    // the first checkpoint of either run, with most of the 60 generations still to do, and
-    // the exit status shows that it landed before the end.
+    // Kill -9 in the middle of the run, then run the same command again.
     let killed = dir.path().join("killed");
-    let mut child = hevo_command(&[
+    kill_mid_run(experiment, &killed, "exit_room");
+    hevo_ok(&[
         "run",
         experiment,
         "--out",
         killed.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert_same_tree(&straight, &killed);
+
+    // A rerun of a finished experiment does nothing and changes nothing.
+    hevo_ok(&["run", experiment, "--out", straight.to_str().unwrap()]);
+    assert_same_tree(&straight, &single);
+
+    // Changing the experiment under existing results is refused.
+    let changed = write_experiment(dir.path(), &long.replace("hidden = 4", "hidden = 5"));
+    let out = hevo(&[
+        "run",
+        changed.to_str().unwrap(),
+        "--out",
+        killed.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        message.contains("different experiment setup") && message.contains("exit_room"),
+        "{message}"
+    );
+}
+
+/// Starts `hevo run EXPERIMENT --out OUT` and kills it (-9) at the first checkpoint of either
+/// of its node's two runs, with most of their generations still to do; the exit status shows
+/// that the kill landed before the end.
+fn kill_mid_run(experiment: &str, out: &Path, node: &str) {
+    let mut child = hevo_command(&[
+        "run",
+        experiment,
+        "--out",
+        out.to_str().unwrap(),
         "--threads",
         "2",
     ])
@@ -108,7 +141,7 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
     .stderr(Stdio::null())
     .spawn()
     .unwrap();
-    let checkpoints = [0, 1].map(|run| killed.join(format!("exit_room/run-{run}/checkpoint.json")));
+    let checkpoints = [0, 1].map(|run| out.join(format!("{node}/run-{run}/checkpoint.json")));
     let started = Instant::now();
     let killed_at = loop {
         let generation = checkpoints.iter().find_map(|checkpoint| {
@@ -141,37 +174,54 @@ fn a_killed_run_resumes_to_the_identical_result_and_threads_do_not_matter() {
         );
     }
     assert!(
-        !killed.join("exit_room/summary.json").exists(),
+        !out.join(format!("{node}/summary.json")).exists(),
         "killed before the end"
     );
-    hevo_ok(&[
-        "run",
-        experiment,
-        "--out",
-        killed.to_str().unwrap(),
-        "--threads",
-        "2",
-    ]);
-    assert_same_tree(&straight, &killed);
+}
 
-    // A rerun of a finished experiment does nothing and changes nothing.
-    hevo_ok(&["run", experiment, "--out", straight.to_str().unwrap()]);
-    assert_same_tree(&straight, &single);
-
-    // Changing the experiment under existing results is refused.
-    let changed = write_experiment(dir.path(), &long.replace("hidden = 4", "hidden = 5"));
-    let out = hevo(&[
-        "run",
-        changed.to_str().unwrap(),
-        "--out",
-        killed.to_str().unwrap(),
-    ]);
-    assert!(!out.status.success());
-    let message = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        message.contains("different experiment setup") && message.contains("exit_room"),
-        "{message}"
-    );
+/// Every search algorithm, killed with -9 mid-run and resumed by the same command, ends with
+/// the files of a run never interrupted, byte for byte: its whole state (CMA-ES's mean,
+/// covariance and step size, IPOP's restart count, novelty search's archive, MAP-Elites' grid)
+/// is in the checkpoint.
+#[test]
+fn every_algorithm_resumes_from_a_kill_to_the_identical_result() {
+    let algorithms = [
+        ("cmaes", "algorithm = \"cmaes\""),
+        (
+            "sep-cmaes-ipop",
+            "algorithm = \"cmaes\"\ncmaes_variant = \"separable\"\nrestarts = 3",
+        ),
+        (
+            "novelty",
+            "algorithm = \"novelty\"\nelites = 3\nnovelty_neighbours = 4\nnovelty_fitness_weight = 0.25",
+        ),
+        (
+            "map-elites",
+            "algorithm = \"map_elites\"\nmap_elites_bins = [4, 4]\nmap_elites_ranges = [[-2.0, 2.0], [-2.0, 2.0]]",
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for (name, evolution) in algorithms {
+        let text = SMALL
+            .replace("generations = 10", "generations = 30")
+            .replace(
+                "population = 12\nelites = 3",
+                &format!("population = 12\n{evolution}"),
+            );
+        assert!(
+            text.contains(evolution),
+            "the fixture's [evolution] changed"
+        );
+        let experiment = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&experiment, text).unwrap();
+        let experiment = experiment.to_str().unwrap();
+        let straight = dir.path().join(format!("{name}-straight"));
+        hevo_ok(&["run", experiment, "--out", straight.to_str().unwrap()]);
+        let killed = dir.path().join(format!("{name}-killed"));
+        kill_mid_run(experiment, &killed, "exit_room");
+        hevo_ok(&["run", experiment, "--out", killed.to_str().unwrap()]);
+        assert_same_tree(&straight, &killed);
+    }
 }
 
 /// Two levels: a maze arbitrator over one primitive, small enough to run in seconds.
