@@ -3,11 +3,14 @@
 //! archive and draws the next 100 genomes; ask only hands them out) on an archive already
 //! filled, for the single-network maze's genome (6-10-2, the paper's largest free network)
 //! on a 20 x 20 grid and a 100 x 100 one; and what the runner adds per generation for it,
-//! the state serialised into the checkpoint. The paper's GA's tell is measured beside it.
+//! the state serialised into the checkpoint. The paper's GA, CMA-ES (full and separable) and
+//! novelty search (its archive full) are measured the same way.
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use hevo_evolve::cmaes::{Cmaes, CmaesSettings, CmaesVariant};
 use hevo_evolve::ga::{Ga, GaSettings};
 use hevo_evolve::map_elites::{MapElites, MapElitesSettings, Variation};
+use hevo_evolve::novelty::{Novelty, NoveltySettings};
 use hevo_evolve::{Evaluation, Strategy};
 use hevo_sim_core::{InputGroup, NodeSpec, SimRng};
 use rand::{RngExt, SeedableRng};
@@ -81,6 +84,45 @@ fn bench(c: &mut Criterion) {
             |mut s| s.tell(&told).unwrap(),
             BatchSize::SmallInput,
         )
+    });
+    // CMA-ES decomposes C anew every generation (a function of C alone, so a resumed run
+    // draws the same genomes), so one tell from any generation costs what every one does.
+    for variant in [CmaesVariant::Full, CmaesVariant::Separable] {
+        let settings = CmaesSettings {
+            variant,
+            ..CmaesSettings::default()
+        };
+        let cmaes = Cmaes::start(settings, n_genes(), 1).unwrap();
+        c.bench_function(&format!("cmaes {variant:?}: tell"), |b| {
+            b.iter_batched(
+                || cmaes.clone(),
+                |mut s| s.tell(&told).unwrap(),
+                BatchSize::SmallInput,
+            )
+        });
+        c.bench_function(
+            &format!("cmaes {variant:?}: state as checkpoint JSON"),
+            |b| b.iter(|| serde_json::to_vec(&cmaes.state()).unwrap().len()),
+        );
+    }
+    // Novelty search with its archive full (2,000 behaviours by default): a tell measures each
+    // of the generation's 100 genomes against the archive and the generation.
+    let settings = NoveltySettings::default();
+    let generations_to_fill = settings.archive_size / settings.archive_per_generation;
+    let mut novelty = Novelty::start(settings, n_genes(), 1).unwrap();
+    let mut fill_rng = SimRng::seed_from_u64(4);
+    for _ in 0..generations_to_fill {
+        novelty.tell(&results(&mut fill_rng)).unwrap();
+    }
+    c.bench_function("novelty (archive full): tell", |b| {
+        b.iter_batched(
+            || novelty.clone(),
+            |mut s| s.tell(&told).unwrap(),
+            BatchSize::SmallInput,
+        )
+    });
+    c.bench_function("novelty (archive full): state as checkpoint JSON", |b| {
+        b.iter(|| serde_json::to_vec(&novelty.state()).unwrap().len())
     });
 }
 
