@@ -6,9 +6,10 @@
 #   bash scripts/python-tests.sh              # every test
 #   bash scripts/python-tests.sh -k evaluate  # arguments go to pytest
 #
-# The module is built in the dev profile (`pip install ./python` builds release; the tests
-# need no optimised engine beyond what the dev profile already optimises), into the workspace's
-# target directory, so it reuses what `cargo test` compiled. The `hevo` and `hevo-worker`
+# The module is built as a wheel in the dev profile (`pip install ./python` builds release; the
+# tests need no optimised engine beyond what the dev profile already optimises), into the
+# workspace's target directory, so it reuses what `cargo test` compiled, and installed from
+# the wheel with no package index. The `hevo` and `hevo-worker`
 # binaries the tests compare with are the dev-profile ones.
 #
 # HEVO_TEST_TOOLS_DIR overrides .tools/, as for scripts/install-test-tools.sh.
@@ -57,11 +58,24 @@ log "cargo build -p hevo-cli -p hevo-worker"
 cargo build --locked -p hevo-cli -p hevo-worker
 target=${CARGO_TARGET_DIR:-$repo/target}
 
-log "pip install ./python[examples] (dev profile)"
-# maturin, the build backend, runs the venv's `maturin` from PATH and reads extra
-# `maturin build` flags from MATURIN_PEP517_ARGS.
-PATH=$venv/bin:$PATH MATURIN_PEP517_ARGS="--profile dev --locked" \
-    pip install --quiet --no-build-isolation "./python[examples]"
+# The module is tested as users install it from a release artifact: `maturin build` makes the
+# wheel (dev profile, into the workspace's target directory, so it reuses what `cargo build`
+# compiled above), and pip installs it with no index at all, from that folder alone.
+wheels=$tools/wheels
+rm -rf "$wheels"
+log "maturin build (dev profile) -> $wheels"
+"$venv/bin/maturin" build --quiet --profile dev --locked \
+    --manifest-path python/Cargo.toml --out "$wheels"
+log "pip install --no-index --find-links $wheels hevo"
+pip install --quiet --no-index --find-links "$wheels" --force-reinstall --no-deps hevo
+# The examples' own packages, from PyPI at the pins of the `examples` extra in
+# python/pyproject.toml (read from it, so the pins live in one place).
+mapfile -t extras < <("$venv/bin/python" -c '
+import tomllib
+with open("python/pyproject.toml", "rb") as f:
+    print("\n".join(tomllib.load(f)["project"]["optional-dependencies"]["examples"]))')
+log "pip install ${extras[*]}"
+pip install --quiet "${extras[@]}"
 
 log "pytest python/tests"
 HEVO_TEST_BIN_DIR=$target/debug "$venv/bin/python" -m pytest python/tests "$@"
