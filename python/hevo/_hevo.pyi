@@ -174,6 +174,11 @@ class Strategy:
     @property
     def best(self) -> Optional[Tuple[npt.NDArray[np.float64], float]]:
         """(genes, the fitness they were told with) of the strategy's best; None before a tell."""
+    @property
+    def archive(self) -> Optional[Dict[str, Any]]:
+        """MAP-Elites' archive: cells, filled, coverage, qd_score, best, and per elite (in
+        cell order) cell, fitness, descriptor (n, d) and genes (n, n_genes) arrays; None for
+        the other algorithms."""
     def settings(self) -> Dict[str, Any]:
         """The settings table as given."""
     def ask(self) -> npt.NDArray[np.float64]:

@@ -8,7 +8,9 @@
 //! saved strategy resumed asks for the genomes the uninterrupted one asks for, bit for bit.
 
 use crate::ConfigError;
-use hevo_engine::experiment::{evolution_from_table, evolution_table_from_toml};
+use hevo_engine::experiment::{
+    DEFAULT_MAP_ELITES_BINS, evolution_from_table, evolution_table_from_toml,
+};
 use hevo_evolve::{Evaluation, StrategySettings, StrategyState};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
@@ -101,8 +103,29 @@ fn settings_table(
 }
 
 /// The settings a table gives, read as an experiment file's `[evolution]` table is.
+/// MAP-Elites' grid has no task here to count the descriptor's values: its ranges (required, as
+/// in a file) count them, and bins left out are the file's default per value, filled in before
+/// the reader checks the grid.
 fn strategy_settings(table: &serde_json::Value) -> PyResult<StrategySettings> {
-    let params = evolution_from_table(table.clone(), Path::new(SETTINGS_SOURCE))
+    let mut table = table.clone();
+    if let serde_json::Value::Object(keys) = &mut table
+        && keys.get("algorithm").and_then(|a| a.as_str()) == Some("map_elites")
+    {
+        let Some(n_values) = keys
+            .get("map_elites_ranges")
+            .and_then(|ranges| ranges.as_array())
+            .map(Vec::len)
+        else {
+            return Err(ConfigError::new_err(format!(
+                "{SETTINGS_SOURCE}: at `evolution.map_elites_ranges`: required: the range \
+                 [lo, hi] of each descriptor value to cut into bins (a Strategy has no task, so \
+                 the ranges also say how many values a descriptor has)"
+            )));
+        };
+        keys.entry("map_elites_bins")
+            .or_insert_with(|| serde_json::json!(vec![DEFAULT_MAP_ELITES_BINS; n_values]));
+    }
+    let params = evolution_from_table(table, Path::new(SETTINGS_SOURCE))
         .map_err(|error| config_error(&error))?;
     Ok(params.strategy_settings())
 }
@@ -328,6 +351,42 @@ impl Strategy {
             .map(|&gene| f64::from(gene))
             .collect();
         Some((PyArray1::from_vec(py, genes), inner.best_fitness?))
+    }
+
+    /// A MAP-Elites strategy's archive now, as a dict: `cells` (the grid's), `filled`,
+    /// `coverage` (filled / cells), `qd_score` (the elites' fitness summed, pyribs' with offset
+    /// 0), `best`, and per elite in cell order `cell` (int64), `fitness` (float64),
+    /// `descriptor` (float64 (n, d)) and `genes` (float64 (n, n_genes)); None for the
+    /// algorithms without one.
+    #[getter]
+    fn archive<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let inner = self.inner();
+        let Some(grid) = inner.strategy.grid() else {
+            return Ok(None);
+        };
+        let elites: Vec<_> = grid.elites().collect();
+        let n_dims = grid.bins().len();
+        let dict = PyDict::new(py);
+        let cells = grid.n_cells();
+        dict.set_item("cells", cells)?;
+        dict.set_item("filled", elites.len())?;
+        dict.set_item("coverage", elites.len() as f64 / cells as f64)?;
+        dict.set_item("qd_score", elites.iter().map(|e| e.fitness).sum::<f64>())?;
+        dict.set_item("best", grid.best().map(|e| e.fitness))?;
+        let cell: Vec<i64> = elites.iter().map(|e| e.cell as i64).collect();
+        dict.set_item("cell", PyArray1::from_vec(py, cell))?;
+        let fitness: Vec<f64> = elites.iter().map(|e| e.fitness).collect();
+        dict.set_item("fitness", PyArray1::from_vec(py, fitness))?;
+        let descriptor: Vec<f64> = elites
+            .iter()
+            .flat_map(|e| e.descriptor.iter().copied())
+            .collect();
+        let descriptor = Array2::from_shape_vec((elites.len(), n_dims), descriptor)
+            .map_err(|error| PyValueError::new_err(format!("internal: archive: {error}")))?;
+        dict.set_item("descriptor", PyArray2::from_owned_array(py, descriptor))?;
+        let genes: Vec<Vec<f32>> = elites.iter().map(|e| e.genes.clone()).collect();
+        dict.set_item("genes", genomes_array(py, &genes, self.n_genes)?)?;
+        Ok(Some(dict))
     }
 
     /// The whole state as JSON text (UTF-8 bytes): the settings, the seed and the algorithm's

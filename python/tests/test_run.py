@@ -93,7 +93,10 @@ def test_ctrl_c_stops_cleanly_and_a_rerun_resumes(tmp_path):
     out = tmp_path / "interrupted"
     script = textwrap.dedent(
         f"""
-        import sys, hevo
+        import signal, sys, hevo
+        # Ctrl-C as a terminal delivers it, whatever the test runner's own SIGINT disposition
+        # (a runner started in the background inherits SIGINT ignored).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         def show(event):
             if event["event"] == "generation":
                 print("generation", event["generation"], flush=True)

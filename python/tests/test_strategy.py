@@ -200,9 +200,11 @@ def test_every_algorithm_the_settings_reader_knows_works_here():
     with pytest.raises(hevo.ConfigError) as error:
         hevo.Strategy("no such algorithm", n_genes=2)
     known = re.findall(r"`(\w+)`", str(error.value).split("expected one of", 1)[1])
-    assert {"ga", "cmaes", "novelty"} <= set(known), known
+    assert {"ga", "cmaes", "novelty", "map_elites"} <= set(known), known
+    # What an algorithm cannot run without: MAP-Elites' grid over the descriptor.
+    required = {"map_elites": {"map_elites_ranges": [[-1.0, 1.0], [-1.0, 1.0]]}}
     for algorithm in known:
-        strategy = hevo.Strategy(algorithm, n_genes=3, seed=1)
+        strategy = hevo.Strategy(algorithm, n_genes=3, seed=1, **required.get(algorithm, {}))
         assert strategy.algorithm == algorithm
         # Two generations with the shipped tasks' descriptor width (final x and y).
         step_2d = lambda g: strategy.tell(sphere(g), descriptors=g[:, :2])  # noqa: E731
@@ -211,3 +213,30 @@ def test_every_algorithm_the_settings_reader_knows_works_here():
         resumed = hevo.Strategy.from_state(strategy.state())
         assert np.array_equal(resumed.ask(), strategy.ask()), algorithm
         assert resumed.generation == 2 and strategy.best is not None
+
+
+def test_the_archive_of_a_map_elites_strategy_is_what_it_was_told():
+    strategy = hevo.Strategy("map_elites", n_genes=3, seed=1, population=4,
+                             map_elites_bins=[2, 2], map_elites_ranges=[[0, 1], [0, 1]])
+    assert hevo.Strategy("ga", n_genes=3).archive is None
+    genomes = strategy.ask()
+    # Two genomes in cell (0, 0) (the fitter stays), one in (1, 1), one in (0, 1).
+    strategy.tell([1.0, 2.0, 0.5, -1.0],
+                  [[0.1, 0.1], [0.2, 0.2], [0.9, 0.9], [0.1, 0.9]])
+    archive = strategy.archive
+    assert (archive["cells"], archive["filled"]) == (4, 3)
+    assert archive["coverage"] == 0.75 and archive["qd_score"] == 1.5 and archive["best"] == 2.0
+    assert archive["cell"].tolist() == [0, 1, 3]
+    assert archive["fitness"].tolist() == [2.0, -1.0, 0.5]
+    assert archive["descriptor"].tolist() == [[0.2, 0.2], [0.1, 0.9], [0.9, 0.9]]
+    assert np.array_equal(archive["genes"], genomes[[1, 3, 2]])
+
+
+def test_map_elites_needs_its_ranges_and_fills_in_its_bins():
+    with pytest.raises(hevo.ConfigError, match="evolution.map_elites_ranges`: required"):
+        hevo.Strategy("map_elites", n_genes=3)
+    three = hevo.Strategy("map_elites", n_genes=3, map_elites_ranges=[[0, 1]] * 3)
+    assert three.archive["cells"] == 10**3
+    with pytest.raises(hevo.ConfigError, match="map_elites_bins"):
+        hevo.Strategy("map_elites", n_genes=3, map_elites_bins=[4],
+                      map_elites_ranges=[[0, 1], [0, 1]])
