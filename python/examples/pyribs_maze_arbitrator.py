@@ -1,8 +1,10 @@
 """MAP-Elites with pyribs on the double T-maze arbitrator over hevo's shipped primitives: a
 GridArchive over hevo's behaviour descriptor (where the robot ended, `final.x` and `final.y`,
 each the mean over a genome's samples: `Evaluation.descriptor`) and a GaussianEmitter, every
-batch evaluated by `hevo.evaluate`, or by a master's workers with --master. Prints the
-QD-score, the coverage and the best elite's post-evaluation, and draws the archive.
+batch evaluated by `hevo.evaluate`, or by a master's workers with --master; then hevo's own
+MAP-Elites (`hevo.Strategy("map_elites")`) on the same grid, batch, Gaussian step and
+evaluation seeds. Prints both archives' QD-score and coverage side by side and each best
+elite's post-evaluation, and draws both archives.
 
     pip install "./python[examples]"          # the module with pyribs and matplotlib
     python python/examples/pyribs_maze_arbitrator.py --out ribs-maze
@@ -94,31 +96,59 @@ def main():
                 f"{100 * stats.coverage:.1f}%, best {stats.obj_max:.3f}"
             )
 
-    elites = archive.data()
-    best = int(np.argmax(elites["objective"]))
-    genes = elites["solution"][best]
-    final = hevo.evaluate(template, genes[None, :], task, samples=args.post_samples, seed=999,
-                          threads=args.threads)
-    template.with_genome(genes).save(args.out / "ribs_best.json")
-    stats = archive.stats
-    print(
-        f"archive: {stats.num_elites} elites of {args.bins * args.bins} cells, QD-score "
-        f"{stats.qd_score:.2f}, coverage {100 * stats.coverage:.1f}%; the best elite's "
-        f"post-evaluation solve rate {100 * final.solve_rate[0]:.1f}% ({final.samples} samples)"
+    # hevo's MAP-Elites on the same budget: the same grid, batch and Gaussian step, random
+    # genomes first (N(0, sigma^2), as pyribs' emitter draws around x0 = 0 while its archive
+    # is empty), and the same evaluation seeds.
+    strategy = hevo.Strategy(
+        "map_elites", n_genes=template.n_genes, seed=args.seed, population=args.batch,
+        map_elites_bins=[args.bins, args.bins], map_elites_ranges=[list(r) for r in ranges],
+        map_elites_variation="gaussian", map_elites_sigma=args.sigma, initial_sigma=args.sigma,
+        map_elites_initial=args.batch,
     )
+    for iteration in range(args.iterations):
+        result = evaluate(template, strategy.ask(), task, samples=args.samples,
+                          seed=10_000 + iteration)
+        strategy.tell(result.fitness, result.descriptor)
 
-    grid = np.full((args.bins, args.bins), np.nan)
-    index = archive.int_to_grid_index(elites["index"])
-    grid[index[:, 1], index[:, 0]] = elites["objective"]
-    figure, axes = plt.subplots(figsize=(5, 4.5))
-    image = axes.imshow(grid, origin="lower", extent=[*ranges[0], *ranges[1]], cmap="viridis")
-    figure.colorbar(image, label="fitness of the cell's elite")
-    axes.set_xlabel(result.descriptor_names[0] + " (m)")
-    axes.set_ylabel(result.descriptor_names[1] + " (m)")
-    axes.set_title("where the arbitrators end (pyribs archive)")
-    figure.tight_layout()
-    figure.savefig(args.out / "ribs_archive.png", dpi=120)
-    print(f"archive -> {args.out / 'ribs_archive.png'}")
+    elites = archive.data()
+    ribs_genes = elites["solution"][int(np.argmax(elites["objective"]))]
+    hevo_archive = strategy.archive
+    hevo_genes = hevo_archive["genes"][int(np.argmax(hevo_archive["fitness"]))]
+    stats = archive.stats
+    rows = [
+        ("pyribs", stats.num_elites, stats.qd_score, stats.coverage, ribs_genes),
+        ("hevo", hevo_archive["filled"], hevo_archive["qd_score"], hevo_archive["coverage"],
+         hevo_genes),
+    ]
+    cells = args.bins * args.bins
+    print(f"same budget: {args.iterations * args.batch * per_genome} evaluations each")
+    for name, filled, qd_score, coverage, genes in rows:
+        final = hevo.evaluate(template, genes[None, :], task, samples=args.post_samples,
+                              seed=999, threads=args.threads)
+        template.with_genome(genes).save(args.out / f"{name}_best.json")
+        print(
+            f"{name + ' archive:':<16}{filled} elites of {cells} cells, QD-score {qd_score:.2f}, "
+            f"coverage {100 * coverage:.1f}%; the best elite's post-evaluation solve rate "
+            f"{100 * final.solve_rate[0]:.1f}% ({final.samples} samples)"
+        )
+
+    figure, all_axes = plt.subplots(1, 2, figsize=(10, 4.5), sharey=True)
+    bins = archive.int_to_grid_index(elites["index"])
+    hevo_bins = np.stack([hevo_archive["cell"] // args.bins, hevo_archive["cell"] % args.bins], 1)
+    for axes, (name, grid_bins, fitness) in zip(all_axes, [
+        ("pyribs", bins, elites["objective"]),
+        ("hevo", hevo_bins, hevo_archive["fitness"]),
+    ]):
+        grid = np.full((args.bins, args.bins), np.nan)
+        grid[grid_bins[:, 1], grid_bins[:, 0]] = fitness
+        image = axes.imshow(grid, origin="lower", extent=[*ranges[0], *ranges[1]],
+                            cmap="viridis")
+        axes.set_xlabel(result.descriptor_names[0] + " (m)")
+        axes.set_title(f"{name}'s archive")
+    all_axes[0].set_ylabel(result.descriptor_names[1] + " (m)")
+    figure.colorbar(image, ax=all_axes, label="fitness of the cell's elite")
+    figure.savefig(args.out / "archives.png", dpi=120)
+    print(f"archives -> {args.out / 'archives.png'}")
 
 
 if __name__ == "__main__":

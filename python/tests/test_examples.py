@@ -82,18 +82,20 @@ def test_hevo_cmaes_beside_pycma_and_resumed(tmp_path):
     assert state == (tmp_path / "both" / "hevo_cmaes.state").read_bytes()
 
 
-def test_pyribs_map_elites_over_hevo_s_descriptors(tmp_path):
+def test_pyribs_map_elites_over_hevo_s_descriptors_beside_hevo_s_own(tmp_path):
     pytest.importorskip("ribs")
     out = run_example(
         "pyribs_maze_arbitrator.py", "--out", tmp_path, "--iterations", 3, "--batch", 8,
         "--samples", 1, "--bins", 5, "--post-samples", 1, "--threads", 2,
     )
-    assert "QD-score" in out and "coverage" in out, out
-    # The elites spread over more than one cell: hevo's descriptors reached the archive.
-    elites = int(re.search(r"archive: (\d+) elites of 25 cells", out).group(1))
-    assert elites >= 2, out
-    assert (tmp_path / "ribs_archive.png").stat().st_size > 1000
-    assert hevo.Controller.load(tmp_path / "ribs_best.json").free_node is None
+    assert "same budget: 96 evaluations each" in out, out
+    # Both archives spread over more than one cell: hevo's descriptors reached each of them.
+    for name in ["pyribs", "hevo"]:
+        found = re.search(rf"{name} archive: +(\d+) elites of 25 cells, QD-score [0-9.]+, "
+                          r"coverage [0-9.]+%", out)
+        assert found and int(found.group(1)) >= 2, out
+        assert hevo.Controller.load(tmp_path / f"{name}_best.json").free_node is None
+    assert (tmp_path / "archives.png").stat().st_size > 1000
 
 
 def load_example(name):
