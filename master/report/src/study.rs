@@ -252,16 +252,17 @@ fn summary_cell(found: &Found<'_>) -> String {
 /// A question's searches, one row each.
 fn search_table(searches: &[Found<'_>]) -> String {
     let mut md = String::from(
-        "| algorithm | node | average / best | runs finished | each run | post-evaluation samples | under way | continue with |\n\
-         |---|---|---|---|---|---|---|---|\n",
+        "| algorithm | node | average / best | runs finished | each run | runs that never solve a variant | post-evaluation samples | under way | continue with |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
     );
     for found in searches {
         let search = found.search;
         let node_path = &found.node_dir;
-        let (rates, finished, each, samples, under_way) = match &found.node {
+        let (rates, finished, each, stuck, samples, under_way) = match &found.node {
             None => (
                 "-".to_string(),
                 format!("0 of {}", search.planned_runs),
+                "-".to_string(),
                 "-".to_string(),
                 "-".to_string(),
                 format!("not started (no runs in `{}`)", node_path.display()),
@@ -295,6 +296,7 @@ fn search_table(searches: &[Found<'_>]) -> String {
                     } else {
                         each.join(", ")
                     },
+                    never_solved(&node.runs),
                     if samples.is_empty() {
                         "-".into()
                     } else {
@@ -310,13 +312,36 @@ fn search_table(searches: &[Found<'_>]) -> String {
         };
         let _ = writeln!(
             md,
-            "| {} | `{}` | {rates} | {finished} | {each} | {samples} | {under_way} | `{}` |",
+            "| {} | `{}` | {rates} | {finished} | {each} | {stuck} | {samples} | {under_way} | `{}` |",
             search.algorithm,
             node_path.display(),
             search.command
         );
     }
     md
+}
+
+/// How many finished runs solve none of a variant's post-evaluation samples (a light
+/// configuration of the maze, say): a search stuck on part of its task, not merely weaker on
+/// all of it. "-" when the task has no variants or no run has finished.
+fn never_solved(runs: &[hevo_rundir::RunSummary]) -> String {
+    let with_variants: Vec<_> = runs
+        .iter()
+        .filter(|r| !r.post_evaluation.per_variant.is_empty())
+        .collect();
+    if with_variants.is_empty() {
+        return "-".into();
+    }
+    let stuck = with_variants
+        .iter()
+        .filter(|r| {
+            r.post_evaluation
+                .per_variant
+                .iter()
+                .any(|v| v.samples > 0 && v.solve_rate == 0.0)
+        })
+        .count();
+    format!("{stuck} of {}", with_variants.len())
 }
 
 /// `path` with `a/../` and `./` taken out, without asking the file system, so a node named
@@ -360,11 +385,17 @@ mod tests {
     }
 
     fn run_summary(node: &str, run: u32, solve_rate: f64) -> String {
+        // Two variants: the second never solved when the run solves at most half.
+        let second = if solve_rate <= 0.5 { 0.0 } else { solve_rate };
         serde_json::json!({
             "node": node, "run": run, "fingerprint": "f", "run_seed": 1, "generations": 3,
             "final_best_fitness": 1.0,
             "post_evaluation": {"task": "solve_maze", "samples": 400, "solve_rate": solve_rate,
-                "mean_fitness": 1.0, "collision_rate": 0.0, "mean_cycles": 100.0}
+                "mean_fitness": 1.0, "collision_rate": 0.0, "mean_cycles": 100.0,
+                "per_variant": [
+                    {"variant": 0, "samples": 200, "solve_rate": 1.0},
+                    {"variant": 1, "samples": 200, "solve_rate": second}
+                ]}
         })
         .to_string()
     }
@@ -447,7 +478,7 @@ command = "hevo run me.toml"
             "{md}"
         );
         assert!(
-            md.contains("| 50.0%, 75.0% | 400 | - | `hevo run ga.toml` |"),
+            md.contains("| 50.0%, 75.0% | 1 of 2 | 400 | - | `hevo run ga.toml` |"),
             "{md}"
         );
         assert!(md.contains("| run 1 at generation 42 |"), "{md}");
