@@ -66,11 +66,11 @@ impl StudyFile {
     /// Reads and checks a study file; errors name the file and what is wrong in it.
     pub fn read(path: &Path) -> Result<StudyFile, ReportError> {
         let text = std::fs::read_to_string(path).map_err(io_error(path))?;
-        let study: StudyFile = toml::from_str(&text).map_err(|e| ReportError::Study {
+        let study: StudyFile = toml::from_str(&text).map_err(|e| ReportError::Invalid {
             path: path.to_path_buf(),
             what: e.to_string(),
         })?;
-        study.check().map_err(|what| ReportError::Study {
+        study.check().map_err(|what| ReportError::Invalid {
             path: path.to_path_buf(),
             what,
         })?;

@@ -20,6 +20,25 @@ pub struct VariantReport {
     pub solve_rate: f64,
 }
 
+/// The format tag of an [`EvalRecord`].
+pub const EVAL_RECORD_FORMAT: &str = "hevo.evaluation/1";
+
+/// `hevo eval --record FILE`: one post-evaluation, with the controller file and the command
+/// that repeats it, kept beside the run directories so that `hevo report --evaluation FILE`
+/// can put a controller's rate on a task it was not evolved for into REPRODUCTION.md.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvalRecord {
+    /// [`EVAL_RECORD_FORMAT`].
+    pub format: String,
+    /// The controller file, as given.
+    pub controller: String,
+    /// The `hevo eval` command that wrote this record, which writes it again.
+    pub command: String,
+    /// The evaluation.
+    pub report: EvalReport,
+}
+
 /// The result of evaluating one controller on many samples.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EvalReport {

@@ -4,9 +4,11 @@
 use crate::args::TaskArgs;
 use crate::inputs::{check_fits, load_controller, other_task_warning};
 use crate::runtime::{default_threads, with_local_workers};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use hevo_engine::post_evaluation;
+use hevo_engine::post_evaluation::{EVAL_RECORD_FORMAT, EvalRecord};
+use hevo_engine::store::write_json_atomic;
 use hevo_sim_core::{Evaluator, TaskConfig};
 use std::path::PathBuf;
 
@@ -32,6 +34,10 @@ pub struct EvalArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Also write the report, the controller file and this command as JSON to FILE, for
+    /// `hevo report --evaluation FILE`.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
 }
 
 /// What `hevo eval --json` prints: the report, and the failed samples when asked for.
@@ -69,6 +75,16 @@ pub fn eval(args: EvalArgs) -> Result<()> {
     })?;
     let report = post_evaluation::report(&task, &summaries, &node_paths);
     let failures = post_evaluation::failed_samples(&samples, &summaries);
+    if let Some(path) = &args.record {
+        let record = EvalRecord {
+            format: EVAL_RECORD_FORMAT.into(),
+            controller: args.controller.display().to_string(),
+            command: this_command(),
+            report: report.clone(),
+        };
+        write_json_atomic(path, &record)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
     if args.json {
         let output = EvalOutput {
             report: &report,
@@ -117,4 +133,24 @@ fn describe_failure(
         failure.seed,
         failure.seed
     )
+}
+
+/// The command line this process was started with, as `hevo ...` (whatever the binary's path),
+/// each argument quoted for a POSIX shell where it needs it.
+fn this_command() -> String {
+    let quoted = std::env::args().skip(1).map(|arg| {
+        let plain = !arg.is_empty()
+            && arg
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+".contains(c));
+        if plain {
+            arg
+        } else {
+            format!("'{}'", arg.replace('\'', r"'\''"))
+        }
+    });
+    std::iter::once("hevo".to_string())
+        .chain(quoted)
+        .collect::<Vec<_>>()
+        .join(" ")
 }

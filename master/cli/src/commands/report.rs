@@ -16,10 +16,14 @@ pub struct ReportArgs {
     /// section of their own, beside them.
     #[arg(long = "ablation", value_name = "DIR")]
     pub ablation_dirs: Vec<PathBuf>,
+    /// An evaluation record (`hevo eval --record`, repeatable): a controller's rate on a task
+    /// it was not evolved for, in a section of its own.
+    #[arg(long = "evaluation", value_name = "FILE")]
+    pub evaluations: Vec<PathBuf>,
     /// Instead of the paper's report, the study page of this study file (a TOML list of
     /// questions, each with the run directories of the algorithms that searched it; see
     /// `experiments/study/study.toml`).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["runs_dirs", "ablation_dirs"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["runs_dirs", "ablation_dirs", "evaluations"])]
     pub study: Option<PathBuf>,
     /// The Markdown file to write (default `REPRODUCTION.md`, or `docs/study-algorithms.md`
     /// with `--study`); pictures go to a folder named after it beside it (`reproduction/`).
@@ -41,7 +45,12 @@ pub fn report(args: ReportArgs) -> Result<()> {
         return Ok(());
     }
     let out = args.out.unwrap_or_else(|| PathBuf::from("REPRODUCTION.md"));
-    let n = hevo_report::write_report(&args.runs_dirs, &args.ablation_dirs, &out)?;
+    let n = hevo_report::write_report(
+        &args.runs_dirs,
+        &args.ablation_dirs,
+        &args.evaluations,
+        &out,
+    )?;
     crate::outln!("{n} node(s) reported -> {}", out.display());
     Ok(())
 }

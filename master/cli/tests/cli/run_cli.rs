@@ -532,6 +532,46 @@ fn eval_and_bench_report_what_they_measured() {
             .exists()
     );
 
+    // A controller evaluated on another task, recorded, gets a row with the command that
+    // writes its record again.
+    let record = dir.path().join("exit_room-on-maze.json");
+    hevo_ok(&[
+        "eval",
+        controller.to_str().unwrap(),
+        "--task",
+        "solve_maze",
+        "--samples",
+        "2",
+        "--record",
+        record.to_str().unwrap(),
+    ]);
+    let recorded: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&record).unwrap()).unwrap();
+    assert_eq!(recorded["format"], "hevo.evaluation/1");
+    assert_eq!(recorded["report"]["task"], "solve_maze");
+    assert_eq!(
+        recorded["command"],
+        format!(
+            "hevo eval {} --task solve_maze --samples 2 --record {}",
+            controller.display(),
+            record.display()
+        )
+    );
+    hevo_ok(&[
+        "report",
+        out_dir.to_str().unwrap(),
+        "--evaluation",
+        record.to_str().unwrap(),
+        "--out",
+        report_file.to_str().unwrap(),
+    ]);
+    let markdown = std::fs::read_to_string(&report_file).unwrap();
+    assert!(
+        markdown.contains("## Controllers on other tasks")
+            && markdown.contains("| solve_maze | 8 | "),
+        "{markdown}"
+    );
+
     // An ablation directory: its node evolved under another setup (here another seed) gets a
     // section beside the main results; a node copied from the main results does not.
     let ablation_dir = dir.path().join("ablation");
