@@ -85,17 +85,7 @@ pub fn archive_heatmap_svg(title: &str, archive: &ArchiveFile) -> Result<String,
     };
 
     let mut doc = SvgDocument::new(width, height, "archive-heatmap");
-    doc.title(title);
-    doc.text(
-        Tag::new("text")
-            .class("title")
-            .num("x", PAD)
-            .num("y", 32.0)
-            .num("font-size", TITLE_FONT)
-            .attr("font-weight", "bold")
-            .attr("fill", INK),
-        title,
-    );
+    doc.heading(title, PAD, TITLE_FONT);
     doc.open(Tag::new("g").class("cells"));
     doc.leaf(
         Tag::new("rect")
@@ -262,17 +252,7 @@ pub fn qd_plot_svg(title: &str, runs: &[(String, Vec<QdRow>)]) -> String {
     let values: [fn(&QdRow) -> f64; 2] = [|r| r.qd_score, |r| 100.0 * r.coverage()];
 
     let mut doc = SvgDocument::new(WIDTH, height, "qd-plot");
-    doc.title(title);
-    doc.text(
-        Tag::new("text")
-            .class("title")
-            .num("x", PAD)
-            .num("y", 32.0)
-            .num("font-size", TITLE_FONT)
-            .attr("font-weight", "bold")
-            .attr("fill", INK),
-        title,
-    );
+    doc.heading(title, PAD, TITLE_FONT);
     for ((top, name), value) in panels.into_iter().zip(values) {
         let bottom = top + PANEL;
         let (low, high) = runs

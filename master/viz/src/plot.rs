@@ -279,17 +279,7 @@ pub fn fitness_plot_svg(title: &str, runs: &[RunLog], planned_generations: Optio
     let height = legend_top + (row + 1) as f64 * 24.0 + PAD - 8.0;
 
     let mut doc = SvgDocument::new(WIDTH, height, "fitness-plot");
-    doc.title(title);
-    doc.text(
-        Tag::new("text")
-            .class("title")
-            .num("x", PAD)
-            .num("y", 32.0)
-            .num("font-size", TITLE_FONT)
-            .attr("font-weight", "bold")
-            .attr("fill", INK),
-        title,
-    );
+    doc.heading(title, PAD, TITLE_FONT);
 
     // Grid, ticks and axes.
     doc.open(Tag::new("g").class("axes").attr("fill", INK));

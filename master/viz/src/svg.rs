@@ -283,6 +283,22 @@ impl SvgDocument {
         self.text(Tag::new("title"), content);
     }
 
+    /// Writes a chart's title twice: as its `<title>`, and as bold text at its top, `left`
+    /// pixels in, where the fitness, QD and archive charts all put it.
+    pub fn heading(&mut self, content: &str, left: f64, font_size: f64) {
+        self.title(content);
+        self.text(
+            Tag::new("text")
+                .class("title")
+                .num("x", left)
+                .num("y", 32.0)
+                .num("font-size", font_size)
+                .attr("font-weight", "bold")
+                .attr("fill", INK),
+            content,
+        );
+    }
+
     fn indent(&mut self) {
         for _ in 0..self.open.len() {
             self.out.push_str("  ");

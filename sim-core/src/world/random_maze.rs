@@ -141,8 +141,8 @@ mod tests {
     }
 
     #[test]
-    fn the_largest_maze_is_built_quickly_enough_to_draw_per_sample() {
-        // Not a timing: the count of wall rectangles a sample's scene is built from.
+    fn the_largest_maze_has_a_bounded_count_of_walls() {
+        // What a sample's scene is built from each time: the count of wall rectangles.
         let maze = generate(
             MAX_MAZE_SIDE,
             MAX_MAZE_SIDE,

@@ -112,6 +112,19 @@ fn watch_until_done(master: &Master, job: &str, extra: &[&str], generations: u32
     stdout
 }
 
+/// Fetches the job's results into the scratch directory's `fetched/` and compares them with
+/// `expected`, byte for byte.
+fn assert_fetched_same_as(master: &Master, job: &str, scratch: &Scratch, expected: &Path) {
+    fetch(
+        &master.url,
+        CLIENT_TOKEN,
+        job,
+        &scratch.join("fetched"),
+        &[],
+    );
+    assert_same_results(expected, &scratch.join("fetched"), None);
+}
+
 /// The master's metrics page (it must have been started with `--metrics-listen`).
 fn metrics_text(master: &Master) -> String {
     let address = master
@@ -179,14 +192,7 @@ fn two_workers_give_exactly_the_local_results() {
     let mut workers = two_workers(&master, &scratch, "w");
     let job = submit(&master, &file, &[]);
     watch_to_end(&master, &job, &[]);
-    fetch(
-        &master.url,
-        CLIENT_TOKEN,
-        &job,
-        &scratch.join("fetched"),
-        &[],
-    );
-    assert_same_results(expected, &scratch.join("fetched"), None);
+    assert_fetched_same_as(&master, &job, &scratch, expected);
 
     let metrics = metrics_text(&master);
     assert_eq!(metric(&metrics, "hevo_workers_connected"), 2.0, "{metrics}");
@@ -275,14 +281,7 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
     let job = submit(&master, &file, &[]);
     std::fs::remove_file(dir.join("pit_maze.toml")).unwrap();
     watch_until_done(&master, &job, &[], 3);
-    fetch(
-        &master.url,
-        CLIENT_TOKEN,
-        &job,
-        &scratch.join("fetched"),
-        &[],
-    );
-    assert_same_results(&local, &scratch.join("fetched"), None);
+    assert_fetched_same_as(&master, &job, &scratch, &local);
     let summary = std::fs::read_to_string(scratch.join("fetched/pit_maze/summary.json")).unwrap();
     assert!(summary.contains("\"task\": \"pit_maze\""), "{summary}");
 }
@@ -359,14 +358,7 @@ fn every_algorithm_on_two_workers_gives_the_local_results() {
     let _workers = two_workers(&master, &scratch, "a");
     let job = submit(&master, &file, &[]);
     watch_until_done(&master, &job, &[], 12);
-    fetch(
-        &master.url,
-        CLIENT_TOKEN,
-        &job,
-        &scratch.join("fetched"),
-        &[],
-    );
-    assert_same_results(&local, &scratch.join("fetched"), None);
+    assert_fetched_same_as(&master, &job, &scratch, &local);
 }
 
 /// A `name=value` field of a log line.
@@ -525,14 +517,7 @@ fn a_worker_killed_mid_job_changes_nothing_but_time() {
         "no lease expiry or revocation counted:\n{metrics}"
     );
 
-    fetch(
-        &master.url,
-        CLIENT_TOKEN,
-        &job,
-        &scratch.join("fetched"),
-        &[],
-    );
-    assert_same_results(expected, &scratch.join("fetched"), None);
+    assert_fetched_same_as(&master, &job, &scratch, expected);
     eprintln!(
         "killed worker: {:.1} s, lease expiries {expiries}, revocations {revocations}",
         started.elapsed().as_secs_f64(),
@@ -595,14 +580,7 @@ fn a_master_killed_and_restarted_resumes_to_the_same_results() {
         (2..8).contains(&resumed_at),
         "resumed at generation {resumed_at}"
     );
-    fetch(
-        &master.url,
-        CLIENT_TOKEN,
-        &job,
-        &scratch.join("fetched"),
-        &[],
-    );
-    assert_same_results(expected, &scratch.join("fetched"), None);
+    assert_fetched_same_as(&master, &job, &scratch, expected);
     eprintln!("killed master: {:.1} s", started.elapsed().as_secs_f64());
 }
 
