@@ -7,7 +7,10 @@
 //! reproducible from its seed alone and its state is the population to evaluate next.
 
 use crate::seeds::{RunStream, stream};
-use crate::{Evaluation, Strategy, StrategyError, StrategyState, check_results};
+use crate::{
+    Evaluation, Strategy, StrategyError, StrategyState, check_gene_range, check_results,
+    check_spreads,
+};
 use rand::RngExt;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
@@ -70,22 +73,11 @@ impl GaSettings {
                 format!("must be in [0, 1], got {}", self.mutation_probability),
             );
         }
-        for (key, sigma) in [
+        check_spreads(&[
             ("mutation_sigma", self.mutation_sigma),
             ("initial_sigma", self.initial_sigma),
-        ] {
-            if !(sigma.is_finite() && sigma >= 0.0) {
-                return fail(key, format!("must be >= 0, got {sigma}"));
-            }
-        }
-        let [low, high] = self.gene_range;
-        if !(low.is_finite() && high.is_finite() && low < high) {
-            return fail(
-                "gene_range",
-                format!("must be [low, high], finite, with low < high, got [{low}, {high}]"),
-            );
-        }
-        Ok(())
+        ])?;
+        check_gene_range(self.gene_range)
     }
 }
 

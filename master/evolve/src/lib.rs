@@ -218,6 +218,32 @@ pub enum StrategyError {
     Tell(String),
 }
 
+/// Refuses a spread (a standard deviation) that is not finite and at least 0, naming its key;
+/// the first of `spreads` at fault is named.
+pub(crate) fn check_spreads(spreads: &[(&'static str, f64)]) -> Result<(), StrategyError> {
+    match spreads
+        .iter()
+        .find(|(_, sigma)| !(sigma.is_finite() && *sigma >= 0.0))
+    {
+        Some(&(key, sigma)) => Err(StrategyError::Settings {
+            key,
+            message: format!("must be >= 0, got {sigma}"),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a gene range that is not finite with low < high.
+pub(crate) fn check_gene_range([low, high]: [f64; 2]) -> Result<(), StrategyError> {
+    if low.is_finite() && high.is_finite() && low < high {
+        return Ok(());
+    }
+    Err(StrategyError::Settings {
+        key: "gene_range",
+        message: format!("must be [low, high], finite, with low < high, got [{low}, {high}]"),
+    })
+}
+
 /// Refuses results that are not one finite fitness per genome asked for.
 pub(crate) fn check_results(n_asked: usize, results: &[Evaluation]) -> Result<(), StrategyError> {
     if results.len() != n_asked {

@@ -25,7 +25,10 @@
 //! run's log of them continues exactly after a resume.
 
 use crate::seeds::{RunStream, stream};
-use crate::{Evaluation, Strategy, StrategyError, StrategyState, check_results};
+use crate::{
+    Evaluation, Strategy, StrategyError, StrategyState, check_gene_range, check_results,
+    check_spreads,
+};
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -154,23 +157,12 @@ impl MapElitesSettings {
                 format!("each must be [lo, hi], finite, with lo < hi, got [{lo}, {hi}]"),
             );
         }
-        for (key, sigma) in [
+        check_spreads(&[
             ("initial_sigma", self.initial_sigma),
             ("map_elites_sigma", self.sigma),
             ("map_elites_line_sigma", self.line_sigma),
-        ] {
-            if !(sigma.is_finite() && sigma >= 0.0) {
-                return fail(key, format!("must be >= 0, got {sigma}"));
-            }
-        }
-        let [low, high] = self.gene_range;
-        if !(low.is_finite() && high.is_finite() && low < high) {
-            return fail(
-                "gene_range",
-                format!("must be [low, high], finite, with low < high, got [{low}, {high}]"),
-            );
-        }
-        Ok(())
+        ])?;
+        check_gene_range(self.gene_range)
     }
 
     /// The grid's cells, when their count fits in a `u64`.
