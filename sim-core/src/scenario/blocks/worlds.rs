@@ -241,15 +241,21 @@ impl World for Corridor {
                 shape,
             }
         } else {
-            let map = Arc::new(map);
-            Built {
-                scene: Arc::new(Scene::new(map.wall_rects(&[]), params.query_margin())),
-                cells: Some(map),
-                room: None,
-                corridor_path: Some(path),
-                shape,
-            }
+            cells_with_path(map, path, shape, params)
         }
+    }
+}
+
+/// A world of corridor cells alone, walls all round, with the way to its goal: a generated
+/// corridor's or a random maze's.
+fn cells_with_path(map: CellMap, path: Vec<usize>, shape: Option<u32>, params: &Params) -> Built {
+    let map = Arc::new(map);
+    Built {
+        scene: Arc::new(Scene::new(map.wall_rects(&[]), params.query_margin())),
+        cells: Some(map),
+        room: None,
+        corridor_path: Some(path),
+        shape,
     }
 }
 
@@ -397,14 +403,7 @@ impl World for Maze {
         rng: &mut SimRng,
     ) -> Built {
         let maze = random_maze::generate(self.cols, self.rows, rng);
-        let map = Arc::new(maze.map);
-        Built {
-            scene: Arc::new(Scene::new(map.wall_rects(&[]), params.query_margin())),
-            cells: Some(map),
-            room: None,
-            corridor_path: Some(maze.path),
-            shape: None,
-        }
+        cells_with_path(maze.map, maze.path, None, params)
     }
 }
 
