@@ -288,65 +288,40 @@ fn a_job_on_a_scenario_file_of_ones_own_gives_the_local_results() {
 
 /// One small node per search algorithm besides the GA, each named by its `[node.evolution]`:
 /// a worker evaluates genomes and never knows which algorithm asked for them.
-const ALGORITHMS_EXPERIMENT: &str = r#"
-[experiment]
-name = "algorithms"
-
-[evolution]
-population = 8
-post_evaluation_samples = 4
-
-[[node]]
-name = "by_cmaes"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "exit_room"
-samples = 4
-generations = 3
-runs = 1
-evolution = { algorithm = "cmaes" }
-
-[[node]]
-name = "by_sep_cmaes_ipop"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "exit_room"
-samples = 4
-generations = 3
-runs = 1
-evolution = { algorithm = "cmaes", cmaes_variant = "separable", restarts = 2 }
-
-[[node]]
-name = "by_novelty"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "exit_room"
-samples = 4
-generations = 3
-runs = 1
-evolution = { algorithm = "novelty", elites = 2, novelty_neighbours = 3 }
-
-[[node]]
-name = "by_map_elites"
-kind = "primitive"
-inputs = ["ir"]
-hidden = 3
-task = "exit_room"
-samples = 4
-generations = 3
-runs = 1
-evolution = { algorithm = "map_elites", map_elites_bins = [3, 3], map_elites_ranges = [[-2.0, 2.0], [-2.0, 2.0]] }
-"#;
+fn algorithms_experiment() -> String {
+    let nodes = [
+        ("by_cmaes", r#"{ algorithm = "cmaes" }"#),
+        (
+            "by_sep_cmaes_ipop",
+            r#"{ algorithm = "cmaes", cmaes_variant = "separable", restarts = 2 }"#,
+        ),
+        (
+            "by_novelty",
+            r#"{ algorithm = "novelty", elites = 2, novelty_neighbours = 3 }"#,
+        ),
+        (
+            "by_map_elites",
+            r#"{ algorithm = "map_elites", map_elites_bins = [3, 3], map_elites_ranges = [[-2.0, 2.0], [-2.0, 2.0]] }"#,
+        ),
+    ];
+    let mut text = String::from(
+        "[experiment]\nname = \"algorithms\"\n\n[evolution]\npopulation = 8\npost_evaluation_samples = 4\n",
+    );
+    for (name, evolution) in nodes {
+        text.push_str(&format!(
+            "\n[[node]]\nname = \"{name}\"\nkind = \"primitive\"\ninputs = [\"ir\"]\nhidden = 3\n\
+             task = \"exit_room\"\nsamples = 4\ngenerations = 3\nruns = 1\nevolution = {evolution}\n"
+        ));
+    }
+    text
+}
 
 #[test]
 fn every_algorithm_on_two_workers_gives_the_local_results() {
     let _turn = cluster_turn();
     let scratch = Scratch::new("algorithms");
     let file = scratch.join("algorithms.toml");
-    std::fs::write(&file, ALGORITHMS_EXPERIMENT).unwrap();
+    std::fs::write(&file, algorithms_experiment()).unwrap();
     let local = scratch.join("local");
     run_locally(&file, &local, LOCAL);
     assert!(
