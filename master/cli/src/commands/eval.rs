@@ -136,21 +136,14 @@ fn describe_failure(
 }
 
 /// The command line this process was started with, as `hevo ...` (whatever the binary's path),
-/// each argument quoted for a POSIX shell where it needs it.
+/// quoted for a POSIX shell where an argument needs it (an argument that is not UTF-8 is
+/// written lossily: the record is text).
 fn this_command() -> String {
-    let quoted = std::env::args().skip(1).map(|arg| {
-        let plain = !arg.is_empty()
-            && arg
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+".contains(c));
-        if plain {
-            arg
-        } else {
-            format!("'{}'", arg.replace('\'', r"'\''"))
-        }
-    });
-    std::iter::once("hevo".to_string())
-        .chain(quoted)
-        .collect::<Vec<_>>()
-        .join(" ")
+    let args: Vec<String> = std::env::args_os()
+        .skip(1)
+        .map(|arg| arg.to_string_lossy().into_owned())
+        .collect();
+    let words = std::iter::once("hevo").chain(args.iter().map(String::as_str));
+    // A quoting error means a NUL byte, which no argument of a process can hold.
+    shlex::try_join(words).unwrap_or_else(|_| format!("hevo {}", args.join(" ")))
 }
