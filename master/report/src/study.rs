@@ -221,7 +221,6 @@ fn summary_table(study: &StudyFile, found: &[Vec<Found<'_>>]) -> String {
                     .collect::<Vec<_>>()
                     .join("; ")
             })
-            .map(|cell| if cell.is_empty() { "".into() } else { cell })
             .collect();
         let _ = writeln!(md, "| {} | {} |", question.name, cells.join(" | "));
     }
