@@ -160,6 +160,9 @@ pub struct TraceCycle {
     pub lit_lights: u32,
     /// The rescue sub-task in force (0 exit room, 1 solve maze, 2 return), else 0.
     pub sub_task: u8,
+    /// A team's other robots' poses at the start of the cycle, group by group (`[[robots]]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub team: Vec<Pose>,
 }
 
 /// What a replay needs to draw a sample: the world and every cycle.

@@ -7,6 +7,7 @@
 use super::judge::{Judge, phase_children};
 use super::setup::{self, Statics};
 use super::stepping::{Episode, Recorder};
+use super::team::Team;
 use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::config::ConfigError;
 use crate::geometry::scene::Scene;
@@ -149,6 +150,7 @@ impl Evaluator {
                         ),
                     ));
                 }
+                self.check_team_starts(&env, variant, seed)?;
                 if let Some(forbidden) = &scenario.forbidden {
                     let teammate = env
                         .teammate
@@ -177,9 +179,62 @@ impl Evaluator {
         Ok(())
     }
 
+    /// Refuses a team robot that starts touching a solid or another robot: its region had no
+    /// room clear of them in [`setup`]'s tries.
+    fn check_team_starts(
+        &self,
+        env: &Environment,
+        variant: u32,
+        seed: u64,
+    ) -> Result<(), ScenarioError> {
+        let scenario = &self.task.scenario;
+        let radius = self.task.params.robot.radius;
+        let group_of = scenario
+            .robot_groups
+            .iter()
+            .enumerate()
+            .flat_map(|(group_idx, group)| {
+                std::iter::repeat_n((group_idx, group), group.count as usize)
+            });
+        for ((member, pose), (group_idx, group)) in env.team.iter().enumerate().zip(group_of) {
+            let earlier = std::iter::once(&env.start).chain(&env.team[..member]);
+            let touches_robot = earlier
+                .into_iter()
+                .any(|other| other.distance_to(pose.position()) < 2.0 * radius);
+            if touches_robot || env.scene.disc_hits(pose.position(), radius) {
+                return Err(scenario.refusal(
+                    &format!("robots[{group_idx}].region"),
+                    format!(
+                        "the region '{}' has no room for the {} robots of group '{}' clear of \
+                         walls and of each other: one starts touching {} at ({:.3}, {:.3}) m in \
+                         variant {variant}, seed {seed}; give the group a larger region or fewer \
+                         robots",
+                        scenario.file.robot_groups[group_idx].region,
+                        group.count,
+                        group.name,
+                        if touches_robot {
+                            "another robot"
+                        } else {
+                            "a solid"
+                        },
+                        pose.x,
+                        pose.y
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The task.
     pub fn task(&self) -> &TaskConfig {
         &self.task
+    }
+
+    /// The sensor of input group `group` (by index), if the robot carries it and anything can
+    /// excite it: every robot of a team reads its own run of the same sensors.
+    pub(crate) fn sensor(&self, group: usize) -> Option<&dyn Sensor> {
+        self.sensors[group].as_deref()
     }
 
     /// Runs one sample.
@@ -240,6 +295,7 @@ impl Evaluator {
             policy.n_nodes(),
             phase_children(&self.task.scenario, policy),
         );
+        episode.drive_team_with(policy);
         let ending = loop {
             let wheels = policy.step(episode.frame(), dt);
             if let Some(ending) =
@@ -267,6 +323,8 @@ pub(crate) struct SampleRun<'e> {
     noise: SimRng,
     robot: Pose,
     teammate: Option<Teammate>,
+    /// A team's other robots, in scenarios with `[[robots]]`.
+    team: Option<Team<'e>>,
     lights: Vec<LiveLight>,
     /// Each light's position, by index: what the light sensor sees of the lights.
     light_positions: Vec<[f32; 2]>,
@@ -316,6 +374,7 @@ impl<'e> SampleRun<'e> {
         let teammate = env.teammate.map(|(pose, following)| {
             Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
         });
+        let team = Team::new(evaluator, sample, &env.team, &robot);
         let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
         let light_positions = env.lights.iter().map(|spec| spec.position).collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
@@ -325,6 +384,7 @@ impl<'e> SampleRun<'e> {
             ground,
             robot,
             teammate.as_ref().map(Teammate::view),
+            team.as_ref().map_or(&[][..], Team::positions),
             phase_child,
         );
         SampleRun {
@@ -334,6 +394,7 @@ impl<'e> SampleRun<'e> {
             noise,
             robot,
             teammate,
+            team,
             lights,
             light_positions,
             judge,
@@ -358,6 +419,18 @@ impl<'e> SampleRun<'e> {
     /// The variant the sample runs.
     pub(crate) fn variant(&self) -> u32 {
         self.env.variant
+    }
+
+    /// Gives a team's `evolved` robots their own copies of `policy`.
+    pub(crate) fn drive_team_with(&mut self, policy: &dyn Policy) {
+        if let Some(team) = self.team.as_mut() {
+            team.drive_with(policy);
+        }
+    }
+
+    /// A team's other robots' poses, group by group (none without a team).
+    pub(crate) fn team_poses(&self) -> Vec<Pose> {
+        self.team.as_ref().map_or_else(Vec::new, Team::poses)
     }
 
     /// The teammate's pose, where the task has one.
@@ -403,6 +476,9 @@ impl<'e> SampleRun<'e> {
             }
             light.count_down();
         }
+        if let Some(team) = self.team.as_mut() {
+            team.gather(&robot);
+        }
         let view = SenseView {
             robot: &robot,
             sin_heading,
@@ -411,6 +487,8 @@ impl<'e> SampleRun<'e> {
             lights: &self.light_positions,
             lit_mask,
             teammate: self.teammate.as_ref().map(|mate| &mate.pose),
+            crowd: self.team.as_ref().map(Team::crowd),
+            me: 0,
         };
         let mut frame = SensorFrame::default();
         // A loop over a constant number of groups, which the compiler unrolls: one call site
@@ -419,6 +497,22 @@ impl<'e> SampleRun<'e> {
             if let Some(run) = run {
                 run.read(&view, &mut self.noise, frame.values_mut(group));
             }
+        }
+        if let Some(team) = self.team.as_mut() {
+            // What the other robots share with the focal robot's view: the team's own crowd
+            // is lent by `Team::sense` itself.
+            let shared = SenseView {
+                robot: &robot,
+                sin_heading,
+                cos_heading,
+                scene: &self.env.scene,
+                lights: &self.light_positions,
+                lit_mask,
+                teammate: None,
+                crowd: None,
+                me: 0,
+            };
+            team.sense(&shared);
         }
         self.lit_mask = lit_mask;
         self.sub_task = self
@@ -494,7 +588,11 @@ impl<'e> SampleRun<'e> {
         let robot_config = &self.evaluator.task.params.robot;
         let before = self.robot;
         let next = arc.end_pose(&self.robot, sin_half_turn, mid);
-        let collided = move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene);
+        let step = robot_config.v_max * robot_config.cycle_seconds;
+        let collided = match &self.team {
+            Some(team) if team.blocks_focal(next.position(), robot_config.radius, step) => true,
+            _ => move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene),
+        };
         self.collided_ever |= collided;
         (before, collided)
     }
@@ -522,12 +620,17 @@ impl<'e> SampleRun<'e> {
                 robot_config.radius,
             );
         }
+        if let Some(team) = self.team.as_mut() {
+            team.move_members(&self.robot, self.evaluator, &self.env.scene);
+        }
         if collided && task.end_on_collision {
             return Some(Ending::Collision);
         }
+        let team_positions = self.team.as_ref().map_or(&[][..], Team::positions);
         if let Some(end) = self.judge.check(
             &self.robot,
             self.teammate.as_ref().map(Teammate::view),
+            team_positions,
             self.wheel_speeds,
         ) {
             return Some(end);
@@ -543,6 +646,7 @@ impl<'e> SampleRun<'e> {
             self.cycles_run,
             &self.robot,
             self.teammate.as_ref().map(Teammate::view),
+            self.team.as_ref().map_or(&[][..], Team::positions),
             &self.sub_task_choices,
         );
         let stage = judge.stage(ending);

@@ -51,6 +51,7 @@ impl<'a> Judge<'a> {
         ground: Ground,
         start: Pose,
         teammate: Option<TeammateView>,
+        team: &[[f32; 2]],
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
@@ -62,7 +63,8 @@ impl<'a> Judge<'a> {
             scenario,
             &task.params,
             max_cycles,
-        );
+        )
+        .with_team(team);
         let tracked = scenario
             .quantities
             .iter()
@@ -118,6 +120,7 @@ impl<'a> Judge<'a> {
         &mut self,
         robot: &Pose,
         teammate: Option<TeammateView>,
+        team: &[[f32; 2]],
         wheel_speeds: [f32; 2],
     ) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
@@ -129,7 +132,8 @@ impl<'a> Judge<'a> {
             &task.params,
             self.max_cycles,
         )
-        .with_wheel_speeds(wheel_speeds);
+        .with_wheel_speeds(wheel_speeds)
+        .with_team(team);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -164,10 +168,11 @@ impl<'a> Judge<'a> {
         cycles: u32,
         robot: &Pose,
         teammate: Option<TeammateView>,
+        team: &[[f32; 2]],
         sub_task_choices: &SubTaskChoices,
     ) -> (f32, Vec<f32>) {
         let end = EndView {
-            cycle: self.view(robot, teammate),
+            cycle: self.view(robot, teammate).with_team(team),
             cycles,
             sub_task_choices,
         };
@@ -195,7 +200,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
     ) -> f32 {
-        self.fitness_and_descriptor(ending, cycles, robot, teammate, sub_task_choices)
+        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], sub_task_choices)
             .0
     }
 
@@ -309,6 +314,7 @@ mod tests {
             ground.clone(),
             start,
             None,
+            &[],
             std::array::from_fn(|idx| idx),
         )
     }
@@ -503,7 +509,7 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, [0.0; 2]), None);
+            assert_eq!(judge.check(&at(0.0, y), None, &[], [0.0; 2]), None);
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -526,9 +532,12 @@ mod tests {
         // Exited: the centre a body radius beyond the exit wall's outer face, 0.10 + 0.0375 m
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
-        assert_eq!(judge.check(&at(0.0, 0.5 + 0.137), None, [0.0; 2]), None);
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, [0.0; 2]),
+            judge.check(&at(0.0, 0.5 + 0.137), None, &[], [0.0; 2]),
+            None
+        );
+        assert_eq!(
+            judge.check(&at(0.0, 0.5 + 0.138), None, &[], [0.0; 2]),
             Some(Ending::Solved)
         );
     }

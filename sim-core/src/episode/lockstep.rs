@@ -374,7 +374,10 @@ impl Evaluator {
                     && let Some((idx, sample)) = pending.next()
                 {
                     controller.reset_lane(lane);
-                    *slot = Some((idx, SampleRun::new(self, sample, n_nodes, phase_child)));
+                    let mut run = SampleRun::new(self, sample, n_nodes, phase_child);
+                    // A team's other robots run scalar copies; the focal robot is the lane's.
+                    run.drive_team_with(controller.controller());
+                    *slot = Some((idx, run));
                 }
             }
             let live = runs

@@ -51,22 +51,26 @@ fn with_solids(scene: Arc<Scene>, task: &TaskConfig) -> Arc<Scene> {
 /// falls back to the region's centre (which `Evaluator::check_starts` refuses if it touches).
 const ANYWHERE_TRIES: u32 = 64;
 
-/// A start drawn uniformly over the start region (a map region's cells, the variant's start
-/// region or a `[regions]` rectangle) where the robot's disc touches no wall or obstacle.
+/// A start drawn uniformly over a start region (`at`: a map region's cells, the variant's
+/// start region or a `[regions]` rectangle) where the robot's disc touches no wall or obstacle
+/// and `clear` holds (no other robot there).
+#[allow(clippy::too_many_arguments)]
 fn draw_anywhere(
     scenario: &Scenario,
+    at: &PlaceAt,
     variant_start: Option<&str>,
     scene: &Scene,
     cells: Option<&CellMap>,
     task: &TaskConfig,
     rng: &mut SimRng,
+    clear: impl Fn([f32; 2]) -> bool,
 ) -> [f32; 2] {
     let in_cells = |name: &str| {
         let cells = cells.expect("map regions are in cell worlds");
         let map = scenario.map.as_ref().expect("checked when compiled");
         (cells, map.regions[name].as_slice())
     };
-    let region = match &scenario.place.at {
+    let region = match at {
         PlaceAt::Rect(rect) => Err(*rect),
         PlaceAt::Region(name) => Ok(in_cells(name)),
         _ => Ok(in_cells(variant_start.expect("checked when compiled"))),
@@ -88,7 +92,7 @@ fn draw_anywhere(
     };
     (0..ANYWHERE_TRIES)
         .map(|_| draw())
-        .find(|&at| !scene.disc_hits(at, task.params.robot.radius))
+        .find(|&at| !scene.disc_hits(at, task.params.robot.radius) && clear(at))
         .unwrap_or(fallback)
 }
 
@@ -141,11 +145,13 @@ pub fn build(
     let drawn = place.anywhere.then(|| {
         draw_anywhere(
             scenario,
+            &scenario.place.at,
             plan.start.as_deref(),
             &scene,
             cells.as_deref(),
             task,
             rng,
+            |_| true,
         )
     });
 
@@ -287,10 +293,40 @@ pub fn build(
         })
         .collect();
 
+    // The team's other robots: drawn last, so a scenario without them draws as it did.
+    let radius = task.params.robot.radius;
+    let mut team: Vec<Pose> = Vec::new();
+    for group in &scenario.robot_groups {
+        for _ in 0..group.count {
+            let clear = |at: [f32; 2]| {
+                std::iter::once(&start)
+                    .chain(&team)
+                    .all(|other| other.distance_to(at) >= 2.0 * radius)
+            };
+            let at = draw_anywhere(
+                scenario,
+                &group.region,
+                plan.start.as_deref(),
+                &scene,
+                cells.as_deref(),
+                task,
+                rng,
+                clear,
+            );
+            let heading = rng.random_range(-PI..PI);
+            team.push(Pose {
+                x: at[0],
+                y: at[1],
+                heading,
+            });
+        }
+    }
+
     Environment {
         scene,
         start,
         teammate,
+        team,
         lights,
         ground: Ground {
             room: room_made,

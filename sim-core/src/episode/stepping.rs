@@ -9,6 +9,7 @@
 
 use super::evaluator::{Evaluator, SampleRun};
 use crate::body::Pose;
+use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, Outcome, Sample, TraceCycle};
 use crate::sensors::frame::SensorFrame;
 use crate::world::Environment;
@@ -92,6 +93,12 @@ impl<'e> Episode<'e> {
         }
     }
 
+    /// Gives a team's `evolved` robots their own reset copies of `policy` (a scenario with
+    /// `[[robots]]`); until then they stand still.
+    pub(crate) fn drive_team_with(&mut self, policy: &dyn Policy) {
+        self.run.drive_team_with(policy);
+    }
+
     /// The sensor frame of the current cycle (of the last one, once ended).
     #[inline]
     pub fn frame(&self) -> &SensorFrame {
@@ -160,6 +167,7 @@ impl<'e> Episode<'e> {
             collided,
             lit_lights: run.lit_mask(),
             sub_task: run.sub_task().unwrap_or(0),
+            team: run.team_poses(),
         });
         match run.finish_cycle(&before, collided) {
             Some(ending) => {

@@ -489,6 +489,52 @@ impl<const N: usize> ConeLanes<N> {
     }
 }
 
+impl<const N: usize> ConeLanes<N> {
+    /// Tests a disc (another robot's body: centre `center`, radius `radius`) against every
+    /// cone: where the disc holds a point inside a cone nearer than that cone's `best`, lowers
+    /// `best` to it and sets `hit`. Exact as the solids' test is, for the same reason (a disc
+    /// and a cone are convex): the disc's own nearest point when it lies inside the cone, else
+    /// the nearer entry of the two boundary rays into the disc.
+    #[inline]
+    pub fn disc_lanes(
+        &self,
+        origins: &[[f32; N]; 2],
+        center: [f32; 2],
+        radius: f32,
+        best: &mut [f32; N],
+        hit: &mut [u32; N],
+    ) {
+        for l in 0..N {
+            let (dx, dy) = (center[0] - origins[0][l], center[1] - origins[1][l]);
+            let to_center = (dx * dx + dy * dy).sqrt();
+            let surface = (to_center - radius).max(0.0);
+            if surface >= best[l] {
+                continue;
+            }
+            // Within the cone: the direction to the centre (the nearest point's) inside it.
+            if dx * self.axis[0][l] + dy * self.axis[1][l] >= to_center * self.cos_half_angle[l] {
+                best[l] = surface;
+                hit[l] = u32::MAX;
+                continue;
+            }
+            for ray in 0..2 {
+                let (bx, by) = (self.boundaries[ray][0][l], self.boundaries[ray][1][l]);
+                let along = dx * bx + dy * by;
+                let across_sq = dx * dx + dy * dy - along * along;
+                let chord_sq = radius * radius - across_sq;
+                if along < 0.0 || chord_sq < 0.0 {
+                    continue;
+                }
+                let enter = (along - chord_sq.sqrt()).max(0.0);
+                if enter < best[l] {
+                    best[l] = enter;
+                    hit[l] = u32::MAX;
+                }
+            }
+        }
+    }
+}
+
 /// A lane's yes or no as all ones or all zeros: masks of this form, unlike `bool`s, stay in
 /// vector registers, and selecting with them is two bitwise operations.
 #[inline(always)]

@@ -40,6 +40,22 @@ pub enum Stream {
     /// A wandering teammate's own walk (its first heading, how long it keeps each heading,
     /// its turns). Its own stream, so that adding the walk left every other draw as it was.
     Teammate = 4,
+    /// A team's other robots (`[[robots]]`): each robot's own streams derive from this one
+    /// and its index ([`member_rng`], [`member_seed`]), apart from the focal robot's and from
+    /// one another's.
+    Team = 5,
+}
+
+/// The seed of the `member`-th other robot of a team (from 0) in the sample with seed
+/// `sample_seed`: what its scripted motion draws from, and where its streams derive from.
+pub fn member_seed(sample_seed: u64, member: usize) -> u64 {
+    derive_seed(sample_seed, &[Stream::Team as u64, member as u64])
+}
+
+/// Creates the generator for one stream (its sensor setup, its noise) of the `member`-th other
+/// robot of a team.
+pub fn member_rng(sample_seed: u64, member: usize, stream: Stream) -> SimRng {
+    stream_rng(member_seed(sample_seed, member), stream)
 }
 
 /// Creates the generator for one stream of the sample with seed `sample_seed`.

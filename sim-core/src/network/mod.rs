@@ -32,6 +32,11 @@ pub trait Policy {
         let _ = name;
         None
     }
+    /// A fresh copy, reset, for another robot of a team to run with its own state, if the
+    /// policy can be copied (an evolved controller can; a team's `evolved` robots need one).
+    fn team_copy(&self) -> Option<Box<dyn Policy + Send>> {
+        None
+    }
 }
 
 impl Policy for Controller {
@@ -59,5 +64,11 @@ impl Policy for Controller {
 
     fn root_child_index(&self, name: &str) -> Option<usize> {
         Controller::root_child_index(self, name)
+    }
+
+    fn team_copy(&self) -> Option<Box<dyn Policy + Send>> {
+        let mut copy = self.clone();
+        copy.reset();
+        Some(Box::new(copy))
     }
 }

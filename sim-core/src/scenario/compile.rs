@@ -9,10 +9,10 @@ use super::blocks::{self, Facts, World};
 use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
 use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
-    CompiledMap, DEFAULT_DESCRIPTOR, Facing, LightDef, MAX_DESCRIPTOR, MAX_LIGHTS, MAX_PHASES,
-    MAX_REGIONS, MAX_SOLID_COORDINATE, MAX_SOLIDS, MAX_VARIANTS, Phase, Place, PlaceAt, SCHEMA,
-    SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant, compile_map,
-    formula, is_proper_rect, line_of_path, shipped_map,
+    CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef, MAX_DESCRIPTOR, MAX_LIGHTS,
+    MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SOLID_COORDINATE, MAX_SOLIDS, MAX_VARIANTS, Phase,
+    Place, PlaceAt, RobotGroup, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage,
+    TeammatePlan, Variant, compile_map, formula, is_proper_rect, line_of_path, shipped_map,
 };
 use crate::geometry::scene::{Rect, RectKind};
 use crate::sensors::frame::{InputGroup, SensorSet};
@@ -94,6 +94,7 @@ pub(super) fn compile(
     let variants = variants(&file, &lights, &regions, &error)?;
     let place = place(&file, world.as_ref(), &variants, &regions, &error)?;
     let teammate = teammate(&file, &variants, &regions, &error)?;
+    let robot_groups = robot_groups(&file, &regions, &error)?;
 
     // What the blocks may rely on.
     let judged_region = |name: &str| regions.judged(name);
@@ -107,6 +108,7 @@ pub(super) fn compile(
         has_room: world.has_room(),
         goals_in_cells,
         has_teammate: teammate.is_some(),
+        has_team: !robot_groups.is_empty(),
         has_phases: !file.phases.is_empty(),
         near_m: end.near_m,
     };
@@ -130,6 +132,7 @@ pub(super) fn compile(
         solids,
         place,
         teammate,
+        robot_groups,
         solved,
         wrong_branch,
         wrong_branch_ends: end.wrong_branch_ends,
@@ -741,6 +744,73 @@ fn teammate(
         }
     };
     Ok(teammate)
+}
+
+/// `[[robots]]`: the team's other robots, group by group.
+fn robot_groups(
+    file: &ScenarioFile,
+    regions: &Regions<'_>,
+    error: Refuse<'_>,
+) -> Result<Vec<RobotGroup>, ScenarioError> {
+    let mut n_robots = 1u64;
+    let mut names = std::collections::BTreeSet::new();
+    file.robot_groups
+        .iter()
+        .enumerate()
+        .map(|(group_idx, decl)| {
+            let key = |name: &str| format!("robots[{group_idx}].{name}");
+            if !names.insert(decl.name.as_str()) {
+                return Err(error(
+                    &key("name"),
+                    format!("a second group is named '{}'", decl.name),
+                ));
+            }
+            n_robots += u64::from(decl.count);
+            if decl.count == 0 || n_robots > u64::from(MAX_ROBOTS) {
+                return Err(error(
+                    &key("count"),
+                    format!(
+                        "{} robots: a group holds at least 1, and a team at most {MAX_ROBOTS} \
+                         robots, the one [place] starts included",
+                        decl.count
+                    ),
+                ));
+            }
+            let region = match decl.region.as_str() {
+                region if regions.rects.contains_key(region) => {
+                    PlaceAt::Rect(regions.rects[region])
+                }
+                region if regions.in_map(region) => PlaceAt::Region(region.to_string()),
+                other => {
+                    return Err(error(
+                        &key("region"),
+                        format!("'{other}' is neither a [regions] rectangle nor a map region"),
+                    ));
+                }
+            };
+            let driver = match decl.controller.as_str() {
+                "evolved" => GroupDriver::Evolved,
+                name => GroupDriver::Scripted(
+                    *blocks::BEHAVIOURS
+                        .iter()
+                        .filter(|b| b.name() != "follow")
+                        .find(|b| b.name() == name)
+                        .ok_or_else(|| {
+                            error(
+                                &key("controller"),
+                                format!("'{name}' is not evolved, wander or fixed"),
+                            )
+                        })?,
+                ),
+            };
+            Ok(RobotGroup {
+                name: decl.name.clone(),
+                count: decl.count,
+                region,
+                driver,
+            })
+        })
+        .collect()
 }
 
 /// `[end]`: when a sample is solved, whether a wrong branch ends it, what is forbidden.

@@ -71,6 +71,10 @@ pub struct ScenarioFile {
     /// Another robot, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub teammate: Option<TeammateDecl>,
+    /// Other robots besides the one `[place]` starts (the *focal* robot, whose controller is
+    /// evolved or evaluated): a team, group by group.
+    #[serde(default, rename = "robots", skip_serializing_if = "Vec::is_empty")]
+    pub robot_groups: Vec<RobotGroupDecl>,
     /// When a sample ends.
     pub end: EndDecl,
     /// The fitness of a sample, per way of ending.
@@ -295,6 +299,24 @@ pub struct TeammateDecl {
     /// docs/scenario-file.md gives the walk).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub behaviour: Option<String>,
+}
+
+/// `[[robots]]`: a group of robots that join the focal robot, each of the scenario's body and
+/// sensors, seen by every robot's IR and colliding with walls and with each other.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotGroupDecl {
+    /// The group's name, for messages and replays.
+    pub name: String,
+    /// How many robots, at least 1; a team holds at most `scenario::MAX_ROBOTS` robots in all.
+    pub count: u32,
+    /// Where they start: a `[regions]` rectangle or a map region, each robot anywhere in it
+    /// clear of solids and of the robots placed before it, at any heading.
+    pub region: String,
+    /// `"evolved"`: each runs its own copy of the controller being evaluated, with its own
+    /// network state (a homogeneous team); `"wander"` or `"fixed"`: a scripted robot (the
+    /// teammate's walk, or standing still).
+    pub controller: String,
 }
 
 /// `[end]`: what ends a sample besides a collision and the time limit.

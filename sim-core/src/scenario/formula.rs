@@ -253,6 +253,7 @@ mod tests {
             has_room: true,
             goals_in_cells: true,
             has_teammate: true,
+            has_team: true,
             has_phases: true,
             near_m: 0.1,
         }
@@ -310,6 +311,7 @@ mod tests {
             has_room: false,
             goals_in_cells: false,
             has_teammate: false,
+            has_team: false,
             has_phases: false,
             ..facts()
         };
@@ -325,7 +327,16 @@ mod tests {
             (
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
-                 approach teammate, approach LIGHT, final.x, final.y, distance or energy",
+                 approach teammate, approach LIGHT, final.x, final.y, distance, energy, \
+                 team.spread, team.nearest or team.in REGION",
+            ),
+            (
+                "team.spread",
+                "'team.spread': needs other robots ([[robots]])",
+            ),
+            (
+                "team.in nest",
+                "'team.in nest': needs other robots ([[robots]])",
             ),
             ("approach beacon", "no light is named 'beacon'"),
             ("progress", "'progress': needs a goal in cells"),
@@ -431,6 +442,7 @@ mod tests {
                     has_room: true,
                     goals_in_cells: true,
                     has_teammate: true,
+                    has_team: true,
                     has_phases: true,
                     near_m: 0.1,
                 };

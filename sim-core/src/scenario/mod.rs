@@ -239,6 +239,33 @@ pub struct TeammatePlan {
     pub behaviour: &'static dyn TeammateBehaviour,
 }
 
+/// The most robots a team may hold, the focal robot included: a bound on a sample's cost
+/// (each robot senses and moves every cycle) checked before any evaluation.
+pub const MAX_ROBOTS: u32 = 64;
+
+/// A group of robots besides the focal one (`[[robots]]`).
+#[derive(Debug, Clone)]
+pub struct RobotGroup {
+    /// Its name.
+    pub name: String,
+    /// How many robots.
+    pub count: u32,
+    /// Where they start: a `[regions]` rectangle (`PlaceAt::Rect`) or a map region
+    /// (`PlaceAt::Region`).
+    pub region: PlaceAt,
+    /// What drives them.
+    pub driver: GroupDriver,
+}
+
+/// What drives the robots of a group.
+#[derive(Debug, Clone, Copy)]
+pub enum GroupDriver {
+    /// Each its own copy of the controller being evaluated.
+    Evolved,
+    /// A scripted behaviour ([`blocks::BEHAVIOURS`]), never "met": a wanderer keeps wandering.
+    Scripted(&'static dyn TeammateBehaviour),
+}
+
 /// One phase of the derived fitness.
 #[derive(Debug)]
 pub struct Phase {
@@ -287,6 +314,8 @@ pub struct Scenario {
     pub place: Place,
     /// The teammate.
     pub teammate: Option<TeammatePlan>,
+    /// The other robots of a team, group by group (none: the focal robot alone).
+    pub robot_groups: Vec<RobotGroup>,
     /// When a sample is solved.
     pub solved: Condition,
     /// Whether wrong branches are judged (cells off the path).
@@ -482,6 +511,23 @@ impl Scenario {
     /// Whether it has a derived fitness (an arbitrator's scenario).
     pub fn has_phases(&self) -> bool {
         !self.phases.is_empty()
+    }
+
+    /// The number of robots in a sample, the focal robot included.
+    pub fn n_robots(&self) -> usize {
+        1 + self
+            .robot_groups
+            .iter()
+            .map(|group| group.count as usize)
+            .sum::<usize>()
+    }
+
+    /// Whether other robots run copies of the controller being evaluated: a caller that
+    /// steps the focal robot itself (an `Episode`) has no controller to give them.
+    pub fn has_evolved_team(&self) -> bool {
+        self.robot_groups
+            .iter()
+            .any(|group| matches!(group.driver, GroupDriver::Evolved))
     }
 
     /// What its world holds that the robot's sensors may sense.

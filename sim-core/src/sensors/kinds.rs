@@ -68,6 +68,8 @@ struct IrSensor {
     /// Each sensor's cone in the robot frame, lane by lane.
     cones: ConeLanes<N_IR>,
     offsets: [[f32; 2]; N_IR],
+    /// The robots' radius: another robot of a team is a disc of it.
+    radius: f32,
     config: IrConfig,
     model: &'static IrModel,
 }
@@ -76,6 +78,7 @@ fn compile_ir(params: &Params, _world: &SensedWorld) -> Option<Box<dyn Sensor>> 
     Some(Box::new(IrSensor {
         cones: ConeLanes::new(&ir_cones_at_rest(&params.ir)),
         offsets: body_offsets(IR_ANGLES, params.robot.radius),
+        radius: params.robot.radius,
         config: params.ir,
         model: IrModel::builtin(),
     }))
@@ -149,13 +152,37 @@ fn read_ir(
     let (sin_h, cos_h) = (view.sin_heading, view.cos_heading);
     let cones = sensor.cones.rotated(sin_h, cos_h);
     let origins = positions(&sensor.offsets, view.robot, sin_h, cos_h);
-    let distances = view.scene.cone_lane_distances(
+    let mut distances = view.scene.cone_lane_distances(
         view.robot.position(),
         &origins,
         &cones,
         sensor.config.range_m,
     );
+    if view.crowd.is_some() {
+        see_other_robots(sensor, view, &origins, &cones, &mut distances);
+    }
     out.copy_from_slice(&sensor.model.read_all(setup, &distances, noise));
+}
+
+/// Lowers each IR distance to the nearest other robot of a team inside that sensor's cone:
+/// robots are discs of the robot's own radius, and a body is candidate only when its centre
+/// lies within the range plus two radii of the sensing robot's (its sensors sit on its rim).
+#[inline(never)]
+fn see_other_robots(
+    sensor: &IrSensor,
+    view: &SenseView<'_>,
+    origins: &[[f32; N_IR]; 2],
+    cones: &ConeLanes<N_IR>,
+    distances: &mut [Option<f32>; N_IR],
+) {
+    let range = sensor.config.range_m;
+    let reach = range + 2.0 * sensor.radius;
+    let mut best = distances.map(|d| d.unwrap_or(range));
+    let mut hit = distances.map(|d| if d.is_some() { u32::MAX } else { 0 });
+    for (center, _) in view.others_near(reach) {
+        cones.disc_lanes(origins, center, sensor.radius, &mut best, &mut hit);
+    }
+    *distances = std::array::from_fn(|s| (hit[s] != 0).then_some(best[s]));
 }
 
 /// The two light sensors as the task's `light` and `robot.radius` set them.
@@ -308,6 +335,7 @@ mod tests {
             let sensor = IrSensor {
                 cones: ConeLanes::new(&ir_cones_at_rest(&task.params.ir)),
                 offsets: body_offsets(IR_ANGLES, task.params.robot.radius),
+                radius: task.params.robot.radius,
                 config: task.params.ir,
                 model: IrModel::builtin(),
             };

@@ -6,6 +6,7 @@
 
 use crate::body::Pose;
 use crate::config::Params;
+use crate::geometry::crowd::Crowd;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use std::fmt::Debug;
@@ -70,6 +71,25 @@ pub struct SenseView<'a> {
     pub lit_mask: u32,
     /// The teammate, in scenarios with one.
     pub teammate: Option<&'a Pose>,
+    /// Every robot of a team, at the cycle's start (`None` for one robot alone): the sensing
+    /// robot is robot `me` of it, the others are bodies its sensors see.
+    pub crowd: Option<&'a Crowd>,
+    /// The sensing robot's index in `crowd`.
+    pub me: usize,
+}
+
+impl SenseView<'_> {
+    /// The other robots of the team whose centre lies within `reach` of the sensing robot's,
+    /// as (position, squared distance): none for a robot alone.
+    #[inline]
+    pub fn others_near(&self, reach: f32) -> impl Iterator<Item = ([f32; 2], f32)> + '_ {
+        let me = self.me;
+        self.crowd
+            .into_iter()
+            .flat_map(move |crowd| crowd.near(self.robot.position(), reach))
+            .filter(move |&(idx, _, _)| idx != me)
+            .map(|(_, position, distance_sq)| (position, distance_sq))
+    }
 }
 
 impl<'a> SenseView<'a> {
@@ -86,6 +106,8 @@ impl<'a> SenseView<'a> {
             lights: &[],
             lit_mask: 0,
             teammate: None,
+            crowd: None,
+            me: 0,
         }
     }
 }

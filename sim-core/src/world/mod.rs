@@ -94,6 +94,8 @@ pub struct Environment {
     pub start: Pose,
     /// The teammate's start pose, and whether it already follows.
     pub teammate: Option<(Pose, bool)>,
+    /// The team's other robots' start poses, group by group (`[[robots]]`).
+    pub team: Vec<Pose>,
     /// The lights.
     pub lights: Vec<LightSpec>,
     /// The ground truth.

@@ -67,25 +67,43 @@ pub enum RegionTest {
     Cells(Vec<bool>),
 }
 
+impl RegionTest {
+    /// Whether `position` lies in the region of the sample `view` shows; `cell` finds the
+    /// position's cell in the world's cells (the robot's is found once per view).
+    #[inline]
+    fn holds_at(
+        &self,
+        view: &CycleView<'_>,
+        position: [f32; 2],
+        cell: impl FnOnce(&crate::geometry::cells::CellMap) -> Option<usize>,
+    ) -> bool {
+        match self {
+            RegionTest::Rect(rect) => rect_holds(*rect, position),
+            RegionTest::Room => view
+                .ground
+                .room
+                .as_ref()
+                .is_some_and(|room| room.depth_beyond_exit(position) < 0.0),
+            RegionTest::Cells(mask) => view.ground.cells.as_ref().is_some_and(|cells| {
+                cell(cells).is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
+            }),
+        }
+    }
+
+    /// Whether `position` (any robot's) lies in the region of the sample `view` shows.
+    pub fn contains(&self, view: &CycleView<'_>, position: [f32; 2]) -> bool {
+        self.holds_at(view, position, |cells| cells.cell_at(position))
+    }
+}
+
 #[derive(Debug)]
 struct InRegion(RegionTest);
 
 impl Atom for InRegion {
     #[inline]
     fn holds(&self, view: &CycleView<'_>) -> bool {
-        let robot = view.robot;
-        match &self.0 {
-            RegionTest::Rect(rect) => rect_holds(*rect, robot.position()),
-            RegionTest::Room => view
-                .ground
-                .room
-                .as_ref()
-                .is_some_and(|room| room.depth_beyond_exit(robot.position()) < 0.0),
-            RegionTest::Cells(mask) => view.ground.cells.as_ref().is_some_and(|cells| {
-                view.robot_cell(cells)
-                    .is_some_and(|cell| mask.get(cell).copied().unwrap_or(false))
-            }),
-        }
+        self.0
+            .holds_at(view, view.robot.position(), |cells| view.robot_cell(cells))
     }
 }
 

@@ -16,6 +16,7 @@
 
 pub mod atoms;
 pub mod quantities;
+pub mod team;
 pub mod teammates;
 pub mod worlds;
 
@@ -67,6 +68,9 @@ pub static QUANTITIES: &[QuantityKind] = &[
     quantities::FINAL_POSITION,
     quantities::DISTANCE,
     quantities::ENERGY,
+    team::TEAM_SPREAD,
+    team::TEAM_NEAREST,
+    team::TEAM_IN,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
@@ -88,6 +92,8 @@ pub struct Facts<'a> {
     pub goals_in_cells: bool,
     /// Whether the scenario has a teammate.
     pub has_teammate: bool,
+    /// Whether the scenario has a team (`[[robots]]`).
+    pub has_team: bool,
     /// Whether the scenario has phases (a derived fitness).
     pub has_phases: bool,
     /// `end.near_m`.
@@ -101,6 +107,7 @@ impl std::fmt::Debug for Facts<'_> {
             .field("has_room", &self.has_room)
             .field("goals_in_cells", &self.goals_in_cells)
             .field("has_teammate", &self.has_teammate)
+            .field("has_team", &self.has_team)
             .field("has_phases", &self.has_phases)
             .field("near_m", &self.near_m)
             .finish_non_exhaustive()
@@ -141,6 +148,8 @@ pub struct CycleView<'a> {
     /// The wheel speeds driven in the cycle just judged (noise included), m/s; 0 before the
     /// first cycle and where no cycle is judged.
     pub wheel_speeds: [f32; 2],
+    /// Every robot's position in a team, the focal robot first; empty for a robot alone.
+    pub team: &'a [[f32; 2]],
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -169,6 +178,7 @@ impl<'a> CycleView<'a> {
             params,
             max_cycles,
             wheel_speeds: [0.0; 2],
+            team: &[],
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -180,6 +190,12 @@ impl<'a> CycleView<'a> {
             wheel_speeds,
             ..self
         }
+    }
+
+    /// The view of a cycle whose team (the focal robot first) stands at `team`.
+    #[inline]
+    pub fn with_team(self, team: &'a [[f32; 2]]) -> CycleView<'a> {
+        CycleView { team, ..self }
     }
 
     /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
@@ -327,6 +343,8 @@ pub struct Tracked {
     pub sum: f32,
     /// The robot's position when last seen.
     pub last: [f32; 2],
+    /// Cycles observed.
+    pub cycles: u32,
 }
 
 /// A compiled fitness quantity: its value when the sample ends, from what it kept.
@@ -450,6 +468,7 @@ mod doc_examples {
             has_room: false,
             goals_in_cells: false,
             has_teammate: false,
+            has_team: false,
             has_phases: false,
             near_m: 0.0,
         };
