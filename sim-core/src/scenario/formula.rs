@@ -10,12 +10,15 @@
 //! move), `derived` (the derived fitness: the sum over the phases
 //! reached of the share of cycles the arbitrator chose the phase's child), `final.x` and
 //! `final.y`, `distance` (metres travelled) and `energy` (the wheels' mean absolute speed over
-//! the cycles, a share of full speed for the whole cycle limit).
+//! the cycles, a share of full speed for the whole cycle limit); with other robots
+//! (`[[robots]]`), `team.spread`, `team.nearest` (metres, averaged over the cycles) and
+//! `team.in REGION` (the share of the team in a region at the end).
 //!
 //! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
 //! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
 //! cell), `in goal`, `in REGION`, `teammate following` (or `teammate met`), `teammate in room`,
-//! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `always`.
+//! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `team gathered` (every
+//! robot within `near_m` of the team's centre), `team in REGION`, `always`.
 //!
 //! The quantities and atoms themselves are building blocks ([`super::blocks`]): this module
 //! only splits the text and asks the registered blocks what each piece names.

@@ -24,6 +24,8 @@ pub(crate) fn tasks() -> Vec<TaskConfig> {
     tasks.push(example_task("t_maze"));
     // A wandering teammate: its walk lives in the per-sample state both evaluators share.
     tasks.push(example_task("find_wanderer"));
+    // A team: copies of the lane's controller, wanderers and a fixed robot beside it.
+    tasks.push(crate::team::team_task());
     tasks
 }
 

@@ -12,5 +12,6 @@ mod scenario_files;
 mod scripted;
 mod stepping;
 mod support;
+mod team;
 mod wanderer;
 mod world_properties;

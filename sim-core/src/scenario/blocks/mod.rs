@@ -56,6 +56,8 @@ pub static ATOMS: &[AtomKind] = &[
     atoms::TEAMMATE_IN_ROOM,
     atoms::BEYOND_EXIT,
     atoms::NEAR,
+    team::TEAM_GATHERED,
+    team::TEAM_IN_REGION,
     atoms::ALWAYS,
 ];
 

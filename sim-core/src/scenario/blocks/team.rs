@@ -1,12 +1,17 @@
-//! The team's fitness quantities (scenarios with `[[robots]]`): how close the robots keep to
-//! one another and where they end, over every robot of the team, the focal one included.
+//! The team's fitness quantities and condition atoms (scenarios with `[[robots]]`): how close
+//! the robots keep to one another and where they are, over every robot of the team, the focal
+//! one included.
 //! `team.spread` and `team.nearest` are averages over the cycles judged, so that a team is
 //! credited for the whole sample rather than for its last instant; `team.in REGION` is a share
-//! at the end. Each refuses a scenario without other robots, where it would say nothing.
+//! at the end. The atoms `team gathered` and `team in REGION` hold when every robot is close
+//! to the team's centre or in the region. Each refuses a scenario without other robots, where
+//! it would say nothing.
 
 use super::atoms::RegionTest;
 use super::quantities::MAX_DISTANCE;
-use super::{CycleView, EndView, Facts, Quantity, QuantityKind, Recognised, Tracked};
+use super::{
+    Atom, AtomKind, CycleView, EndView, Facts, Quantity, QuantityKind, Recognised, Tracked,
+};
 use crate::math::float::hypot;
 
 /// Why a team quantity is refused in a scenario without `[[robots]]`.
@@ -36,21 +41,29 @@ pub const TEAM_SPREAD: QuantityKind = QuantityKind {
     compile: |text, facts| team_word(text, "team.spread", facts, || Box::new(TeamSpread)),
 };
 
-/// The mean distance of `positions` to their centre.
-pub fn spread(positions: &[[f32; 2]]) -> f32 {
+/// The centre of `positions` (their mean); the origin for none.
+pub fn centre(positions: &[[f32; 2]]) -> [f32; 2] {
     if positions.is_empty() {
-        return 0.0;
+        return [0.0; 2];
     }
     let n_robots = positions.len() as f32;
     let (sum_x, sum_y) = positions
         .iter()
         .fold((0.0f32, 0.0f32), |(x, y), p| (x + p[0], y + p[1]));
-    let centre = [sum_x / n_robots, sum_y / n_robots];
+    [sum_x / n_robots, sum_y / n_robots]
+}
+
+/// The mean distance of `positions` to their centre.
+pub fn spread(positions: &[[f32; 2]]) -> f32 {
+    if positions.is_empty() {
+        return 0.0;
+    }
+    let centre = centre(positions);
     positions
         .iter()
         .map(|p| hypot(p[0] - centre[0], p[1] - centre[1]))
         .sum::<f32>()
-        / n_robots
+        / positions.len() as f32
 }
 
 /// The mean over `positions` of each one's distance to the nearest other (0 for fewer than
@@ -160,6 +173,64 @@ impl Quantity for TeamIn {
             .filter(|&&position| self.0.contains(&end.cycle, position))
             .count();
         inside as f32 / team.len() as f32
+    }
+}
+
+/// `team gathered`: every robot's centre within `end.near_m` of the team's centre.
+pub const TEAM_GATHERED: AtomKind = AtomKind {
+    syntax: &["team gathered"],
+    compile: |text, facts| {
+        if text != "team gathered" {
+            return None;
+        }
+        Some(match (facts.has_team, facts.near_m > 0.0) {
+            (false, _) => Err(NEEDS_A_TEAM.into()),
+            (true, false) => Err("needs `end.near_m`, how close to the team's centre".into()),
+            (true, true) => Ok(Box::new(TeamGathered {
+                within: facts.near_m,
+            }) as Box<dyn Atom>),
+        })
+    },
+};
+
+#[derive(Debug)]
+struct TeamGathered {
+    within: f32,
+}
+
+impl Atom for TeamGathered {
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        let centre = centre(view.team);
+        !view.team.is_empty()
+            && view
+                .team
+                .iter()
+                .all(|p| hypot(p[0] - centre[0], p[1] - centre[1]) <= self.within)
+    }
+}
+
+/// `team in REGION`: every robot's centre in the region.
+pub const TEAM_IN_REGION: AtomKind = AtomKind {
+    syntax: &["team in REGION"],
+    compile: |text, facts| {
+        let name = text.strip_prefix("team in ")?.trim();
+        if !facts.has_team {
+            return Some(Err(NEEDS_A_TEAM.into()));
+        }
+        Some((facts.region)(name).map(|test| Box::new(TeamInRegion(test)) as Box<dyn Atom>))
+    },
+};
+
+#[derive(Debug)]
+struct TeamInRegion(RegionTest);
+
+impl Atom for TeamInRegion {
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        !view.team.is_empty()
+            && view
+                .team
+                .iter()
+                .all(|&position| self.0.contains(view, position))
     }
 }
 
