@@ -47,7 +47,8 @@ pub use outcome::{
 };
 pub use scenario::file::ChildRef;
 pub use scenario::{
-    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_LIGHTS, SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError,
+    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_LIGHTS, MAX_ROBOTS, SHIPPED, SHIPPED_NAMES, Scenario,
+    ScenarioError,
 };
 pub use sensors::IrCone;
 pub use sensors::calibration::MeanStd;

@@ -189,6 +189,42 @@ pub struct BenchReport {
     pub cycles: u64,
     /// Samples (evaluations) run in that time.
     pub evaluations: u64,
+    /// Robots in a sample (the focal one and a team's others, `[[robots]]`).
+    pub robots: u32,
+    /// Robot-cycles (a cycle of one robot: sense, decide, move) per second per thread:
+    /// `cycles_per_second_per_thread` times `robots`, what a team's cost is compared by.
+    pub robot_cycles_per_second_per_thread: f64,
+}
+
+impl BenchReport {
+    /// The figures of `cycles` control cycles and `evaluations` samples run in `elapsed`
+    /// seconds on `threads` threads, samples of `robots` robots.
+    fn new(
+        task: String,
+        mode: &str,
+        evaluator: EvaluatorKind,
+        threads: usize,
+        robots: u32,
+        (cycles, evaluations, elapsed): (u64, u64, f64),
+    ) -> BenchReport {
+        let threads = threads.max(1);
+        let cycles_per_second = cycles as f64 / elapsed;
+        let cycles_per_second_per_thread = cycles_per_second / threads as f64;
+        BenchReport {
+            task,
+            threads,
+            mode: mode.into(),
+            evaluator,
+            cycles_per_second,
+            cycles_per_second_per_thread,
+            evaluations_per_second: evaluations as f64 / elapsed,
+            seconds: elapsed,
+            cycles,
+            evaluations,
+            robots,
+            robot_cycles_per_second_per_thread: cycles_per_second_per_thread * f64::from(robots),
+        }
+    }
 }
 
 /// Why a benchmark could not run.
@@ -263,6 +299,7 @@ pub fn simulator_with(
     // the simulator rather than how soon a random genome crashes.
     task.end_on_collision = false;
     let name = task.name().to_string();
+    let robots = task.scenario.n_robots() as u32;
     let evaluator = BatchEvaluator::new(controller, task)?.with_kind(kind);
     let stop = AtomicBool::new(false);
     let cycles = AtomicU64::new(0);
@@ -296,18 +333,14 @@ pub fn simulator_with(
         cycles.load(Ordering::Relaxed),
         samples.load(Ordering::Relaxed),
     );
-    Ok(BenchReport {
-        task: name,
-        threads: threads.max(1),
-        mode: "simulator".into(),
-        evaluator: kind,
-        cycles_per_second: cycles as f64 / elapsed,
-        cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
-        evaluations_per_second: samples as f64 / elapsed,
-        seconds: elapsed,
-        cycles,
-        evaluations: samples,
-    })
+    Ok(BenchReport::new(
+        name,
+        "simulator",
+        kind,
+        threads,
+        robots,
+        (cycles, samples, elapsed),
+    ))
 }
 
 /// The `hevo run` path: generations of 100 genomes x `samples` through the dispatcher and a
@@ -321,6 +354,7 @@ pub async fn pipeline(
     let mut template = paper_controller(&task, 1);
     let genes = template.root.genome.take().unwrap_or_default();
     let name = task.name().to_string();
+    let robots = task.scenario.n_robots() as u32;
     // As in `simulator`: every sample runs to its limit, as most do once a population avoids
     // walls. Random genomes crash within about 80 cycles, and a benchmark of such samples
     // measures per-sample set-up rather than the pipeline an evolution run spends its time in.
@@ -365,18 +399,14 @@ pub async fn pipeline(
     }
     let elapsed = started.elapsed().as_secs_f64();
     pool.stop().await;
-    Ok(BenchReport {
-        task: name,
-        threads: threads.max(1),
-        mode: "pipeline".into(),
-        evaluator: EvaluatorKind::default(),
-        cycles_per_second: cycles as f64 / elapsed,
-        cycles_per_second_per_thread: cycles as f64 / elapsed / threads.max(1) as f64,
-        evaluations_per_second: evaluations as f64 / elapsed,
-        seconds: elapsed,
-        cycles,
-        evaluations,
-    })
+    Ok(BenchReport::new(
+        name,
+        "pipeline",
+        EvaluatorKind::default(),
+        threads,
+        robots,
+        (cycles, evaluations, elapsed),
+    ))
 }
 
 #[cfg(test)]

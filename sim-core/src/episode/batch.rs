@@ -4,8 +4,8 @@
 //! Built once per batch and shared by reference between the worker's threads.
 
 use crate::episode::evaluator::{Evaluator, TaskError};
-use crate::episode::lockstep::LaneController;
 use crate::network::controller::{Controller, ControllerError, ControllerFile, NodeKind};
+use crate::network::lanes::LaneController;
 use crate::outcome::{Ending, NodeUse, Outcome, Sample, SubTaskChoices};
 use crate::scenario::Scenario;
 use crate::task::TaskConfig;

@@ -231,12 +231,6 @@ impl Evaluator {
         &self.task
     }
 
-    /// The sensor of input group `group` (by index), if the robot carries it and anything can
-    /// excite it: every robot of a team reads its own run of the same sensors.
-    pub(crate) fn sensor(&self, group: usize) -> Option<&dyn Sensor> {
-        self.sensors[group].as_deref()
-    }
-
     /// Runs one sample.
     pub fn evaluate(&self, policy: &mut impl Policy, sample: Sample) -> Outcome {
         self.run(policy, sample, &mut ()).0
@@ -374,7 +368,7 @@ impl<'e> SampleRun<'e> {
         let teammate = env.teammate.map(|(pose, following)| {
             Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
         });
-        let team = Team::new(evaluator, sample, &env.team, &robot);
+        let team = Team::new(task, &evaluator.sensors, sample, &env.team, &robot);
         let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
         let light_positions = env.lights.iter().map(|spec| spec.position).collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
@@ -423,8 +417,9 @@ impl<'e> SampleRun<'e> {
 
     /// Gives a team's `evolved` robots their own copies of `policy`.
     pub(crate) fn drive_team_with(&mut self, policy: &dyn Policy) {
+        let dt = self.evaluator.task.params.robot.cycle_seconds;
         if let Some(team) = self.team.as_mut() {
-            team.drive_with(policy);
+            team.drive_with(policy, dt);
         }
     }
 
@@ -621,7 +616,7 @@ impl<'e> SampleRun<'e> {
             );
         }
         if let Some(team) = self.team.as_mut() {
-            team.move_members(&self.robot, self.evaluator, &self.env.scene);
+            team.move_members(&self.robot, task, &self.env.scene);
         }
         if collided && task.end_on_collision {
             return Some(Ending::Collision);

@@ -70,7 +70,10 @@ pub struct Episode<'e> {
 }
 
 impl<'e> Episode<'e> {
-    /// Starts `sample` of the evaluator's task for a caller that sets the wheels itself.
+    /// Starts `sample` of the evaluator's task for a caller that sets the wheels itself. The
+    /// caller drives the focal robot alone: a team's `evolved` robots (`[[robots]]`), which
+    /// run copies of an evaluated controller, stand still.
+    /// ([`crate::Scenario::has_evolved_team`] says whether a scenario has them.)
     pub fn new(evaluator: &'e Evaluator, sample: Sample) -> Episode<'e> {
         // No controller tree: no nodes to count, and no root child a phase could ask for.
         Episode::for_policy(evaluator, sample, 0, [usize::MAX; N_SUB_TASKS])

@@ -7,33 +7,48 @@
 //! undone, as a move into a wall is. A sample without a team has no `Team` at all, so it runs
 //! and draws exactly as before teams existed.
 
-use super::evaluator::Evaluator;
 use crate::body::{Arc, Pose, noisy_speed, wheel_speed};
 use crate::geometry::crowd::Crowd;
 use crate::geometry::scene::Scene;
+use crate::math::lanes::{LANES, Lanes};
 use crate::math::rng::{SimRng, Stream, member_rng, member_seed};
 use crate::math::trig;
 use crate::network::Policy;
+use crate::network::lanes::LaneController;
 use crate::outcome::Sample;
 use crate::scenario::GroupDriver;
 use crate::scenario::blocks::Motion;
-use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
-use crate::sensors::{SenseView, SensorRun};
+use crate::sensors::frame::{InputGroup, N_FLAT, N_GROUPS, SensorFrame};
+use crate::sensors::{SenseView, Sensor, SensorRun};
+use crate::task::TaskConfig;
 
 /// What drives one of the other robots.
+#[derive(Debug)]
 enum Driver {
-    /// A copy of the controller being evaluated; `None` until the caller gives one
-    /// ([`Team::drive_with`]), and the robot stands still until then.
-    Evolved(Option<Box<dyn Policy + Send>>),
+    /// The `idx`-th copy of the controller being evaluated (counted over the team's evolved
+    /// robots).
+    Evolved(usize),
     /// A scripted motion (`wander`, `fixed`).
     Scripted(Box<dyn Motion>),
 }
 
-impl std::fmt::Debug for Driver {
+/// The copies of the controller being evaluated that a team's `evolved` robots run.
+enum Copies {
+    /// None given yet ([`Team::drive_with`]): the robots stand still.
+    None,
+    /// A controller tree, eight robots a [`LaneController`]: copy `k` is lane `k % LANES` of
+    /// controller `k / LANES`.
+    Lanes(Vec<LaneController>),
+    /// A policy that is no tree, one copy a robot.
+    Each(Vec<Box<dyn Policy + Send>>),
+}
+
+impl std::fmt::Debug for Copies {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Driver::Evolved(policy) => write!(f, "Evolved(given: {})", policy.is_some()),
-            Driver::Scripted(motion) => write!(f, "Scripted({motion:?})"),
+            Copies::None => write!(f, "None"),
+            Copies::Lanes(lanes) => write!(f, "Lanes({})", lanes.len()),
+            Copies::Each(copies) => write!(f, "Each({})", copies.len()),
         }
     }
 }
@@ -53,6 +68,11 @@ struct Member<'e> {
 #[derive(Debug)]
 pub(crate) struct Team<'e> {
     members: Vec<Member<'e>>,
+    /// How many members are `evolved`.
+    n_evolved: usize,
+    copies: Copies,
+    /// Each evolved copy's wheel outputs of the current cycle, by copy.
+    wheels: Vec<[f32; 2]>,
     /// Every robot at the start of the cycle, the focal robot as robot 0: what the sensors see
     /// and what a move is checked against.
     crowd: Crowd,
@@ -62,19 +82,22 @@ pub(crate) struct Team<'e> {
 }
 
 impl<'e> Team<'e> {
-    /// The team of `sample`, its robots at `starts` (group by group, as the sample's world
-    /// drew them); `None` when the scenario has no other robots.
+    /// The team of `sample` of `task`, its robots at `starts` (group by group, as the
+    /// sample's world drew them), each with its own runs of the evaluator's `sensors`; `None`
+    /// when the scenario has no other robots.
     pub(crate) fn new(
-        evaluator: &'e Evaluator,
+        task: &TaskConfig,
+        sensors: &'e [Option<Box<dyn Sensor>>; N_GROUPS],
         sample: Sample,
         starts: &[Pose],
         focal: &Pose,
     ) -> Option<Team<'e>> {
-        let scenario = &evaluator.task().scenario;
+        let scenario = &task.scenario;
         if scenario.robot_groups.is_empty() {
             return None;
         }
-        let max_cycles = evaluator.task().max_cycles();
+        let max_cycles = task.max_cycles();
+        let mut n_evolved = 0;
         let drivers = scenario
             .robot_groups
             .iter()
@@ -86,7 +109,10 @@ impl<'e> Team<'e> {
             .map(|(member, (&start, driver))| {
                 let mut pose = start;
                 let driver = match driver {
-                    GroupDriver::Evolved => Driver::Evolved(None),
+                    GroupDriver::Evolved => {
+                        n_evolved += 1;
+                        Driver::Evolved(n_evolved - 1)
+                    }
                     GroupDriver::Scripted(behaviour) => Driver::Scripted(behaviour.start(
                         &mut pose,
                         member_seed(sample.seed, member),
@@ -95,8 +121,8 @@ impl<'e> Team<'e> {
                 };
                 let mut setup = member_rng(sample.seed, member, Stream::SensorSetup);
                 let sensor_runs = std::array::from_fn(|group| {
-                    evaluator
-                        .sensor(group)
+                    sensors[group]
+                        .as_ref()
                         .map(|sensor| sensor.start(&mut setup))
                 });
                 Member {
@@ -110,6 +136,9 @@ impl<'e> Team<'e> {
             .collect();
         let mut team = Team {
             members,
+            n_evolved,
+            copies: Copies::None,
+            wheels: vec![[0.5; 2]; n_evolved],
             crowd: Crowd::default(),
             positions: Vec::new(),
         };
@@ -117,12 +146,58 @@ impl<'e> Team<'e> {
         Some(team)
     }
 
-    /// Gives every `evolved` robot its own reset copy of `policy` (none where the policy
-    /// cannot be copied: those robots then stand still).
-    pub(crate) fn drive_with(&mut self, policy: &dyn Policy) {
-        for member in &mut self.members {
-            if let Driver::Evolved(copy) = &mut member.driver {
-                *copy = policy.team_copy();
+    /// Gives every `evolved` robot its own reset copy of `policy`, stepped for `dt` seconds
+    /// (none where the policy can be neither laned nor copied: those robots stand still).
+    pub(crate) fn drive_with(&mut self, policy: &dyn Policy, dt: f32) {
+        let n_evolved = self.n_evolved;
+        self.copies = match policy.controller() {
+            _ if n_evolved == 0 => Copies::None,
+            Some(controller) => Copies::Lanes(
+                (0..n_evolved.div_ceil(LANES))
+                    .map(|_| LaneController::new(controller.clone(), dt))
+                    .collect(),
+            ),
+            None => (0..n_evolved)
+                .map(|_| policy.team_copy())
+                .collect::<Option<Vec<_>>>()
+                .map_or(Copies::None, Copies::Each),
+        };
+    }
+
+    /// Each evolved copy's wheel outputs for the frame its robot sensed this cycle.
+    fn decide(&mut self, dt: f32) {
+        let frames = self
+            .members
+            .iter()
+            .filter_map(|member| match member.driver {
+                Driver::Evolved(copy) => Some((copy, &member.frame)),
+                Driver::Scripted(_) => None,
+            });
+        match &mut self.copies {
+            Copies::None => {}
+            Copies::Each(copies) => {
+                for (copy, frame) in frames {
+                    self.wheels[copy] = copies[copy].step(frame, dt);
+                }
+            }
+            Copies::Lanes(controllers) => {
+                let mut frame_lanes: Vec<[Lanes; N_FLAT]> =
+                    vec![[Lanes::ZERO; N_FLAT]; controllers.len()];
+                for (copy, frame) in frames {
+                    let lanes = &mut frame_lanes[copy / LANES];
+                    for (input, &value) in lanes.iter_mut().zip(&frame.inputs) {
+                        input.0[copy % LANES] = value;
+                    }
+                }
+                for (chunk, (controller, lanes)) in
+                    controllers.iter_mut().zip(&frame_lanes).enumerate()
+                {
+                    let n_live = (self.n_evolved - chunk * LANES).min(LANES);
+                    let live = (1 << n_live) - 1;
+                    let wheels = controller.step(lanes, live);
+                    self.wheels[chunk * LANES..chunk * LANES + n_live]
+                        .copy_from_slice(&wheels[..n_live]);
+                }
             }
         }
     }
@@ -153,28 +228,54 @@ impl<'e> Team<'e> {
     /// lights and lit mask they share).
     pub(crate) fn sense(&mut self, focal_view: &SenseView<'_>) {
         let crowd = &self.crowd;
-        for (member_idx, member) in self.members.iter_mut().enumerate() {
-            let robot = member.pose;
-            let (sin_heading, cos_heading) = trig::sin_cos(robot.heading);
-            let view = SenseView {
-                robot: &robot,
-                sin_heading,
-                cos_heading,
-                teammate: None,
-                crowd: Some(crowd),
-                me: member_idx + 1,
-                ..*focal_view
-            };
-            let mut frame = SensorFrame::default();
-            for (group, run) in InputGroup::ALL.into_iter().zip(&mut member.sensor_runs) {
-                if let Some(run) = run {
-                    run.read(&view, &mut member.noise, frame.values_mut(group));
-                }
+        for (chunk_idx, chunk) in self.members.chunks_mut(LANES).enumerate() {
+            // Eight headings' sines at once, each the bits `trig::sin_cos` gives.
+            let headings =
+                std::array::from_fn(|lane| chunk.get(lane).map_or(0.0, |m| m.pose.heading));
+            let (sines, cosines) = trig::sin_cos_lanes(&headings);
+            for (lane, member) in chunk.iter_mut().enumerate() {
+                let member_idx = chunk_idx * LANES + lane;
+                member.sense(
+                    focal_view,
+                    crowd,
+                    member_idx + 1,
+                    (sines[lane], cosines[lane]),
+                );
             }
-            member.frame = frame;
         }
     }
+}
 
+impl Member<'_> {
+    /// Senses as robot `me` of `crowd`, given its heading's sine and cosine.
+    fn sense(
+        &mut self,
+        focal_view: &SenseView<'_>,
+        crowd: &Crowd,
+        me: usize,
+        (sin_heading, cos_heading): (f32, f32),
+    ) {
+        let robot = self.pose;
+        let view = SenseView {
+            robot: &robot,
+            sin_heading,
+            cos_heading,
+            teammate: None,
+            crowd: Some(crowd),
+            me,
+            ..*focal_view
+        };
+        let mut frame = SensorFrame::default();
+        for (group, run) in InputGroup::ALL.into_iter().zip(&mut self.sensor_runs) {
+            if let Some(run) = run {
+                run.read(&view, &mut self.noise, frame.values_mut(group));
+            }
+        }
+        self.frame = frame;
+    }
+}
+
+impl Team<'_> {
     /// Whether a robot of radius `radius` at `at` would overlap another robot where it stands
     /// now; `me` is the moving robot's index (0 the focal robot), `reach` how far any robot
     /// may have moved since the crowd was gathered plus two radii.
@@ -204,56 +305,79 @@ impl<'e> Team<'e> {
         self.blocked(at, radius, 2.0 * radius + step, 0, &focal)
     }
 
-    /// The other robots move, in order, each after the focal robot's move to `focal`.
-    pub(crate) fn move_members(&mut self, focal: &Pose, evaluator: &Evaluator, scene: &Scene) {
-        let robot = &evaluator.task().params.robot;
+    /// The other robots decide, then move, in order, each after the focal robot's move to
+    /// `focal`.
+    pub(crate) fn move_members(&mut self, focal: &Pose, task: &TaskConfig, scene: &Scene) {
+        let robot = &task.params.robot;
         let (radius, dt) = (robot.radius, robot.cycle_seconds);
         let step = robot.v_max * dt;
         // Every robot moves at most `step` a cycle: two of them, since the gathering.
         let reach = 2.0 * radius + 2.0 * step;
-        for member_idx in 0..self.members.len() {
+        self.decide(dt);
+        // Where each robot would go: each depends on its own pose, wheels and noise stream
+        // only, so all are planned first and the arcs' sines taken eight at a time (the bits
+        // `trig::sin_cos` gives); the moves are then checked one after the other.
+        let nexts = self.plan_moves(task, scene);
+        for (member_idx, next) in nexts.into_iter().enumerate() {
+            let Some(next) = next else { continue };
+            let member = &self.members[member_idx];
+            let scripted = matches!(member.driver, Driver::Scripted(_));
+            // A scripted motion checks the walls itself.
+            let hits_solid = !scripted && scene.disc_hits(next.position(), radius);
+            let blocked =
+                hits_solid || self.blocked(next.position(), radius, reach, member_idx + 1, focal);
             let member = &mut self.members[member_idx];
-            let before = member.pose;
-            let next = match &mut member.driver {
-                Driver::Evolved(None) => continue,
-                Driver::Evolved(Some(policy)) => {
-                    let wheels = policy.step(&member.frame, dt);
-                    let left = noisy_speed(
-                        wheel_speed(wheels[0], robot.v_max),
-                        robot,
-                        &mut member.noise,
-                    );
-                    let right = noisy_speed(
-                        wheel_speed(wheels[1], robot.v_max),
-                        robot,
-                        &mut member.noise,
-                    );
-                    let arc = Arc::of(&before, left, right, robot);
-                    let (sin_half_turn, _) = trig::sin_cos(arc.half_turn);
-                    let next = arc.end_pose(&before, sin_half_turn, trig::sin_cos(arc.mid_heading));
-                    if scene.disc_hits(next.position(), radius) {
-                        continue;
-                    }
-                    next
-                }
-                Driver::Scripted(motion) => {
-                    let mut next = before;
-                    motion.before_met(&mut next, step, scene, radius);
-                    next
-                }
-            };
-            let member_blocked =
-                self.blocked(next.position(), radius, reach, member_idx + 1, focal);
-            let member = &mut self.members[member_idx];
-            match (&member.driver, member_blocked) {
-                (_, false) => member.pose = next,
-                // A controller's move is undone whole, heading included, as against a wall; a
-                // scripted walker keeps the turn it drew, so it does not push on for ever.
-                (Driver::Scripted(_), true) => member.pose.heading = next.heading,
-                (Driver::Evolved(_), true) => {}
+            match (blocked, scripted) {
+                (false, _) => member.pose = next,
+                // A scripted walker blocked by a robot keeps the turn it drew, so that it does
+                // not push on for ever; a controller's move is undone whole, as against a wall.
+                (true, true) => member.pose.heading = next.heading,
+                (true, false) => {}
             }
         }
         self.note_positions(focal);
+    }
+
+    /// Each robot's next pose, before any check against walls or robots (`None`: an evolved
+    /// robot with no controller given, which stands still).
+    fn plan_moves(&mut self, task: &TaskConfig, scene: &Scene) -> Vec<Option<Pose>> {
+        let robot = &task.params.robot;
+        let step = robot.v_max * robot.cycle_seconds;
+        let driven = !matches!(self.copies, Copies::None);
+        let mut nexts = Vec::with_capacity(self.members.len());
+        for chunk in self.members.chunks_mut(LANES) {
+            let arcs: [Option<Arc>; LANES] = std::array::from_fn(|lane| {
+                let member = chunk.get_mut(lane)?;
+                let Driver::Evolved(copy) = member.driver else {
+                    return None;
+                };
+                driven.then(|| {
+                    let [left, right] = self.wheels[copy].map(|wheel| {
+                        noisy_speed(wheel_speed(wheel, robot.v_max), robot, &mut member.noise)
+                    });
+                    Arc::of(&member.pose, left, right, robot)
+                })
+            });
+            let angles = |of: fn(&Arc) -> f32| arcs.map(|arc| arc.as_ref().map_or(0.0, of));
+            let (sin_half_turns, _) = trig::sin_cos_lanes(&angles(|arc| arc.half_turn));
+            let (sin_mids, cos_mids) = trig::sin_cos_lanes(&angles(|arc| arc.mid_heading));
+            for (lane, member) in chunk.iter_mut().enumerate() {
+                nexts.push(match (&mut member.driver, &arcs[lane]) {
+                    (Driver::Scripted(motion), _) => {
+                        let mut next = member.pose;
+                        motion.before_met(&mut next, step, scene, robot.radius);
+                        Some(next)
+                    }
+                    (Driver::Evolved(_), Some(arc)) => Some(arc.end_pose(
+                        &member.pose,
+                        sin_half_turns[lane],
+                        (sin_mids[lane], cos_mids[lane]),
+                    )),
+                    (Driver::Evolved(_), None) => None,
+                });
+            }
+        }
+        nexts
     }
 
     fn note_positions(&mut self, focal: &Pose) {

@@ -506,11 +506,14 @@ impl<const N: usize> ConeLanes<N> {
     ) {
         for l in 0..N {
             let (dx, dy) = (center[0] - origins[0][l], center[1] - origins[1][l]);
-            let to_center = (dx * dx + dy * dy).sqrt();
-            let surface = (to_center - radius).max(0.0);
-            if surface >= best[l] {
+            let to_center_sq = dx * dx + dy * dy;
+            // Beyond the best so far: no root taken (most sensors of most neighbours).
+            let beyond = best[l] + radius;
+            if to_center_sq >= beyond * beyond {
                 continue;
             }
+            let to_center = to_center_sq.sqrt();
+            let surface = (to_center - radius).max(0.0);
             // Within the cone: the direction to the centre (the nearest point's) inside it.
             if dx * self.axis[0][l] + dy * self.axis[1][l] >= to_center * self.cos_half_angle[l] {
                 best[l] = surface;

@@ -1,8 +1,10 @@
-//! Networks: the CTRNN, the controller trees built from them (file form and runtime), and the
-//! [`Policy`] every driver of the robot implements.
+//! Networks: the CTRNN, the controller trees built from them (file form and runtime), a tree
+//! stepped for eight robots at once (`lanes.rs`), and the [`Policy`] every driver of the robot
+//! implements.
 
 pub mod controller;
 pub mod ctrnn;
+pub mod lanes;
 
 use crate::sensors::frame::SensorFrame;
 use controller::Controller;
@@ -32,8 +34,13 @@ pub trait Policy {
         let _ = name;
         None
     }
+    /// The controller tree, if the policy is one: a team's `evolved` robots then run it eight
+    /// at a time ([`lanes::LaneController`]).
+    fn controller(&self) -> Option<&Controller> {
+        None
+    }
     /// A fresh copy, reset, for another robot of a team to run with its own state, if the
-    /// policy can be copied (an evolved controller can; a team's `evolved` robots need one).
+    /// policy is no controller tree but can be copied (a team's `evolved` robots need one).
     fn team_copy(&self) -> Option<Box<dyn Policy + Send>> {
         None
     }
@@ -66,9 +73,7 @@ impl Policy for Controller {
         Controller::root_child_index(self, name)
     }
 
-    fn team_copy(&self) -> Option<Box<dyn Policy + Send>> {
-        let mut copy = self.clone();
-        copy.reset();
-        Some(Box::new(copy))
+    fn controller(&self) -> Option<&Controller> {
+        Some(self)
     }
 }

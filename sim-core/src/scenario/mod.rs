@@ -522,6 +522,54 @@ impl Scenario {
             .sum::<usize>()
     }
 
+    /// This scenario with a team of `n_robots` robots, the focal one included: for measuring
+    /// how a cycle's cost grows with the team. The first group grows or shrinks to make up the
+    /// number, the other groups stay as they are. At 1 the groups go, and with them the
+    /// conditions, fitness and descriptor, whose team terms need other robots: the sample then
+    /// runs to its cycle limit with a fitness of 0.
+    pub fn with_team_size(&self, n_robots: u32) -> Result<Scenario, ScenarioError> {
+        let mut file = self.file.clone();
+        let refuse = |message: String| self.refusal("robots", message);
+        if file.robot_groups.is_empty() {
+            return Err(refuse("has no [[robots]] to resize".into()));
+        }
+        if n_robots <= 1 {
+            file.robot_groups.clear();
+            file.end = file::EndDecl {
+                solved: "not always".into(),
+                wrong_branch: None,
+                wrong_branch_ends: true,
+                forbidden: None,
+                near_m: 0.0,
+            };
+            file.fitness = file::FitnessDecl {
+                solved: "0".into(),
+                wrong_branch: None,
+                collision: None,
+                timeout: None,
+                otherwise: Some("0".into()),
+            };
+            file.phases.clear();
+            file.stages.clear();
+            file.descriptor = None;
+        } else {
+            let others: u32 = file.robot_groups[1..].iter().map(|group| group.count).sum();
+            let first = (n_robots - 1)
+                .checked_sub(others)
+                .filter(|&count| count > 0);
+            let Some(first) = first else {
+                return Err(refuse(format!(
+                    "a team of {n_robots} cannot hold the {others} robots of its other groups \
+                     and at least one of the first"
+                )));
+            };
+            file.robot_groups[0].count = first;
+        }
+        let text = toml::to_string(&file)
+            .map_err(|error| refuse(format!("cannot be written back: {error}")))?;
+        Scenario::parse(&text, &format!("{} (a team of {n_robots})", self.origin))
+    }
+
     /// Whether other robots run copies of the controller being evaluated: a caller that
     /// steps the focal robot itself (an `Episode`) has no controller to give them.
     pub fn has_evolved_team(&self) -> bool {

@@ -1,13 +1,13 @@
 //! `hevo bench`: simulator throughput on this machine (scalar and lockstep evaluators), the
-//! `hevo run` pipeline's, or with `--dispatch-load` the master's dispatch capacity against
-//! fake workers.
+//! `hevo run` pipeline's, a team task's per robot at several team sizes (`--robots`), or with
+//! `--dispatch-load` the master's dispatch capacity against fake workers.
 
 use crate::inputs::parse_task;
 use crate::runtime::{default_threads, runtime};
 use anyhow::{Result, bail};
 use clap::Args;
 use hevo_engine::bench;
-use hevo_sim_core::EvaluatorKind;
+use hevo_sim_core::{EvaluatorKind, TaskConfig};
 use std::time::Duration;
 
 /// `hevo bench`.
@@ -41,6 +41,12 @@ pub struct BenchArgs {
     /// With --dispatch-load: what one batch costs a fake worker, milliseconds.
     #[arg(long, default_value_t = 20.0)]
     pub batch_cost_ms: f64,
+    /// For a task with a team (`[[robots]]`): measure it at each of these team sizes (the
+    /// focal robot included; its first group resized), robot-cycles per second per thread and
+    /// each size's ratio to the first. With the lockstep evaluator unless --evaluator says
+    /// scalar.
+    #[arg(long, value_delimiter = ',', value_name = "N,N,...")]
+    pub robots: Vec<u32>,
 }
 
 /// Which evaluators `hevo bench` measures.
@@ -62,6 +68,9 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     }
     if let Some(workers) = args.dispatch_load {
         return dispatch_load(workers, args.seconds, args.batch_cost_ms, args.json);
+    }
+    if !args.robots.is_empty() {
+        return team_sizes(&task, &args, threads);
     }
     let reports = if args.pipeline {
         vec![
@@ -104,6 +113,50 @@ pub fn bench(args: BenchArgs) -> Result<()> {
             "lockstep / scalar: {:.2}x",
             lockstep.cycles_per_second / scalar.cycles_per_second.max(1.0)
         );
+    }
+    Ok(())
+}
+
+/// `hevo bench --robots N,N,...`: the task at each team size, one after the other.
+fn team_sizes(task: &TaskConfig, args: &BenchArgs, threads: usize) -> Result<()> {
+    let kind = match args.evaluator {
+        BenchEvaluator::Scalar => EvaluatorKind::Scalar,
+        BenchEvaluator::Lockstep | BenchEvaluator::Both => EvaluatorKind::Lockstep,
+    };
+    if let Some(&n_robots) = args
+        .robots
+        .iter()
+        .find(|&&n| n == 0 || n > hevo_sim_core::MAX_ROBOTS)
+    {
+        bail!(
+            "--robots {n_robots}: a team holds 1 to {} robots",
+            hevo_sim_core::MAX_ROBOTS
+        );
+    }
+    let mut first_rate = None;
+    for &n_robots in &args.robots {
+        let scenario = task.scenario.with_team_size(n_robots)?;
+        let sized = TaskConfig {
+            scenario: std::sync::Arc::new(scenario),
+            ..task.clone()
+        };
+        let report =
+            bench::simulator(sized, threads, args.seconds, kind).map_err(anyhow::Error::msg)?;
+        let rate = report.robot_cycles_per_second_per_thread;
+        let ratio = rate / *first_rate.get_or_insert(rate);
+        if args.json {
+            crate::outln!("{}", serde_json::to_string(&report)?);
+        } else {
+            crate::outln!(
+                "{} ({:?}), {n_robots:>2} robot(s), {} thread(s): {:.0} robot-cycles/s per \
+                 thread, {:.2} of the first size's",
+                report.task,
+                report.evaluator,
+                report.threads,
+                rate,
+                ratio
+            );
+        }
     }
     Ok(())
 }

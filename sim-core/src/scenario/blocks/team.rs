@@ -72,6 +72,8 @@ pub fn nearest(positions: &[[f32; 2]]) -> f32 {
     if positions.len() < 2 {
         return 0.0;
     }
+    // Squared distances compared, one root a robot: a cycle of n robots costs n * n
+    // multiply-adds and n roots.
     let total: f32 = positions
         .iter()
         .enumerate()
@@ -80,8 +82,12 @@ pub fn nearest(positions: &[[f32; 2]]) -> f32 {
                 .iter()
                 .enumerate()
                 .filter(|&(other, _)| other != idx)
-                .map(|(_, q)| hypot(q[0] - p[0], q[1] - p[1]))
+                .map(|(_, q)| {
+                    let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+                    dx * dx + dy * dy
+                })
                 .fold(f32::INFINITY, f32::min)
+                .sqrt()
         })
         .sum();
     total / positions.len() as f32
