@@ -89,6 +89,16 @@ struct Core {
 
 impl Core {
     fn new(task: &Task, seeds: Vec<u64>) -> PyResult<Core> {
+        let scenario = &task.config.scenario;
+        if scenario.has_evolved_team() {
+            // Its other robots would run copies of a controller the environment does not have.
+            return Err(ConfigError::new_err(format!(
+                "{}: the team's `evolved` robots ([[robots]]) run copies of an evaluated \
+                 controller, which an environment stepped from Python has none of; evaluate \
+                 controllers on it with hevo.evaluate",
+                scenario.origin
+            )));
+        }
         let evaluator = Evaluator::new(task.config.clone())
             .map_err(|error| ConfigError::new_err(crate::message(&error)))?;
         let n_lanes = seeds.len();

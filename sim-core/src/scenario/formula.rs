@@ -18,7 +18,8 @@
 //! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
 //! cell), `in goal`, `in REGION`, `teammate following` (or `teammate met`), `teammate in room`,
 //! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `team gathered` (every
-//! robot within `near_m` of the team's centre), `team in REGION`, `always`.
+//! robot within `near_m` of the team's centre), `team dispersed` (every robot's nearest
+//! neighbour at least `near_m` away), `team in REGION`, `always`.
 //!
 //! The quantities and atoms themselves are building blocks ([`super::blocks`]): this module
 //! only splits the text and asks the registered blocks what each piece names.

@@ -57,6 +57,7 @@ pub static ATOMS: &[AtomKind] = &[
     atoms::BEYOND_EXIT,
     atoms::NEAR,
     team::TEAM_GATHERED,
+    team::TEAM_DISPERSED,
     team::TEAM_IN_REGION,
     atoms::ALWAYS,
 ];

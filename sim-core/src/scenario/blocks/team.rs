@@ -3,8 +3,8 @@
 //! one included.
 //! `team.spread` and `team.nearest` are averages over the cycles judged, so that a team is
 //! credited for the whole sample rather than for its last instant; `team.in REGION` is a share
-//! at the end. The atoms `team gathered` and `team in REGION` hold when every robot is close
-//! to the team's centre or in the region. Each refuses a scenario without other robots, where
+//! at the end. The atoms `team gathered`, `team dispersed` and `team in REGION` hold when
+//! every robot is close to the team's centre, far from its nearest neighbour, or in the region. Each refuses a scenario without other robots, where
 //! it would say nothing.
 
 use super::atoms::RegionTest;
@@ -212,6 +212,42 @@ impl Atom for TeamGathered {
                 .team
                 .iter()
                 .all(|p| hypot(p[0] - centre[0], p[1] - centre[1]) <= self.within)
+    }
+}
+
+/// `team dispersed`: every robot's nearest neighbour at least `end.near_m` away (centre to
+/// centre).
+pub const TEAM_DISPERSED: AtomKind = AtomKind {
+    syntax: &["team dispersed"],
+    compile: |text, facts| {
+        if text != "team dispersed" {
+            return None;
+        }
+        Some(match (facts.has_team, facts.near_m > 0.0) {
+            (false, _) => Err(NEEDS_A_TEAM.into()),
+            (true, false) => Err("needs `end.near_m`, how far apart".into()),
+            (true, true) => Ok(Box::new(TeamDispersed {
+                apart: facts.near_m,
+            }) as Box<dyn Atom>),
+        })
+    },
+};
+
+#[derive(Debug)]
+struct TeamDispersed {
+    apart: f32,
+}
+
+impl Atom for TeamDispersed {
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        let apart_sq = self.apart * self.apart;
+        view.team.len() > 1
+            && view.team.iter().enumerate().all(|(idx, p)| {
+                view.team.iter().enumerate().all(|(other, q)| {
+                    let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+                    other == idx || dx * dx + dy * dy >= apart_sq
+                })
+            })
     }
 }
 
