@@ -41,7 +41,7 @@ pub enum Stream {
     /// its turns). Its own stream, so that adding the walk left every other draw as it was.
     Teammate = 4,
     /// A team's other robots (`[[robots]]`): each robot's own streams derive from this one
-    /// and its index ([`member_rng`], [`member_seed`]), apart from the focal robot's and from
+    /// and its index (`member_rng`, `member_seed`), apart from the focal robot's and from
     /// one another's.
     Team = 5,
 }
