@@ -187,6 +187,10 @@ pub struct Trace {
     pub exit: Option<([f32; 2], [f32; 2])>,
     /// The cycles, in order.
     pub cycles: Vec<TraceCycle>,
+    /// A team's groups of other robots (`[[robots]]`), in the order of each cycle's `team`:
+    /// name and count, so a replay can tell the groups apart (empty without a team).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub team_groups: Vec<(String, u32)>,
     /// The final pose of the robot.
     pub final_robot: Pose,
     /// The outcome.

@@ -1,12 +1,14 @@
 //! The best controller's replays on a job page: one traced sample per variant (light
 //! configuration) of the node's task, drawn by hevo-viz's replay renderer, with the robot's
-//! pose at every cycle in picture coordinates so the page's script can move a marker along the
-//! path with a cycle slider and play it. Without the script the picture is the whole replay.
+//! pose at every cycle in picture coordinates (and a team's other robots' poses too) so the
+//! page's script can move a marker for each robot along its path with a cycle slider and play
+//! it. Without the script the picture is the whole replay.
 
 use crate::BestController;
 use crate::html::escape;
 use hevo_sim_core::Controller;
-use hevo_sim_core::{Evaluator, Sample};
+use hevo_sim_core::{Evaluator, Pose, Sample};
+use hevo_viz::replay::SceneTransform;
 use hevo_viz::svg::num_with;
 
 /// One replay, ready for the page.
@@ -19,6 +21,9 @@ pub struct ReplayFigure {
     /// The robot at each cycle and at the end: picture x, y and heading in degrees
     /// (clockwise, as SVG rotates).
     pub poses: Vec<[f64; 3]>,
+    /// Each of a team's other robots, as `poses`: a trace records no final pose for them, so
+    /// each ends on its last recorded pose again, in step with the robot. Empty without a team.
+    pub team_poses: Vec<Vec<[f64; 3]>>,
     /// The robot's radius in picture units.
     pub radius: f64,
     /// How the sample ended, in words.
@@ -55,21 +60,27 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
         };
         let svg = hevo_viz::replay_svg(&trace, &options, &|pose| evaluator.ir_cones(pose));
         let transform = hevo_viz::replay_scene_transform(&trace, radius_m);
-        let poses = trace
-            .cycles
-            .iter()
-            .map(|c| c.robot)
-            .chain(std::iter::once(trace.final_robot))
-            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.heading.is_finite())
-            .map(|p| {
-                let [x, y] = transform.apply([p.x, p.y]);
-                [x, y, -(p.heading as f64).to_degrees()]
+        let poses = picture_poses(
+            &transform,
+            trace
+                .cycles
+                .iter()
+                .map(|c| c.robot)
+                .chain(std::iter::once(trace.final_robot)),
+        );
+        let n_members = trace.cycles.first().map_or(0, |c| c.team.len());
+        let team_poses = (0..n_members)
+            .map(|member| {
+                let recorded = trace.cycles.iter().filter_map(|c| c.team.get(member));
+                let last = trace.cycles.last().and_then(|c| c.team.get(member));
+                picture_poses(&transform, recorded.chain(last).copied())
             })
             .collect();
         figures.push(ReplayFigure {
             variant,
             svg,
             poses,
+            team_poses,
             radius: transform.length(radius_m as f64),
             ending: format!(
                 "{:?} after {} cycles, fitness {:.3}",
@@ -78,6 +89,18 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
         });
     }
     Ok(figures)
+}
+
+/// Poses in picture coordinates, `[x, y, degrees clockwise]`, leaving out those that cannot be
+/// drawn.
+fn picture_poses(transform: &SceneTransform, poses: impl Iterator<Item = Pose>) -> Vec<[f64; 3]> {
+    poses
+        .filter(|p| p.x.is_finite() && p.y.is_finite() && p.heading.is_finite())
+        .map(|p| {
+            let [x, y] = transform.apply([p.x, p.y]);
+            [x, y, -(p.heading as f64).to_degrees()]
+        })
+        .collect()
 }
 
 /// The poses as the `data-poses` attribute's JSON: `[[x,y,deg],...]`, two decimals.
@@ -103,8 +126,15 @@ pub fn figure_html(node: &str, figure: &ReplayFigure) -> String {
         Some(k) => format!("light configuration {k}"),
         None => "the sample".to_string(),
     };
+    // Only a team's replay carries the attribute, so other pages stay as they were.
+    let team_poses = if figure.team_poses.is_empty() {
+        String::new()
+    } else {
+        let members: Vec<String> = figure.team_poses.iter().map(|p| poses_json(p)).collect();
+        format!(r#" data-team-poses="[{}]""#, members.join(","))
+    };
     format!(
-        r#"<figure class="replay" data-node="{node}" data-variant="{variant}" data-radius="{radius}" data-poses="{poses}">
+        r#"<figure class="replay" data-node="{node}" data-variant="{variant}" data-radius="{radius}" data-poses="{poses}"{team_poses}>
 {svg}
 <figcaption>{label}: {ending}</figcaption>
 <div class="replay-controls" hidden>
@@ -148,6 +178,34 @@ mod tests {
         let html = figure_html("follow_wall", figure);
         assert!(html.contains(r#"class="cycle-slider""#));
         assert!(html.contains("<svg"));
+        assert!(figure.team_poses.is_empty() && !html.contains("data-team-poses"));
+    }
+
+    #[test]
+    fn a_team_replay_has_each_other_robots_poses_in_step() {
+        let text = include_str!("../../viz/fixtures/team_arena.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, "team_arena.toml").unwrap();
+        let best = BestController {
+            // Reads the IR sensors only, which the arena's robots carry.
+            file: shipped_controller(include_str!("../../../controllers/follow_wall.json")),
+            task: TaskConfig::from_scenario(std::sync::Arc::new(scenario)),
+        };
+        let figures = replays("team_arena", &best, 2).unwrap();
+        let figure = &figures[0];
+        assert_eq!(figure.team_poses.len(), 3);
+        for member in &figure.team_poses {
+            assert_eq!(member.len(), figure.poses.len());
+            assert!(member.iter().all(|p| (0.0..=800.0).contains(&p[0])));
+        }
+        assert!(figure.svg.contains(r#"class="team-robot""#));
+        let html = figure_html("team_arena", figure);
+        let attribute = html
+            .split(r#"data-team-poses=""#)
+            .nth(1)
+            .and_then(|rest| rest.split('"').next())
+            .expect("the figure carries the team's poses");
+        let parsed: Vec<Vec<[f64; 3]>> = serde_json::from_str(attribute).unwrap();
+        assert_eq!(parsed.len(), 3);
     }
 
     #[test]

@@ -1,10 +1,14 @@
 //! Renders replays of the shipped controllers, to look at: `cargo run -p hevo-viz --example
 //! replay_pictures [OUT_DIR]` (the system's temporary directory by default) writes the maze
 //! arbitrator's longest solved sample of 40 with the IR cones drawn at one cycle, the same
-//! sample animated, the room exit and the rescue. The pictures' structure is tested in
-//! `src/replay.rs`; this is for the eye.
+//! sample animated, the room exit, the rescue, and a team: a robot that steers clear of
+//! obstacles among three wanderers (`fixtures/team_arena.toml`). The pictures' structure is
+//! tested in `src/replay.rs`; this is for the eye.
 
-use hevo_sim_core::{Controller, ControllerFile, Evaluator, Pose, Sample, TaskConfig, Trace};
+use hevo_sim_core::{
+    Controller, ControllerFile, Evaluator, InputGroup, Policy, Pose, Sample, Scenario, SensorFrame,
+    TaskConfig, Trace,
+};
 use hevo_viz::{ReplayOptions, replay_svg};
 use std::path::{Path, PathBuf};
 
@@ -29,6 +33,35 @@ fn options(controller: &Controller, evaluator: &Evaluator) -> ReplayOptions {
             .collect(),
         robot_radius: evaluator.task().params.robot.radius,
         ..ReplayOptions::default()
+    }
+}
+
+/// Drives ahead and turns away from whatever its IR sensors see: enough to cross the team's
+/// arena for a while, with no controller file for that scenario.
+#[derive(Debug)]
+struct SteerClear;
+
+impl Policy for SteerClear {
+    fn reset(&mut self) {}
+
+    fn step(&mut self, frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+        let ir = frame.values(InputGroup::IR);
+        // Sensors 0 and 1 look left of ahead, 2 and 3 right; a wheel output of 0.5 stands.
+        let (left, right) = (ir[0].max(ir[1]), ir[2].max(ir[3]));
+        let blocked = ir[0].max(ir[3]);
+        let steer = 0.6 * (left - right) + 0.5 * blocked;
+        [
+            (0.85 + steer).clamp(0.0, 1.0),
+            (0.85 - steer).clamp(0.0, 1.0),
+        ]
+    }
+
+    fn active_path(&self) -> &[usize] {
+        &[0]
+    }
+
+    fn n_nodes(&self) -> usize {
+        1
     }
 }
 
@@ -81,5 +114,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rescue.ir_cones(pose)
     });
     write(&dir, "replay_rescue.svg", svg)?;
+
+    let text = include_str!("../fixtures/team_arena.toml");
+    let scenario = Scenario::parse(text, "fixtures/team_arena.toml")?;
+    let arena = Evaluator::new(TaskConfig::from_scenario(std::sync::Arc::new(scenario)))?;
+    let trace = arena.evaluate_traced(&mut SteerClear, Sample::seeded(3));
+    let options_arena = ReplayOptions {
+        node_names: vec!["steer_clear".to_string()],
+        robot_radius: arena.task().params.robot.radius,
+        ..ReplayOptions::default()
+    };
+    let svg = replay_svg(&trace, &options_arena, &|pose| arena.ir_cones(pose));
+    write(&dir, "replay_team.svg", svg)?;
     Ok(())
 }

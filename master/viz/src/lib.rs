@@ -1,5 +1,5 @@
 //! Pictures of what evolved: SVG replays of single traced samples (the robot's path through the
-//! world, coloured by the controller that drove it), fitness plots of evolutionary runs and a
+//! world, coloured by the controller that drove it, and a team's other robots), fitness plots of evolutionary runs and a
 //! MAP-Elites run's archive heatmap and QD-score curves ([`archive`]), read
 //! from run directories through `hevo_rundir`'s format, without the engine. The pictures share
 //! one small SVG writer, so escaping, number formatting, palette and fonts are decided in one

@@ -1,5 +1,6 @@
 //! Replays of one evaluated sample as an SVG picture: the world drawn to scale (walls,
-//! obstacles, the room's exit, the maze's lights and goal), the teammate's path, and the
+//! obstacles, the room's exit, the maze's lights and goal), the teammate's path, a team's other
+//! robots (each one's path, start and last pose, in a muted colour per group), and the
 //! robot's trajectory coloured by which leaf controller of the tree was driving at each moment,
 //! with a legend naming those controllers, markers for the start, collisions and the final
 //! pose, optional IR sensor cones at chosen cycles, and an optional looping animation. It reads
@@ -76,6 +77,9 @@ const LEGEND_FONT: f64 = 14.0;
 const LABEL_FONT: f64 = 13.0;
 /// Trajectory stroke width, pixels.
 const TRAJECTORY_WIDTH: f64 = 3.0;
+/// A team's other robots' path width, pixels: thinner than the focal robot's, which is the one
+/// the picture is about.
+const TEAM_PATH_WIDTH: f64 = 1.5;
 
 const WALL_COLOUR: &str = "#4d4d4d";
 const OBSTACLE_COLOUR: &str = "#a68a64";
@@ -84,6 +88,16 @@ const LIGHT_ON_COLOUR: &str = "#F0E442";
 const CONE_COLOUR: &str = "#56B4E9";
 /// Colour for cycles whose active path was empty (a policy that reports no nodes).
 const NO_NODE_COLOUR: &str = "#999999";
+/// One colour per group of a team's other robots, in group order: muted, so that none is
+/// mistaken for a controller's colour on the focal robot's path.
+const TEAM_COLOURS: [&str; 6] = [
+    "#8e7cc3", // dusty violet
+    "#5f9e8f", // sage teal
+    "#b5866a", // clay
+    "#7790b5", // slate blue
+    "#a8789b", // mauve
+    "#8d9a5b", // olive
+];
 
 /// Maps world metres (y up) to picture pixels (y down): `px = origin_x + scale * x`,
 /// `py = origin_y - scale * y`.
@@ -152,6 +166,9 @@ fn world_bounds(trace: &Trace, regions: &[NamedRegion], robot_radius: f64) -> [f
         include(cycle.robot.position(), robot_radius);
         if let Some(mate) = cycle.teammate {
             include(mate.position(), robot_radius);
+        }
+        for other in &cycle.team {
+            include(other.position(), robot_radius);
         }
     }
     include(trace.final_robot.position(), robot_radius);
@@ -325,6 +342,75 @@ fn trajectory_point(trace: &Trace, index: usize) -> [f32; 2] {
         .map_or(trace.final_robot.position(), |c| c.robot.position())
 }
 
+/// One group of a team's other robots as the picture draws it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct TeamGroup<'t> {
+    /// The group's name, when the trace records its groups.
+    name: Option<&'t str>,
+    /// Its robots: their indices in each cycle's `team`.
+    members: std::ops::Range<usize>,
+    colour: &'static str,
+}
+
+impl TeamGroup<'_> {
+    /// The key's words for the group: its name, and how many robots it drew.
+    fn words(&self) -> String {
+        let count = self.members.len();
+        let robots = format!(
+            "{count} other {}",
+            if count == 1 { "robot" } else { "robots" }
+        );
+        match self.name {
+            Some(name) => format!("{name}: {robots}"),
+            None => robots,
+        }
+    }
+}
+
+/// The groups of the trace's other robots (none without a team). A trace whose groups do not
+/// account for exactly the robots its cycles hold (one recorded without its groups) is drawn
+/// as one unnamed group rather than with wrong names.
+fn team_groups(trace: &Trace) -> Vec<TeamGroup<'_>> {
+    let n_members = trace.cycles.iter().map(|c| c.team.len()).max().unwrap_or(0);
+    if n_members == 0 {
+        return Vec::new();
+    }
+    let counted: usize = trace.team_groups.iter().map(|(_, n)| *n as usize).sum();
+    if counted != n_members {
+        return vec![TeamGroup {
+            name: None,
+            members: 0..n_members,
+            colour: TEAM_COLOURS[0],
+        }];
+    }
+    let mut next = 0;
+    trace
+        .team_groups
+        .iter()
+        .enumerate()
+        .map(|(index, (name, count))| {
+            let members = next..next + *count as usize;
+            next = members.end;
+            TeamGroup {
+                name: Some(name),
+                members,
+                colour: TEAM_COLOURS[index % TEAM_COLOURS.len()],
+            }
+        })
+        .collect()
+}
+
+/// Where one of the other robots stood at the start of each cycle, leaving out what cannot be
+/// drawn.
+fn member_poses(trace: &Trace, member: usize) -> Vec<Pose> {
+    trace
+        .cycles
+        .iter()
+        .filter_map(|c| c.team.get(member).copied())
+        .filter(|p| finite(p.position()) && p.heading.is_finite())
+        .collect()
+}
+
 /// The caption's words for the sample's variant, when the task has variants: the paper's tasks
 /// say it as the paper does, any other scenario by its variant's name.
 fn variant_text(trace: &Trace, variant: u32) -> Option<String> {
@@ -460,6 +546,7 @@ fn render(
     };
     let (transform, scene_bottom) = fit(world_bounds(trace, regions, robot_radius));
     let radius_px = transform.length(robot_radius);
+    let team = team_groups(trace);
 
     // Consecutive cycles driven by the same leaf form one run, drawn as one polyline.
     let leaves: Vec<Option<u16>> = trace
@@ -517,7 +604,7 @@ fn render(
     let caption_top = scene_bottom + 26.0;
     let legend_title_y = caption_top + 2.0 * 22.0 + 10.0;
     let legend_top = legend_title_y + 24.0;
-    let key_items = key_items(trace, options);
+    let key_items = key_items(trace, options, &team);
     let key_top = match legend {
         Legend::Controllers => legend_top + legend_rows as f64 * 22.0 + 8.0,
         Legend::None => legend_title_y,
@@ -552,6 +639,8 @@ fn render(
     draw_region_shades(&mut doc, regions, &transform);
     draw_world(&mut doc, trace, &transform);
     draw_teammate(&mut doc, trace, &transform, radius_px);
+    // Under the focal robot's path and marks, which the picture is about.
+    draw_team(&mut doc, trace, &team, &transform, radius_px);
     let faint = options.animate;
     doc.open(
         Tag::new("g")
@@ -601,7 +690,7 @@ fn render(
     // Collisions go over the final robot: a sample that ends on a collision ends there.
     draw_collisions(&mut doc, trace, &transform);
     if options.animate {
-        draw_animation(&mut doc, trace, &transform, radius_px);
+        draw_animation(&mut doc, trace, &team, &transform, radius_px);
     }
     // Region names go over everything in the scene, so no wall or robot hides one.
     draw_region_labels(
@@ -863,9 +952,20 @@ fn exit_label_place(to: [f64; 2], [ux, uy]: [f64; 2]) -> ([f64; 2], &'static str
 }
 
 /// The page boxes `[x0, y0, x1, y1]` of the other labels and marks region names should keep
-/// clear of: the start's disc and its label, and the exit arrow's label.
+/// clear of: the start's disc and its label, the other robots' starts, and the exit arrow's
+/// label.
 fn marks_to_avoid(trace: &Trace, transform: &SceneTransform, radius_px: f64) -> Vec<[f64; 4]> {
     let mut boxes = Vec::new();
+    let team_starts = trace.cycles.first().map_or(&[][..], |c| &c.team);
+    for start in team_starts.iter().filter(|p| finite(p.position())) {
+        let at = transform.apply(start.position());
+        boxes.push([
+            at[0] - radius_px,
+            at[1] - radius_px,
+            at[0] + radius_px,
+            at[1] + radius_px,
+        ]);
+    }
     let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
     if finite(start.position()) {
         let at = transform.apply(start.position());
@@ -1064,6 +1164,95 @@ fn draw_teammate(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransfor
     doc.close();
 }
 
+/// A team robot's last pose: a solid disc in its group's colour, as the focal robot's final
+/// pose is a solid dark one.
+fn team_final_style(colour: &str) -> RobotStyle<'_> {
+    RobotStyle {
+        fill: colour,
+        outline: colour,
+        outline_width: 1.5,
+        heading: "#ffffff",
+    }
+}
+
+/// A team's other robots, group by group: each one's path (thin, in its group's colour), a
+/// ring where it started and a disc where it was last, as the focal robot's start and final
+/// pose are drawn. A trace records their poses at the start of each cycle, so the last is the
+/// start of the last cycle, as for the teammate.
+fn draw_team(
+    doc: &mut SvgDocument,
+    trace: &Trace,
+    groups: &[TeamGroup<'_>],
+    transform: &SceneTransform,
+    radius_px: f64,
+) {
+    if groups.is_empty() {
+        return;
+    }
+    doc.open(Tag::new("g").class("team"));
+    for group in groups {
+        let mut tag = Tag::new("g")
+            .class("team-group")
+            .attr("data-count", group.members.len().to_string());
+        if let Some(name) = group.name {
+            tag = tag.attr("data-name", name);
+        }
+        doc.open(tag);
+        for member in group.members.clone() {
+            let poses = member_poses(trace, member);
+            let (Some(first), Some(last)) = (poses.first(), poses.last()) else {
+                continue;
+            };
+            doc.open(
+                Tag::new("g")
+                    .class("team-robot")
+                    .attr("data-member", member.to_string()),
+            );
+            if poses.len() > 1 {
+                let points: Vec<[f64; 2]> = poses
+                    .iter()
+                    .map(|p| transform.apply(p.position()))
+                    .collect();
+                doc.leaf(
+                    Tag::new("polyline")
+                        .class("team-path")
+                        .points(&points)
+                        .attr("fill", "none")
+                        .attr("stroke", group.colour)
+                        .num("stroke-width", TEAM_PATH_WIDTH)
+                        .attr("stroke-opacity", "0.8")
+                        .attr("stroke-linejoin", "round")
+                        .attr("stroke-linecap", "round"),
+                );
+            }
+            doc.open(Tag::new("g").class("team-start"));
+            let ring = RingStyle {
+                colour: group.colour,
+                width: TEAM_PATH_WIDTH,
+            };
+            draw_start_ring(
+                doc,
+                transform.apply(first.position()),
+                first.heading,
+                radius_px,
+                ring,
+            );
+            doc.close();
+            draw_robot(
+                doc,
+                Tag::new("g").class("team-final"),
+                transform.apply(last.position()),
+                last.heading,
+                radius_px,
+                team_final_style(group.colour),
+            );
+            doc.close();
+        }
+        doc.close();
+    }
+    doc.close();
+}
+
 /// A cross at the robot's position in every cycle whose move was undone by a collision,
 /// leaving out crosses that would land on the previous one.
 fn draw_collisions(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) {
@@ -1216,14 +1405,28 @@ fn draw_rays(
     }
 }
 
-/// A ring where the robot started, labelled.
-fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, radius_px: f64) {
-    let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
-    if !finite(start.position()) {
-        return;
-    }
-    let at = transform.apply(start.position());
-    doc.open(Tag::new("g").class("start"));
+/// How a start ring is painted: its colour and stroke width, pixels.
+#[derive(Debug, Clone, Copy)]
+struct RingStyle<'a> {
+    colour: &'a str,
+    width: f64,
+}
+
+/// The focal robot's start: dark, like its final pose.
+const START_RING: RingStyle<'static> = RingStyle {
+    colour: INK,
+    width: 2.0,
+};
+
+/// A ring where a robot started, with a tick from its centre towards its heading (world
+/// radians); the caller wraps it in a group.
+fn draw_start_ring(
+    doc: &mut SvgDocument,
+    at: [f64; 2],
+    heading: f32,
+    radius_px: f64,
+    style: RingStyle<'_>,
+) {
     doc.leaf(
         Tag::new("circle")
             .num("cx", at[0])
@@ -1231,10 +1434,10 @@ fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, 
             .num("r", radius_px)
             .attr("fill", "#ffffff")
             .attr("fill-opacity", "0.7")
-            .attr("stroke", INK)
-            .attr("stroke-width", "2"),
+            .attr("stroke", style.colour)
+            .num("stroke-width", style.width),
     );
-    let heading = start.heading as f64;
+    let heading = heading as f64;
     let tip = [
         at[0] + radius_px * heading.cos(),
         at[1] - radius_px * heading.sin(),
@@ -1245,10 +1448,21 @@ fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, 
             .num("y1", at[1])
             .num("x2", tip[0])
             .num("y2", tip[1])
-            .attr("stroke", INK)
-            .attr("stroke-width", "2")
+            .attr("stroke", style.colour)
+            .num("stroke-width", style.width)
             .attr("stroke-linecap", "round"),
     );
+}
+
+/// A ring where the robot started, labelled.
+fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, radius_px: f64) {
+    let start = trace.cycles.first().map_or(trace.final_robot, |c| c.robot);
+    if !finite(start.position()) {
+        return;
+    }
+    let at = transform.apply(start.position());
+    doc.open(Tag::new("g").class("start"));
+    draw_start_ring(doc, at, start.heading, radius_px, START_RING);
     doc.text(
         halo_label("start-label", at[0], at[1] + radius_px + 15.0, "middle"),
         "start",
@@ -1256,13 +1470,26 @@ fn draw_start(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform, 
     doc.close();
 }
 
+/// The animated focal robot: white with a black rim, so it stands out over every path.
+const ANIMATED_ROBOT: RobotStyle<'static> = RobotStyle {
+    fill: "#ffffff",
+    outline: "#000000",
+    outline_width: 2.5,
+    heading: "#000000",
+};
+
+/// The id of the focal robot's animated move: every other animation starts with it.
+const ANIMATION_ID: &str = "replay-move";
+
 /// A robot disc that drives the trajectory in a loop at [`ANIMATION_SPEEDUP`] times real
-/// time, pausing at the end. Translation and rotation are separate keyframed transforms
-/// (one value per cycle, evenly spaced like the cycles), so the disc turns in place when the
-/// robot does, which a path-following animation could not show.
+/// time, pausing at the end, and a team's other robots moving in step with it. Translation
+/// and rotation are separate keyframed transforms (one value per cycle, evenly spaced like the
+/// cycles), so a disc turns in place when its robot does, which a path-following animation
+/// could not show.
 fn draw_animation(
     doc: &mut SvgDocument,
     trace: &Trace,
+    team: &[TeamGroup<'_>],
     transform: &SceneTransform,
     radius_px: f64,
 ) {
@@ -1276,6 +1503,66 @@ fn draw_animation(
     if poses.len() < 2 {
         return;
     }
+    let seconds = (poses.len() - 1) as f64 * CYCLE_SECONDS / ANIMATION_SPEEDUP;
+    let loop_begin = format!(
+        "0s;{ANIMATION_ID}.end+{}s",
+        num_with(ANIMATION_PAUSE_SECONDS, 3)
+    );
+    let team_begin = format!("{ANIMATION_ID}.begin");
+    for group in team {
+        for member in group.members.clone() {
+            // A trace has no final pose for the other robots: each holds its last recorded
+            // pose for the last cycle, so all robots keep the focal robot's timing.
+            let mut member_poses = member_poses(trace, member);
+            if let Some(&last) = member_poses.last() {
+                member_poses.push(last);
+            }
+            let marker = AnimatedMarker {
+                class: "animated-team-robot",
+                id: None,
+                begin: &team_begin,
+                size: 1.0,
+                style: team_final_style(group.colour),
+            };
+            draw_animated_robot(doc, &member_poses, seconds, transform, radius_px, marker);
+        }
+    }
+    let marker = AnimatedMarker {
+        class: "animated-robot",
+        id: Some(ANIMATION_ID),
+        begin: &loop_begin,
+        size: 1.15,
+        style: ANIMATED_ROBOT,
+    };
+    draw_animated_robot(doc, &poses, seconds, transform, radius_px, marker);
+}
+
+/// What an animated robot looks like and when it moves.
+#[derive(Debug, Clone, Copy)]
+struct AnimatedMarker<'a> {
+    class: &'a str,
+    /// The id of its move, for the robot whose loop the others follow.
+    id: Option<&'a str>,
+    /// When its move starts (its rotation always starts with the focal robot's move).
+    begin: &'a str,
+    /// Its radius in robot radii.
+    size: f64,
+    style: RobotStyle<'a>,
+}
+
+/// One robot disc moving through `poses` in `seconds`, held at the last pose between loops;
+/// nothing for fewer than two poses.
+fn draw_animated_robot(
+    doc: &mut SvgDocument,
+    poses: &[Pose],
+    seconds: f64,
+    transform: &SceneTransform,
+    radius_px: f64,
+    marker: AnimatedMarker<'_>,
+) {
+    if poses.len() < 2 {
+        return;
+    }
     let positions: Vec<[f64; 2]> = poses
         .iter()
         .map(|p| transform.apply(p.position()))
@@ -1285,31 +1572,29 @@ fn draw_animation(
             .into_iter()
             .map(|d| -d)
             .collect();
-    let seconds = (poses.len() - 1) as f64 * CYCLE_SECONDS / ANIMATION_SPEEDUP;
     let translate_values: Vec<String> = positions
         .iter()
         .map(|p| format!("{},{}", crate::svg::num(p[0]), crate::svg::num(p[1])))
         .collect();
     let rotate_values: Vec<String> = rotations.iter().map(|r| crate::svg::num(*r)).collect();
     let duration = format!("{}s", num_with(seconds, 3));
-    let begin = format!(
-        "0s;replay-move.end+{}s",
-        num_with(ANIMATION_PAUSE_SECONDS, 3)
-    );
     doc.open(
         Tag::new("g")
-            .class("animated-robot")
+            .class(marker.class)
             .attr("transform", format!("translate({})", translate_values[0])),
     );
+    let mut translate = Tag::new("animateTransform");
+    if let Some(id) = marker.id {
+        translate = translate.attr("id", id);
+    }
     doc.leaf(
-        Tag::new("animateTransform")
-            .attr("id", "replay-move")
+        translate
             .attr("attributeName", "transform")
             .attr("type", "translate")
             .attr("calcMode", "linear")
             .attr("values", translate_values.join(";"))
             .attr("dur", &duration)
-            .attr("begin", &begin)
+            .attr("begin", marker.begin)
             .attr("fill", "freeze"),
     );
     doc.open(Tag::new("g").attr("transform", format!("rotate({})", rotate_values[0])));
@@ -1320,26 +1605,28 @@ fn draw_animation(
             .attr("calcMode", "linear")
             .attr("values", rotate_values.join(";"))
             .attr("dur", &duration)
-            .attr("begin", "replay-move.begin")
+            .attr("begin", format!("{ANIMATION_ID}.begin"))
             .attr("fill", "freeze"),
     );
+    let radius = radius_px * marker.size;
+    let style = marker.style;
     doc.leaf(
         Tag::new("circle")
             .num("cx", 0.0)
             .num("cy", 0.0)
-            .num("r", radius_px * 1.15)
-            .attr("fill", "#ffffff")
-            .attr("stroke", "#000000")
-            .attr("stroke-width", "2.5"),
+            .num("r", radius)
+            .attr("fill", style.fill)
+            .attr("stroke", style.outline)
+            .num("stroke-width", style.outline_width),
     );
     doc.leaf(
         Tag::new("line")
             .num("x1", 0.0)
             .num("y1", 0.0)
-            .num("x2", radius_px * 1.15)
+            .num("x2", radius)
             .num("y2", 0.0)
-            .attr("stroke", "#000000")
-            .attr("stroke-width", "2.5")
+            .attr("stroke", style.heading)
+            .num("stroke-width", style.outline_width)
             .attr("stroke-linecap", "round"),
     );
     doc.close();
@@ -1348,7 +1635,7 @@ fn draw_animation(
 
 /// One entry of the symbol key under the legend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum KeySymbol {
+enum KeySymbol<'t> {
     Start,
     FinalRobot,
     Collision,
@@ -1359,11 +1646,14 @@ enum KeySymbol {
     Teammate,
     Cones,
     Animated,
+    /// A group of a team's other robots: its colour, name and count.
+    Team(&'t TeamGroup<'t>),
 }
 
-impl KeySymbol {
-    fn words(self) -> &'static str {
-        match self {
+impl KeySymbol<'_> {
+    fn words(self) -> String {
+        let fixed = match self {
+            KeySymbol::Team(group) => return group.words(),
             KeySymbol::Start => "start",
             KeySymbol::FinalRobot => "final pose",
             KeySymbol::Collision => "collision",
@@ -1374,12 +1664,17 @@ impl KeySymbol {
             KeySymbol::Teammate => "teammate and its path",
             KeySymbol::Cones => "IR cones (shade = reading)",
             KeySymbol::Animated => "animated robot, 10x real time",
-        }
+        };
+        fixed.to_string()
     }
 }
 
 /// The symbols this picture uses, in a fixed order.
-fn key_items(trace: &Trace, options: &ReplayOptions) -> Vec<KeySymbol> {
+fn key_items<'t>(
+    trace: &Trace,
+    options: &ReplayOptions,
+    team: &'t [TeamGroup<'t>],
+) -> Vec<KeySymbol<'t>> {
     let mut items = vec![KeySymbol::Start, KeySymbol::FinalRobot];
     if trace.cycles.iter().any(|c| c.collided) {
         items.push(KeySymbol::Collision);
@@ -1399,6 +1694,7 @@ fn key_items(trace: &Trace, options: &ReplayOptions) -> Vec<KeySymbol> {
     if trace.cycles.iter().any(|c| c.teammate.is_some()) {
         items.push(KeySymbol::Teammate);
     }
+    items.extend(team.iter().map(KeySymbol::Team));
     if options
         .rays_at_cycles
         .iter()
@@ -1414,18 +1710,18 @@ fn key_items(trace: &Trace, options: &ReplayOptions) -> Vec<KeySymbol> {
 
 /// Where a key entry goes: row, and x of its symbol's left edge.
 #[derive(Debug, Clone, Copy)]
-struct KeySlot {
-    symbol: KeySymbol,
+struct KeySlot<'t> {
+    symbol: KeySymbol<'t>,
     row: usize,
     x: f64,
 }
 
 /// Flows the key entries left to right, wrapping at the picture's width.
-fn layout_key(items: &[KeySymbol]) -> Vec<KeySlot> {
+fn layout_key<'t>(items: &[KeySymbol<'t>]) -> Vec<KeySlot<'t>> {
     let mut slots = Vec::new();
     let (mut row, mut x) = (0, PAD);
     for &symbol in items {
-        let width = 26.0 + text_width(symbol.words(), LABEL_FONT) + 18.0;
+        let width = 26.0 + text_width(&symbol.words(), LABEL_FONT) + 18.0;
         if x + width > WIDTH - PAD && x > PAD {
             row += 1;
             x = PAD;
@@ -1437,7 +1733,7 @@ fn layout_key(items: &[KeySymbol]) -> Vec<KeySlot> {
 }
 
 /// Draws the symbol key: each symbol as it appears in the scene, then its meaning.
-fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
+fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol<'_>], top: f64) {
     doc.open(Tag::new("g").class("key"));
     for slot in layout_key(items) {
         let y = top + slot.row as f64 * 24.0;
@@ -1555,13 +1851,26 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
                 );
             }
             KeySymbol::Animated => {
-                let style = RobotStyle {
-                    fill: "#ffffff",
-                    outline: "#000000",
-                    outline_width: 2.5,
-                    heading: "#000000",
-                };
-                draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, style);
+                draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, ANIMATED_ROBOT);
+            }
+            KeySymbol::Team(group) => {
+                doc.leaf(
+                    Tag::new("line")
+                        .num("x1", centre[0] - 10.0)
+                        .num("y1", centre[1])
+                        .num("x2", centre[0] + 2.0)
+                        .num("y2", centre[1])
+                        .attr("stroke", group.colour)
+                        .num("stroke-width", TEAM_PATH_WIDTH),
+                );
+                draw_robot(
+                    doc,
+                    Tag::new("g"),
+                    [centre[0] + 4.0, centre[1]],
+                    0.0,
+                    6.0,
+                    team_final_style(group.colour),
+                );
             }
         }
         doc.text(
@@ -1571,7 +1880,7 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
                 .num("y", y)
                 .num("font-size", LABEL_FONT)
                 .attr("fill", INK),
-            slot.symbol.words(),
+            &slot.symbol.words(),
         );
     }
     doc.close();
@@ -1580,6 +1889,7 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol], top: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::svg::PALETTE;
     use crate::svg::read_back::{Element, parse, with_class};
     use hevo_sim_core::SensorFrame;
     use hevo_sim_core::{Evaluator, Policy, Sample, TaskConfig};
@@ -2118,6 +2428,122 @@ mod tests {
             display_name(&names, Some(3)),
             "rescue / solve_maze / follow_wall"
         );
+    }
+
+    /// An open arena with a group of three wanderers (`fixtures/team_arena.toml`).
+    fn team_arena() -> Evaluator {
+        let text = include_str!("../fixtures/team_arena.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, "team_arena.toml").unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        Evaluator::new(task).expect("the arena is a valid task")
+    }
+
+    /// The classes of a team's drawing, each of which appears once per other robot.
+    const TEAM_ROBOT_CLASSES: [&str; 4] = ["team-robot", "team-path", "team-start", "team-final"];
+
+    #[test]
+    fn a_team_trace_draws_each_other_robot() {
+        let evaluator = team_arena();
+        let trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(2));
+        assert!(trace.cycles.len() > 20, "{:?}", trace.outcome);
+        assert!(trace.cycles.iter().all(|c| c.team.len() == 3));
+        assert_eq!(trace.team_groups, [("swarm".to_string(), 3)]);
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        for class in TEAM_ROBOT_CLASSES {
+            assert_eq!(with_class(&elements, class).len(), 3, "{class}");
+        }
+        let groups = with_class(&elements, "team-group");
+        assert_eq!(groups.len(), 1);
+        assert_eq!(groups[0].get("data-name"), "swarm");
+        assert_eq!(groups[0].get("data-count"), "3");
+        // Each path runs through its robot's recorded positions, to scale (one path per robot,
+        // in document order).
+        let attributes = scene_attributes(&elements);
+        let robots = with_class(&elements, "team-robot");
+        for (robot, path) in robots.iter().zip(with_class(&elements, "team-path")) {
+            let member = robot.number("data-member") as usize;
+            let points = path.points();
+            assert_eq!(points.len(), trace.cycles.len());
+            for (cycle, point) in trace.cycles.iter().zip(&points) {
+                let expected = expected_pixel(attributes, cycle.team[member].position());
+                assert!(
+                    (point[0] - expected[0]).abs() < 0.01 && (point[1] - expected[1]).abs() < 0.01,
+                    "member {member}: drawn {point:?}, expected {expected:?}"
+                );
+            }
+        }
+        // Thinner than the focal robot's path, which keeps its own colours.
+        for path in with_class(&elements, "team-path") {
+            assert!(path.number("stroke-width") < TRAJECTORY_WIDTH);
+            assert!(!PALETTE.contains(&path.get("stroke")));
+        }
+        assert_eq!(with_class(&elements, "final-robot").len(), 1);
+        assert_eq!(with_class(&elements, "start").len(), 1);
+        // The key says how many other robots are drawn.
+        let key: Vec<&str> = with_class(&elements, "key-label")
+            .iter()
+            .map(|e| e.text.as_str())
+            .collect();
+        assert!(key.contains(&"swarm: 3 other robots"), "{key:?}");
+    }
+
+    #[test]
+    fn a_trace_without_a_team_draws_no_other_robot() {
+        let (evaluator, trace) = maze_trace(4);
+        assert!(trace.team_groups.is_empty());
+        let (svg, elements) = render(&trace, &evaluator, &maze_options());
+        for class in ["team", "team-group"].into_iter().chain(TEAM_ROBOT_CLASSES) {
+            assert!(with_class(&elements, class).is_empty(), "{class}");
+        }
+        assert!(!svg.contains("other robot"));
+    }
+
+    #[test]
+    fn an_animated_team_replay_moves_every_robot_with_the_focal_one() {
+        let evaluator = team_arena();
+        let trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(2));
+        let options = ReplayOptions {
+            animate: true,
+            ..ReplayOptions::default()
+        };
+        let (_, elements) = render(&trace, &evaluator, &options);
+        assert_eq!(with_class(&elements, "animated-robot").len(), 1);
+        assert_eq!(with_class(&elements, "animated-team-robot").len(), 3);
+        let animations: Vec<&Element> = elements
+            .iter()
+            .filter(|e| e.name == "animateTransform")
+            .collect();
+        assert_eq!(animations.len(), 2 * 4, "a move and a turn per robot");
+        // Every robot has a value per cycle and one for the end, over the same time, and all
+        // but the focal robot's move start with it.
+        let focal_duration = animations.last().unwrap().get("dur");
+        for animation in &animations {
+            assert_eq!(animation.get("dur"), focal_duration);
+            let values = animation.get("values").split(';').count();
+            assert_eq!(values, trace.cycles.len() + 1);
+        }
+        let led: Vec<&&Element> = animations
+            .iter()
+            .filter(|a| a.get("begin") == "replay-move.begin")
+            .collect();
+        assert_eq!(led.len(), animations.len() - 1);
+    }
+
+    #[test]
+    fn a_team_recorded_without_its_groups_is_drawn_as_one_group() {
+        let evaluator = team_arena();
+        let mut trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(5));
+        trace.team_groups.clear();
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        assert_eq!(with_class(&elements, "team-robot").len(), 3);
+        let groups = with_class(&elements, "team-group");
+        assert_eq!(groups.len(), 1);
+        assert!(!groups[0].attributes.contains_key("data-name"));
+        let key: Vec<&str> = with_class(&elements, "key-label")
+            .iter()
+            .map(|e| e.text.as_str())
+            .collect();
+        assert!(key.contains(&"3 other robots"), "{key:?}");
     }
 
     #[test]

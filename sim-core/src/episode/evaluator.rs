@@ -257,6 +257,11 @@ impl Evaluator {
             goal,
             exit,
             cycles,
+            team_groups: scenario
+                .robot_groups
+                .iter()
+                .map(|group| (group.name.clone(), group.count))
+                .collect(),
             final_robot,
             outcome,
         }

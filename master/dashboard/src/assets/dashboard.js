@@ -1,8 +1,9 @@
 // hevo dashboard: what the pages do with JavaScript on. A job page listens to its
 // Server-Sent Events stream and updates the state, the progress, each run's line and the
 // node's fitness plot (fetched again from the server, which draws it); when a node or the job
-// finishes it reloads to show the tables and replays. Each replay gets a robot marker, a cycle
-// slider and a play button. Without JavaScript the pages show the same facts, not live.
+// finishes it reloads to show the tables and replays. Each replay gets a robot marker (and one
+// for each of a team's other robots), a cycle slider and a play button. Without JavaScript the
+// pages show the same facts, not live.
 (function () {
   "use strict";
   var SVG_NS = "http://www.w3.org/2000/svg";
@@ -114,10 +115,38 @@
     });
   }
 
+  // A robot disc with a nose towards its heading, placed by its transform.
+  function robotMarker(className, radius, colour, width) {
+    var marker = document.createElementNS(SVG_NS, "g");
+    marker.setAttribute("class", className);
+    var body = document.createElementNS(SVG_NS, "circle");
+    body.setAttribute("r", radius);
+    body.setAttribute("fill", "#ffffff");
+    body.setAttribute("fill-opacity", "0.6");
+    body.setAttribute("stroke", colour);
+    body.setAttribute("stroke-width", width);
+    var nose = document.createElementNS(SVG_NS, "line");
+    nose.setAttribute("x1", "0");
+    nose.setAttribute("y1", "0");
+    nose.setAttribute("x2", radius * 1.7);
+    nose.setAttribute("y2", "0");
+    nose.setAttribute("stroke", colour);
+    nose.setAttribute("stroke-width", width);
+    marker.appendChild(body);
+    marker.appendChild(nose);
+    return marker;
+  }
+
+  function place(marker, pose) {
+    marker.setAttribute("transform", "translate(" + pose[0] + " " + pose[1] + ") rotate(" + pose[2] + ")");
+  }
+
   function initReplay(figure) {
     var poses;
+    var teamPoses = [];
     try {
       poses = JSON.parse(figure.dataset.poses);
+      if (figure.dataset.teamPoses) teamPoses = JSON.parse(figure.dataset.teamPoses);
     } catch (e) {
       return;
     }
@@ -125,23 +154,13 @@
     var controls = figure.querySelector(".replay-controls");
     if (!svg || !controls || !poses.length) return;
     var radius = Math.max(parseFloat(figure.dataset.radius) || 0, 5);
-    var marker = document.createElementNS(SVG_NS, "g");
-    marker.setAttribute("class", "robot-marker");
-    var body = document.createElementNS(SVG_NS, "circle");
-    body.setAttribute("r", radius);
-    body.setAttribute("fill", "#ffffff");
-    body.setAttribute("fill-opacity", "0.6");
-    body.setAttribute("stroke", "#000000");
-    body.setAttribute("stroke-width", "2.5");
-    var nose = document.createElementNS(SVG_NS, "line");
-    nose.setAttribute("x1", "0");
-    nose.setAttribute("y1", "0");
-    nose.setAttribute("x2", radius * 1.7);
-    nose.setAttribute("y2", "0");
-    nose.setAttribute("stroke", "#000000");
-    nose.setAttribute("stroke-width", "2.5");
-    marker.appendChild(body);
-    marker.appendChild(nose);
+    // The other robots' markers go under the robot's, which the replay is about.
+    var teamMarkers = teamPoses.map(function () {
+      var teamMarker = robotMarker("team-marker", radius, "#555555", "1.5");
+      svg.appendChild(teamMarker);
+      return teamMarker;
+    });
+    var marker = robotMarker("robot-marker", radius, "#000000", "2.5");
     svg.appendChild(marker);
     controls.hidden = false;
     var slider = controls.querySelector(".cycle-slider");
@@ -150,8 +169,11 @@
     var last = poses.length - 1;
     var timer = null;
     function show(cycle) {
-      var pose = poses[cycle];
-      marker.setAttribute("transform", "translate(" + pose[0] + " " + pose[1] + ") rotate(" + pose[2] + ")");
+      place(marker, poses[cycle]);
+      teamMarkers.forEach(function (teamMarker, member) {
+        var memberPoses = teamPoses[member];
+        if (memberPoses.length) place(teamMarker, memberPoses[Math.min(cycle, memberPoses.length - 1)]);
+      });
       marker.dataset.cycle = cycle;
       label.textContent = cycle + " of " + last;
     }
