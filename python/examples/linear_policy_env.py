@@ -1,8 +1,8 @@
 """A numpy linear policy trained on `hevo.VectorEnv` by an evolution strategy: a policy hevo
 knows nothing about, driving the robot step by step from its sensor frame.
 
-The policy maps the 7 sensor inputs to the two wheel outputs, `sigmoid(obs @ W + b)` (16
-parameters). Each iteration perturbs it in `population` antithetic directions, runs every
+The policy maps the sensor frame (`env.observation_names`: 12 inputs, IR, light, near-robot
+and range and bearing) to the two wheel outputs, `sigmoid(obs @ W + b)` (26 parameters). Each iteration perturbs it in `population` antithetic directions, runs every
 perturbed policy on the same `episodes` samples (one environment per policy and sample, all
 stepped together in Rust), and moves along the directions weighted by their rank, as in
 Salimans et al.'s evolution strategies. Then the policy is scored on samples it never saw.
@@ -19,7 +19,7 @@ import hevo
 
 
 def act(params, obs):
-    """Wheel outputs for each environment: params (n_envs, 8, 2), obs (n_envs, 7)."""
+    """Wheel outputs for each environment: params (n_envs, n_obs + 1, 2), obs (n_envs, n_obs)."""
     x = np.concatenate([obs, np.ones((len(obs), 1), obs.dtype)], axis=1)
     return 1.0 / (1.0 + np.exp(-np.einsum("ni,nio->no", x, params)))
 
@@ -53,11 +53,13 @@ def main():
     overrides = {} if args.max_cycles is None else {"max_cycles": args.max_cycles}
     task = hevo.Task(args.task, **overrides)
     rng = np.random.default_rng(args.seed)
-    policy = np.zeros((8, 2))
+    # One weight row per observation column and one for the bias.
+    n_weights = len(hevo.Env(task, seed=0).observation_names) + 1
+    policy = np.zeros((n_weights, 2))
     half = args.population // 2
     started = time.perf_counter()
     for iteration in range(args.iterations):
-        noise = rng.normal(size=(half, 8, 2))
+        noise = rng.normal(size=(half, n_weights, 2))
         candidates = np.concatenate([policy + args.sigma * noise, policy - args.sigma * noise])
         # Every candidate on the same samples: environment (candidate c, episode e) is seeded
         # with the iteration's e-th seed.

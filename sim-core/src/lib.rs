@@ -26,7 +26,7 @@ pub const MODEL_VERSION: u32 = 4;
 pub use body::{Pose, wheel_speed};
 pub use config::{
     ConfigError, CorridorConfig, CurveChoice, IrConfig, IrMapping, LightConfig, N_LIGHT, Params,
-    RobotConfig, RoomConfig, StartConfig,
+    RabConfig, RobotConfig, RoomConfig, StartConfig,
 };
 pub use episode::batch::{
     BatchError, BatchEvaluator, EvaluatorKind, SampleSummary, controller_fits,

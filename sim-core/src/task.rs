@@ -5,7 +5,7 @@
 //! documented config value here.
 
 use crate::config::{
-    ConfigError, CorridorConfig, IrConfig, LightConfig, Params, RobotConfig, RoomConfig,
+    ConfigError, CorridorConfig, IrConfig, LightConfig, Params, RabConfig, RobotConfig, RoomConfig,
     StartConfig, invalid,
 };
 use crate::scenario::Scenario;
@@ -72,6 +72,9 @@ struct TaskWire {
     ir: IrConfig,
     #[serde(default)]
     light: LightConfig,
+    // Left out at its default, so the tasks hashed before the board existed keep their hashes.
+    #[serde(default, skip_serializing_if = "RabConfig::is_default")]
+    rab: RabConfig,
     #[serde(default)]
     room: RoomConfig,
     #[serde(default)]
@@ -126,6 +129,7 @@ impl<'de> Deserialize<'de> for TaskConfig {
                 robot: wire.robot,
                 ir: wire.ir,
                 light: wire.light,
+                rab: wire.rab,
                 room: wire.room,
                 corridor: wire.corridor,
                 start: wire.start,
@@ -168,6 +172,7 @@ impl TaskConfig {
             robot,
             ir,
             light,
+            rab,
             room,
             corridor,
             start,
@@ -183,6 +188,7 @@ impl TaskConfig {
             robot,
             ir,
             light,
+            rab,
             room,
             corridor,
             start,
@@ -261,6 +267,7 @@ impl TaskConfig {
             ));
         }
         self.params.ir.validate()?;
+        self.params.rab.validate()?;
         self.params.corridor.validate()?;
         self.params.start.validate()
     }

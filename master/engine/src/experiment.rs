@@ -829,7 +829,7 @@ pub struct NodeDecl {
     pub name: String,
     /// `primitive` (drives the wheels) or `arbitrator` (chooses a child).
     pub kind: NodeKind,
-    /// Input groups, in order: `ir`, `light`, `near_robot`.
+    /// Input groups, in order: `ir`, `light`, `near_robot`, `rab`.
     pub inputs: Vec<InputGroup>,
     /// Hidden neurons.
     pub hidden: usize,

@@ -65,6 +65,14 @@ pub struct IrSide {
     pub max_distance: f32,
 }
 
+/// How many inputs of the frame the generated C holds (`HEVO_N_INPUTS`): ir (4), light (2),
+/// near_robot (1), the frame's first groups. A group after them (`rab`) is not exported.
+pub const EXPORTED_INPUTS: usize = N_IR + N_LIGHT + 1;
+
+/// The groups the generated C fills, in frame order.
+pub const EXPORTED_GROUPS: [InputGroup; 3] =
+    [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
+
 /// Everything the generated C needs.
 #[derive(Debug, Clone)]
 pub struct ExportModel {
@@ -100,6 +108,7 @@ impl ExportModel {
             return Err(ExportError::FreeNode { path });
         }
         check_frame_layout()?;
+        check_groups_read(&file.root, &file.root.name)?;
         if task.params.ir.mapping != IrMapping::AverageTable {
             return Err(ExportError::Unsupported(format!(
                 "the task's ir.mapping is {:?}; only the default average_table is exported",
@@ -147,7 +156,7 @@ impl ExportModel {
         let (means, step, max_distance) = IrModel::builtin().inverse_table();
         let light_model = LightModel::builtin();
         let dark = |side: usize| light_model.dark(side).map_or(f32::INFINITY, |d| d.mean);
-        let live = [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT].map(|group| {
+        let live = EXPORTED_GROUPS.map(|group| {
             task.scenario.sensors.carries(group)
                 && (group.kind().compile)(&task.params, &task.scenario.sensed_world()).is_some()
         });
@@ -205,28 +214,52 @@ impl ExportModel {
     }
 }
 
-/// The generated C reads the frame as ir (4), light (2), near_robot (1); a sim-core whose
-/// sensor registry has changed needs the generator changed too.
+/// The generated C reads the frame as ir (4), light (2), near_robot (1), its first groups; a
+/// sim-core whose sensor registry has changed them needs the generator changed too. Groups
+/// registered after them leave these in place and are refused where a node reads them
+/// ([`check_groups_read`]).
 fn check_frame_layout() -> Result<(), ExportError> {
     let expected = [
         (InputGroup::IR, 0..N_IR),
         (InputGroup::LIGHT, N_IR..N_IR + N_LIGHT),
+        (InputGroup::NEAR_ROBOT, N_IR + N_LIGHT..EXPORTED_INPUTS),
     ];
-    let near = InputGroup::NEAR_ROBOT.flat_range();
     let fits = expected
         .iter()
         .all(|(group, range)| group.flat_range() == *range)
-        && near == (N_IR + N_LIGHT..N_IR + N_LIGHT + 1)
-        && N_FLAT == N_IR + N_LIGHT + 1
-        && InputGroup::ALL[0] == InputGroup::IR;
+        && InputGroup::ALL[..EXPORTED_GROUPS.len()] == EXPORTED_GROUPS
+        && N_FLAT >= EXPORTED_INPUTS;
     if fits {
         Ok(())
     } else {
         Err(ExportError::Unsupported(format!(
-            "sim-core's frame holds {:?}; the exporter knows ir, light and near_robot only",
+            "sim-core's frame holds {:?}; the exporter knows ir, light and near_robot first",
             InputGroup::ALL
         )))
     }
+}
+
+/// Refuses a tree with a node that reads a group the generated C does not fill: the C has no
+/// driver for the sensor (`rab`: the range-and-bearing board's firmware side is not written),
+/// so the node would read 0 on the robot where sim-core gave it readings.
+fn check_groups_read(root: &NodeSpec, root_path: &str) -> Result<(), ExportError> {
+    let mut stack = vec![(root, root_path.to_string())];
+    while let Some((spec, path)) = stack.pop() {
+        if let Some(group) = spec
+            .inputs
+            .iter()
+            .find(|group| !EXPORTED_GROUPS.contains(group))
+        {
+            return Err(ExportError::Unsupported(format!(
+                "{path} reads '{group}', a sensor the C export does not produce (it fills ir, \
+                 light and near_robot only; docs/export.md)"
+            )));
+        }
+        for child in &spec.children {
+            stack.push((child, format!("{path}/{}", child.name)));
+        }
+    }
+    Ok(())
 }
 
 /// One node's network decoded from its genome as `Ctrnn::new` decodes it.
@@ -343,5 +376,26 @@ mod tests {
         linear.params.ir.mapping = IrMapping::LinearRaw;
         let err = ExportModel::new(&shipped("solve_maze"), &linear).unwrap_err();
         assert!(err.to_string().contains("ir.mapping"), "{err}");
+    }
+
+    /// A node that reads the range-and-bearing board, at any depth, is refused by its path
+    /// and the group's name: the C has no such sensor.
+    #[test]
+    fn a_node_reading_the_range_and_bearing_board_is_refused() {
+        let task = TaskConfig::shipped("solve_maze").unwrap();
+        let mut file = shipped("solve_maze");
+        let child = &mut file.root.children[1];
+        child.inputs.push(InputGroup::RAB);
+        let n_genes = child.topology().n_genes();
+        child.genome = Some(vec![0.5; n_genes]);
+        let err = ExportModel::new(&file, &task).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "cannot export: solve_maze/turn_left reads 'rab', a sensor the C export does not \
+             produce (it fills ir, light and near_robot only; docs/export.md)"
+        );
+        // The same tree without it exports, whatever the frame holds after near_robot.
+        assert!(ExportModel::new(&shipped("solve_maze"), &task).is_ok());
+        const { assert!(N_FLAT > EXPORTED_INPUTS) };
     }
 }

@@ -12,15 +12,15 @@
 //! check it gives the recorded inputs. Both are checked here, so a vector that exists is exact.
 
 use hevo_sim_core::MEAN_IR_CURVE;
+use hevo_sim_core::SensorFrame;
 use hevo_sim_core::wheel_speed;
 use hevo_sim_core::{Controller, ControllerFile};
 use hevo_sim_core::{Evaluator, Outcome, Policy, Sample, TaskConfig};
 use hevo_sim_core::{FlashDetector, IrMapping, IrModel, N_IR, N_LIGHT};
-use hevo_sim_core::{N_FLAT, SensorFrame};
 use hevo_sim_core::{Stream, stream_rng};
 
 use crate::ExportError;
-use crate::model::ExportModel;
+use crate::model::{EXPORTED_INPUTS, ExportModel};
 
 /// The vectors' file name in the export directory.
 pub const FILE_NAME: &str = "vectors.bin";
@@ -45,8 +45,9 @@ pub struct RawInputs {
 pub struct Cycle {
     /// Raw readings that give `inputs`.
     pub raw: RawInputs,
-    /// The network inputs sim-core's sensors gave.
-    pub inputs: [f32; N_FLAT],
+    /// The network inputs sim-core's sensors gave, as far as the C holds them (ir, light,
+    /// near_robot: the frame's first groups).
+    pub inputs: [f32; EXPORTED_INPUTS],
     /// Every node's outputs after the cycle (0 for nodes reset or never stepped), node after
     /// node.
     pub outputs: Vec<f32>,
@@ -175,7 +176,7 @@ impl Policy for Recording {
                 light: [0.0; N_LIGHT],
                 near_robot: false,
             },
-            inputs: frame.inputs,
+            inputs: std::array::from_fn(|input| frame.inputs[input]),
             outputs,
             path: self
                 .controller

@@ -6,16 +6,18 @@
 mod corridor;
 mod ir;
 mod light;
+mod rab;
 mod robot;
 mod room;
 
 pub use corridor::{CorridorConfig, MAZE_CELL_SIZE, StartConfig};
 pub use ir::{CurveChoice, IrConfig, IrMapping};
 pub use light::{LightConfig, N_LIGHT};
+pub use rab::RabConfig;
 pub use robot::RobotConfig;
 pub use room::{ObstaclePlacement, RoomConfig};
 
-/// Every number of the robot, its sensors and the world's generators: the six tables a
+/// Every number of the robot, its sensors and the world's generators: the seven tables a
 /// scenario file and a task carry.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Params {
@@ -25,6 +27,8 @@ pub struct Params {
     pub ir: IrConfig,
     /// Light-flash sensing.
     pub light: LightConfig,
+    /// The range-and-bearing board.
+    pub rab: RabConfig,
     /// The room generator.
     pub room: RoomConfig,
     /// The corridor generator.

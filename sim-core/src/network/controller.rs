@@ -490,7 +490,8 @@ impl ControllerFile {
     /// every run. Numbers are 8 little-endian bytes (u64) and strings are their byte length as
     /// such a number followed by their UTF-8 bytes. The encoding is the schema string, then per
     /// node in pre-order: the name string; the kind as one byte (primitive 0, arbitrator 1);
-    /// the number of input groups, then one byte per group (ir 0, light 1, near_robot 2); the
+    /// the number of input groups, then one byte per group, its place in the sensor registry
+    /// (ir 0, light 1, near_robot 2, rab 3; a new sensor is appended, so these stay); the
     /// hidden count; the genome as byte 0 for the free node, or byte 1, the gene count and each
     /// gene's f32 bits as 4 little-endian bytes; the number of children; and, only when it is
     /// not 0, the 17 bytes `min_active_cycles` and its value. Two files hash alike exactly when
@@ -1233,6 +1234,26 @@ mod tests {
         assert_eq!(tiny.content_hash(), hash_of(&bytes));
         // A node's own hash leaves the schema out.
         assert_eq!(tiny.root.content_hash(), hash_of(&bytes[8 + 17..]));
+        // The same node reading the range-and-bearing board instead: group byte 3, and a
+        // 5-1-2 network of 5 + 1 + 1 + 1 + 2 + 2 = 12 genes.
+        let genes = [0.25f32; 12];
+        let board = ControllerFile::new(
+            NodeSpec::primitive("p", vec![InputGroup::RAB], 1).with_genome(genes.to_vec()),
+        );
+        let mut bytes = Vec::new();
+        string(&mut bytes, "hevo.controller/1");
+        string(&mut bytes, "p");
+        bytes.push(0); // primitive
+        number(&mut bytes, 1);
+        bytes.push(3); // rab
+        number(&mut bytes, 1); // hidden
+        bytes.push(1); // a genome follows
+        number(&mut bytes, 12);
+        for gene in genes {
+            bytes.extend_from_slice(&gene.to_bits().to_le_bytes());
+        }
+        number(&mut bytes, 0); // no children
+        assert_eq!(board.content_hash(), hash_of(&bytes));
 
         // A free arbitrator that keeps a child on for 5 cycles, over two fixed 4-1-2
         // primitives (4 + 1 + 1 + 1 + 2 + 2 = 11 genes each), children in pre-order.

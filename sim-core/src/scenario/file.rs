@@ -3,7 +3,7 @@
 //! compiling it ([`super::Scenario::parse`]) does.
 
 use crate::config::{
-    CorridorConfig, IrConfig, LightConfig, Params, RobotConfig, RoomConfig, StartConfig,
+    CorridorConfig, IrConfig, LightConfig, Params, RabConfig, RobotConfig, RoomConfig, StartConfig,
 };
 use crate::sensors::frame::InputGroup;
 use serde::{Deserialize, Serialize};
@@ -32,8 +32,8 @@ pub struct ScenarioFile {
     /// Whether touching a wall ends the sample.
     #[serde(default = "default_true")]
     pub end_on_collision: bool,
-    /// The input groups the robot's sensors give (`"ir"`, `"light"`, `"near_robot"`); all
-    /// three, the e-puck's, when omitted. The others read 0 and draw no noise.
+    /// The input groups the robot's sensors give (`"ir"`, `"light"`, `"near_robot"`, `"rab"`);
+    /// the first three, the e-puck's, when omitted. The others read 0 and draw no noise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensors: Option<Vec<InputGroup>>,
     /// The robot's body and motors.
@@ -46,6 +46,9 @@ pub struct ScenarioFile {
     /// the lights themselves).
     #[serde(default, rename = "light_sensor")]
     pub light: LightConfig,
+    /// The range-and-bearing board (`[rab]`), read by the `rab` sensor.
+    #[serde(default, skip_serializing_if = "RabConfig::is_default")]
+    pub rab: RabConfig,
     /// The room generator's numbers, for worlds with a room.
     #[serde(default)]
     pub room: RoomConfig,
@@ -101,12 +104,13 @@ pub struct DescriptorDecl {
 }
 
 impl ScenarioFile {
-    /// The file's six tables of numbers, as a task's defaults.
+    /// The file's seven tables of numbers, as a task's defaults.
     pub fn params(&self) -> Params {
         Params {
             robot: self.robot.clone(),
             ir: self.ir,
             light: self.light,
+            rab: self.rab,
             room: self.room.clone(),
             corridor: self.corridor.clone(),
             start: self.start.clone(),

@@ -583,6 +583,7 @@ impl Scenario {
         SensedWorld {
             has_lights: !self.lights.is_empty(),
             has_teammate: self.teammate.is_some(),
+            has_team: !self.robot_groups.is_empty(),
         }
     }
 

@@ -106,6 +106,8 @@ impl InputGroup {
     pub const LIGHT: InputGroup = InputGroup::registered("light");
     /// The near-robot boolean (`near_robot`).
     pub const NEAR_ROBOT: InputGroup = InputGroup::registered("near_robot");
+    /// The range-and-bearing board's four sectors and count (`rab`).
+    pub const RAB: InputGroup = InputGroup::registered("rab");
 
     /// The group of the sensor registered as `name`; fails to compile when there is none.
     const fn registered(name: &str) -> InputGroup {
@@ -259,8 +261,8 @@ mod tests {
             assert_eq!(group.input_names().len(), group.width());
         }
         assert_eq!(
-            [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT].map(InputGroup::name),
-            ["ir", "light", "near_robot"]
+            InputGroup::ALL.map(InputGroup::name),
+            ["ir", "light", "near_robot", "rab"]
         );
         let set = SensorSet::of(&[InputGroup::NEAR_ROBOT, InputGroup::IR]);
         assert!(set.carries(InputGroup::IR) && !set.carries(InputGroup::LIGHT));
@@ -277,7 +279,7 @@ mod tests {
         let err = serde_json::from_str::<InputGroup>("\"sonar\"").unwrap_err();
         assert!(
             err.to_string().starts_with(
-                "unknown variant `sonar`, expected one of `ir`, `light`, `near_robot`"
+                "unknown variant `sonar`, expected one of `ir`, `light`, `near_robot`, `rab`"
             ),
             "{err}"
         );
@@ -301,6 +303,18 @@ mod tests {
             SensorFrame::INPUT_NAMES[InputGroup::IR.flat_range()],
             ["ir_front_left", "ir_left", "ir_right", "ir_front_right"]
         );
-        assert_eq!(SensorFrame::INPUT_NAMES[N_FLAT - 1], "near_robot");
+        // The board comes last, so the groups before it keep their places.
+        assert_eq!(SensorFrame::INPUT_NAMES[6], "near_robot");
+        assert_eq!(
+            SensorFrame::INPUT_NAMES[InputGroup::RAB.flat_range()],
+            [
+                "rab_front",
+                "rab_left",
+                "rab_back",
+                "rab_right",
+                "rab_count"
+            ]
+        );
+        assert_eq!(N_FLAT, 12);
     }
 }

@@ -19,6 +19,8 @@ pub struct SensedWorld {
     pub has_lights: bool,
     /// Whether the scenario holds a teammate.
     pub has_teammate: bool,
+    /// Whether the scenario holds other robots of a team (`[[robots]]`).
+    pub has_team: bool,
 }
 
 /// One kind of sensor: its name, its inputs and how it compiles for a task.
@@ -34,8 +36,8 @@ pub struct SensorKind {
     pub by_default: bool,
     /// The sensor with a task's settings (its geometry, noise, calibration), built once per
     /// evaluator; `None` when nothing in the task's world can excite it (no light for
-    /// `light`, no teammate for `near_robot`), so that it would read 0 and draw nothing in
-    /// every cycle of every sample: it is then not run at all.
+    /// `light`, no teammate for `near_robot`, no team for `rab`), so that it would read 0 and
+    /// draw nothing in every cycle of every sample: it is then not run at all.
     pub compile: fn(params: &Params, world: &SensedWorld) -> Option<Box<dyn Sensor>>,
 }
 
