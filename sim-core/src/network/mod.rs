@@ -35,7 +35,7 @@ pub trait Policy {
         None
     }
     /// The controller tree, if the policy is one: a team's `evolved` robots then run it eight
-    /// at a time ([`lanes::LaneController`]).
+    /// at a time (a `LaneController`).
     fn controller(&self) -> Option<&Controller> {
         None
     }
