@@ -184,9 +184,14 @@ mod tests {
         assert_eq!(first[0], "0");
         // The values read back to the trace's own f32s.
         assert_eq!(first[1].parse::<f32>().unwrap(), trace.cycles[0].robot.x);
-        assert_eq!(first[14].parse::<f32>().unwrap(), trace.cycles[0].wheels[0]);
+        // By name: the inputs' columns grow with the registered sensors.
+        let column = |name: &str| TRACE_COLUMNS.iter().position(|c| *c == name).unwrap();
+        assert_eq!(
+            first[column("wheel_left")].parse::<f32>().unwrap(),
+            trace.cycles[0].wheels[0]
+        );
         let leaf = *trace.cycles[0].active_path.last().unwrap();
-        assert_eq!(first[16], node_paths[usize::from(leaf)]);
+        assert_eq!(first[column("active_node")], node_paths[usize::from(leaf)]);
         // The rescue has a teammate.
         assert!(!first[4].is_empty());
 
