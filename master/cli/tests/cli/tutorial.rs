@@ -1,7 +1,7 @@
-//! The tutorial in `docs/tutorial-triple-t-maze.md` works as written: its file blocks, copied
-//! into an empty directory with the shipped primitives it tells the reader to copy, are the
-//! shipped scenario file, and every command of its `sh` blocks succeeds there and writes what
-//! it says.
+//! The tutorials (`docs/tutorial-triple-t-maze.md`, `docs/tutorial-swarm.md`) work as written:
+//! their file blocks, copied into an empty directory with the shipped controllers a tutorial
+//! tells the reader to copy, are the shipped scenario file, and every command of their `sh`
+//! blocks succeeds there and writes what it says.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -80,21 +80,61 @@ fn run_line(dir: &Path, line: &str) {
     succeeded(line, output);
 }
 
-#[test]
-fn the_triple_t_maze_tutorial_runs_as_written() {
+/// A tutorial: its page, the files its blocks write, the shipped scenario one of them must
+/// equal, and what its commands must write.
+struct Tutorial {
+    page: &'static str,
+    files: &'static [&'static str],
+    /// (a file of the tutorial, the shipped scenario it is).
+    shipped: (&'static str, &'static str),
+    written: &'static [&'static str],
+    /// A word the replay must name.
+    replay_names: &'static str,
+}
+
+const TUTORIALS: &[Tutorial] = &[
+    Tutorial {
+        page: "docs/tutorial-triple-t-maze.md",
+        files: &["experiment.toml", "triple_t_maze.toml"],
+        shipped: ("triple_t_maze.toml", "scenarios/examples/triple_t_maze.toml"),
+        written: &[
+            "triple_t_maze.svg",
+            "try/triple_t_maze/best.json",
+            "try/triple_t_maze/summary.json",
+            "replay.svg",
+        ],
+        replay_names: "triple_t_maze",
+    },
+    Tutorial {
+        page: "docs/tutorial-swarm.md",
+        files: &["aggregation.toml", "experiment.toml"],
+        shipped: ("aggregation.toml", "scenarios/swarm/aggregation.toml"),
+        written: &[
+            "aggregation.svg",
+            "try/aggregation/best.json",
+            "try/aggregation/summary.json",
+            "replay.svg",
+        ],
+        replay_names: "9 other robots",
+    },
+];
+
+fn runs_as_written(tutorial: &Tutorial) {
     let root = repo_root();
-    let markdown = std::fs::read_to_string(root.join("docs/tutorial-triple-t-maze.md")).unwrap();
+    let markdown = std::fs::read_to_string(root.join(tutorial.page)).unwrap();
     let blocks = blocks(&markdown);
     let files = tutorial_files(&blocks);
     assert_eq!(
         files.keys().map(String::as_str).collect::<Vec<_>>(),
-        ["experiment.toml", "triple_t_maze.toml"]
+        tutorial.files,
+        "{}",
+        tutorial.page
     );
-    let shipped =
-        std::fs::read_to_string(root.join("scenarios/examples/triple_t_maze.toml")).unwrap();
+    let (file, shipped) = tutorial.shipped;
     assert!(
-        files["triple_t_maze.toml"] == shipped,
-        "the tutorial's blocks differ from scenarios/examples/triple_t_maze.toml"
+        files[file] == std::fs::read_to_string(root.join(shipped)).unwrap(),
+        "the blocks of {} differ from {shipped}",
+        tutorial.page
     );
 
     let dir = tempfile::tempdir().unwrap();
@@ -107,24 +147,32 @@ fn the_triple_t_maze_tutorial_runs_as_written() {
         .flat_map(|block| block.text.lines())
         .filter(|line| !line.trim().is_empty())
         .collect();
-    assert!(commands.len() >= 6, "the tutorial's commands: {commands:?}");
+    assert!(commands.len() >= 5, "the tutorial's commands: {commands:?}");
     for line in commands {
         run_line(dir.path(), line);
     }
-    for written in [
-        "triple_t_maze.svg",
-        "try/triple_t_maze/best.json",
-        "try/triple_t_maze/summary.json",
-        "replay.svg",
-    ] {
+    for written in tutorial.written {
         assert!(
             dir.path().join(written).is_file(),
-            "the tutorial's commands wrote no {written}"
+            "the commands of {} wrote no {written}",
+            tutorial.page
         );
     }
     let replay = std::fs::read_to_string(dir.path().join("replay.svg")).unwrap();
     assert!(
-        replay.contains("triple_t_maze"),
-        "the replay names its task"
+        replay.contains(tutorial.replay_names),
+        "the replay of {} does not say {}",
+        tutorial.page,
+        tutorial.replay_names
     );
+}
+
+#[test]
+fn the_triple_t_maze_tutorial_runs_as_written() {
+    runs_as_written(&TUTORIALS[0]);
+}
+
+#[test]
+fn the_swarm_tutorial_runs_as_written() {
+    runs_as_written(&TUTORIALS[1]);
 }
