@@ -463,7 +463,13 @@ fn caption_lines(trace: &Trace) -> [String; 2] {
         ));
     }
     if outcome.collided && outcome.ending != Ending::Collision {
-        second.push_str(" · touched a wall");
+        // In a team, what the robot touched may be another robot.
+        let touched = if trace.team_groups.is_empty() {
+            "touched a wall"
+        } else {
+            "touched a wall or robot"
+        };
+        second.push_str(&format!(" · {touched}"));
     }
     [first, second]
 }
