@@ -16,6 +16,13 @@ pub struct Crowd {
 }
 
 impl Crowd {
+    /// No robot at all.
+    pub const EMPTY: Crowd = Crowd {
+        positions: Vec::new(),
+        by_x: Vec::new(),
+        xs: Vec::new(),
+    };
+
     /// The largest crowd: robot indices are kept as `u16`.
     pub const MAX_ROBOTS: usize = u16::MAX as usize;
 
