@@ -14,4 +14,6 @@ fi
 "$HEVO" replay controllers/solve_maze.json --task solve_maze --light-config 2 --seed 4 \
     --rays 60,150 --out docs/img/solve_maze_replay.svg
 "$HEVO" plot experiments/runs --node return_room --out docs/img/return_room_fitness.svg
-echo "wrote docs/img/rescue_replay.svg, docs/img/solve_maze_replay.svg, docs/img/return_room_fitness.svg"
+"$HEVO" replay controllers/aggregation.json --task scenarios/swarm/aggregation.toml --seed 3 \
+    --out docs/img/swarm_aggregation.svg
+echo "wrote docs/img/rescue_replay.svg, docs/img/solve_maze_replay.svg, docs/img/return_room_fitness.svg, docs/img/swarm_aggregation.svg"

@@ -96,7 +96,10 @@ const TUTORIALS: &[Tutorial] = &[
     Tutorial {
         page: "docs/tutorial-triple-t-maze.md",
         files: &["experiment.toml", "triple_t_maze.toml"],
-        shipped: ("triple_t_maze.toml", "scenarios/examples/triple_t_maze.toml"),
+        shipped: (
+            "triple_t_maze.toml",
+            "scenarios/examples/triple_t_maze.toml",
+        ),
         written: &[
             "triple_t_maze.svg",
             "try/triple_t_maze/best.json",

@@ -273,6 +273,12 @@ const PROVENANCE: &[(&str, &str)] = &[
     ),
     ("cross_yard.json", "experiments/runs-yard/cross_yard/run-0"),
     (
+        "aggregation.json",
+        "experiments/runs-swarm/aggregation/run-0",
+    ),
+    ("dispersion.json", "experiments/runs-swarm/dispersion/run-1"),
+    ("homing.json", "experiments/runs-swarm/homing/run-1"),
+    (
         "room_to_yard.json",
         "experiments/runs-yard/room_to_yard/run-0",
     ),

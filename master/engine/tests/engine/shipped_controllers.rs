@@ -142,6 +142,32 @@ const SHIPPED: &[Floor] = &[
         stages: None,
         solved_samples: "97793c63a7e1ab06",
     },
+    // Collective primitives: ten robots, each running a copy (scenarios/swarm/). Homing
+    // solves none (the whole team home): its samples are pinned, its floor says nothing.
+    Floor {
+        file: "aggregation.json",
+        task: "scenarios/swarm/aggregation.toml",
+        solved: 79, // measured 82 of 100
+        per_variant: &[],
+        stages: None,
+        solved_samples: "17e9b2b2af0511a9",
+    },
+    Floor {
+        file: "dispersion.json",
+        task: "scenarios/swarm/dispersion.toml",
+        solved: 97, // measured 100 of 100
+        per_variant: &[],
+        stages: None,
+        solved_samples: "6bf4b31f38d38dd9",
+    },
+    Floor {
+        file: "homing.json",
+        task: "scenarios/swarm/homing.toml",
+        solved: 0, // measured 0 of 100
+        per_variant: &[],
+        stages: None,
+        solved_samples: "a2103c010d71aeb5",
+    },
     // A shipped controller on a task it was not evolved for: exit room in the authors' room
     // (docs/decisions/model/0044-the-authors-room.md).
     Floor {
