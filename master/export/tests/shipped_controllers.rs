@@ -14,8 +14,8 @@ use std::process::Command;
 use std::sync::Arc;
 
 use hevo_export::{ExportOptions, Target, closed_loop, vectors};
-use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Scenario;
+use hevo_sim_core::{ControllerFile, InputGroup, NodeSpec};
 use hevo_sim_core::{Sample, TaskConfig};
 
 fn repo_root() -> PathBuf {
@@ -52,10 +52,12 @@ fn task_of(stem: &str) -> TaskConfig {
     if let Some(task) = TaskConfig::shipped(stem) {
         return task;
     }
-    let examples = repo_root().join("scenarios/examples");
     let path = [stem, stem.trim_end_matches("_single")]
         .iter()
-        .map(|name| examples.join(format!("{name}.toml")))
+        .flat_map(|name| {
+            ["scenarios/examples", "scenarios/swarm"]
+                .map(|folder| repo_root().join(folder).join(format!("{name}.toml")))
+        })
         .find(|path| path.exists())
         .unwrap_or_else(|| panic!("no task for controllers/{stem}.json"));
     let text = std::fs::read_to_string(&path).unwrap();
@@ -78,6 +80,11 @@ fn shipped_controllers() -> Vec<(String, ControllerFile)> {
     found.sort_by(|a, b| a.0.cmp(&b.0));
     assert!(found.len() >= 11, "the shipped controllers are there");
     found
+}
+
+/// Whether `node` or a node below it reads `group`.
+fn reads(node: &NodeSpec, group: InputGroup) -> bool {
+    node.inputs.contains(&group) || node.children.iter().any(|child| reads(child, group))
 }
 
 /// Exports into `dir` and runs `make -C dir TARGET`; returns its output.
@@ -123,6 +130,19 @@ fn every_shipped_controller_exports_bit_identical_to_sim_core() {
     }
     for (stem, file) in shipped_controllers() {
         let task = task_of(&stem);
+        if reads(&file.root, InputGroup::RAB) {
+            // The range-and-bearing board has no C side yet (docs/export.md): refused, by name.
+            let options = ExportOptions {
+                target: Target::Float,
+                vector_samples: vectors::default_samples(&task, 1),
+                source_note: None,
+            };
+            let error = hevo_export::export(&file, &task, &options)
+                .err()
+                .unwrap_or_else(|| panic!("{stem} reads rab and was exported"));
+            assert!(error.to_string().contains("'rab'"), "{stem}: {error}");
+            continue;
+        }
         let dir = tempfile::tempdir().unwrap();
         let output = export_and_make(&file, &task, Target::Float, 1, dir.path(), "check");
         assert!(
