@@ -479,39 +479,25 @@ impl<'e> SampleRun<'e> {
         if let Some(team) = self.team.as_mut() {
             team.gather(&robot);
         }
-        let view = SenseView {
+        // What every robot of the sample shares; the focal robot adds its teammate and crowd.
+        let shared = SenseView {
             robot: &robot,
             sin_heading,
             cos_heading,
             scene: &self.env.scene,
             lights: &self.light_positions,
             lit_mask,
-            teammate: self.teammate.as_ref().map(|mate| &mate.pose),
-            crowd: self.team.as_ref().map(Team::crowd),
+            teammate: None,
+            crowd: None,
             me: 0,
         };
-        let mut frame = SensorFrame::default();
-        // A loop over a constant number of groups, which the compiler unrolls: one call site
-        // per sensor, and each group's place in the frame a constant.
-        for (group, run) in InputGroup::ALL.into_iter().zip(&mut self.sensor_runs) {
-            if let Some(run) = run {
-                run.read(&view, &mut self.noise, frame.values_mut(group));
-            }
-        }
+        let view = SenseView {
+            teammate: self.teammate.as_ref().map(|mate| &mate.pose),
+            crowd: self.team.as_ref().map(Team::crowd),
+            ..shared
+        };
+        let frame = SensorFrame::read(&mut self.sensor_runs, &view, &mut self.noise);
         if let Some(team) = self.team.as_mut() {
-            // What the other robots share with the focal robot's view: the team's own crowd
-            // is lent by `Team::sense` itself.
-            let shared = SenseView {
-                robot: &robot,
-                sin_heading,
-                cos_heading,
-                scene: &self.env.scene,
-                lights: &self.light_positions,
-                lit_mask,
-                teammate: None,
-                crowd: None,
-                me: 0,
-            };
             team.sense(&shared);
         }
         self.lit_mask = lit_mask;

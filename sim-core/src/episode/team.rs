@@ -18,7 +18,7 @@ use crate::network::lanes::LaneController;
 use crate::outcome::Sample;
 use crate::scenario::GroupDriver;
 use crate::scenario::blocks::Motion;
-use crate::sensors::frame::{InputGroup, N_FLAT, N_GROUPS, SensorFrame};
+use crate::sensors::frame::{N_FLAT, N_GROUPS, SensorFrame};
 use crate::sensors::{SenseView, Sensor, SensorRun};
 use crate::task::TaskConfig;
 
@@ -265,13 +265,7 @@ impl Member<'_> {
             me,
             ..*focal_view
         };
-        let mut frame = SensorFrame::default();
-        for (group, run) in InputGroup::ALL.into_iter().zip(&mut self.sensor_runs) {
-            if let Some(run) = run {
-                run.read(&view, &mut self.noise, frame.values_mut(group));
-            }
-        }
-        self.frame = frame;
+        self.frame = SensorFrame::read(&mut self.sensor_runs, &view, &mut self.noise);
     }
 }
 

@@ -6,6 +6,8 @@
 
 use super::SENSORS;
 use super::SensorKind;
+use super::{SenseView, SensorRun};
+use crate::math::rng::SimRng;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt;
 
@@ -61,6 +63,25 @@ impl SensorFrame {
         }
         names
     };
+
+    /// One robot's frame: each sensor it carries (`runs`, by input group) reads `view`, in
+    /// registry order, drawing its noise from `noise`; the groups it lacks read 0.
+    #[inline]
+    pub(crate) fn read(
+        runs: &mut [Option<Box<dyn SensorRun + '_>>; N_GROUPS],
+        view: &SenseView<'_>,
+        noise: &mut SimRng,
+    ) -> SensorFrame {
+        let mut frame = SensorFrame::default();
+        // A loop over a constant number of groups, which the compiler unrolls: one call site
+        // per sensor, and each group's place in the frame a constant.
+        for (group, run) in InputGroup::ALL.into_iter().zip(runs) {
+            if let Some(run) = run {
+                run.read(view, noise, frame.values_mut(group));
+            }
+        }
+        frame
+    }
 
     /// The current values of `group`.
     #[inline]
