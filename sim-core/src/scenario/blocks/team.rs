@@ -38,7 +38,22 @@ fn team_word(
 /// positions), metres, averaged over the cycles judged: small for an aggregated team.
 pub const TEAM_SPREAD: QuantityKind = QuantityKind {
     syntax: &["team.spread"],
-    compile: |text, facts| team_word(text, "team.spread", facts, || Box::new(TeamSpread)),
+    compile: |text, facts| {
+        team_word(text, "team.spread", facts, || {
+            Box::new(TeamAverage { of_cycle: spread })
+        })
+    },
+};
+
+/// `team.nearest`: the mean over the robots of each one's distance to its nearest neighbour,
+/// metres, averaged over the cycles judged: large for a dispersed team.
+pub const TEAM_NEAREST: QuantityKind = QuantityKind {
+    syntax: &["team.nearest"],
+    compile: |text, facts| {
+        team_word(text, "team.nearest", facts, || {
+            Box::new(TeamAverage { of_cycle: nearest })
+        })
+    },
 };
 
 /// The centre of `positions` (their mean); the origin for none.
@@ -93,58 +108,27 @@ pub fn nearest(positions: &[[f32; 2]]) -> f32 {
     total / positions.len() as f32
 }
 
-/// The running average of a per-cycle measure, as `team.spread` and `team.nearest` keep it.
-fn average(tracked: &Tracked) -> f32 {
-    match tracked.cycles {
-        0 => 0.0,
-        cycles => (tracked.sum / cycles as f32).min(MAX_DISTANCE),
-    }
+/// A measure of the team's positions, averaged over the cycles judged.
+#[derive(Debug)]
+struct TeamAverage {
+    of_cycle: fn(&[[f32; 2]]) -> f32,
 }
 
-#[derive(Debug)]
-struct TeamSpread;
-
-impl Quantity for TeamSpread {
+impl Quantity for TeamAverage {
     fn tracks(&self) -> bool {
         true
     }
 
     fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
-        tracked.sum += spread(view.team);
+        tracked.sum += (self.of_cycle)(view.team);
         tracked.cycles += 1;
     }
 
     fn value(&self, tracked: &Tracked, _end: &EndView<'_>) -> f32 {
-        average(tracked)
-    }
-
-    fn range(&self, _n_phases: usize) -> (f32, f32) {
-        (0.0, MAX_DISTANCE)
-    }
-}
-
-/// `team.nearest`: the mean over the robots of each one's distance to its nearest neighbour,
-/// metres, averaged over the cycles judged: large for a dispersed team.
-pub const TEAM_NEAREST: QuantityKind = QuantityKind {
-    syntax: &["team.nearest"],
-    compile: |text, facts| team_word(text, "team.nearest", facts, || Box::new(TeamNearest)),
-};
-
-#[derive(Debug)]
-struct TeamNearest;
-
-impl Quantity for TeamNearest {
-    fn tracks(&self) -> bool {
-        true
-    }
-
-    fn observe(&self, tracked: &mut Tracked, view: &CycleView<'_>) {
-        tracked.sum += nearest(view.team);
-        tracked.cycles += 1;
-    }
-
-    fn value(&self, tracked: &Tracked, _end: &EndView<'_>) -> f32 {
-        average(tracked)
+        match tracked.cycles {
+            0 => 0.0,
+            cycles => (tracked.sum / cycles as f32).min(MAX_DISTANCE),
+        }
     }
 
     fn range(&self, _n_phases: usize) -> (f32, f32) {
