@@ -212,7 +212,8 @@ class Trace:
     def node_paths(self) -> List[str]: ...
     @property
     def robots(self) -> List[str]:
-        """The robots of `poses`: `robot`, then `teammate` where the task has one."""
+        """The robots of `poses`: `robot`, then `teammate` where the task has one, then a
+        team's other robots by group and index (`swarm_0`, `swarm_1`, ...)."""
     @property
     def poses(self) -> npt.NDArray[np.float32]:
         """(cycles, robots, 3): x, y (metres), heading (radians) at the start of each cycle."""

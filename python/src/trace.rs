@@ -81,14 +81,15 @@ impl Trace {
         self.node_paths.clone()
     }
 
-    /// The robots of `poses`, in order: `robot`, then `teammate` where the task has one.
+    /// The robots of `poses`, in order: `robot`, then `teammate` where the task has one, then
+    /// a team's other robots (`[[robots]]`) by group and index in it: `swarm_0`, `swarm_1`, ...
     #[getter]
-    fn robots(&self) -> Vec<&'static str> {
-        if self.has_teammate() {
-            vec!["robot", "teammate"]
-        } else {
-            vec!["robot"]
-        }
+    fn robots(&self) -> Vec<String> {
+        let teammate = self.has_teammate().then(|| "teammate".to_string());
+        std::iter::once("robot".to_string())
+            .chain(teammate)
+            .chain(self.trace.team_member_names())
+            .collect()
     }
 
     /// Poses at the start of each cycle (when the sensors were read): float32
@@ -96,10 +97,11 @@ impl Trace {
     #[getter]
     fn poses(&self, py: Python<'_>) -> PyResult<Py<PyArray3<f32>>> {
         let robots = self.robots().len();
+        let has_teammate = self.has_teammate();
         let mut values = Vec::with_capacity(self.trace.cycles.len() * robots * 3);
         for cycle in &self.trace.cycles {
             values.extend([cycle.robot.x, cycle.robot.y, cycle.robot.heading]);
-            if robots == 2 {
+            if has_teammate {
                 // NaN for a cycle without the teammate (it exists in every cycle or none).
                 values.extend(
                     cycle
@@ -107,6 +109,12 @@ impl Trace {
                         .map_or([f32::NAN; 3], |mate| [mate.x, mate.y, mate.heading]),
                 );
             }
+            values.extend(
+                cycle
+                    .team
+                    .iter()
+                    .flat_map(|pose| [pose.x, pose.y, pose.heading]),
+            );
         }
         let array = Array3::from_shape_vec((self.trace.cycles.len(), robots, 3), values)
             .map_err(|error| RunError::new_err(format!("internal: trace shape: {error}")))?;

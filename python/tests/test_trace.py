@@ -47,6 +47,19 @@ def test_the_rescue_has_two_robots(repo):
     assert not np.isnan(trace.poses).any()
 
 
+def test_a_swarm_has_every_robot(repo):
+    controller = hevo.Controller.load(repo / "controllers" / "aggregation.json")
+    task = hevo.Task(repo / "scenarios" / "swarm" / "aggregation.toml", max_cycles=30)
+    trace = hevo.trace(controller, task, seed=3)
+    assert trace.robots == ["robot"] + [f"swarm_{i}" for i in range(9)]
+    assert trace.poses.shape == (len(trace), 10, 3)
+    assert not np.isnan(trace.poses).any()
+    # Every robot runs its own copy of the controller: the team moves.
+    assert (np.ptp(trace.poses[:, 1:, :2], axis=0).max(axis=1) > 0).all()
+    header = trace.to_csv().splitlines()[0].split(",")
+    assert header[-3:] == ["swarm_8_x", "swarm_8_y", "swarm_8_heading"]
+
+
 def test_picture_and_tables_are_the_command_lines(repo, tmp_path, hevo_cli):
     path = repo / "controllers" / "solve_maze.json"
     controller = hevo.Controller.load(path)

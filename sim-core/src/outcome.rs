@@ -196,3 +196,15 @@ pub struct Trace {
     /// The outcome.
     pub outcome: Outcome,
 }
+
+impl Trace {
+    /// A name for each of the team's other robots, in the order of each cycle's `team`: the
+    /// group's name and the robot's index in its group, `swarm_0`, `swarm_1`, ... (empty
+    /// without a team). Trace tables and Python's poses name their columns with it.
+    pub fn team_member_names(&self) -> Vec<String> {
+        self.team_groups
+            .iter()
+            .flat_map(|(name, count)| (0..*count).map(move |idx| format!("{name}_{idx}")))
+            .collect()
+    }
+}

@@ -1,7 +1,8 @@
 //! A traced sample as a table, one row per control cycle, for readers outside hevo
 //! (`hevo replay --trace-out FILE.csv` or `FILE.json`): the robot's pose (and the teammate's),
 //! the sensor inputs the controller read, its wheel outputs, the node that drove and what
-//! happened. The Python module's `hevo.trace` gives the same values as numpy arrays.
+//! happened, then a team's other robots' poses (`[[robots]]`). The Python module's
+//! `hevo.trace` gives the same values as numpy arrays.
 
 use hevo_sim_core::Trace;
 use hevo_sim_core::TraceCycle;
@@ -30,9 +31,10 @@ const OUTCOME_COLUMNS: [&str; 7] = [
     "sub_task",
 ];
 
-/// The columns of a row, in order: the poses, every sensor input under its name
+/// The columns every row has, in order: the poses, every sensor input under its name
 /// ([`SensorFrame::INPUT_NAMES`]: `ir_front_left`, ..., `near_robot`), then the wheels and
-/// what happened. The teammate's pose columns are empty where the task has no teammate.
+/// what happened. The teammate's pose columns are empty where the task has no teammate. A
+/// trace with a team has more ([`trace_columns`]).
 pub const TRACE_COLUMNS: [&str; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.len()] = {
     let mut columns = [""; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.len()];
     let mut idx = 0;
@@ -49,6 +51,24 @@ pub const TRACE_COLUMNS: [&str; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.le
     columns
 };
 
+/// The columns of `trace`'s rows: [`TRACE_COLUMNS`], then, for each of a team's other robots
+/// ([`Trace::team_member_names`]: `swarm_0`, ...), its `_x`, `_y` and `_heading` at the start of
+/// the cycle.
+pub fn trace_columns(trace: &Trace) -> Vec<String> {
+    let team = trace
+        .team_member_names()
+        .into_iter()
+        .flat_map(|member| TEAM_POSE_SUFFIXES.map(|suffix| format!("{member}{suffix}")));
+    TRACE_COLUMNS
+        .iter()
+        .map(|column| column.to_string())
+        .chain(team)
+        .collect()
+}
+
+/// The suffixes of a team robot's pose columns.
+const TEAM_POSE_SUFFIXES: [&str; 3] = ["_x", "_y", "_heading"];
+
 /// One cell.
 enum Cell {
     Number(f32),
@@ -57,7 +77,7 @@ enum Cell {
     Empty,
 }
 
-/// The cells of one cycle, in [`TRACE_COLUMNS`] order; `node_paths` names the controller's
+/// The cells of one cycle, in [`trace_columns`] order; `node_paths` names the controller's
 /// nodes by index (the active node is the last of the cycle's active path).
 fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
     let number = Cell::Number;
@@ -96,13 +116,22 @@ fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
         Cell::Integer(u64::from(cycle.lit_lights)),
         Cell::Integer(u64::from(cycle.sub_task)),
     ];
-    poses.into_iter().chain(inputs).chain(outcomes).collect()
+    let team = cycle
+        .team
+        .iter()
+        .flat_map(|pose| [pose.x, pose.y, pose.heading].map(number));
+    poses
+        .into_iter()
+        .chain(inputs)
+        .chain(outcomes)
+        .chain(team)
+        .collect()
 }
 
 /// CSV text: a header line, then one line per cycle. Numbers are the shortest decimals that
 /// read back to the same `f32`.
 pub fn trace_csv(trace: &Trace, node_paths: &[String]) -> String {
-    let mut text = TRACE_COLUMNS.join(",");
+    let mut text = trace_columns(trace).join(",");
     text.push('\n');
     for (index, cycle) in trace.cycles.iter().enumerate() {
         let row: Vec<String> = cells(index, cycle, node_paths)
@@ -125,22 +154,23 @@ pub fn trace_csv(trace: &Trace, node_paths: &[String]) -> String {
 }
 
 /// JSON text: the sample and its outcome, the node paths, and `cycles`, one object per cycle
-/// with the [`TRACE_COLUMNS`] as keys (the teammate's keys only where there is one).
+/// with the [`trace_columns`] as keys (the teammate's keys only where there is one).
 pub fn trace_json(trace: &Trace, node_paths: &[String]) -> Result<String, serde_json::Error> {
+    let columns = trace_columns(trace);
     let cycles: Vec<serde_json::Value> = trace
         .cycles
         .iter()
         .enumerate()
         .map(|(index, cycle)| {
             let mut object = serde_json::Map::new();
-            for (column, cell) in TRACE_COLUMNS.iter().zip(cells(index, cycle, node_paths)) {
+            for (column, cell) in columns.iter().zip(cells(index, cycle, node_paths)) {
                 let value = match cell {
                     Cell::Number(value) => serde_json::json!(value),
                     Cell::Integer(value) => serde_json::json!(value),
                     Cell::Text(text) => serde_json::json!(text),
                     Cell::Empty => continue,
                 };
-                object.insert((*column).to_string(), value);
+                object.insert(column.clone(), value);
             }
             serde_json::Value::Object(object)
         })
@@ -207,5 +237,61 @@ mod tests {
         );
         // Shortest round-trip decimals, not an f32 widened to f64's digits.
         assert_eq!(first[1], trace.cycles[0].robot.x.to_string());
+    }
+
+    /// The wheels of one side a little faster: the focal robot drives in circles.
+    struct Circler;
+
+    impl hevo_sim_core::Policy for Circler {
+        fn reset(&mut self) {}
+        fn step(&mut self, _frame: &SensorFrame, _dt: f32) -> [f32; 2] {
+            [1.0, 0.8]
+        }
+    }
+
+    #[test]
+    fn a_team_adds_each_other_robots_pose_columns() {
+        let text = include_str!("../fixtures/team_arena.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, "team_arena.toml").unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        let trace = Evaluator::new(task)
+            .unwrap()
+            .evaluate_traced(&mut Circler, Sample::seeded(2));
+        let columns = trace_columns(&trace);
+        assert_eq!(columns.len(), TRACE_COLUMNS.len() + 3 * 3);
+        assert_eq!(
+            columns[TRACE_COLUMNS.len()..],
+            [
+                "swarm_0_x",
+                "swarm_0_y",
+                "swarm_0_heading",
+                "swarm_1_x",
+                "swarm_1_y",
+                "swarm_1_heading",
+                "swarm_2_x",
+                "swarm_2_y",
+                "swarm_2_heading",
+            ]
+        );
+        let csv = trace_csv(&trace, &[]);
+        let last = trace.cycles.len() - 1;
+        let row: Vec<&str> = csv.lines().nth(last + 1).unwrap().split(',').collect();
+        assert_eq!(row.len(), columns.len());
+        let column = |name: &str| columns.iter().position(|c| c == name).unwrap();
+        assert_eq!(
+            row[column("swarm_2_y")].parse::<f32>().unwrap(),
+            trace.cycles[last].team[2].y
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&trace_json(&trace, &[]).unwrap()).unwrap();
+        assert_eq!(
+            json["cycles"][0]["swarm_1_heading"].as_f64().unwrap() as f32,
+            trace.cycles[0].team[1].heading
+        );
+        // A trace without a team has exactly the fixed columns.
+        let alone = Evaluator::new(TaskConfig::shipped("exit_room").unwrap())
+            .unwrap()
+            .evaluate_traced(&mut Circler, Sample::seeded(2));
+        assert_eq!(trace_columns(&alone), TRACE_COLUMNS);
     }
 }

@@ -759,6 +759,17 @@ fn robot_groups(
         .enumerate()
         .map(|(group_idx, decl)| {
             let key = |name: &str| format!("robots[{group_idx}].{name}");
+            // The name labels the group's columns in trace tables (`swarm_0_x`) and a replay's key.
+            let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+            if decl.name.is_empty() || decl.name.len() > 32 || !decl.name.chars().all(plain) {
+                return Err(error(
+                    &key("name"),
+                    format!(
+                        "'{}' is not a group name: 1 to 32 ASCII letters, digits, '_' or '-'",
+                        decl.name
+                    ),
+                ));
+            }
             if !names.insert(decl.name.as_str()) {
                 return Err(error(
                     &key("name"),

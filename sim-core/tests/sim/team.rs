@@ -205,6 +205,7 @@ fn a_team_that_cannot_be_built_is_refused_naming_the_key() {
             "not evolved, wander or fixed",
         ),
         ("name = \"post\"", "name = \"copies\"", "robots[2].name"),
+        ("name = \"post\"", "name = \"a post\"", "not a group name"),
         // 40 robots of radius 0.037 m cannot all fit clear of one another in 0.35 m x 0.35 m.
         (
             "count = 1\nregion = \"corner\"",
