@@ -1412,8 +1412,15 @@ runs = 1
         .await;
     }
 
-    #[tokio::test]
-    async fn a_changed_map_elites_setting_is_refused_by_the_fingerprint() {
+    /// Runs the experiment `experiment(first)` to its end and lets `check` look at its output
+    /// directory; runs it again (a finished run is taken as it is); then asserts that each of
+    /// `changed` is refused by the fingerprint.
+    async fn changed_settings_are_refused(
+        experiment: impl Fn(&str) -> String,
+        first: &str,
+        changed: &[&str],
+        check: impl FnOnce(&Path),
+    ) {
         let dir = tempfile::tempdir().unwrap();
         let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
         let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
@@ -1424,37 +1431,13 @@ runs = 1
         };
         let run = async |keys: &str| {
             let experiment =
-                Experiment::parse(&map_elites_experiment(keys), &dir.path().join("e.toml"))
-                    .unwrap();
+                Experiment::parse(&experiment(keys), &dir.path().join("e.toml")).unwrap();
             run_experiment(&experiment, &settings, &dispatcher, &Recorder::default()).await
         };
-        served(run("map_elites_sigma = 0.25"), &mut worker)
-            .await
-            .unwrap();
-        let run_dir = run_dir(&settings.out_dir.join("exit_room"), 0);
-        let archive = ArchiveFile::read(&run_dir.join(ARCHIVE_JSON)).unwrap();
-        assert_eq!(archive.generation, GENERATIONS);
-        // The node's controller is the best elite's genome.
-        let best = archive.elites.iter().fold(&archive.elites[0], |b, e| {
-            if e.fitness > b.fitness { e } else { b }
-        });
-        let controller =
-            ControllerFile::from_json_str(&std::fs::read_to_string(run_dir.join(BEST)).unwrap())
-                .unwrap();
-        assert_eq!(
-            controller.root.genome.as_deref(),
-            Some(best.genes.as_slice())
-        );
-        // The same settings again: the finished run is taken as it is.
-        served(run("map_elites_sigma = 0.25"), &mut worker)
-            .await
-            .unwrap();
-        for changed in [
-            "map_elites_sigma = 0.5",
-            "map_elites_sigma = 0.25\nmap_elites_variation = \"iso_line\"",
-            "map_elites_sigma = 0.25\nmap_elites_initial = 20",
-            "map_elites_sigma = 0.25\nmap_elites_line_sigma = 0.3",
-        ] {
+        served(run(first), &mut worker).await.unwrap();
+        check(&settings.out_dir);
+        served(run(first), &mut worker).await.unwrap();
+        for changed in changed {
             let error = served(run(changed), &mut worker).await.unwrap_err();
             assert!(
                 matches!(error, RunError::Fingerprint { .. }),
@@ -1465,40 +1448,53 @@ runs = 1
     }
 
     #[tokio::test]
+    async fn a_changed_map_elites_setting_is_refused_by_the_fingerprint() {
+        let changed = [
+            "map_elites_sigma = 0.5",
+            "map_elites_sigma = 0.25\nmap_elites_variation = \"iso_line\"",
+            "map_elites_sigma = 0.25\nmap_elites_initial = 20",
+            "map_elites_sigma = 0.25\nmap_elites_line_sigma = 0.3",
+        ];
+        changed_settings_are_refused(
+            map_elites_experiment,
+            "map_elites_sigma = 0.25",
+            &changed,
+            |out_dir| {
+                let run_dir = run_dir(&out_dir.join("exit_room"), 0);
+                let archive = ArchiveFile::read(&run_dir.join(ARCHIVE_JSON)).unwrap();
+                assert_eq!(archive.generation, GENERATIONS);
+                // The node's controller is the best elite's genome.
+                let best = archive.elites.iter().fold(&archive.elites[0], |b, e| {
+                    if e.fitness > b.fitness { e } else { b }
+                });
+                let controller = ControllerFile::from_json_str(
+                    &std::fs::read_to_string(run_dir.join(BEST)).unwrap(),
+                )
+                .unwrap();
+                assert_eq!(
+                    controller.root.genome.as_deref(),
+                    Some(best.genes.as_slice())
+                );
+            },
+        )
+        .await;
+    }
+
+    #[tokio::test]
     async fn a_changed_cmaes_variant_or_restart_setting_is_refused_by_the_fingerprint() {
-        let dir = tempfile::tempdir().unwrap();
-        let dispatcher = Arc::new(Dispatcher::new(DispatchConfig::default()));
-        let mut worker = spawn_fake_worker(dispatcher.clone(), Arc::default());
-        let settings = RunSettings {
-            out_dir: dir.path().join("out"),
-            overrides: Overrides::default(),
-            job: "changed".into(),
-        };
-        let run = async |keys: &str| {
-            let experiment =
-                Experiment::parse(&cmaes_experiment(keys), &dir.path().join("e.toml")).unwrap();
-            run_experiment(&experiment, &settings, &dispatcher, &Recorder::default()).await
-        };
-        served(run("population = 4\nrestarts = 1"), &mut worker)
-            .await
-            .unwrap();
-        // The same settings again: the finished run is taken as it is.
-        served(run("population = 4\nrestarts = 1"), &mut worker)
-            .await
-            .unwrap();
-        for changed in [
+        let changed = [
             "population = 4\nrestarts = 2",
             "population = 4\nrestarts = 1\nrestart_population_factor = 3",
             "population = 4\nrestarts = 1\ncmaes_variant = \"separable\"",
             "population = 4",
-        ] {
-            let error = served(run(changed), &mut worker).await.unwrap_err();
-            assert!(
-                matches!(error, RunError::Fingerprint { .. }),
-                "{changed}: {error}"
-            );
-        }
-        worker.abort();
+        ];
+        changed_settings_are_refused(
+            cmaes_experiment,
+            "population = 4\nrestarts = 1",
+            &changed,
+            |_| {},
+        )
+        .await;
     }
 
     /// The run paused on purpose under `experiments/runs/` (exit room's run 4, stopped at
