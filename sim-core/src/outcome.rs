@@ -193,6 +193,10 @@ pub struct Trace {
     pub team_groups: Vec<(String, u32)>,
     /// The final pose of the robot.
     pub final_robot: Pose,
+    /// The final poses of a team's other robots, in the order of each cycle's `team` (empty
+    /// without a team).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub final_team: Vec<Pose>,
     /// The outcome.
     pub outcome: Outcome,
 }

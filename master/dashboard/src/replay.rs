@@ -71,9 +71,10 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
         let n_members = trace.cycles.first().map_or(0, |c| c.team.len());
         let team_poses = (0..n_members)
             .map(|member| {
-                let recorded = trace.cycles.iter().filter_map(|c| c.team.get(member));
-                let last = trace.cycles.last().and_then(|c| c.team.get(member));
-                picture_poses(&transform, recorded.chain(last).copied())
+                picture_poses(
+                    &transform,
+                    hevo_viz::team_member_poses(&trace, member).into_iter(),
+                )
             })
             .collect();
         figures.push(ReplayFigure {

@@ -13,4 +13,6 @@ pub mod trace_table;
 
 pub use archive::{archive_heatmap_svg, qd_plot_svg, read_qd_logs};
 pub use plot::{RunLog, fitness_plot_svg, read_run_logs};
-pub use replay::{IrCone, ReplayOptions, replay_scene_transform, replay_svg, scenario_svg};
+pub use replay::{
+    IrCone, ReplayOptions, replay_scene_transform, replay_svg, scenario_svg, team_member_poses,
+};

@@ -400,13 +400,19 @@ fn team_groups(trace: &Trace) -> Vec<TeamGroup<'_>> {
         .collect()
 }
 
-/// Where one of the other robots stood at the start of each cycle, leaving out what cannot be
-/// drawn.
-fn member_poses(trace: &Trace, member: usize) -> Vec<Pose> {
-    trace
-        .cycles
-        .iter()
-        .filter_map(|c| c.team.get(member).copied())
+/// Where one of a team's other robots stood at the start of each cycle, then where it ended,
+/// as the focal robot's cycles and final pose, leaving out what cannot be drawn. A trace
+/// written before final team poses were kept ends on its last recorded pose, held once more
+/// so every robot keeps the focal robot's timing.
+pub fn team_member_poses(trace: &Trace, member: usize) -> Vec<Pose> {
+    let recorded = trace.cycles.iter().filter_map(|c| c.team.get(member));
+    let last = trace
+        .final_team
+        .get(member)
+        .or_else(|| trace.cycles.last().and_then(|c| c.team.get(member)));
+    recorded
+        .chain(last)
+        .copied()
         .filter(|p| finite(p.position()) && p.heading.is_finite())
         .collect()
 }
@@ -1182,9 +1188,8 @@ fn team_final_style(colour: &str) -> RobotStyle<'_> {
 }
 
 /// A team's other robots, group by group: each one's path (thin, in its group's colour), a
-/// ring where it started and a disc where it was last, as the focal robot's start and final
-/// pose are drawn. A trace records their poses at the start of each cycle, so the last is the
-/// start of the last cycle, as for the teammate.
+/// ring where it started and a disc where it ended, as the focal robot's start and final
+/// pose are drawn.
 fn draw_team(
     doc: &mut SvgDocument,
     trace: &Trace,
@@ -1205,7 +1210,7 @@ fn draw_team(
         }
         doc.open(tag);
         for member in group.members.clone() {
-            let poses = member_poses(trace, member);
+            let poses = team_member_poses(trace, member);
             let (Some(first), Some(last)) = (poses.first(), poses.last()) else {
                 continue;
             };
@@ -1517,12 +1522,7 @@ fn draw_animation(
     let team_begin = format!("{ANIMATION_ID}.begin");
     for group in team {
         for member in group.members.clone() {
-            // A trace has no final pose for the other robots: each holds its last recorded
-            // pose for the last cycle, so all robots keep the focal robot's timing.
-            let mut member_poses = member_poses(trace, member);
-            if let Some(&last) = member_poses.last() {
-                member_poses.push(last);
-            }
+            let member_poses = team_member_poses(trace, member);
             let marker = AnimatedMarker {
                 class: "animated-team-robot",
                 id: None,
@@ -2462,16 +2462,21 @@ mod tests {
         assert_eq!(groups.len(), 1);
         assert_eq!(groups[0].get("data-name"), "swarm");
         assert_eq!(groups[0].get("data-count"), "3");
-        // Each path runs through its robot's recorded positions, to scale (one path per robot,
-        // in document order).
+        // Each path runs through its robot's recorded positions, then its final one, to scale
+        // (one path per robot, in document order).
         let attributes = scene_attributes(&elements);
         let robots = with_class(&elements, "team-robot");
         for (robot, path) in robots.iter().zip(with_class(&elements, "team-path")) {
             let member = robot.number("data-member") as usize;
             let points = path.points();
-            assert_eq!(points.len(), trace.cycles.len());
-            for (cycle, point) in trace.cycles.iter().zip(&points) {
-                let expected = expected_pixel(attributes, cycle.team[member].position());
+            assert_eq!(points.len(), trace.cycles.len() + 1);
+            let positions = trace
+                .cycles
+                .iter()
+                .map(|cycle| cycle.team[member])
+                .chain([trace.final_team[member]]);
+            for (pose, point) in positions.zip(&points) {
+                let expected = expected_pixel(attributes, pose.position());
                 assert!(
                     (point[0] - expected[0]).abs() < 0.01 && (point[1] - expected[1]).abs() < 0.01,
                     "member {member}: drawn {point:?}, expected {expected:?}"

@@ -233,13 +233,18 @@ impl Evaluator {
 
     /// Runs one sample.
     pub fn evaluate(&self, policy: &mut impl Policy, sample: Sample) -> Outcome {
-        self.run(policy, sample, &mut ()).0
+        self.run(policy, sample, &mut ()).outcome
     }
 
     /// Runs one sample and records every cycle.
     pub fn evaluate_traced(&self, policy: &mut impl Policy, sample: Sample) -> Trace {
         let mut cycles = Vec::new();
-        let (outcome, env, final_robot) = self.run(policy, sample, &mut cycles);
+        let Finished {
+            outcome,
+            env,
+            robot: final_robot,
+            team: final_team,
+        } = self.run(policy, sample, &mut cycles);
         let goal = env.ground.goal.as_ref().map(|g| g.map.center(g.goal));
         let exit = env
             .ground
@@ -263,6 +268,7 @@ impl Evaluator {
                 .map(|group| (group.name.clone(), group.count))
                 .collect(),
             final_robot,
+            final_team,
             outcome,
         }
     }
@@ -285,7 +291,7 @@ impl Evaluator {
         policy: &mut impl Policy,
         sample: Sample,
         recorder: &mut R,
-    ) -> (Outcome, Environment, Pose) {
+    ) -> Finished {
         let dt = self.task.params.robot.cycle_seconds;
         policy.reset();
         let mut episode = Episode::for_policy(
@@ -624,8 +630,8 @@ impl<'e> SampleRun<'e> {
         (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)
     }
 
-    /// The sample's outcome, its world (for a trace) and the robot's final pose.
-    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
+    /// The sample's outcome, its world and every robot's final pose.
+    pub(crate) fn finish(self, ending: Ending) -> Finished {
         let judge = self.judge;
         let (fitness, descriptor) = judge.fitness_and_descriptor(
             ending,
@@ -653,8 +659,23 @@ impl<'e> SampleRun<'e> {
             descriptor,
         };
         env.ground = judge.ground;
-        (outcome, env, self.robot)
+        Finished {
+            outcome,
+            env,
+            robot: self.robot,
+            team: self.team.as_ref().map_or_else(Vec::new, Team::poses),
+        }
     }
+}
+
+/// An ended sample: its outcome, its world (for a trace) and where every robot ended.
+pub(crate) struct Finished {
+    pub(crate) outcome: Outcome,
+    pub(crate) env: Environment,
+    /// The focal robot's final pose.
+    pub(crate) robot: Pose,
+    /// The team's other robots' final poses, group by group (empty without a team).
+    pub(crate) team: Vec<Pose>,
 }
 
 /// The other robot: met when the robot comes within the near-robot range, moving as its

@@ -85,7 +85,7 @@ impl Evaluator {
                 if let Some(ending) = run.finish_cycle(&before, collided)
                     && let Some((idx, run)) = slot.take()
                 {
-                    outcomes[idx] = Some(run.finish(ending).0);
+                    outcomes[idx] = Some(run.finish(ending).outcome);
                 }
             }
         }

@@ -7,12 +7,10 @@
 //! For a policy outside hevo (a Python environment, a learner), which has no controller tree:
 //! no node use is counted and no root choice is made.
 
-use super::evaluator::{Evaluator, SampleRun};
-use crate::body::Pose;
+use super::evaluator::{Evaluator, Finished, SampleRun};
 use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, Outcome, Sample, TraceCycle};
 use crate::sensors::frame::SensorFrame;
-use crate::world::Environment;
 
 /// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
 pub(crate) trait Recorder {
@@ -188,12 +186,12 @@ impl<'e> Episode<'e> {
     /// [`Episode::step`] returns its ending).
     pub fn into_outcome(self) -> Option<Outcome> {
         let ending = self.ending?;
-        Some(self.run.finish(ending).0)
+        Some(self.run.finish(ending).outcome)
     }
 
-    /// The outcome, the sample's world (for a trace) and the robot's final pose, the sample
+    /// The outcome, the sample's world (for a trace) and every robot's final pose, the sample
     /// having ended with `ending`.
-    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
+    pub(crate) fn finish(self, ending: Ending) -> Finished {
         self.run.finish(ending)
     }
 }

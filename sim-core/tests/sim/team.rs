@@ -122,6 +122,30 @@ proptest! {
     }
 }
 
+/// A trace's final team poses are where the team stands after the last cycle's moves: where
+/// the same sample, one cycle longer, has them at the start of that cycle.
+#[test]
+fn the_final_team_poses_follow_the_last_cycle() {
+    let rng = &mut SimRng::seed_from_u64(9);
+    let (template, genes) = random_controller(rng);
+    let traced = |max_cycles: u32| {
+        let mut task = team_task();
+        task.max_cycles = Some(max_cycles);
+        let batch = BatchEvaluator::new(template.clone(), task).expect("valid");
+        let mut controller = batch.controller(Some(&genes)).expect("genes fit");
+        batch
+            .evaluator()
+            .evaluate_traced(&mut controller, Sample::seeded(4))
+    };
+    let (short, long) = (traced(40), traced(41));
+    assert_eq!((short.cycles.len(), long.cycles.len()), (40, 41));
+    assert_eq!(short.final_team.len(), 8);
+    assert_eq!(short.final_team, long.cycles[40].team);
+    assert_eq!(short.final_robot, long.cycles[40].robot);
+    // Someone moved in the last cycle: the last recorded poses are not the final ones.
+    assert_ne!(short.final_team, short.cycles[39].team);
+}
+
 #[test]
 fn a_team_sample_is_the_same_every_time_and_on_every_evaluator() {
     let task = team_task();
