@@ -207,8 +207,10 @@ pub struct LightDecl {
     pub at: Option<[f32; 2]>,
     /// When it lights: `"passed"` (once, when the robot's centre first crosses its row going
     /// up, within its distance from the centre line, for `light.flash_cycles` cycles),
-    /// `"always"` (a beacon), `{ after_cycles = N }` (once, at cycle N), or `{ entered =
-    /// "REGION" }` (once, when the robot's centre is first inside a `[regions]` rectangle).
+    /// `"always"` (a beacon), `{ after_cycles = N }` (once, at cycle N), `{ entered =
+    /// "REGION" }` (once, when the robot's centre is first inside a `[regions]` rectangle), or
+    /// a schedule: `{ blink = { from = K, lit = N, dark = M } }` (lit N cycles, dark M, from
+    /// cycle K) or `{ lit_until = N }` (lit from the start, dark from cycle N).
     pub trigger: TriggerDecl,
 }
 
@@ -228,6 +230,30 @@ pub enum TriggerDecl {
         /// A `[regions]` rectangle's name.
         entered: String,
     },
+    /// A blinking schedule.
+    Blink {
+        /// Its cycles.
+        blink: BlinkDecl,
+    },
+    /// Lit from the start until a cycle.
+    LitUntil {
+        /// The first dark cycle.
+        lit_until: u32,
+    },
+}
+
+/// `trigger = { blink = { from = K, lit = N, dark = M } }`: dark before cycle K, then lit for
+/// N cycles and dark for M, over and over.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlinkDecl {
+    /// The first lit cycle, counted from 0 (0 by default).
+    #[serde(default)]
+    pub from: u32,
+    /// Cycles lit in each period.
+    pub lit: u32,
+    /// Cycles dark in each period.
+    pub dark: u32,
 }
 
 /// `[[variant]]`.
