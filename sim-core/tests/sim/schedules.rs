@@ -162,10 +162,32 @@ fn a_schedule_out_of_bounds_is_refused_naming_its_key() {
         let error = refusal(from, to);
         assert!(error.contains(key), "{to}: {error}");
     }
-    // A negative count, a fraction or an unknown key is no trigger at all.
-    for to in ["dark = -7", "dark = 7.5", "dark = 7, often = true"] {
-        let error = refusal("dark = 7", to);
-        assert!(error.contains("light[1].trigger"), "{to}: {error}");
+    // A negative count, a fraction, an unknown key or two triggers in one table are refused
+    // at the trigger, saying what is wrong.
+    for (from, to, says) in [
+        ("dark = 7", "dark = -7", "-7"),
+        ("dark = 7", "dark = 7.5", "7.5"),
+        (
+            "dark = 7",
+            "dark = 7, often = true",
+            "unknown field `often`",
+        ),
+        (
+            "{ lit_until = 40 }",
+            "{ lit_until = 40, after_cycles = 3 }",
+            "exactly one of",
+        ),
+        (
+            "{ lit_until = 40 }",
+            "{ lit_untl = 40 }",
+            "unknown field `lit_untl`",
+        ),
+    ] {
+        let error = refusal(from, to);
+        assert!(
+            error.contains("trigger") && error.contains(says),
+            "{to}: {error}"
+        );
     }
     // `LIGHT lit` names a light the scenario has.
     let error = refusal("when = \"lamp lit", "when = \"lantern lit");
