@@ -476,8 +476,9 @@ impl<'e> SampleRun<'e> {
         self.cycles_run += 1;
         // Each light's state this cycle, before it counts the cycle down.
         let mut lit_mask = 0u32;
+        let cycle = self.cycles_run - 1;
         for (light_idx, light) in self.lights.iter_mut().enumerate() {
-            if light.lit() {
+            if light.lit(cycle) {
                 lit_mask |= 1 << light_idx;
             }
             light.count_down();
@@ -507,9 +508,12 @@ impl<'e> SampleRun<'e> {
             team.sense(&shared);
         }
         self.lit_mask = lit_mask;
-        self.sub_task = self
-            .judge
-            .phase(&robot, self.teammate.as_ref().map(Teammate::view));
+        self.sub_task = self.judge.phase(
+            &robot,
+            self.teammate.as_ref().map(Teammate::view),
+            self.team.as_ref().map_or(&[][..], Team::positions),
+            lit_mask,
+        );
         frame
     }
 
@@ -624,6 +628,7 @@ impl<'e> SampleRun<'e> {
             self.teammate.as_ref().map(Teammate::view),
             team_positions,
             self.wheel_speeds,
+            self.lit_mask,
         ) {
             return Some(end);
         }

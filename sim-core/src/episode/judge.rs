@@ -98,13 +98,23 @@ impl<'a> Judge<'a> {
         )
     }
 
-    /// The phase of the derived fitness in force, if the scenario has phases.
+    /// The phase of the derived fitness in force, if the scenario has phases, with the team
+    /// (the focal robot first) at `team` and the lights of `lit_mask` lit.
     #[inline]
-    pub(crate) fn phase(&self, robot: &Pose, teammate: Option<TeammateView>) -> Option<u8> {
+    pub(crate) fn phase(
+        &self,
+        robot: &Pose,
+        teammate: Option<TeammateView>,
+        team: &[[f32; 2]],
+        lit_mask: u32,
+    ) -> Option<u8> {
         if self.scenario.phases.is_empty() {
             return None;
         }
-        let view = self.view(robot, teammate);
+        let view = self
+            .view(robot, teammate)
+            .with_team(team)
+            .with_lit(lit_mask);
         self.scenario
             .phases
             .iter()
@@ -112,9 +122,9 @@ impl<'a> Judge<'a> {
             .map(|idx| idx as u8)
     }
 
-    /// After a cycle's move at `wheel_speeds` (m/s, as driven): the quantities observe, stages
-    /// are reached, and the sample ends if it took a wrong branch, entered a forbidden region,
-    /// or is solved.
+    /// After a cycle's move at `wheel_speeds` (m/s, as driven), in a cycle whose lit lights are
+    /// `lit_mask`: the quantities observe, stages are reached, and the sample ends if it took a
+    /// wrong branch, entered a forbidden region, or is solved.
     #[inline]
     pub(crate) fn check(
         &mut self,
@@ -122,6 +132,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
         wheel_speeds: [f32; 2],
+        lit_mask: u32,
     ) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
         let view = CycleView::new(
@@ -133,7 +144,8 @@ impl<'a> Judge<'a> {
             self.max_cycles,
         )
         .with_wheel_speeds(wheel_speeds)
-        .with_team(team);
+        .with_team(team)
+        .with_lit(lit_mask);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -509,7 +521,7 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &[], [0.0; 2]), None);
+            assert_eq!(judge.check(&at(0.0, y), None, &[], [0.0; 2], 0), None);
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -533,11 +545,11 @@ mod tests {
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.137), None, &[], [0.0; 2]),
+            judge.check(&at(0.0, 0.5 + 0.137), None, &[], [0.0; 2], 0),
             None
         );
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &[], [0.0; 2]),
+            judge.check(&at(0.0, 0.5 + 0.138), None, &[], [0.0; 2], 0),
             Some(Ending::Solved)
         );
     }
@@ -638,17 +650,26 @@ mod tests {
             ..waiting
         };
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting)), Some(0));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting)), Some(1));
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(following)), Some(2));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following)), Some(2));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting), &[], 0), Some(0));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting), &[], 0), Some(1));
+        assert_eq!(
+            judge.phase(&at(0.0, -0.2), Some(following), &[], 0),
+            Some(2)
+        );
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following), &[], 0), Some(2));
         // The boundary of the first cell, half a cell below its centre.
-        assert_eq!(judge.phase(&at(0.0, -0.1499), Some(waiting)), Some(1));
-        assert_eq!(judge.phase(&at(0.0, -0.1501), Some(waiting)), Some(0));
+        assert_eq!(
+            judge.phase(&at(0.0, -0.1499), Some(waiting), &[], 0),
+            Some(1)
+        );
+        assert_eq!(
+            judge.phase(&at(0.0, -0.1501), Some(waiting), &[], 0),
+            Some(0)
+        );
         // Other tasks have no sub-tasks.
         let solve_maze = shipped("solve_maze");
         assert_eq!(
-            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None),
+            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None, &[], 0),
             None
         );
     }

@@ -10,9 +10,10 @@ use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
 use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
     CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef, MAX_DESCRIPTOR, MAX_LIGHTS,
-    MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SOLID_COORDINATE, MAX_SOLIDS, MAX_VARIANTS, Phase,
-    Place, PlaceAt, RobotGroup, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage,
-    TeammatePlan, Variant, compile_map, formula, is_proper_rect, line_of_path, shipped_map,
+    MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE, MAX_SOLIDS,
+    MAX_VARIANTS, Phase, Place, PlaceAt, RobotGroup, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario,
+    ScenarioError, Stage, TeammatePlan, Variant, compile_map, formula, is_proper_rect,
+    line_of_path, shipped_map,
 };
 use crate::geometry::scene::{Rect, RectKind};
 use crate::sensors::frame::{InputGroup, SensorSet};
@@ -460,12 +461,33 @@ fn lights(
                     ));
                 }
             },
+            TriggerDecl::Blink { blink } => {
+                for (key, cycles, least) in [
+                    ("from", blink.from, 0),
+                    ("lit", blink.lit, 1),
+                    ("dark", blink.dark, 1),
+                ] {
+                    check_schedule_cycles(cycles, least)
+                        .map_err(|message| error(&at(&format!("trigger.blink.{key}")), message))?;
+                }
+                Trigger::Blink {
+                    from: blink.from,
+                    lit: blink.lit,
+                    dark: blink.dark,
+                }
+            }
+            TriggerDecl::LitUntil { lit_until } => {
+                check_schedule_cycles(*lit_until, 1)
+                    .map_err(|message| error(&at("trigger.lit_until"), message))?;
+                Trigger::LitUntil(*lit_until)
+            }
             TriggerDecl::Named(other) => {
                 return Err(error(
                     &at("trigger"),
                     format!(
-                        "'{other}' is not passed, always, {{ after_cycles = N }} or \
-                         {{ entered = \"REGION\" }}"
+                        "'{other}' is not passed, always, {{ after_cycles = N }}, \
+                         {{ entered = \"REGION\" }}, {{ blink = {{ from = K, lit = N, dark = M }} }} \
+                         or {{ lit_until = N }}"
                     ),
                 ));
             }
@@ -477,6 +499,20 @@ fn lights(
         });
     }
     Ok(lights)
+}
+
+/// A schedule's count of cycles: at least `least` (a light lit for 0 cycles, or dark for 0, is
+/// a mistake: `"always"` is a light never dark) and at most [`MAX_SCHEDULE_CYCLES`].
+fn check_schedule_cycles(cycles: u32, least: u32) -> Result<(), String> {
+    if cycles < least {
+        return Err(format!("{cycles} cycles: must be at least {least}"));
+    }
+    if cycles > MAX_SCHEDULE_CYCLES {
+        return Err(format!(
+            "{cycles} cycles: a schedule counts at most {MAX_SCHEDULE_CYCLES}"
+        ));
+    }
+    Ok(())
 }
 
 /// `[[variant]]`: which lights flash, the goal and the start regions.

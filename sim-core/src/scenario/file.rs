@@ -207,13 +207,16 @@ pub struct LightDecl {
     pub at: Option<[f32; 2]>,
     /// When it lights: `"passed"` (once, when the robot's centre first crosses its row going
     /// up, within its distance from the centre line, for `light.flash_cycles` cycles),
-    /// `"always"` (a beacon), `{ after_cycles = N }` (once, at cycle N), or `{ entered =
-    /// "REGION" }` (once, when the robot's centre is first inside a `[regions]` rectangle).
+    /// `"always"` (a beacon), `{ after_cycles = N }` (once, at cycle N), `{ entered =
+    /// "REGION" }` (once, when the robot's centre is first inside a `[regions]` rectangle), or
+    /// a schedule: `{ blink = { from = K, lit = N, dark = M } }` (lit N cycles, dark M, from
+    /// cycle K) or `{ lit_until = N }` (lit from the start, dark from cycle N).
     pub trigger: TriggerDecl,
 }
 
-/// When a light lights.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// When a light lights. Read by hand ([`TriggerTable`]) rather than as an untagged enum, so
+/// that a wrong key or number in a table is refused with what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum TriggerDecl {
     /// `"passed"` or `"always"`.
@@ -228,6 +231,106 @@ pub enum TriggerDecl {
         /// A `[regions]` rectangle's name.
         entered: String,
     },
+    /// A blinking schedule.
+    Blink {
+        /// Its cycles.
+        blink: BlinkDecl,
+    },
+    /// Lit from the start until a cycle.
+    LitUntil {
+        /// The first dark cycle.
+        lit_until: u32,
+    },
+}
+
+/// A trigger written as a table: exactly one of its keys.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TriggerTable {
+    after_cycles: Option<u32>,
+    entered: Option<String>,
+    blink: Option<BlinkDecl>,
+    lit_until: Option<u32>,
+}
+
+impl TriggerTable {
+    /// The trigger the table names, or why it names none or several.
+    fn into_decl(self) -> Result<TriggerDecl, &'static str> {
+        match self {
+            TriggerTable {
+                after_cycles: Some(after_cycles),
+                entered: None,
+                blink: None,
+                lit_until: None,
+            } => Ok(TriggerDecl::AfterCycles { after_cycles }),
+            TriggerTable {
+                after_cycles: None,
+                entered: Some(entered),
+                blink: None,
+                lit_until: None,
+            } => Ok(TriggerDecl::Entered { entered }),
+            TriggerTable {
+                after_cycles: None,
+                entered: None,
+                blink: Some(blink),
+                lit_until: None,
+            } => Ok(TriggerDecl::Blink { blink }),
+            TriggerTable {
+                after_cycles: None,
+                entered: None,
+                blink: None,
+                lit_until: Some(lit_until),
+            } => Ok(TriggerDecl::LitUntil { lit_until }),
+            _ => Err(
+                "a trigger table holds exactly one of `after_cycles`, `entered`, `blink`, \
+                      `lit_until`",
+            ),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TriggerDecl {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        /// A name, or a table read as [`TriggerTable`] (whose errors say what is wrong).
+        struct TriggerVisitor;
+
+        impl<'de> serde::de::Visitor<'de> for TriggerVisitor {
+            type Value = TriggerDecl;
+
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a trigger's name or a table such as { lit_until = N }")
+            }
+
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<TriggerDecl, E> {
+                Ok(TriggerDecl::Named(name.to_string()))
+            }
+
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<TriggerDecl, A::Error> {
+                let table =
+                    TriggerTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                table.into_decl().map_err(serde::de::Error::custom)
+            }
+        }
+
+        deserializer.deserialize_any(TriggerVisitor)
+    }
+}
+
+/// `trigger = { blink = { from = K, lit = N, dark = M } }`: dark before cycle K, then lit for
+/// N cycles and dark for M, over and over.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlinkDecl {
+    /// The first lit cycle, counted from 0 (0 by default).
+    #[serde(default)]
+    pub from: u32,
+    /// Cycles lit in each period.
+    pub lit: u32,
+    /// Cycles dark in each period.
+    pub dark: u32,
 }
 
 /// `[[variant]]`.

@@ -40,6 +40,10 @@ pub const MAX_PHASES: usize = crate::outcome::N_SUB_TASKS;
 /// traces too.
 pub const MAX_LIGHTS: usize = 32;
 
+/// The most cycles a light's schedule counts (`blink`'s `from`, `lit` and `dark`,
+/// `lit_until`): far beyond any cycle limit, and small enough that a period never overflows.
+pub const MAX_SCHEDULE_CYCLES: u32 = 1_000_000;
+
 /// The most solid rectangles `world.solids` may list.
 pub const MAX_SOLIDS: usize = 1024;
 

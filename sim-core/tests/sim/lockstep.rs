@@ -26,6 +26,8 @@ pub(crate) fn tasks() -> Vec<TaskConfig> {
     tasks.push(example_task("find_wanderer"));
     // A team: copies of the lane's controller, wanderers and a fixed robot beside it.
     tasks.push(crate::team::team_task());
+    // Scheduled lights, and phases and stages that see them and the team.
+    tasks.push(crate::schedules::scheduled_task());
     tasks
 }
 

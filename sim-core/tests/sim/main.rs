@@ -9,6 +9,7 @@ mod fuzz_controller;
 mod golden;
 mod lockstep;
 mod scenario_files;
+mod schedules;
 mod scripted;
 mod stepping;
 mod support;

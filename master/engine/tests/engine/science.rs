@@ -278,6 +278,7 @@ const PROVENANCE: &[(&str, &str)] = &[
     ),
     ("dispersion.json", "experiments/runs-swarm/dispersion/run-1"),
     ("homing.json", "experiments/runs-swarm/homing/run-1"),
+    ("mission.json", "experiments/runs-mission/mission/run-1"),
     (
         "room_to_yard.json",
         "experiments/runs-yard/room_to_yard/run-0",
@@ -322,6 +323,7 @@ fn composed_controllers_contain_exactly_the_shipped_children() {
         ("solve_maze.json", MAZE_PRIMITIVES),
         ("return_room.json", MAZE_PRIMITIVES),
         ("rescue.json", &["exit_room", "solve_maze", "return_room"]),
+        ("mission.json", &["aggregation", "dispersion"]),
     ];
     for (file, children) in composed {
         let root = root_of(file);

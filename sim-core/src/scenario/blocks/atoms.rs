@@ -1,6 +1,6 @@
 //! The condition atoms: what a phase's `when`, a stage's `reached` and `end.solved` are made
-//! of. Each tests the robot (or the teammate) against the sample's ground truth, with every
-//! name resolved when the scenario compiles.
+//! of. Each tests the robot (or the teammate, or a light) against the sample's ground truth,
+//! with every name resolved when the scenario compiles.
 
 use super::{Atom, AtomKind, CycleView, fixed_word};
 use crate::geometry::rect_holds;
@@ -210,6 +210,31 @@ impl Atom for Near {
     #[inline]
     fn holds(&self, view: &CycleView<'_>) -> bool {
         view.robot.distance_to(self.position) < view.scenario.near_m
+    }
+}
+
+/// `LIGHT lit`: the light is lit in the cycle judged (as the light sensor sees it).
+pub const LIGHT_LIT: AtomKind = AtomKind {
+    syntax: &["LIGHT lit"],
+    compile: |text, facts| {
+        let name = text.strip_suffix(" lit")?.trim();
+        Some(match facts.light(name) {
+            None => Err(format!("no light is named '{name}'")),
+            Some(light) => Ok(Box::new(LightLit { bit: 1 << light }) as Box<dyn Atom>),
+        })
+    },
+};
+
+#[derive(Debug)]
+struct LightLit {
+    /// The light's bit in a lit mask.
+    bit: u32,
+}
+
+impl Atom for LightLit {
+    #[inline]
+    fn holds(&self, view: &CycleView<'_>) -> bool {
+        view.lit_mask & self.bit != 0
     }
 }
 

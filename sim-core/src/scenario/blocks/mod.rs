@@ -1,6 +1,6 @@
 //! The building blocks a scenario file names, and the one place they are registered. A block
 //! is a small type implementing one trait: a world ([`World`]: a map, a generated room or
-//! corridor, their joins), a condition's atom ([`Atom`]: `in goal`, `near LIGHT`, ...; the
+//! corridor, their joins), a condition's atom ([`Atom`]: `in goal`, `near LIGHT`, `LIGHT lit`, ...; the
 //! phases, the stages and `end.solved` are conditions), a fitness quantity ([`Quantity`]:
 //! `time_bonus`, `approach NAME`, ...), or how the teammate moves ([`TeammateBehaviour`]:
 //! `follow`, `fixed`, `wander`). Each kind of block has a registry below ([`WORLDS`], [`ATOMS`],
@@ -59,6 +59,7 @@ pub static ATOMS: &[AtomKind] = &[
     team::TEAM_GATHERED,
     team::TEAM_DISPERSED,
     team::TEAM_IN_REGION,
+    atoms::LIGHT_LIT,
     atoms::ALWAYS,
 ];
 
@@ -153,6 +154,8 @@ pub struct CycleView<'a> {
     pub wheel_speeds: [f32; 2],
     /// Every robot's position in a team, the focal robot first; empty for a robot alone.
     pub team: &'a [[f32; 2]],
+    /// The lights lit in the cycle, one bit per light by index (0 where no cycle is judged).
+    pub lit_mask: u32,
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -182,6 +185,7 @@ impl<'a> CycleView<'a> {
             max_cycles,
             wheel_speeds: [0.0; 2],
             team: &[],
+            lit_mask: 0,
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -199,6 +203,12 @@ impl<'a> CycleView<'a> {
     #[inline]
     pub fn with_team(self, team: &'a [[f32; 2]]) -> CycleView<'a> {
         CycleView { team, ..self }
+    }
+
+    /// The view of a cycle whose lit lights are `lit_mask` (one bit per light).
+    #[inline]
+    pub fn with_lit(self, lit_mask: u32) -> CycleView<'a> {
+        CycleView { lit_mask, ..self }
     }
 
     /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
