@@ -887,6 +887,9 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
         + transform.scale
             * (trace.lights.iter().map(|(p, _)| p[0] as f64).sum::<f64>()
                 / trace.lights.len().max(1) as f64);
+    let labels: Vec<Option<String>> = (0..trace.lights.len())
+        .map(|index| light_label(trace, index))
+        .collect();
     for (index, &(position, flashes)) in trace.lights.iter().enumerate() {
         if !finite(position) {
             continue;
@@ -896,6 +899,17 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
             .cycles
             .iter()
             .position(|c| index < 32 && c.lit_lights & (1 << index) != 0);
+        // Lights that light alike (a field of lamps on one schedule) share one label, on the
+        // first of them, saying how many.
+        let label = labels[index].as_ref().and_then(|label| {
+            let alike = labels.iter().filter(|l| l.as_ref() == Some(label)).count();
+            let first = labels.iter().position(|l| l.as_ref() == Some(label)) == Some(index);
+            match alike {
+                1 => Some((label.clone(), false)),
+                _ if first => Some((format!("{label} ({alike} lights)"), true)),
+                _ => None,
+            }
+        });
         let radius = transform.length(0.02).max(5.0);
         let mut group = Tag::new("g")
             .class("light")
@@ -924,24 +938,55 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 .attr("stroke", if flashes { INK } else { "#888888" })
                 .attr("stroke-width", "1.5"),
         );
-        if let Some(cycle) = lit_cycle {
-            // Labels go on the outer side of the stem, away from the corridor and the path, and clear
-            // of the wall the light is mounted on.
-            let outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
-            let anchor = if outward > 0.0 { "start" } else { "end" };
-            doc.text(
+        if let Some((label, shared)) = label {
+            let text = if shared {
+                // A label shared by a field of lamps goes under its first lamp, centred,
+                // where a lamp's neighbours are not.
+                halo_label("light-label", at[0], at[1] + radius * 2.0 + 14.0, "middle")
+            } else {
+                // Labels go on the outer side of the stem, away from the corridor and the path,
+                // and clear of the wall the light is mounted on.
+                let outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
+                let anchor = if outward > 0.0 { "start" } else { "end" };
                 halo_label(
                     "light-label",
                     at[0] + outward * (radius * 2.0 + 16.0),
                     at[1] + 4.5,
                     anchor,
-                ),
-                &format!("lit at cycle {cycle}"),
-            );
+                )
+            };
+            doc.text(text, &label);
         }
         doc.close();
     }
     doc.close();
+}
+
+/// What a light's label says of the cycles it was lit in: `lit at cycle C` when it lit once
+/// (a flash, or a beacon from cycle 0 on), `lit until cycle C` when it was lit from the start
+/// and went dark, `lit N times from cycle C` when it lit more than once (a blinking light);
+/// `None` when it never lit.
+fn light_label(trace: &Trace, index: usize) -> Option<String> {
+    if index >= 32 {
+        return None;
+    }
+    let lit: Vec<bool> = trace
+        .cycles
+        .iter()
+        .map(|c| c.lit_lights & (1 << index) != 0)
+        .collect();
+    let first = lit.iter().position(|&on| on)?;
+    let n_runs = (0..lit.len())
+        .filter(|&cycle| lit[cycle] && (cycle == 0 || !lit[cycle - 1]))
+        .count();
+    let end = first + lit[first..].iter().take_while(|&&on| on).count();
+    Some(if n_runs > 1 {
+        format!("lit {n_runs} times from cycle {first}")
+    } else if first == 0 && end < lit.len() {
+        format!("lit until cycle {end}")
+    } else {
+        format!("lit at cycle {first}")
+    })
 }
 
 /// Where the exit arrow's label goes, given the arrow's tip (pixels) and its unit direction
@@ -2496,6 +2541,30 @@ mod tests {
             .map(|e| e.text.as_str())
             .collect();
         assert!(key.contains(&"swarm: 3 other robots"), "{key:?}");
+    }
+
+    /// A field of lamps on one schedule (the swarm mission's 25, lit until cycle 300) carries
+    /// one label, saying how many lamps it speaks for; a beacon lit from the start says so.
+    #[test]
+    fn lamps_that_light_alike_share_one_label() {
+        let text = include_str!("../../../scenarios/swarm/mission.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, "mission.toml").unwrap();
+        let mut task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        task.max_cycles = Some(320);
+        let evaluator = Evaluator::new(task).unwrap();
+        let trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(1));
+        assert_eq!(trace.lights.len(), 25);
+        assert_eq!(
+            light_label(&trace, 0).as_deref(),
+            Some("lit until cycle 300")
+        );
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        let labels = with_class(&elements, "light-label");
+        assert_eq!(labels.len(), 1);
+        assert_eq!(labels[0].text, "lit until cycle 300 (25 lights)");
+        let arena = team_arena();
+        let beacon = arena.evaluate_traced(&mut Circler, Sample::seeded(2));
+        assert_eq!(light_label(&beacon, 0).as_deref(), Some("lit at cycle 0"));
     }
 
     #[test]
