@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Draws the pictures README.md shows into docs/img/, with the tour's own commands. Run from
+# Draws the pictures README.md and experiments/README.md show into docs/img/, with the tour's own commands. Run from
 # anywhere after `cargo build --release` (or set HEVO to another `hevo` binary); the files are
 # generated, so a change to the replay or plot code shows up here as a diff to review.
 set -euo pipefail
@@ -16,4 +16,6 @@ fi
 "$HEVO" plot experiments/runs --node return_room --out docs/img/return_room_fitness.svg
 "$HEVO" replay controllers/aggregation.json --task scenarios/swarm/aggregation.toml --seed 3 \
     --out docs/img/swarm_aggregation.svg
-echo "wrote docs/img/rescue_replay.svg, docs/img/solve_maze_replay.svg, docs/img/return_room_fitness.svg, docs/img/swarm_aggregation.svg"
+"$HEVO" replay controllers/mission.json --task scenarios/swarm/mission.toml --seed 3 \
+    --out docs/img/swarm_mission.svg
+echo "wrote docs/img/rescue_replay.svg, docs/img/solve_maze_replay.svg, docs/img/return_room_fitness.svg, docs/img/swarm_aggregation.svg, docs/img/swarm_mission.svg"
