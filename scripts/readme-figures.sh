@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Draws the pictures README.md and experiments/README.md show into docs/img/, with the tour's own commands. Run from
-# anywhere after `cargo build --release` (or set HEVO to another `hevo` binary); the files are
-# generated, so a change to the replay or plot code shows up here as a diff to review.
+# Draws the pictures README.md and experiments/README.md show into docs/img/, with the tour's
+# own commands. Run from anywhere after `cargo build --release` (or set HEVO to another `hevo`
+# binary); the files are generated, so a change to the replay or plot code shows up here as a
+# diff to review.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 HEVO=${HEVO:-target/release/hevo}
