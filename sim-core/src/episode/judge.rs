@@ -4,6 +4,7 @@
 //! ending, by calling the scenario's compiled blocks.
 
 use crate::body::Pose;
+use crate::geometry::items::Items;
 use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, SubTaskChoices};
 use crate::scenario::blocks::{self, CycleView, EndView, TeammateView, Tracked};
@@ -52,6 +53,7 @@ impl<'a> Judge<'a> {
         start: Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
@@ -64,7 +66,8 @@ impl<'a> Judge<'a> {
             &task.params,
             max_cycles,
         )
-        .with_team(team);
+        .with_team(team)
+        .with_items(items);
         let tracked = scenario
             .quantities
             .iter()
@@ -121,6 +124,7 @@ impl<'a> Judge<'a> {
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         wheel_speeds: [f32; 2],
     ) -> Option<Ending> {
         let (scenario, task) = (self.scenario, self.task);
@@ -133,7 +137,8 @@ impl<'a> Judge<'a> {
             self.max_cycles,
         )
         .with_wheel_speeds(wheel_speeds)
-        .with_team(team);
+        .with_team(team)
+        .with_items(items);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -162,6 +167,7 @@ impl<'a> Judge<'a> {
 
     /// The fitness of the ending and the behaviour descriptor, from what the quantities kept
     /// and see at the end.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn fitness_and_descriptor(
         &self,
         ending: Ending,
@@ -169,10 +175,11 @@ impl<'a> Judge<'a> {
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         sub_task_choices: &SubTaskChoices,
     ) -> (f32, Vec<f32>) {
         let end = EndView {
-            cycle: self.view(robot, teammate).with_team(team),
+            cycle: self.view(robot, teammate).with_team(team).with_items(items),
             cycles,
             sub_task_choices,
         };
@@ -200,7 +207,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
     ) -> f32 {
-        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], sub_task_choices)
+        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], None, sub_task_choices)
             .0
     }
 
@@ -315,6 +322,7 @@ mod tests {
             start,
             None,
             &[],
+            None,
             std::array::from_fn(|idx| idx),
         )
     }
@@ -509,7 +517,7 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &[], [0.0; 2]), None);
+            assert_eq!(judge.check(&at(0.0, y), None, &[], None, [0.0; 2]), None);
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -533,11 +541,11 @@ mod tests {
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.137), None, &[], [0.0; 2]),
+            judge.check(&at(0.0, 0.5 + 0.137), None, &[], None, [0.0; 2]),
             None
         );
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &[], [0.0; 2]),
+            judge.check(&at(0.0, 0.5 + 0.138), None, &[], None, [0.0; 2]),
             Some(Ending::Solved)
         );
     }

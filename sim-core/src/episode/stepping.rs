@@ -9,6 +9,7 @@
 
 use super::evaluator::{Evaluator, SampleRun};
 use crate::body::Pose;
+use crate::geometry::items::Items;
 use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, Outcome, Sample, TraceCycle};
 use crate::sensors::frame::SensorFrame;
@@ -191,9 +192,9 @@ impl<'e> Episode<'e> {
         Some(self.run.finish(ending).0)
     }
 
-    /// The outcome, the sample's world (for a trace) and the robot's final pose, the sample
-    /// having ended with `ending`.
-    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose) {
+    /// The outcome, the sample's world (for a trace), the robot's final pose and the items as
+    /// they ended, the sample having ended with `ending`.
+    pub(crate) fn finish(self, ending: Ending) -> (Outcome, Environment, Pose, Option<Items>) {
         self.run.finish(ending)
     }
 }

@@ -15,6 +15,7 @@
 //! ([`CycleView`]), never a lookup by name.
 
 pub mod atoms;
+pub mod items;
 pub mod quantities;
 pub mod team;
 pub mod teammates;
@@ -23,6 +24,7 @@ pub mod worlds;
 use crate::body::Pose;
 use crate::config::Params;
 use crate::geometry::cells::CellMap;
+use crate::geometry::items::Items;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use crate::outcome::SubTaskChoices;
@@ -59,6 +61,8 @@ pub static ATOMS: &[AtomKind] = &[
     team::TEAM_GATHERED,
     team::TEAM_DISPERSED,
     team::TEAM_IN_REGION,
+    items::ALL_DELIVERED,
+    items::CARRYING,
     atoms::ALWAYS,
 ];
 
@@ -74,6 +78,8 @@ pub static QUANTITIES: &[QuantityKind] = &[
     team::TEAM_SPREAD,
     team::TEAM_NEAREST,
     team::TEAM_IN,
+    items::ITEMS_DELIVERED,
+    items::ITEMS_PICKED,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
@@ -97,6 +103,8 @@ pub struct Facts<'a> {
     pub has_teammate: bool,
     /// Whether the scenario has a team (`[[robots]]`).
     pub has_team: bool,
+    /// Whether the scenario has items (`[[objects]]`) and a nest.
+    pub has_items: bool,
     /// Whether the scenario has phases (a derived fitness).
     pub has_phases: bool,
     /// `end.near_m`.
@@ -111,6 +119,7 @@ impl std::fmt::Debug for Facts<'_> {
             .field("goals_in_cells", &self.goals_in_cells)
             .field("has_teammate", &self.has_teammate)
             .field("has_team", &self.has_team)
+            .field("has_items", &self.has_items)
             .field("has_phases", &self.has_phases)
             .field("near_m", &self.near_m)
             .finish_non_exhaustive()
@@ -153,6 +162,8 @@ pub struct CycleView<'a> {
     pub wheel_speeds: [f32; 2],
     /// Every robot's position in a team, the focal robot first; empty for a robot alone.
     pub team: &'a [[f32; 2]],
+    /// The items, in a scenario with `[[objects]]`.
+    pub items: Option<&'a Items>,
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -182,6 +193,7 @@ impl<'a> CycleView<'a> {
             max_cycles,
             wheel_speeds: [0.0; 2],
             team: &[],
+            items: None,
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -199,6 +211,12 @@ impl<'a> CycleView<'a> {
     #[inline]
     pub fn with_team(self, team: &'a [[f32; 2]]) -> CycleView<'a> {
         CycleView { team, ..self }
+    }
+
+    /// The view of a cycle whose items are `items`.
+    #[inline]
+    pub fn with_items(self, items: Option<&'a Items>) -> CycleView<'a> {
+        CycleView { items, ..self }
     }
 
     /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
@@ -472,6 +490,7 @@ mod doc_examples {
             goals_in_cells: false,
             has_teammate: false,
             has_team: false,
+            has_items: false,
             has_phases: false,
             near_m: 0.0,
         };
