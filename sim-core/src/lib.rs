@@ -34,6 +34,7 @@ pub use episode::batch::{
 pub use episode::evaluator::{Evaluator, TaskError};
 pub use episode::regions::{NamedRegion, named_regions};
 pub use episode::stepping::{Episode, StepError, WHEEL_RANGE};
+pub use geometry::items::ITEM_RADIUS;
 pub use geometry::scene::{Rect, RectKind, Scene};
 pub use math::hash::{Fnv1a, fnv1a, fnv1a_hex};
 pub use math::rng::{SimRng, Stream, derive_seed, mix64, stream_rng};
