@@ -85,6 +85,9 @@ fn a_foraging_sample_is_the_same_every_time_and_on_every_evaluator() {
     let scalar = outcomes(EvaluatorKind::Scalar);
     assert_eq!(scalar, outcomes(EvaluatorKind::Scalar), "run twice");
     assert_eq!(scalar, outcomes(EvaluatorKind::Lockstep), "lockstep");
+    // The robots did pick items up: the comparison covers carrying, not only items lying.
+    let picked: Vec<f32> = scalar.iter().map(|outcome| outcome.descriptor[1]).collect();
+    assert!(picked.iter().any(|&share| share > 0.0), "{picked:?}");
 }
 
 /// One robot facing east, an item 0.2 m ahead and a nest beyond it.
@@ -197,37 +200,42 @@ fn items_or_a_nest_that_cannot_work_are_refused_naming_the_key() {
         let error = refusal(from, to);
         assert!(error.contains(wanted), "{to}: {error}");
     }
-    // The item terms in a scenario without items.
+    // Each item term in a scenario without items is refused, naming its key.
     let alone = ONE_ITEM
         .replace(
             "[[objects]]\nname = \"token\"\ncount = 1\nregion = \"item\"\n",
             "",
         )
-        .replace("[nest]\nregion = \"nest\"\n", "");
-    for (term, key) in [
-        ("otherwise = \"items.picked\"", "fitness.otherwise"),
-        ("solved = \"items delivered\"", "end.solved"),
+        .replace("[nest]\nregion = \"nest\"\n", "")
+        .replace("solved = \"items delivered\"", "solved = \"always\"")
+        .replace("solved = \"1 + items.delivered\"", "solved = \"1\"")
+        .replace("otherwise = \"items.picked\"", "otherwise = \"0\"");
+    Scenario::parse(&alone, "alone.toml").expect("valid without the item terms");
+    for (from, to, key) in [
+        (
+            "solved = \"always\"",
+            "solved = \"items delivered\"",
+            "end.solved",
+        ),
+        ("solved = \"always\"", "solved = \"carrying\"", "end.solved"),
+        (
+            "solved = \"1\"",
+            "solved = \"1 + items.delivered\"",
+            "fitness.solved",
+        ),
+        (
+            "otherwise = \"0\"",
+            "otherwise = \"items.picked\"",
+            "fitness.otherwise",
+        ),
     ] {
-        let error = Scenario::parse(&alone, "alone.toml")
+        let text = alone.replacen(from, to, 1);
+        let error = Scenario::parse(&text, "alone.toml")
             .unwrap_err()
             .to_string();
-        assert!(error.contains("needs items"), "{term}: {error}");
-        let _ = key;
+        assert!(
+            error.contains(key) && error.contains("needs items"),
+            "{to}: {error}"
+        );
     }
-    let carrying = alone.replace("solved = \"items delivered\"", "solved = \"carrying\"");
-    let error = Scenario::parse(&carrying, "alone.toml")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("end.solved") && error.contains("needs items"),
-        "{error}"
-    );
-    let picked = alone.replace("solved = \"items delivered\"", "solved = \"always\"");
-    let error = Scenario::parse(&picked, "alone.toml")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("fitness") && error.contains("needs items"),
-        "{error}"
-    );
 }
