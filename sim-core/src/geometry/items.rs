@@ -107,7 +107,7 @@ impl Items {
             .map(|(_, &position)| position)
     }
 
-    /// How many items are in `state`-like states: delivered, carried, on the floor.
+    /// How many items are in a state `of` accepts.
     fn count(&self, of: impl Fn(&ItemState) -> bool) -> usize {
         self.states.iter().filter(|state| of(state)).count()
     }
