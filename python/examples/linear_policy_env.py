@@ -1,8 +1,8 @@
 """A numpy linear policy trained on `hevo.VectorEnv` by an evolution strategy: a policy hevo
 knows nothing about, driving the robot step by step from its sensor frame.
 
-The policy maps the sensor frame (`env.observation_names`: 12 inputs, IR, light, near-robot
-and range and bearing) to the two wheel outputs, `sigmoid(obs @ W + b)` (26 parameters). Each iteration perturbs it in `population` antithetic directions, runs every
+The policy maps the sensor frame (`env.observation_names`: 17 inputs, IR, light, near-robot,
+range and bearing, items) to the two wheel outputs, `sigmoid(obs @ W + b)` (36 parameters). Each iteration perturbs it in `population` antithetic directions, runs every
 perturbed policy on the same `episodes` samples (one environment per policy and sample, all
 stepped together in Rust), and moves along the directions weighted by their rank, as in
 Salimans et al.'s evolution strategies. Then the policy is scored on samples it never saw.

@@ -219,7 +219,7 @@ class Trace:
         """(cycles, robots, 3): x, y (metres), heading (radians) at the start of each cycle."""
     @property
     def inputs(self) -> npt.NDArray[np.float32]:
-        """(cycles, 12) sensor inputs, columns as `input_names`."""
+        """(cycles, 17) sensor inputs, columns as `input_names`."""
     @property
     def input_names(self) -> List[str]: ...
     @property
@@ -271,7 +271,7 @@ class Space:
 
 class Env:
     """One sample of a task at a time as an environment, with Gymnasium's conventions.
-    Observations: the robot's sensor frame, float32 (12,) in [0, 1], columns as
+    Observations: the robot's sensor frame, float32 (17,) in [0, 1], columns as
     `observation_names`. Actions: the two wheel outputs (left, right) in [0, 1] (0 full speed
     backwards, 0.5 still, 1 full speed forwards; `trace.outputs`), any float dtype, clipped to
     the range; NaN and infinity raise ValueError. Reward: 0 until the end, then the task's
@@ -323,7 +323,7 @@ class VectorEnv:
     def reset(
         self, seed: Union[int, Sequence[int], None] = None, options: Optional[Dict[str, Any]] = None
     ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]:
-        """Starts an episode in every environment: `(observations (n_envs, 12), info)`, info
+        """Starts an episode in every environment: `(observations (n_envs, 17), info)`, info
         with `sample_seed` and `variant` arrays and their masks. `seed`: an int (environment i
         seeded `seed + i`) or one seed per environment; no options."""
     def step(

@@ -123,7 +123,7 @@ impl Trace {
 
     /// The sensor inputs, float32 (cycles, inputs), columns as `input_names`: the four IR
     /// proximities, the two light inputs, near-robot, then the range-and-bearing board's four
-    /// sectors and count; each in [0, 1]. A sensor the task's robot lacks reads 0.
+    /// sectors and count, then the item sensor's four sectors and carrying; each in [0, 1]. A sensor the task's robot lacks reads 0.
     #[getter]
     fn inputs(&self, py: Python<'_>) -> PyResult<Py<PyArray2<f32>>> {
         self.rows(py, |cycle| cycle.frame.inputs)

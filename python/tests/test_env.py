@@ -38,7 +38,7 @@ def test_the_shipped_controllers_outputs_reproduce_trace_and_evaluate(maze):
         trace = hevo.trace(maze, task, seed=int(sample_seed), variant=variant)
         obs, info = env.reset(options={"sample_seed": int(sample_seed), "variant": variant})
         assert info == {"sample_seed": int(sample_seed), "variant": variant}
-        assert obs.dtype == np.float32 and obs.shape == (12,)
+        assert obs.dtype == np.float32 and obs.shape == (17,)
         np.testing.assert_array_equal(obs, trace.inputs[0])
         reward, terminated, truncated, info, steps = drive(env, trace.inputs, trace.outputs)
         outcome = trace.outcome
@@ -76,7 +76,7 @@ def rollout(env, policy, steps):
 
 def test_episodes_are_deterministic_per_seed():
     task = hevo.Task("follow_wall", max_cycles=40)
-    policy = linear_policy(np.random.default_rng(0).normal(0, 2, (12, 2)))
+    policy = linear_policy(np.random.default_rng(0).normal(0, 2, (17, 2)))
     first = rollout(hevo.Env(task, seed=11), policy, 130)
     again = rollout(hevo.Env(task, seed=11), policy, 130)
     other = rollout(hevo.Env(task, seed=12), policy, 130)
@@ -99,9 +99,9 @@ def test_a_vector_env_is_its_single_envs_with_next_step_autoreset():
     n_envs, seed = 3, 21
     vector = hevo.VectorEnv(task, n_envs, seed=seed)
     singles = [hevo.Env(task, seed=seed + i) for i in range(n_envs)]
-    weights = np.random.default_rng(1).normal(0, 2, (12, 2))
+    weights = np.random.default_rng(1).normal(0, 2, (17, 2))
     obs, info = vector.reset()
-    assert obs.shape == (n_envs, 12) and obs.dtype == np.float32
+    assert obs.shape == (n_envs, 17) and obs.dtype == np.float32
     assert info["_sample_seed"].all()
     single_obs = []
     for i, env in enumerate(singles):
@@ -193,8 +193,8 @@ def test_options_seeds_and_spaces():
     env = hevo.Env(task, seed=0)
     assert env.observation_names == hevo.trace(
         hevo.bench_controller(task), task, seed=0).input_names
-    assert env.observation_space.shape == (12,) and env.action_space.shape == (2,)
-    np.testing.assert_array_equal(env.observation_space.low, np.zeros(12, np.float32))
+    assert env.observation_space.shape == (17,) and env.action_space.shape == (2,)
+    np.testing.assert_array_equal(env.observation_space.low, np.zeros(17, np.float32))
     np.testing.assert_array_equal(env.action_space.high, np.ones(2, np.float32))
     assert env.action_space.dtype == "float32"
     assert repr(env.action_space) == "Space(shape=(2,), low=0, high=1, dtype=float32)"
@@ -207,7 +207,7 @@ def test_options_seeds_and_spaces():
         env.reset(options={"seed": 1})
     vector = hevo.VectorEnv(task, 4, seed=7)
     assert len(vector) == vector.num_envs == 4
-    assert vector.observation_space.shape == (4, 12)
+    assert vector.observation_space.shape == (4, 17)
     assert vector.single_action_space.shape == (2,)
     _, by_int = vector.reset(seed=7)
     _, by_list = vector.reset(seed=[7, 8, 9, 10])

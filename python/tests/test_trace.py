@@ -14,11 +14,13 @@ def test_arrays_describe_every_cycle(repo):
     assert trace.variant == 2 and trace.seed == 4
     assert trace.robots[0] == "robot"
     assert trace.poses.shape == (n, len(trace.robots), 3)
-    assert trace.inputs.shape == (n, 12)
-    assert len(trace.input_names) == 12
-    # The range-and-bearing board comes last; the maze's robot does not carry it.
+    assert trace.inputs.shape == (n, 17)
+    assert len(trace.input_names) == 17
+    # The range-and-bearing board and the item sensor come last; the maze's robot carries
+    # neither.
     assert trace.input_names[6:] == [
-        "near_robot", "rab_front", "rab_left", "rab_back", "rab_right", "rab_count"]
+        "near_robot", "rab_front", "rab_left", "rab_back", "rab_right", "rab_count",
+        "items_front", "items_left", "items_back", "items_right", "items_carrying"]
     assert (trace.inputs[:, 7:] == 0).all()
     assert trace.outputs.shape == (n, 2)
     assert ((trace.outputs >= 0) & (trace.outputs <= 1)).all()

@@ -34,6 +34,7 @@ pub use episode::batch::{
 pub use episode::evaluator::{Evaluator, TaskError};
 pub use episode::regions::{NamedRegion, named_regions};
 pub use episode::stepping::{Episode, StepError, WHEEL_RANGE};
+pub use geometry::items::ITEM_RADIUS;
 pub use geometry::scene::{Rect, RectKind, Scene};
 pub use math::hash::{Fnv1a, fnv1a, fnv1a_hex};
 pub use math::rng::{SimRng, Stream, derive_seed, mix64, stream_rng};
@@ -43,12 +44,12 @@ pub use network::controller::{
 };
 pub use network::ctrnn::{CtrnnTopology, GENE_MAX, GENE_MIN, logistic, tau_from_gene};
 pub use outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle, TracedItem,
 };
 pub use scenario::file::ChildRef;
 pub use scenario::{
-    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_LIGHTS, MAX_ROBOTS, SHIPPED, SHIPPED_NAMES, Scenario,
-    ScenarioError,
+    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_ROBOTS, SHIPPED, SHIPPED_NAMES,
+    Scenario, ScenarioError,
 };
 pub use sensors::IrCone;
 pub use sensors::calibration::MeanStd;

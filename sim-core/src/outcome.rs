@@ -165,6 +165,19 @@ pub struct TraceCycle {
     pub team: Vec<Pose>,
 }
 
+/// One item of a trace: where it lay at the start and where it ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TracedItem {
+    /// Where it lay at the sample's start.
+    pub start: [f32; 2],
+    /// Where it lies, or its carrier stands, or it was delivered, at the end.
+    pub end: [f32; 2],
+    /// Whether it was delivered in the nest.
+    pub delivered: bool,
+    /// Whether a robot carries it at the end.
+    pub carried: bool,
+}
+
 /// What a replay needs to draw a sample: the world and every cycle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Trace {
@@ -191,6 +204,9 @@ pub struct Trace {
     /// name and count, so a replay can tell the groups apart (empty without a team).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub team_groups: Vec<(String, u32)>,
+    /// The items of a scenario with `[[objects]]`, by item (empty without).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub items: Vec<TracedItem>,
     /// The final pose of the robot.
     pub final_robot: Pose,
     /// The final poses of a team's other robots, in the order of each cycle's `team` (empty

@@ -829,7 +829,7 @@ pub struct NodeDecl {
     pub name: String,
     /// `primitive` (drives the wheels) or `arbitrator` (chooses a child).
     pub kind: NodeKind,
-    /// Input groups, in order: `ir`, `light`, `near_robot`, `rab`.
+    /// Input groups, in order: `ir`, `light`, `near_robot`, `rab`, `items`.
     pub inputs: Vec<InputGroup>,
     /// Hidden neurons.
     pub hidden: usize,

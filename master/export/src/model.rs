@@ -66,7 +66,8 @@ pub struct IrSide {
 }
 
 /// How many inputs of the frame the generated C holds (`HEVO_N_INPUTS`): ir (4), light (2),
-/// near_robot (1), the frame's first groups. A group after them (`rab`) is not exported.
+/// near_robot (1), the frame's first groups. A group after them (`rab`, `items`) is not
+/// exported.
 pub const EXPORTED_INPUTS: usize = N_IR + N_LIGHT + 1;
 
 /// The groups the generated C fills, in frame order.
@@ -240,7 +241,8 @@ fn check_frame_layout() -> Result<(), ExportError> {
 }
 
 /// Refuses a tree with a node that reads a group the generated C does not fill: the C has no
-/// driver for the sensor (`rab`: the range-and-bearing board's firmware side is not written),
+/// driver for the sensor (`rab`: the range-and-bearing board's firmware side is not written;
+/// `items`: the camera's item detection is not written),
 /// so the node would read 0 on the robot where sim-core gave it readings.
 fn check_groups_read(root: &NodeSpec, root_path: &str) -> Result<(), ExportError> {
     let mut stack = vec![(root, root_path.to_string())];
@@ -397,5 +399,21 @@ mod tests {
         // The same tree without it exports, whatever the frame holds after near_robot.
         assert!(ExportModel::new(&shipped("solve_maze"), &task).is_ok());
         const { assert!(N_FLAT > EXPORTED_INPUTS) };
+    }
+
+    /// A node that reads the item sensor is refused as one reading the board is.
+    #[test]
+    fn a_node_reading_the_item_sensor_is_refused() {
+        let task = TaskConfig::shipped("solve_maze").unwrap();
+        let mut file = shipped("solve_maze");
+        file.root.inputs.push(InputGroup::ITEMS);
+        let n_genes = file.root.topology().n_genes();
+        file.root.genome = Some(vec![0.5; n_genes]);
+        let err = ExportModel::new(&file, &task).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "cannot export: solve_maze reads 'items', a sensor the C export does not produce \
+             (it fills ir, light and near_robot only; docs/export.md)"
+        );
     }
 }

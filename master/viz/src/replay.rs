@@ -1,6 +1,7 @@
 //! Replays of one evaluated sample as an SVG picture: the world drawn to scale (walls,
 //! obstacles, the room's exit, the maze's lights and goal), the teammate's path, a team's other
-//! robots (each one's path, start and last pose, in a muted colour per group), and the
+//! robots (each one's path, start and last pose, in a muted colour per group), the items of a
+//! foraging sample (where each lay, where it ended, delivered or not), and the
 //! robot's trajectory coloured by which leaf controller of the tree was driving at each moment,
 //! with a legend naming those controllers, markers for the start, collisions and the final
 //! pose, optional IR sensor cones at chosen cycles, and an optional looping animation. It reads
@@ -12,7 +13,7 @@ use hevo_sim_core::InputGroup;
 use hevo_sim_core::NamedRegion;
 use hevo_sim_core::Pose;
 use hevo_sim_core::RectKind;
-use hevo_sim_core::{Ending, Trace};
+use hevo_sim_core::{Ending, ITEM_RADIUS, Trace};
 use std::collections::BTreeMap;
 
 /// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
@@ -80,6 +81,11 @@ const TRAJECTORY_WIDTH: f64 = 3.0;
 /// A team's other robots' path width, pixels: thinner than the focal robot's, which is the one
 /// the picture is about.
 const TEAM_PATH_WIDTH: f64 = 1.5;
+
+/// An item on the floor or carried (`[[objects]]`): a small dark-orange disc.
+const ITEM_COLOUR: &str = "#d55e00";
+/// An item delivered in the nest.
+const DELIVERED_COLOUR: &str = "#009e73";
 
 const WALL_COLOUR: &str = "#4d4d4d";
 const OBSTACLE_COLOUR: &str = "#a68a64";
@@ -477,6 +483,13 @@ fn caption_lines(trace: &Trace) -> [String; 2] {
         };
         second.push_str(&format!(" · {touched}"));
     }
+    if !trace.items.is_empty() {
+        let delivered = trace.items.iter().filter(|item| item.delivered).count();
+        second.push_str(&format!(
+            " · {delivered}/{} items delivered",
+            trace.items.len()
+        ));
+    }
     [first, second]
 }
 
@@ -653,6 +666,7 @@ fn render(
     draw_teammate(&mut doc, trace, &transform, radius_px);
     // Under the focal robot's path and marks, which the picture is about.
     draw_team(&mut doc, trace, &team, &transform, radius_px);
+    draw_items(&mut doc, trace, &transform);
     let faint = options.animate;
     doc.open(
         Tag::new("g")
@@ -1304,6 +1318,76 @@ fn draw_team(
             );
             doc.close();
         }
+        doc.close();
+    }
+    doc.close();
+}
+
+/// The items of a foraging sample (none without `[[objects]]`): a ring where each lay at the
+/// start, and, where it moved, a thin line to a disc where it ended (green when delivered in
+/// the nest, orange on the floor or carried).
+fn draw_items(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) {
+    if trace.items.is_empty() {
+        return;
+    }
+    let delivered = trace.items.iter().filter(|item| item.delivered).count();
+    doc.open(
+        Tag::new("g")
+            .class("items")
+            .attr("data-count", trace.items.len().to_string())
+            .attr("data-delivered", delivered.to_string()),
+    );
+    let radius_px = transform.length(f64::from(ITEM_RADIUS)).max(2.0);
+    for item in trace
+        .items
+        .iter()
+        .filter(|item| finite(item.start) && finite(item.end))
+    {
+        let (start, end) = (transform.apply(item.start), transform.apply(item.end));
+        let colour = if item.delivered {
+            DELIVERED_COLOUR
+        } else {
+            ITEM_COLOUR
+        };
+        doc.open(
+            Tag::new("g")
+                .class("item")
+                .attr("data-delivered", item.delivered.to_string())
+                .attr("data-carried", item.carried.to_string()),
+        );
+        if item.start != item.end {
+            doc.leaf(
+                Tag::new("circle")
+                    .class("item-start")
+                    .num("cx", start[0])
+                    .num("cy", start[1])
+                    .num("r", radius_px)
+                    .attr("fill", "none")
+                    .attr("stroke", ITEM_COLOUR)
+                    .num("stroke-width", 1.0),
+            );
+            doc.leaf(
+                Tag::new("line")
+                    .class("item-way")
+                    .num("x1", start[0])
+                    .num("y1", start[1])
+                    .num("x2", end[0])
+                    .num("y2", end[1])
+                    .attr("stroke", colour)
+                    .num("stroke-width", 1.0)
+                    .attr("stroke-dasharray", "3 3"),
+            );
+        }
+        doc.leaf(
+            Tag::new("circle")
+                .class("item-end")
+                .num("cx", end[0])
+                .num("cy", end[1])
+                .num("r", radius_px)
+                .attr("fill", colour)
+                .attr("stroke", "#ffffff")
+                .num("stroke-width", 0.5),
+        );
         doc.close();
     }
     doc.close();
@@ -2565,6 +2649,45 @@ mod tests {
         let arena = team_arena();
         let beacon = arena.evaluate_traced(&mut Circler, Sample::seeded(2));
         assert_eq!(light_label(&beacon, 0).as_deref(), Some("lit at cycle 0"));
+    }
+
+    #[test]
+    fn a_foraging_trace_draws_every_item_where_it_started_and_ended() {
+        let text = include_str!("../../../scenarios/swarm/foraging.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, "foraging.toml").unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        let evaluator = Evaluator::new(task).expect("valid");
+        let trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(1));
+        assert_eq!(trace.items.len(), 10);
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        let group = with_class(&elements, "items");
+        assert_eq!(group.len(), 1);
+        let delivered = trace.items.iter().filter(|item| item.delivered).count();
+        assert_eq!(group[0].get("data-delivered"), delivered.to_string());
+        let ends = with_class(&elements, "item-end");
+        assert_eq!(ends.len(), 10);
+        let attributes = scene_attributes(&elements);
+        for (item, end) in trace.items.iter().zip(&ends) {
+            let expected = expected_pixel(attributes, item.end);
+            assert!((end.number("cx") - expected[0]).abs() < 0.01, "{item:?}");
+            assert!((end.number("cy") - expected[1]).abs() < 0.01, "{item:?}");
+        }
+        let moved = trace.items.iter().filter(|item| item.start != item.end);
+        assert_eq!(with_class(&elements, "item-start").len(), moved.count());
+        let caption: Vec<&str> = with_class(&elements, "caption")
+            .iter()
+            .map(|e| e.text.as_str())
+            .collect();
+        assert!(
+            caption[1].ends_with(&format!("{delivered}/10 items delivered")),
+            "{caption:?}"
+        );
+        // A trace without items draws none.
+        let mut without = trace.clone();
+        without.items.clear();
+        let (_, elements) = render(&without, &evaluator, &ReplayOptions::default());
+        assert!(with_class(&elements, "items").is_empty());
+        assert!(with_class(&elements, "item-end").is_empty());
     }
 
     #[test]

@@ -10,11 +10,14 @@ use super::stepping::{Episode, Recorder};
 use super::team::Team;
 use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::config::ConfigError;
+use crate::geometry::items::{ITEM_RADIUS, ItemState, Items};
 use crate::geometry::scene::Scene;
 use crate::math::rng::{SimRng, Stream, stream_rng};
 use crate::math::trig;
 use crate::network::Policy;
-use crate::outcome::{Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace};
+use crate::outcome::{
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TracedItem,
+};
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
@@ -151,6 +154,7 @@ impl Evaluator {
                     ));
                 }
                 self.check_team_starts(&env, variant, seed)?;
+                self.check_items(&env, variant, seed)?;
                 if let Some(forbidden) = &scenario.forbidden {
                     let teammate = env
                         .teammate
@@ -226,6 +230,70 @@ impl Evaluator {
         Ok(())
     }
 
+    /// Refuses an item that starts touching a solid or a robot (its region had no room clear
+    /// of them in [`setup`]'s tries), and a nest where no robot's centre can be without
+    /// touching a solid (a `[regions]` rectangle tried on a grid of 17 by 17 points; a map
+    /// region's cells and the room are open).
+    fn check_items(&self, env: &Environment, variant: u32, seed: u64) -> Result<(), ScenarioError> {
+        let scenario = &self.task.scenario;
+        let radius = self.task.params.robot.radius;
+        let group_of = scenario
+            .object_groups
+            .iter()
+            .enumerate()
+            .flat_map(|(group_idx, group)| {
+                std::iter::repeat_n((group_idx, group), group.count as usize)
+            });
+        for (&at, (group_idx, group)) in env.items.iter().zip(group_of) {
+            let touches_robot = std::iter::once(&env.start)
+                .chain(&env.team)
+                .any(|robot| robot.distance_to(at) <= radius + ITEM_RADIUS);
+            if touches_robot || env.scene.disc_hits(at, ITEM_RADIUS) {
+                return Err(scenario.refusal(
+                    &format!("objects[{group_idx}].region"),
+                    format!(
+                        "the region '{}' has no room for the {} items of group '{}' clear of \
+                         walls, robots and each other: one lies touching {} at ({:.3}, {:.3}) m \
+                         in variant {variant}, seed {seed}; give the group a larger region or \
+                         fewer items",
+                        scenario.file.object_groups[group_idx].region,
+                        group.count,
+                        group.name,
+                        if touches_robot { "a robot" } else { "a solid" },
+                        at[0],
+                        at[1]
+                    ),
+                ));
+            }
+        }
+        if let Some(nest) = &scenario.nest
+            && let crate::scenario::blocks::atoms::RegionTest::Rect([x0, y0, x1, y1]) = nest.test
+        {
+            const STEPS: u16 = 16;
+            let mut grid = (0..=STEPS).flat_map(|i| {
+                (0..=STEPS).map(move |j| {
+                    let (u, v) = (
+                        f32::from(i) / f32::from(STEPS),
+                        f32::from(j) / f32::from(STEPS),
+                    );
+                    [x0 + u * (x1 - x0), y0 + v * (y1 - y0)]
+                })
+            });
+            if !grid.any(|at| !env.scene.disc_hits(at, radius)) {
+                return Err(scenario.refusal(
+                    "nest.region",
+                    format!(
+                        "no robot can reach the nest '{}': every point of it lies within a \
+                         robot's radius ({radius} m) of a solid in variant {variant}, seed \
+                         {seed}; move it clear of the walls",
+                        nest.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The task.
     pub fn task(&self) -> &TaskConfig {
         &self.task
@@ -244,6 +312,7 @@ impl Evaluator {
             env,
             robot: final_robot,
             team: final_team,
+            items,
         } = self.run(policy, sample, &mut cycles);
         let goal = env.ground.goal.as_ref().map(|g| g.map.center(g.goal));
         let exit = env
@@ -267,6 +336,7 @@ impl Evaluator {
                 .iter()
                 .map(|group| (group.name.clone(), group.count))
                 .collect(),
+            items: items.map_or_else(Vec::new, |items| traced_items(&env.items, &items)),
             final_robot,
             final_team,
             outcome,
@@ -330,6 +400,8 @@ pub(crate) struct SampleRun<'e> {
     teammate: Option<Teammate>,
     /// A team's other robots, in scenarios with `[[robots]]`.
     team: Option<Team<'e>>,
+    /// The items, in scenarios with `[[objects]]`.
+    items: Option<Items>,
     lights: Vec<LiveLight>,
     /// Each light's position, by index: what the light sensor sees of the lights.
     light_positions: Vec<[f32; 2]>,
@@ -380,6 +452,8 @@ impl<'e> SampleRun<'e> {
             Teammate::new(pose, following, behaviour, sample.seed, task.max_cycles())
         });
         let team = Team::new(task, &evaluator.sensors, sample, &env.team, &robot);
+        let items = (!task.scenario.object_groups.is_empty())
+            .then(|| Items::new(env.items.clone(), task.scenario.n_robots()));
         let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
         let light_positions = env.lights.iter().map(|spec| spec.position).collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
@@ -390,6 +464,7 @@ impl<'e> SampleRun<'e> {
             robot,
             teammate.as_ref().map(Teammate::view),
             team.as_ref().map_or(&[][..], Team::positions),
+            items.as_ref(),
             phase_child,
         );
         SampleRun {
@@ -400,6 +475,7 @@ impl<'e> SampleRun<'e> {
             robot,
             teammate,
             team,
+            items,
             lights,
             light_positions,
             judge,
@@ -497,6 +573,7 @@ impl<'e> SampleRun<'e> {
             teammate: None,
             crowd: None,
             me: 0,
+            items: self.items.as_ref(),
         };
         let view = SenseView {
             teammate: self.teammate.as_ref().map(|mate| &mate.pose),
@@ -512,6 +589,7 @@ impl<'e> SampleRun<'e> {
             &robot,
             self.teammate.as_ref().map(Teammate::view),
             self.team.as_ref().map_or(&[][..], Team::positions),
+            self.items.as_ref(),
             lit_mask,
         );
         frame
@@ -619,6 +697,7 @@ impl<'e> SampleRun<'e> {
         if let Some(team) = self.team.as_mut() {
             team.move_members(&self.robot, task, &self.env.scene);
         }
+        self.move_items();
         if collided && task.end_on_collision {
             return Some(Ending::Collision);
         }
@@ -627,12 +706,31 @@ impl<'e> SampleRun<'e> {
             &self.robot,
             self.teammate.as_ref().map(Teammate::view),
             team_positions,
+            self.items.as_ref(),
             self.wheel_speeds,
             self.lit_mask,
         ) {
             return Some(end);
         }
         (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)
+    }
+
+    /// After every robot's move: items are picked up and delivered, robot by robot, the
+    /// focal robot first.
+    fn move_items(&mut self) {
+        let Some(items) = self.items.as_mut() else {
+            return;
+        };
+        let task = &self.evaluator.task;
+        let nest = task.scenario.nest.as_ref().expect("items come with a nest");
+        let alone = [self.robot.position()];
+        let robots = self.team.as_ref().map_or(&alone[..], Team::positions);
+        let view = self
+            .judge
+            .view(&self.robot, self.teammate.as_ref().map(Teammate::view));
+        items.step(robots, task.params.robot.radius + ITEM_RADIUS, |at| {
+            nest.test.contains(&view, at)
+        });
     }
 
     /// The sample's outcome, its world and every robot's final pose.
@@ -644,6 +742,7 @@ impl<'e> SampleRun<'e> {
             &self.robot,
             self.teammate.as_ref().map(Teammate::view),
             self.team.as_ref().map_or(&[][..], Team::positions),
+            self.items.as_ref(),
             &self.sub_task_choices,
         );
         let stage = judge.stage(ending);
@@ -669,6 +768,7 @@ impl<'e> SampleRun<'e> {
             env,
             robot: self.robot,
             team: self.team.as_ref().map_or_else(Vec::new, Team::poses),
+            items: self.items,
         }
     }
 }
@@ -681,6 +781,22 @@ pub(crate) struct Finished {
     pub(crate) robot: Pose,
     /// The team's other robots' final poses, group by group (empty without a team).
     pub(crate) team: Vec<Pose>,
+    /// The items as they ended, in a scenario with `[[objects]]`.
+    pub(crate) items: Option<Items>,
+}
+
+/// Each item of a trace: where it started (`starts`) and how it ended (`end`).
+fn traced_items(starts: &[[f32; 2]], end: &Items) -> Vec<TracedItem> {
+    starts
+        .iter()
+        .zip(end.positions().iter().zip(end.states()))
+        .map(|(&start, (&at, state))| TracedItem {
+            start,
+            end: at,
+            delivered: *state == ItemState::Delivered,
+            carried: matches!(state, ItemState::Carried(_)),
+        })
+        .collect()
 }
 
 /// The other robot: met when the robot comes within the near-robot range, moving as its

@@ -4,6 +4,7 @@
 //! ending, by calling the scenario's compiled blocks.
 
 use crate::body::Pose;
+use crate::geometry::items::Items;
 use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, SubTaskChoices};
 use crate::scenario::blocks::{self, CycleView, EndView, TeammateView, Tracked};
@@ -52,6 +53,7 @@ impl<'a> Judge<'a> {
         start: Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
@@ -64,7 +66,8 @@ impl<'a> Judge<'a> {
             &task.params,
             max_cycles,
         )
-        .with_team(team);
+        .with_team(team)
+        .with_items(items);
         let tracked = scenario
             .quantities
             .iter()
@@ -99,13 +102,15 @@ impl<'a> Judge<'a> {
     }
 
     /// The phase of the derived fitness in force, if the scenario has phases, with the team
-    /// (the focal robot first) at `team` and the lights of `lit_mask` lit.
+    /// (the focal robot first) at `team`, the items as `items` say and the lights of
+    /// `lit_mask` lit.
     #[inline]
     pub(crate) fn phase(
         &self,
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         lit_mask: u32,
     ) -> Option<u8> {
         if self.scenario.phases.is_empty() {
@@ -114,6 +119,7 @@ impl<'a> Judge<'a> {
         let view = self
             .view(robot, teammate)
             .with_team(team)
+            .with_items(items)
             .with_lit(lit_mask);
         self.scenario
             .phases
@@ -131,6 +137,7 @@ impl<'a> Judge<'a> {
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         wheel_speeds: [f32; 2],
         lit_mask: u32,
     ) -> Option<Ending> {
@@ -145,7 +152,8 @@ impl<'a> Judge<'a> {
         )
         .with_wheel_speeds(wheel_speeds)
         .with_team(team)
-        .with_lit(lit_mask);
+        .with_lit(lit_mask)
+        .with_items(items);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -174,6 +182,7 @@ impl<'a> Judge<'a> {
 
     /// The fitness of the ending and the behaviour descriptor, from what the quantities kept
     /// and see at the end.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn fitness_and_descriptor(
         &self,
         ending: Ending,
@@ -181,10 +190,11 @@ impl<'a> Judge<'a> {
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
+        items: Option<&Items>,
         sub_task_choices: &SubTaskChoices,
     ) -> (f32, Vec<f32>) {
         let end = EndView {
-            cycle: self.view(robot, teammate).with_team(team),
+            cycle: self.view(robot, teammate).with_team(team).with_items(items),
             cycles,
             sub_task_choices,
         };
@@ -212,7 +222,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
     ) -> f32 {
-        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], sub_task_choices)
+        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], None, sub_task_choices)
             .0
     }
 
@@ -327,6 +337,7 @@ mod tests {
             start,
             None,
             &[],
+            None,
             std::array::from_fn(|idx| idx),
         )
     }
@@ -521,7 +532,7 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &[], [0.0; 2], 0), None);
+            assert_eq!(judge.check(&at(0.0, y), None, &[], None, [0.0; 2], 0), None);
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -545,11 +556,11 @@ mod tests {
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.137), None, &[], [0.0; 2], 0),
+            judge.check(&at(0.0, 0.5 + 0.137), None, &[], None, [0.0; 2], 0),
             None
         );
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &[], [0.0; 2], 0),
+            judge.check(&at(0.0, 0.5 + 0.138), None, &[], None, [0.0; 2], 0),
             Some(Ending::Solved)
         );
     }
@@ -650,26 +661,26 @@ mod tests {
             ..waiting
         };
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting), &[], 0), Some(0));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting), &[], 0), Some(1));
+        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting), &[], None, 0), Some(0));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting), &[], None, 0), Some(1));
         assert_eq!(
-            judge.phase(&at(0.0, -0.2), Some(following), &[], 0),
+            judge.phase(&at(0.0, -0.2), Some(following), &[], None, 0),
             Some(2)
         );
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following), &[], 0), Some(2));
+        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following), &[], None, 0), Some(2));
         // The boundary of the first cell, half a cell below its centre.
         assert_eq!(
-            judge.phase(&at(0.0, -0.1499), Some(waiting), &[], 0),
+            judge.phase(&at(0.0, -0.1499), Some(waiting), &[], None, 0),
             Some(1)
         );
         assert_eq!(
-            judge.phase(&at(0.0, -0.1501), Some(waiting), &[], 0),
+            judge.phase(&at(0.0, -0.1501), Some(waiting), &[], None, 0),
             Some(0)
         );
         // Other tasks have no sub-tasks.
         let solve_maze = shipped("solve_maze");
         assert_eq!(
-            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None, &[], 0),
+            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None, &[], None, 0),
             None
         );
     }

@@ -3,11 +3,13 @@
 //! task judges against (the goal's cells and path, the room's exit). The draws come in one
 //! order for every scenario: the variant (when there are several and the sample does not fix
 //! one), the world's generators, the start anywhere in its region, the start's turn, its
-//! jitter, its advance (each only when the scenario asks for it). Layouts that never change (a
+//! jitter, its advance (each only when the scenario asks for it), then the team's other
+//! robots and the items, each only in a scenario that has them. Layouts that never change (a
 //! fixed map) are built once per evaluator and shared ([`Statics`]).
 
 use crate::body::Pose;
 use crate::geometry::cells::{self, CellMap};
+use crate::geometry::items::ITEM_RADIUS;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use crate::scenario::blocks::FixedLayout;
@@ -51,9 +53,9 @@ fn with_solids(scene: Arc<Scene>, task: &TaskConfig) -> Arc<Scene> {
 /// falls back to the region's centre (which `Evaluator::check_starts` refuses if it touches).
 const ANYWHERE_TRIES: u32 = 64;
 
-/// A start drawn uniformly over a start region (`at`: a map region's cells, the variant's
-/// start region or a `[regions]` rectangle) where the robot's disc touches no wall or obstacle
-/// and `clear` holds (no other robot there).
+/// A point drawn uniformly over a start region (`at`: a map region's cells, the variant's
+/// start region or a `[regions]` rectangle) where a disc of `radius` (a robot's, an item's)
+/// touches no wall or obstacle and `clear` holds (no other robot or item there).
 #[allow(clippy::too_many_arguments)]
 fn draw_anywhere(
     scenario: &Scenario,
@@ -61,7 +63,7 @@ fn draw_anywhere(
     variant_start: Option<&str>,
     scene: &Scene,
     cells: Option<&CellMap>,
-    task: &TaskConfig,
+    radius: f32,
     rng: &mut SimRng,
     clear: impl Fn([f32; 2]) -> bool,
 ) -> [f32; 2] {
@@ -92,7 +94,7 @@ fn draw_anywhere(
     };
     (0..ANYWHERE_TRIES)
         .map(|_| draw())
-        .find(|&at| !scene.disc_hits(at, task.params.robot.radius) && clear(at))
+        .find(|&at| !scene.disc_hits(at, radius) && clear(at))
         .unwrap_or(fallback)
 }
 
@@ -149,7 +151,7 @@ pub fn build(
             plan.start.as_deref(),
             &scene,
             cells.as_deref(),
-            task,
+            task.params.robot.radius,
             rng,
             |_| true,
         )
@@ -309,7 +311,7 @@ pub fn build(
                 plan.start.as_deref(),
                 &scene,
                 cells.as_deref(),
-                task,
+                radius,
                 rng,
                 clear,
             );
@@ -322,11 +324,42 @@ pub fn build(
         }
     }
 
+    // The items: drawn after the team, so a scenario without them draws as it did; each
+    // clear of every robot (none is picked up before the first cycle) and of the items
+    // before it.
+    let mut items: Vec<[f32; 2]> = Vec::new();
+    let robot_reach = radius + ITEM_RADIUS;
+    for group in &scenario.object_groups {
+        for _ in 0..group.count {
+            let clear = |at: [f32; 2]| {
+                std::iter::once(&start)
+                    .chain(&team)
+                    .all(|robot| robot.distance_to(at) > robot_reach)
+                    && items.iter().all(|item| {
+                        let (dx, dy) = (item[0] - at[0], item[1] - at[1]);
+                        dx * dx + dy * dy >= (2.0 * ITEM_RADIUS) * (2.0 * ITEM_RADIUS)
+                    })
+            };
+            let at = draw_anywhere(
+                scenario,
+                &group.region,
+                plan.start.as_deref(),
+                &scene,
+                cells.as_deref(),
+                ITEM_RADIUS,
+                rng,
+                clear,
+            );
+            items.push(at);
+        }
+    }
+
     Environment {
         scene,
         start,
         teammate,
         team,
+        items,
         lights,
         ground: Ground {
             room: room_made,

@@ -9,11 +9,11 @@ use super::blocks::{self, Facts, World};
 use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
 use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
-    CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef, MAX_DESCRIPTOR, MAX_LIGHTS,
-    MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE, MAX_SOLIDS,
-    MAX_VARIANTS, Phase, Place, PlaceAt, RobotGroup, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario,
-    ScenarioError, Stage, TeammatePlan, Variant, compile_map, formula, is_proper_rect,
-    line_of_path, shipped_map,
+    CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef, MAX_DESCRIPTOR, MAX_ITEMS,
+    MAX_LIGHTS, MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE,
+    MAX_SOLIDS, MAX_VARIANTS, Nest, ObjectGroup, Phase, Place, PlaceAt, RobotGroup, SCHEMA,
+    SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant, compile_map,
+    formula, is_proper_rect, line_of_path, shipped_map,
 };
 use crate::geometry::scene::{Rect, RectKind};
 use crate::sensors::frame::{InputGroup, SensorSet};
@@ -96,6 +96,7 @@ pub(super) fn compile(
     let place = place(&file, world.as_ref(), &variants, &regions, &error)?;
     let teammate = teammate(&file, &variants, &regions, &error)?;
     let robot_groups = robot_groups(&file, &regions, &error)?;
+    let (object_groups, nest) = objects(&file, &regions, &error)?;
 
     // What the blocks may rely on.
     let judged_region = |name: &str| regions.judged(name);
@@ -110,6 +111,7 @@ pub(super) fn compile(
         goals_in_cells,
         has_teammate: teammate.is_some(),
         has_team: !robot_groups.is_empty(),
+        has_items: !object_groups.is_empty(),
         has_phases: !file.phases.is_empty(),
         near_m: end.near_m,
     };
@@ -134,6 +136,8 @@ pub(super) fn compile(
         place,
         teammate,
         robot_groups,
+        object_groups,
+        nest,
         solved,
         wrong_branch,
         wrong_branch_ends: end.wrong_branch_ends,
@@ -823,18 +827,8 @@ fn robot_groups(
                     ),
                 ));
             }
-            let region = match decl.region.as_str() {
-                region if regions.rects.contains_key(region) => {
-                    PlaceAt::Rect(regions.rects[region])
-                }
-                region if regions.in_map(region) => PlaceAt::Region(region.to_string()),
-                other => {
-                    return Err(error(
-                        &key("region"),
-                        format!("'{other}' is neither a [regions] rectangle nor a map region"),
-                    ));
-                }
-            };
+            let region = drawn_region(regions, &decl.region)
+                .map_err(|message| error(&key("region"), message))?;
             let driver = match decl.controller.as_str() {
                 "evolved" => GroupDriver::Evolved,
                 name => GroupDriver::Scripted(
@@ -858,6 +852,82 @@ fn robot_groups(
             })
         })
         .collect()
+}
+
+/// Where a group of robots or items is drawn: a `[regions]` rectangle or a map region.
+fn drawn_region(regions: &Regions<'_>, name: &str) -> Result<PlaceAt, String> {
+    match name {
+        region if regions.rects.contains_key(region) => Ok(PlaceAt::Rect(regions.rects[region])),
+        region if regions.in_map(region) => Ok(PlaceAt::Region(region.to_string())),
+        other => Err(format!(
+            "'{other}' is neither a [regions] rectangle nor a map region"
+        )),
+    }
+}
+
+/// `[[objects]]` and `[nest]`: the items, group by group, and where they are delivered (each
+/// needs the other).
+fn objects(
+    file: &ScenarioFile,
+    regions: &Regions<'_>,
+    error: Refuse<'_>,
+) -> Result<(Vec<ObjectGroup>, Option<Nest>), ScenarioError> {
+    let mut n_items = 0u64;
+    let mut names = std::collections::BTreeSet::new();
+    let groups = file
+        .object_groups
+        .iter()
+        .enumerate()
+        .map(|(group_idx, decl)| {
+            let key = |name: &str| format!("objects[{group_idx}].{name}");
+            if !names.insert(decl.name.as_str()) {
+                return Err(error(
+                    &key("name"),
+                    format!("a second group is named '{}'", decl.name),
+                ));
+            }
+            n_items += u64::from(decl.count);
+            if decl.count == 0 || n_items > u64::from(MAX_ITEMS) {
+                return Err(error(
+                    &key("count"),
+                    format!(
+                        "{} items: a group holds at least 1, and a scenario at most {MAX_ITEMS} \
+                         items",
+                        decl.count
+                    ),
+                ));
+            }
+            let region = drawn_region(regions, &decl.region)
+                .map_err(|message| error(&key("region"), message))?;
+            Ok(ObjectGroup {
+                name: decl.name.clone(),
+                count: decl.count,
+                region,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let nest = match (&file.nest, groups.is_empty()) {
+        (None, true) => None,
+        (None, false) => {
+            return Err(error(
+                "objects",
+                "items need a [nest] to be delivered in (`[nest]` with `region = \"NAME\"`)".into(),
+            ));
+        }
+        (Some(_), true) => {
+            return Err(error(
+                "nest",
+                "a nest without [[objects]] has nothing to take in".into(),
+            ));
+        }
+        (Some(decl), false) => Some(Nest {
+            name: decl.region.clone(),
+            test: regions
+                .judged(&decl.region)
+                .map_err(|message| error("nest.region", message))?,
+        }),
+    };
+    Ok((groups, nest))
 }
 
 /// `[end]`: when a sample is solved, whether a wrong branch ends it, what is forbidden.

@@ -78,6 +78,13 @@ pub struct ScenarioFile {
     /// evolved or evaluated): a team, group by group.
     #[serde(default, rename = "robots", skip_serializing_if = "Vec::is_empty")]
     pub robot_groups: Vec<RobotGroupDecl>,
+    /// Movable items on the floor, group by group, which robots pick up and deliver in the
+    /// nest (`[[objects]]`).
+    #[serde(default, rename = "objects", skip_serializing_if = "Vec::is_empty")]
+    pub object_groups: Vec<ObjectGroupDecl>,
+    /// Where items are delivered (`[nest]`), in a scenario with `[[objects]]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nest: Option<NestDecl>,
     /// When a sample ends.
     pub end: EndDecl,
     /// The fitness of a sample, per way of ending.
@@ -424,6 +431,29 @@ pub struct RobotGroupDecl {
     /// network state (a homogeneous team); `"wander"` or `"fixed"`: a scripted robot (the
     /// teammate's walk, or standing still).
     pub controller: String,
+}
+
+/// `[[objects]]`: a group of items on the floor, small discs the robots drive over, pick up
+/// on contact, carry one at a time and deliver in the nest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectGroupDecl {
+    /// The group's name, for messages and replays.
+    pub name: String,
+    /// How many items, at least 1; a scenario holds at most `scenario::MAX_ITEMS` in all.
+    pub count: u32,
+    /// Where they lie at a sample's start: a `[regions]` rectangle or a map region, each item
+    /// anywhere in it clear of solids, of every robot and of the items placed before it.
+    pub region: String,
+}
+
+/// `[nest]`: where a carried item is delivered.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NestDecl {
+    /// A `[regions]` rectangle, a map region or `room`: an item is delivered when its
+    /// carrier's centre is in it.
+    pub region: String,
 }
 
 /// `[end]`: what ends a sample besides a collision and the time limit.

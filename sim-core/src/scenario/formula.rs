@@ -12,14 +12,16 @@
 //! `final.y`, `distance` (metres travelled) and `energy` (the wheels' mean absolute speed over
 //! the cycles, a share of full speed for the whole cycle limit); with other robots
 //! (`[[robots]]`), `team.spread`, `team.nearest` (metres, averaged over the cycles) and
-//! `team.in REGION` (the share of the team in a region at the end).
+//! `team.in REGION` (the share of the team in a region at the end); with items
+//! (`[[objects]]`), `items.delivered` and `items.picked` (shares of the items at the end).
 //!
 //! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
 //! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
 //! cell), `in goal`, `in REGION`, `teammate following` (or `teammate met`), `teammate in room`,
 //! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `team gathered` (every
 //! robot within `near_m` of the team's centre), `team dispersed` (every robot's nearest
-//! neighbour at least `near_m` away), `team in REGION`, `always`.
+//! neighbour at least `near_m` away), `team in REGION`, `items delivered` (every item
+//! delivered), `carrying` (the focal robot carries an item), `always`.
 //!
 //! The quantities and atoms themselves are building blocks ([`super::blocks`]): this module
 //! only splits the text and asks the registered blocks what each piece names.
@@ -258,6 +260,7 @@ mod tests {
             goals_in_cells: true,
             has_teammate: true,
             has_team: true,
+            has_items: true,
             has_phases: true,
             near_m: 0.1,
         }
@@ -316,6 +319,7 @@ mod tests {
             goals_in_cells: false,
             has_teammate: false,
             has_team: false,
+            has_items: false,
             has_phases: false,
             ..facts()
         };
@@ -332,7 +336,7 @@ mod tests {
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
                  approach teammate, approach LIGHT, final.x, final.y, distance, energy, \
-                 team.spread, team.nearest or team.in REGION",
+                 team.spread, team.nearest, team.in REGION, items.delivered or items.picked",
             ),
             (
                 "team.spread",
@@ -350,6 +354,10 @@ mod tests {
                 "'approach teammate': needs a [teammate]",
             ),
             ("1 + derived", "'derived': needs [[phase]]s"),
+            (
+                "items.delivered",
+                "'items.delivered': needs items ([[objects]] and a [nest])",
+            ),
         ] {
             let error = Formula::parse(text, &bare, &mut Quantities::new()).unwrap_err();
             assert!(error.contains(wanted), "{text}: {error}");
@@ -447,6 +455,7 @@ mod tests {
                     goals_in_cells: true,
                     has_teammate: true,
                     has_team: true,
+                    has_items: true,
                     has_phases: true,
                     near_m: 0.1,
                 };

@@ -261,6 +261,31 @@ pub struct RobotGroup {
     pub driver: GroupDriver,
 }
 
+/// The most items a scenario may hold: a bound on a cycle's cost (every robot not carrying
+/// looks at every item on the floor) checked before any evaluation.
+pub const MAX_ITEMS: u32 = 64;
+
+/// A group of items (`[[objects]]`).
+#[derive(Debug, Clone)]
+pub struct ObjectGroup {
+    /// Its name.
+    pub name: String,
+    /// How many items.
+    pub count: u32,
+    /// Where they lie at the start: a `[regions]` rectangle (`PlaceAt::Rect`) or a map region
+    /// (`PlaceAt::Region`).
+    pub region: PlaceAt,
+}
+
+/// Where items are delivered (`[nest]`).
+#[derive(Debug, Clone)]
+pub struct Nest {
+    /// The region's name.
+    pub name: String,
+    /// Whether a carrier's centre is in it.
+    pub test: blocks::atoms::RegionTest,
+}
+
 /// What drives the robots of a group.
 #[derive(Debug, Clone, Copy)]
 pub enum GroupDriver {
@@ -320,6 +345,10 @@ pub struct Scenario {
     pub teammate: Option<TeammatePlan>,
     /// The other robots of a team, group by group (none: the focal robot alone).
     pub robot_groups: Vec<RobotGroup>,
+    /// The items on the floor, group by group (none: a scenario without objects).
+    pub object_groups: Vec<ObjectGroup>,
+    /// Where items are delivered, in a scenario with items.
+    pub nest: Option<Nest>,
     /// When a sample is solved.
     pub solved: Condition,
     /// Whether wrong branches are judged (cells off the path).
@@ -588,7 +617,16 @@ impl Scenario {
             has_lights: !self.lights.is_empty(),
             has_teammate: self.teammate.is_some(),
             has_team: !self.robot_groups.is_empty(),
+            has_items: !self.object_groups.is_empty(),
         }
+    }
+
+    /// The number of items in a sample.
+    pub fn n_items(&self) -> usize {
+        self.object_groups
+            .iter()
+            .map(|group| group.count as usize)
+            .sum()
     }
 
     /// A content hash of the scenario's text.

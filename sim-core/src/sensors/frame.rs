@@ -129,6 +129,8 @@ impl InputGroup {
     pub const NEAR_ROBOT: InputGroup = InputGroup::registered("near_robot");
     /// The range-and-bearing board's four sectors and count (`rab`).
     pub const RAB: InputGroup = InputGroup::registered("rab");
+    /// The item sensor's four sectors and whether the robot carries an item (`items`).
+    pub const ITEMS: InputGroup = InputGroup::registered("items");
 
     /// The group of the sensor registered as `name`; fails to compile when there is none.
     const fn registered(name: &str) -> InputGroup {
@@ -283,7 +285,7 @@ mod tests {
         }
         assert_eq!(
             InputGroup::ALL.map(InputGroup::name),
-            ["ir", "light", "near_robot", "rab"]
+            ["ir", "light", "near_robot", "rab", "items"]
         );
         let set = SensorSet::of(&[InputGroup::NEAR_ROBOT, InputGroup::IR]);
         assert!(set.carries(InputGroup::IR) && !set.carries(InputGroup::LIGHT));
@@ -300,7 +302,8 @@ mod tests {
         let err = serde_json::from_str::<InputGroup>("\"sonar\"").unwrap_err();
         assert!(
             err.to_string().starts_with(
-                "unknown variant `sonar`, expected one of `ir`, `light`, `near_robot`, `rab`"
+                "unknown variant `sonar`, expected one of `ir`, `light`, `near_robot`, `rab`, \
+                 `items`"
             ),
             "{err}"
         );
@@ -336,6 +339,17 @@ mod tests {
                 "rab_count"
             ]
         );
-        assert_eq!(N_FLAT, 12);
+        // The item sensor comes after the board.
+        assert_eq!(
+            SensorFrame::INPUT_NAMES[InputGroup::ITEMS.flat_range()],
+            [
+                "items_front",
+                "items_left",
+                "items_back",
+                "items_right",
+                "items_carrying"
+            ]
+        );
+        assert_eq!(N_FLAT, 17);
     }
 }

@@ -1,6 +1,7 @@
 //! The robot's sensors: what a sensor is ([`registry`]) and the one list of those that exist
 //! ([`SENSORS`], below), the frame their inputs fill ([`frame`]), the registered kinds (`ir`,
-//! `light`, `near_robot`: [`kinds`]; `rab`, the range-and-bearing board: [`rab`]), and the
+//! `light`, `near_robot`: [`kinds`]; `rab`, the range-and-bearing board: [`rab`]; `items`, the
+//! items on the floor: [`items`]), and the
 //! sensor models: how the e-puck's IR proximity and ambient-light sensors
 //! turn the distances the world computes into the normalised inputs of the sensor frame. Both
 //! models are built once from measured calibration tables (embedded in the crate) and
@@ -10,6 +11,7 @@
 pub mod calibration;
 pub mod frame;
 pub mod ir;
+pub mod items;
 pub mod kinds;
 pub mod light;
 pub mod rab;
@@ -24,4 +26,10 @@ pub use registry::{SenseView, SensedWorld, Sensor, SensorKind, SensorRun};
 /// cycle reads them (and draws their noise) in this order, so a new one goes last. A
 /// scenario's robot carries those its `sensors` key names, or else those carried by default;
 /// each one's name is also the input group a network lists.
-pub const SENSORS: &[SensorKind] = &[kinds::IR, kinds::LIGHT, kinds::NEAR_ROBOT, rab::RAB];
+pub const SENSORS: &[SensorKind] = &[
+    kinds::IR,
+    kinds::LIGHT,
+    kinds::NEAR_ROBOT,
+    rab::RAB,
+    items::ITEMS,
+];

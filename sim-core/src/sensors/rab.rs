@@ -70,7 +70,7 @@ impl Sensor for RangeAndBearing {
 /// left. A bearing exactly on a border (45 degrees off an axis) counts for the front or the
 /// back, so every bearing has one sector; a neighbour at the robot's own centre is in front.
 #[inline]
-fn sector_of(forward: f32, leftward: f32) -> usize {
+pub(crate) fn sector_of(forward: f32, leftward: f32) -> usize {
     if forward.abs() >= leftward.abs() {
         if forward >= 0.0 { FRONT } else { BACK }
     } else if leftward > 0.0 {

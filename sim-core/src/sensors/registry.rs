@@ -7,6 +7,7 @@
 use crate::body::Pose;
 use crate::config::Params;
 use crate::geometry::crowd::Crowd;
+use crate::geometry::items::Items;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use std::fmt::Debug;
@@ -21,6 +22,8 @@ pub struct SensedWorld {
     pub has_teammate: bool,
     /// Whether the scenario holds other robots of a team (`[[robots]]`).
     pub has_team: bool,
+    /// Whether the scenario holds movable items (`[[objects]]`).
+    pub has_items: bool,
 }
 
 /// One kind of sensor: its name, its inputs and how it compiles for a task.
@@ -76,8 +79,10 @@ pub struct SenseView<'a> {
     /// Every robot of a team, at the cycle's start (`None` for one robot alone): the sensing
     /// robot is robot `me` of it, the others are bodies its sensors see.
     pub crowd: Option<&'a Crowd>,
-    /// The sensing robot's index in `crowd`.
+    /// The sensing robot's index in `crowd` (0 the focal robot), and in the items' carriers.
     pub me: usize,
+    /// The items, in a scenario with `[[objects]]`.
+    pub items: Option<&'a Items>,
 }
 
 /// The crowd of a robot alone.
@@ -114,6 +119,7 @@ impl<'a> SenseView<'a> {
             teammate: None,
             crowd: None,
             me: 0,
+            items: None,
         }
     }
 }

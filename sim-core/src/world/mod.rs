@@ -96,6 +96,8 @@ pub struct Environment {
     pub teammate: Option<(Pose, bool)>,
     /// The team's other robots' start poses, group by group (`[[robots]]`).
     pub team: Vec<Pose>,
+    /// Where the items lie at the start, group by group (`[[objects]]`).
+    pub items: Vec<[f32; 2]>,
     /// The lights.
     pub lights: Vec<LightSpec>,
     /// The ground truth.

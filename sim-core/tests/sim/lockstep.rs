@@ -1,13 +1,13 @@
 //! The lockstep evaluator against the scalar reference: on random controller trees (depth up to
 //! three, any input groups and sizes, with and without a minimum time on, with and without a
 //! free node), every shipped scenario, the example T-maze and the wandering teammate's example,
-//! random seeds and variants, cycle limits and collision rules, both must give the same outcome
-//! for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
+//! the team arena and the foraging scenario, random seeds and variants, cycle limits and
+//! collision rules, both must give the same outcome for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
 //! lanes left empty.
 
-use hevo_sim_core::InputGroup;
 use hevo_sim_core::{BatchEvaluator, EvaluatorKind};
 use hevo_sim_core::{ControllerFile, NodeSpec};
+use hevo_sim_core::{InputGroup, SensorSet};
 use hevo_sim_core::{Outcome, Sample, Scenario, TaskConfig};
 use hevo_sim_core::{SimRng, mix64};
 use proptest::prelude::*;
@@ -28,13 +28,23 @@ pub(crate) fn tasks() -> Vec<TaskConfig> {
     tasks.push(crate::team::team_task());
     // Scheduled lights, and phases and stages that see them and the team.
     tasks.push(crate::schedules::scheduled_task());
+    // Items: picked up, carried and delivered by the lane's robot and its team.
+    tasks.push(crate::objects::foraging_task());
     tasks
 }
 
-fn random_inputs(rng: &mut SimRng) -> Vec<InputGroup> {
-    let all = [InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
+/// Random input groups among those the robot `carried` (the e-puck's, and `items` where the
+/// scenario has them).
+fn random_inputs(carried: SensorSet, rng: &mut SimRng) -> Vec<InputGroup> {
+    let all = [
+        InputGroup::IR,
+        InputGroup::LIGHT,
+        InputGroup::NEAR_ROBOT,
+        InputGroup::ITEMS,
+    ];
     let mut inputs: Vec<InputGroup> = all
         .into_iter()
+        .filter(|&group| carried.carries(group))
         .filter(|_| rng.random_range(0..3) > 0)
         .collect();
     if inputs.is_empty() {
@@ -52,13 +62,13 @@ fn random_genes(rng: &mut SimRng, n: usize) -> Vec<f32> {
 }
 
 /// A random node with its genes; arbitrators above `depth` 0 get two or three children.
-fn random_node(name: String, depth: u32, rng: &mut SimRng) -> NodeSpec {
+fn random_node(name: String, depth: u32, carried: SensorSet, rng: &mut SimRng) -> NodeSpec {
     let hidden = rng.random_range(1..7);
-    let inputs = random_inputs(rng);
+    let inputs = random_inputs(carried, rng);
     let spec = if depth > 0 && rng.random_range(0..3) > 0 {
         let n_children = rng.random_range(2..4);
         let children = (0..n_children)
-            .map(|idx| random_node(format!("{name}_{idx}"), depth - 1, rng))
+            .map(|idx| random_node(format!("{name}_{idx}"), depth - 1, carried, rng))
             .collect();
         let mut spec = NodeSpec::arbitrator(name, inputs, hidden, children);
         if rng.random_range(0..3) == 0 {
@@ -76,15 +86,16 @@ fn random_node(name: String, depth: u32, rng: &mut SimRng) -> NodeSpec {
 /// subtrees of those names (the evaluators refuse a root that lacks one), else any tree.
 pub(crate) fn random_root(task: &TaskConfig, depth: u32, rng: &mut SimRng) -> NodeSpec {
     let names = task.scenario.named_phase_children();
+    let carried = task.scenario.sensors;
     if names.is_empty() {
-        return random_node("root".into(), depth, rng);
+        return random_node("root".into(), depth, carried, rng);
     }
     let children = names
         .iter()
-        .map(|name| random_node(name.to_string(), depth.saturating_sub(1), rng))
+        .map(|name| random_node(name.to_string(), depth.saturating_sub(1), carried, rng))
         .collect();
     let hidden = rng.random_range(1..7);
-    let spec = NodeSpec::arbitrator("root", random_inputs(rng), hidden, children);
+    let spec = NodeSpec::arbitrator("root", random_inputs(carried, rng), hidden, children);
     let n_genes = spec.topology().n_genes();
     spec.with_genome(random_genes(rng, n_genes))
 }
@@ -158,7 +169,7 @@ proptest! {
 }
 
 /// Every task at its full length, collisions not ending a sample, with a two-level tree that
-/// reads every input group: the longest trajectories, where any drift would show.
+/// reads every input group the robot carries: the longest trajectories, where any drift would show.
 #[test]
 fn full_length_samples_agree_on_every_task() {
     for task in tasks() {
@@ -169,7 +180,7 @@ fn full_length_samples_agree_on_every_task() {
             .map(|_| random_root(&task, 2, rng))
             .find(|node| !node.children.is_empty())
             .expect("an arbitrator comes up");
-        root.inputs = vec![InputGroup::IR, InputGroup::LIGHT, InputGroup::NEAR_ROBOT];
+        root.inputs = task.scenario.sensors.groups().collect();
         let n_genes = root.topology().n_genes();
         root.genome = Some(random_genes(rng, n_genes));
         let samples: Vec<Sample> = (0..11).map(|seed| Sample::seeded(1000 + seed)).collect();

@@ -8,6 +8,7 @@ mod floors;
 mod fuzz_controller;
 mod golden;
 mod lockstep;
+mod objects;
 mod scenario_files;
 mod schedules;
 mod scripted;

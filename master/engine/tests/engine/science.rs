@@ -279,6 +279,7 @@ const PROVENANCE: &[(&str, &str)] = &[
     ("dispersion.json", "experiments/runs-swarm/dispersion/run-1"),
     ("homing.json", "experiments/runs-swarm/homing/run-1"),
     ("mission.json", "experiments/runs-mission/mission/run-1"),
+    ("foraging.json", "experiments/runs-foraging/foraging/run-1"),
     (
         "room_to_yard.json",
         "experiments/runs-yard/room_to_yard/run-0",

@@ -15,6 +15,7 @@
 //! ([`CycleView`]), never a lookup by name.
 
 pub mod atoms;
+pub mod items;
 pub mod quantities;
 pub mod team;
 pub mod teammates;
@@ -23,6 +24,7 @@ pub mod worlds;
 use crate::body::Pose;
 use crate::config::Params;
 use crate::geometry::cells::CellMap;
+use crate::geometry::items::Items;
 use crate::geometry::scene::Scene;
 use crate::math::rng::SimRng;
 use crate::outcome::SubTaskChoices;
@@ -60,6 +62,8 @@ pub static ATOMS: &[AtomKind] = &[
     team::TEAM_DISPERSED,
     team::TEAM_IN_REGION,
     atoms::LIGHT_LIT,
+    items::ALL_DELIVERED,
+    items::CARRYING,
     atoms::ALWAYS,
 ];
 
@@ -75,6 +79,8 @@ pub static QUANTITIES: &[QuantityKind] = &[
     team::TEAM_SPREAD,
     team::TEAM_NEAREST,
     team::TEAM_IN,
+    items::ITEMS_DELIVERED,
+    items::ITEMS_PICKED,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
@@ -98,6 +104,8 @@ pub struct Facts<'a> {
     pub has_teammate: bool,
     /// Whether the scenario has a team (`[[robots]]`).
     pub has_team: bool,
+    /// Whether the scenario has items (`[[objects]]`) and a nest.
+    pub has_items: bool,
     /// Whether the scenario has phases (a derived fitness).
     pub has_phases: bool,
     /// `end.near_m`.
@@ -112,6 +120,7 @@ impl std::fmt::Debug for Facts<'_> {
             .field("goals_in_cells", &self.goals_in_cells)
             .field("has_teammate", &self.has_teammate)
             .field("has_team", &self.has_team)
+            .field("has_items", &self.has_items)
             .field("has_phases", &self.has_phases)
             .field("near_m", &self.near_m)
             .finish_non_exhaustive()
@@ -156,6 +165,8 @@ pub struct CycleView<'a> {
     pub team: &'a [[f32; 2]],
     /// The lights lit in the cycle, one bit per light by index (0 where no cycle is judged).
     pub lit_mask: u32,
+    /// The items, in a scenario with `[[objects]]`.
+    pub items: Option<&'a Items>,
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -186,6 +197,7 @@ impl<'a> CycleView<'a> {
             wheel_speeds: [0.0; 2],
             team: &[],
             lit_mask: 0,
+            items: None,
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -209,6 +221,12 @@ impl<'a> CycleView<'a> {
     #[inline]
     pub fn with_lit(self, lit_mask: u32) -> CycleView<'a> {
         CycleView { lit_mask, ..self }
+    }
+
+    /// The view of a cycle whose items are `items`.
+    #[inline]
+    pub fn with_items(self, items: Option<&'a Items>) -> CycleView<'a> {
+        CycleView { items, ..self }
     }
 
     /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
@@ -482,6 +500,7 @@ mod doc_examples {
             goals_in_cells: false,
             has_teammate: false,
             has_team: false,
+            has_items: false,
             has_phases: false,
             near_m: 0.0,
         };
