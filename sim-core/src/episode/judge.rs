@@ -661,13 +661,22 @@ mod tests {
             ..waiting
         };
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
-        assert_eq!(judge.phase(&at(0.0, -0.2), Some(waiting), &[], None, 0), Some(0));
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(waiting), &[], None, 0), Some(1));
+        assert_eq!(
+            judge.phase(&at(0.0, -0.2), Some(waiting), &[], None, 0),
+            Some(0)
+        );
+        assert_eq!(
+            judge.phase(&at(0.0, 0.1), Some(waiting), &[], None, 0),
+            Some(1)
+        );
         assert_eq!(
             judge.phase(&at(0.0, -0.2), Some(following), &[], None, 0),
             Some(2)
         );
-        assert_eq!(judge.phase(&at(0.0, 0.1), Some(following), &[], None, 0), Some(2));
+        assert_eq!(
+            judge.phase(&at(0.0, 0.1), Some(following), &[], None, 0),
+            Some(2)
+        );
         // The boundary of the first cell, half a cell below its centre.
         assert_eq!(
             judge.phase(&at(0.0, -0.1499), Some(waiting), &[], None, 0),
