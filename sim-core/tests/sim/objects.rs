@@ -175,15 +175,7 @@ fn a_phase_sees_what_the_robot_carries() {
 
 /// The refusal of the one-item scenario with `from` replaced by `to`.
 fn refusal(from: &str, to: &str) -> String {
-    assert!(ONE_ITEM.contains(from), "{from}");
-    let text = ONE_ITEM.replacen(from, to, 1);
-    match Scenario::parse(&text, "items.toml") {
-        Err(error) => error.to_string(),
-        Ok(scenario) => match Evaluator::new(TaskConfig::from_scenario(Arc::new(scenario))) {
-            Err(error) => error.to_string(),
-            Ok(_) => panic!("accepted with {to}"),
-        },
-    }
+    crate::support::refusal_of(ONE_ITEM, from, to)
 }
 
 #[test]

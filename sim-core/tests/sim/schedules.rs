@@ -136,10 +136,7 @@ fn phases_and_stages_see_the_lights_and_the_team() {
 
 /// The error the scheduled arena gets with `from` replaced by `to`.
 fn refusal(from: &str, to: &str) -> String {
-    assert!(SCHEDULED.contains(from), "{from}");
-    Scenario::parse(&SCHEDULED.replace(from, to), "mine.toml")
-        .expect_err("the scenario should be refused")
-        .to_string()
+    crate::support::refusal_of(SCHEDULED, from, to)
 }
 
 #[test]

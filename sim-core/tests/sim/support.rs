@@ -5,7 +5,7 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::{Policy, Scenario, SensorFrame, TaskConfig};
+use hevo_sim_core::{Evaluator, Policy, Scenario, SensorFrame, TaskConfig};
 use std::sync::Arc;
 
 /// `scenarios/examples/t_maze.toml`.
@@ -209,5 +209,20 @@ impl Policy for Scripted {
 
     fn root_child_index(&self, name: &str) -> Option<usize> {
         self.policy().root_child_index(name)
+    }
+}
+
+/// Why the scenario `text`, with its first `from` replaced by `to`, is refused: by its
+/// compiler, or else by the evaluator that builds its worlds (a region with no room, say).
+/// Panics when it is accepted.
+pub fn refusal_of(text: &str, from: &str, to: &str) -> String {
+    assert!(text.contains(from), "{from}");
+    let text = text.replacen(from, to, 1);
+    match Scenario::parse(&text, "mine.toml") {
+        Err(error) => error.to_string(),
+        Ok(scenario) => match Evaluator::new(TaskConfig::from_scenario(Arc::new(scenario))) {
+            Err(error) => error.to_string(),
+            Ok(_) => panic!("accepted with {to}"),
+        },
     }
 }

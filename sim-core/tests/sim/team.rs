@@ -197,15 +197,7 @@ fn the_evolved_copies_move_and_scripted_robots_keep_to_their_script() {
 
 /// The refusal of the team arena with `from` replaced by `to`.
 fn refusal(from: &str, to: &str) -> String {
-    assert!(TEAM_ARENA.contains(from), "{from}");
-    let text = TEAM_ARENA.replacen(from, to, 1);
-    match Scenario::parse(&text, "team.toml") {
-        Err(error) => error.to_string(),
-        Ok(scenario) => match Evaluator::new(TaskConfig::from_scenario(Arc::new(scenario))) {
-            Err(error) => error.to_string(),
-            Ok(_) => panic!("accepted with {to}"),
-        },
-    }
+    crate::support::refusal_of(TEAM_ARENA, from, to)
 }
 
 #[test]
