@@ -1781,6 +1781,10 @@ enum KeySymbol<'t> {
     Teammate,
     Cones,
     Animated,
+    /// An item (`[[objects]]`): a ring where it started, a disc where it ended.
+    Item,
+    /// An item delivered in the nest.
+    ItemDelivered,
     /// A group of a team's other robots: its colour, name and count.
     Team(&'t TeamGroup<'t>),
 }
@@ -1796,6 +1800,8 @@ impl KeySymbol<'_> {
             KeySymbol::LightDark => "light that stays dark",
             KeySymbol::Goal => "goal",
             KeySymbol::Exit => "room exit",
+            KeySymbol::Item => "item: start, end",
+            KeySymbol::ItemDelivered => "item delivered",
             KeySymbol::Teammate => "teammate and its path",
             KeySymbol::Cones => "IR cones (shade = reading)",
             KeySymbol::Animated => "animated robot, 10x real time",
@@ -1830,6 +1836,12 @@ fn key_items<'t>(
         items.push(KeySymbol::Teammate);
     }
     items.extend(team.iter().map(KeySymbol::Team));
+    if !trace.items.is_empty() {
+        items.push(KeySymbol::Item);
+    }
+    if trace.items.iter().any(|item| item.delivered) {
+        items.push(KeySymbol::ItemDelivered);
+    }
     if options
         .rays_at_cycles
         .iter()
@@ -1887,6 +1899,31 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol<'_>], top: f64) {
             }
             KeySymbol::FinalRobot => {
                 draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, FINAL_ROBOT);
+            }
+            KeySymbol::Item | KeySymbol::ItemDelivered => {
+                let (ring, disc) = if slot.symbol == KeySymbol::Item {
+                    (Some(ITEM_COLOUR), ITEM_COLOUR)
+                } else {
+                    (None, DELIVERED_COLOUR)
+                };
+                if let Some(colour) = ring {
+                    doc.leaf(
+                        Tag::new("circle")
+                            .num("cx", centre[0] - 4.0)
+                            .num("cy", centre[1])
+                            .num("r", 4.0)
+                            .attr("fill", "none")
+                            .attr("stroke", colour)
+                            .attr("stroke-width", "1.2"),
+                    );
+                }
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0] + if ring.is_some() { 5.0 } else { 0.0 })
+                        .num("cy", centre[1])
+                        .num("r", 4.0)
+                        .attr("fill", disc),
+                );
             }
             KeySymbol::Collision => {
                 let d = PathData::new()
@@ -2682,12 +2719,17 @@ mod tests {
             caption[1].ends_with(&format!("{delivered}/10 items delivered")),
             "{caption:?}"
         );
+        // The key explains the items' marks.
+        let key = key_items(&trace, &ReplayOptions::default(), &[]);
+        assert!(key.contains(&KeySymbol::Item));
+        assert_eq!(key.contains(&KeySymbol::ItemDelivered), delivered > 0);
         // A trace without items draws none.
         let mut without = trace.clone();
         without.items.clear();
         let (_, elements) = render(&without, &evaluator, &ReplayOptions::default());
         assert!(with_class(&elements, "items").is_empty());
         assert!(with_class(&elements, "item-end").is_empty());
+        assert!(!key_items(&without, &ReplayOptions::default(), &[]).contains(&KeySymbol::Item));
     }
 
     #[test]
