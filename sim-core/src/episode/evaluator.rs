@@ -11,6 +11,7 @@ use super::team::Team;
 use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::config::ConfigError;
 use crate::geometry::items::{ITEM_RADIUS, ItemState, Items};
+use crate::geometry::reach::Reach;
 use crate::geometry::scene::Scene;
 use crate::math::rng::{SimRng, Stream, stream_rng};
 use crate::math::trig;
@@ -267,8 +268,9 @@ impl Evaluator {
             }
         }
         if let Some(nest) = &scenario.nest
-            && let crate::scenario::blocks::atoms::RegionTest::Rect([x0, y0, x1, y1]) = nest.test
+            && let crate::scenario::blocks::atoms::RegionTest::Rect(nest_rect) = nest.test
         {
+            let [x0, y0, x1, y1] = nest_rect;
             const STEPS: u16 = 16;
             let mut grid = (0..=STEPS).flat_map(|i| {
                 (0..=STEPS).map(move |j| {
@@ -289,6 +291,47 @@ impl Evaluator {
                         nest.name
                     ),
                 ));
+            }
+            // Somewhere in the nest must be reachable from where the robots start, and so
+            // must every item.
+            let starts: Vec<[f32; 2]> = std::iter::once(&env.start)
+                .chain(&env.team)
+                .map(Pose::position)
+                .collect();
+            let reach = Reach::flood(
+                &env.scene,
+                radius,
+                reach_bounds(
+                    &env.scene,
+                    &[&starts, &env.items, &[[x0, y0], [x1, y1]]],
+                    radius,
+                ),
+                &starts,
+            );
+            if !reach.enters(nest_rect) {
+                return Err(scenario.refusal(
+                    "nest.region",
+                    format!(
+                        "no robot can reach the nest '{}' from where the robots start: walls                          close it off in variant {variant}, seed {seed} (`hevo scenario draw                          --variant {variant} --seed {seed}` shows it)",
+                        nest.name
+                    ),
+                ));
+            }
+            let group_of = scenario
+                .object_groups
+                .iter()
+                .enumerate()
+                .flat_map(|(idx, group)| std::iter::repeat_n(idx, group.count as usize));
+            for (&at, group_idx) in env.items.iter().zip(group_of) {
+                if !reach.comes_within(at, radius + ITEM_RADIUS) {
+                    return Err(scenario.refusal(
+                        &format!("objects[{group_idx}].region"),
+                        format!(
+                            "no robot can reach the item at ({:.3}, {:.3}) m from where the                              robots start: walls close it off in variant {variant}, seed {seed}",
+                            at[0], at[1]
+                        ),
+                    ));
+                }
             }
         }
         Ok(())
@@ -843,4 +886,32 @@ impl Teammate {
         }
         self.motion.after_met(&mut self.pose, robot, step);
     }
+}
+
+/// The rectangle a reach check floods: everything the scene holds and every point of `points`,
+/// with two robot radii to spare.
+fn reach_bounds(scene: &Scene, points: &[&[[f32; 2]]], radius: f32) -> [f32; 4] {
+    let corners = scene.rects().iter().flat_map(|rect| rect.corners());
+    let all = corners.chain(points.iter().flat_map(|p| p.iter().copied()));
+    let mut bounds = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    for [x, y] in all {
+        bounds = [
+            bounds[0].min(x),
+            bounds[1].min(y),
+            bounds[2].max(x),
+            bounds[3].max(y),
+        ];
+    }
+    let margin = 2.0 * radius;
+    [
+        bounds[0] - margin,
+        bounds[1] - margin,
+        bounds[2] + margin,
+        bounds[3] + margin,
+    ]
 }

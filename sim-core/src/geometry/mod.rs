@@ -1,11 +1,13 @@
 //! Geometry: the solids of a world (rectangles and the scene that answers distance, ray and
 //! overlap queries about them) and worlds made of square cells (walls, neighbours, paths and
-//! corridor distances), the robots of a sample found by place (`crowd.rs`), and the movable
-//! items robots pick up and deliver (`items.rs`).
+//! corridor distances), the robots of a sample found by place (`crowd.rs`), the movable
+//! items robots pick up and deliver (`items.rs`), and the floor a robot can reach from its
+//! start (`reach.rs`).
 
 pub mod cells;
 pub mod crowd;
 pub mod items;
+pub mod reach;
 pub mod scene;
 
 /// Whether the rectangle `[x0, y0, x1, y1]` holds `point`, its edges included: what `in REGION`

@@ -195,6 +195,19 @@ fn items_or_a_nest_that_cannot_work_are_refused_naming_the_key() {
             "nest = { rect = [1.0, -0.3, 1.05, 0.3] }",
             "nest.region",
         ),
+        // A wall across the arena between the robot and the nest.
+        (
+            "[1.0, -1.0, 1.05, 1.0]]",
+            "[1.0, -1.0, 1.05, 1.0], [0.3, -1.0, 0.32, 1.0]]",
+            "no robot can reach the nest 'nest'",
+        ),
+        // A walled pen round the item, room for it but no way in.
+        (
+            "[1.0, -1.0, 1.05, 1.0]]",
+            "[1.0, -1.0, 1.05, 1.0], [0.12, -0.08, 0.28, -0.06], [0.12, 0.06, 0.28, 0.08], \
+             [0.12, -0.06, 0.14, 0.06], [0.26, -0.06, 0.28, 0.06]]",
+            "no robot can reach the item",
+        ),
         // The item on the robot's own start.
         (
             "item = { rect = [0.199, -0.001, 0.201, 0.001] }",
