@@ -312,7 +312,9 @@ impl Evaluator {
                 return Err(scenario.refusal(
                     "nest.region",
                     format!(
-                        "no robot can reach the nest '{}' from where the robots start: walls                          close it off in variant {variant}, seed {seed} (`hevo scenario draw                          --variant {variant} --seed {seed}` shows it)",
+                        "no robot can reach the nest '{}' from where the robots start: walls \
+                         close it off in variant {variant}, seed {seed} (`hevo scenario draw \
+                         --variant {variant} --seed {seed}` shows it)",
                         nest.name
                     ),
                 ));
@@ -327,7 +329,8 @@ impl Evaluator {
                     return Err(scenario.refusal(
                         &format!("objects[{group_idx}].region"),
                         format!(
-                            "no robot can reach the item at ({:.3}, {:.3}) m from where the                              robots start: walls close it off in variant {variant}, seed {seed}",
+                            "no robot can reach the item at ({:.3}, {:.3}) m from where the \
+                             robots start: walls close it off in variant {variant}, seed {seed}",
                             at[0], at[1]
                         ),
                     ));

@@ -199,14 +199,14 @@ fn items_or_a_nest_that_cannot_work_are_refused_naming_the_key() {
         (
             "[1.0, -1.0, 1.05, 1.0]]",
             "[1.0, -1.0, 1.05, 1.0], [0.3, -1.0, 0.32, 1.0]]",
-            "no robot can reach the nest 'nest'",
+            "no robot can reach the nest 'nest' from where the robots start: walls close it off",
         ),
         // A walled pen round the item, room for it but no way in.
         (
             "[1.0, -1.0, 1.05, 1.0]]",
             "[1.0, -1.0, 1.05, 1.0], [0.12, -0.08, 0.28, -0.06], [0.12, 0.06, 0.28, 0.08], \
              [0.12, -0.06, 0.14, 0.06], [0.26, -0.06, 0.28, 0.06]]",
-            "no robot can reach the item",
+            "m from where the robots start: walls close it off",
         ),
         // The item on the robot's own start.
         (
