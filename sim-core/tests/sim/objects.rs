@@ -4,10 +4,10 @@
 //! lockstep property test draws from the foraging scenario too); and a file whose items or
 //! nest cannot work is refused before any evaluation, naming the key.
 
-use hevo_sim_core::{BatchEvaluator, ControllerFile, EvaluatorKind, NodeSpec, Sample};
+use hevo_sim_core::{BatchEvaluator, ControllerFile, Sample};
 use hevo_sim_core::{Evaluator, InputGroup, Scenario, SimRng, TaskConfig};
 use proptest::prelude::*;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use std::sync::Arc;
 
 /// The shipped foraging scenario: five robots, ten items, a nest under a beacon.
@@ -25,12 +25,7 @@ fn task(text: &str) -> TaskConfig {
 
 /// A primitive on the IR ring and the item sensor with random genes.
 fn random_controller(rng: &mut SimRng) -> (ControllerFile, Vec<f32>) {
-    let spec = NodeSpec::primitive("root", vec![InputGroup::IR, InputGroup::ITEMS], 3);
-    let n_genes = spec.topology().n_genes();
-    let genes: Vec<f32> = (0..n_genes)
-        .map(|_| rng.random_range(-10.0f32..10.0))
-        .collect();
-    (ControllerFile::new(spec), genes)
+    crate::support::random_primitive(rng, vec![InputGroup::IR, InputGroup::ITEMS])
 }
 
 proptest! {
@@ -74,17 +69,7 @@ fn a_foraging_sample_is_the_same_every_time_and_on_every_evaluator() {
     let task = foraging_task();
     let rng = &mut SimRng::seed_from_u64(11);
     let (template, genes) = random_controller(rng);
-    let samples: Vec<Sample> = (0..11).map(Sample::seeded).collect();
-    let outcomes = |kind| {
-        BatchEvaluator::new(template.clone(), task.clone())
-            .expect("valid")
-            .with_kind(kind)
-            .evaluate_genome(Some(&genes), &samples)
-            .expect("genes fit")
-    };
-    let scalar = outcomes(EvaluatorKind::Scalar);
-    assert_eq!(scalar, outcomes(EvaluatorKind::Scalar), "run twice");
-    assert_eq!(scalar, outcomes(EvaluatorKind::Lockstep), "lockstep");
+    let scalar = crate::support::outcomes_on_every_evaluator(&template, &genes, &task);
     // The robots did pick items up: the comparison covers carrying, not only items lying.
     let picked: Vec<f32> = scalar.iter().map(|outcome| outcome.descriptor[1]).collect();
     assert!(picked.iter().any(|&share| share > 0.0), "{picked:?}");

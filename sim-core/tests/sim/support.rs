@@ -226,3 +226,40 @@ pub fn refusal_of(text: &str, from: &str, to: &str) -> String {
         },
     }
 }
+
+/// A primitive reading `inputs`, with random genes in [-10, 10): it drives anywhere, into
+/// walls and robots.
+pub fn random_primitive(
+    rng: &mut hevo_sim_core::SimRng,
+    inputs: Vec<hevo_sim_core::InputGroup>,
+) -> (hevo_sim_core::ControllerFile, Vec<f32>) {
+    use rand::RngExt;
+    let spec = hevo_sim_core::NodeSpec::primitive("root", inputs, 3);
+    let n_genes = spec.topology().n_genes();
+    let genes: Vec<f32> = (0..n_genes)
+        .map(|_| rng.random_range(-10.0f32..10.0))
+        .collect();
+    (hevo_sim_core::ControllerFile::new(spec), genes)
+}
+
+/// The outcomes of `genes` in `template` on samples 0 to 10 of `task`, after asserting that
+/// the scalar evaluator gives the same twice and the lockstep one the same again.
+pub fn outcomes_on_every_evaluator(
+    template: &hevo_sim_core::ControllerFile,
+    genes: &[f32],
+    task: &TaskConfig,
+) -> Vec<hevo_sim_core::Outcome> {
+    use hevo_sim_core::{BatchEvaluator, EvaluatorKind, Sample};
+    let samples: Vec<Sample> = (0..11).map(Sample::seeded).collect();
+    let outcomes = |kind| {
+        BatchEvaluator::new(template.clone(), task.clone())
+            .expect("valid")
+            .with_kind(kind)
+            .evaluate_genome(Some(genes), &samples)
+            .expect("genes fit")
+    };
+    let scalar = outcomes(EvaluatorKind::Scalar);
+    assert_eq!(scalar, outcomes(EvaluatorKind::Scalar), "run twice");
+    assert_eq!(scalar, outcomes(EvaluatorKind::Lockstep), "lockstep");
+    scalar
+}

@@ -3,10 +3,10 @@
 //! one on a team (its `tasks()` include one); and a file whose team cannot be built is refused
 //! before any evaluation, naming the key.
 
-use hevo_sim_core::{BatchEvaluator, ControllerFile, EvaluatorKind, NodeSpec, Pose, Sample};
+use hevo_sim_core::{BatchEvaluator, ControllerFile, Pose, Sample};
 use hevo_sim_core::{Evaluator, InputGroup, Scenario, SimRng, TaskConfig};
 use proptest::prelude::*;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use std::sync::Arc;
 
 /// A walled arena with two pillars, the focal robot and eight more: five running copies of the
@@ -75,12 +75,7 @@ pub(crate) fn team_task() -> TaskConfig {
 
 /// A primitive on the IR ring with random genes: it drives anywhere, into walls and robots.
 fn random_controller(rng: &mut SimRng) -> (ControllerFile, Vec<f32>) {
-    let spec = NodeSpec::primitive("root", vec![InputGroup::IR], 3);
-    let n_genes = spec.topology().n_genes();
-    let genes: Vec<f32> = (0..n_genes)
-        .map(|_| rng.random_range(-10.0f32..10.0))
-        .collect();
-    (ControllerFile::new(spec), genes)
+    crate::support::random_primitive(rng, vec![InputGroup::IR])
 }
 
 fn overlaps(a: &Pose, b: &Pose, radius: f32) -> bool {
@@ -151,17 +146,7 @@ fn a_team_sample_is_the_same_every_time_and_on_every_evaluator() {
     let task = team_task();
     let rng = &mut SimRng::seed_from_u64(5);
     let (template, genes) = random_controller(rng);
-    let samples: Vec<Sample> = (0..11).map(Sample::seeded).collect();
-    let outcomes = |kind| {
-        BatchEvaluator::new(template.clone(), task.clone())
-            .expect("valid")
-            .with_kind(kind)
-            .evaluate_genome(Some(&genes), &samples)
-            .expect("genes fit")
-    };
-    let scalar = outcomes(EvaluatorKind::Scalar);
-    assert_eq!(scalar, outcomes(EvaluatorKind::Scalar), "run twice");
-    assert_eq!(scalar, outcomes(EvaluatorKind::Lockstep), "lockstep");
+    let scalar = crate::support::outcomes_on_every_evaluator(&template, &genes, &task);
     // The team moved: its robots' spread is not the same in every sample.
     let spreads: Vec<f32> = scalar.iter().map(|outcome| outcome.descriptor[0]).collect();
     assert!(spreads.iter().any(|&s| s != spreads[0]), "{spreads:?}");
