@@ -3,6 +3,7 @@ on) and two workers (`hevo-worker`): the Evaluation `hevo.evaluate` returns, byt
 with one worker killed while it holds a batch; the master's refusals."""
 
 import re
+import signal
 import threading
 import time
 import urllib.request
@@ -65,10 +66,27 @@ def test_equal_to_local_evaluate_with_a_worker_killed_mid_batch(repo, two_worker
 
     thread = threading.Thread(target=evaluate)
     thread.start()
-    # Both workers hold a batch and some are done: kill one of them now.
-    wait_for(lambda: metrics(two_workers.metrics_url).get("hevo_batches_leased", 0) >= 2,
-             "both workers to hold a batch")
-    two_workers.workers[0].kill()
+    # Kill one worker while it holds a batch. Each worker has one thread and so holds at most
+    # one batch: with both stopped (SIGSTOP) and two batches still leased, each holds one, and
+    # neither can finish it between the look and the kill.
+    doomed, survivor = two_workers.workers
+
+    def both_stopped_holding_a_batch():
+        if metrics(two_workers.metrics_url).get("hevo_batches_leased", 0) < 2:
+            return False
+        for worker in (doomed, survivor):
+            worker.send_signal(signal.SIGSTOP)
+        # Results sent just before the stop reach the master within this pause.
+        time.sleep(0.2)
+        holding = metrics(two_workers.metrics_url).get("hevo_batches_leased", 0) >= 2
+        if not holding:
+            for worker in (doomed, survivor):
+                worker.send_signal(signal.SIGCONT)
+        return holding
+
+    wait_for(both_stopped_holding_a_batch, "both workers to be stopped holding a batch")
+    doomed.kill()
+    survivor.send_signal(signal.SIGCONT)
     thread.join(timeout=600)
     assert not thread.is_alive(), "Client.evaluate did not return"
     assert "error" not in outcome, outcome.get("error")
