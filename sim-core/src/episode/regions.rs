@@ -76,9 +76,10 @@ pub fn named_regions(task: &TaskConfig, env: &Environment) -> Vec<NamedRegion> {
     if scenario.world.has_corridor()
         && let Some(goal) = &env.ground.goal
     {
-        // A generated corridor's path is its cells from 0: the first is its start.
+        // A generated corridor's cells follow the map's, if any: the first is its start.
         let size = goal.map.cell_size;
-        for (name, cell) in [("corridor.start", 0), ("corridor.end", goal.goal)] {
+        let start = scenario.map.as_ref().map_or(0, |map| map.map.cells.len());
+        for (name, cell) in [("corridor.start", start), ("corridor.end", goal.goal)] {
             if cell < goal.map.cells.len() {
                 regions.push(NamedRegion {
                     name: name.into(),

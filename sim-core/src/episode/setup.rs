@@ -177,6 +177,10 @@ pub fn build(
         }
     };
     let path: Option<Vec<usize>> = match (&corridor_path, &cells, &plan.goal) {
+        // A corridor beyond a map: from the start, through the map, to the corridor's end.
+        (Some(path), Some(cells), _) if scenario.map.is_some() => {
+            start_cell(cells).and_then(|from| cells::path_between(cells, from, *path.last()?))
+        }
         (Some(path), _, _) => Some(path.clone()),
         (None, Some(cells), Some(goal)) => start_cell(cells)
             .and_then(|from| cells::path_between(cells, from, region_cell(scenario, goal))),

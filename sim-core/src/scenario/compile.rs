@@ -121,6 +121,11 @@ pub(super) fn compile(
     let descriptor = descriptor(&file, &facts, &mut quantities, &error)?;
     let (phases, stages) = phases_and_stages(&file, &facts, &error)?;
     goals_reachable(map.as_deref(), &variants, &place, &error)?;
+    if world.has_corridor()
+        && let Some(map) = map.as_deref()
+    {
+        exit_reachable(map, &variants, &place, &error)?;
+    }
 
     let rect_regions = regions.rects;
     Ok(Scenario {
@@ -1042,6 +1047,46 @@ fn phases_and_stages(
 }
 
 /// In map worlds: every variant's goal can be reached from its start.
+/// A corridor beyond a map: its end is the goal, and every start reaches the map's exit.
+fn exit_reachable(
+    map: &CompiledMap,
+    variants: &[Variant],
+    place: &Place,
+    error: Refuse<'_>,
+) -> Result<(), ScenarioError> {
+    let exit = map.regions["exit"][0];
+    for (idx, variant) in variants.iter().enumerate() {
+        if variant.goal.is_some() {
+            return Err(error(
+                &format!("variant[{idx}].goal"),
+                "the goal of a corridor beyond a map is the corridor's end: leave the \
+                 variant's goal out"
+                    .into(),
+            ));
+        }
+        let start = match &place.at {
+            PlaceAt::VariantStart => variant.start.clone(),
+            PlaceAt::Region(region) => Some(region.clone()),
+            _ => None,
+        };
+        // A rectangle start is tested where the robot is drawn, not here.
+        let Some(cells) = start.as_ref().and_then(|start| map.regions.get(start)) else {
+            continue;
+        };
+        let reaches = cells
+            .iter()
+            .all(|&from| crate::geometry::cells::path_between(&map.map, from, exit).is_some());
+        if !reaches {
+            let start = start.expect("a map region's name");
+            return Err(error(
+                "world.corridor",
+                format!("no way leads from the start '{start}' to the map's exit"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn goals_reachable(
     map: Option<&CompiledMap>,
     variants: &[Variant],

@@ -113,9 +113,118 @@ pub fn build(turn: Turn, before: u32, after: u32, junction: Junction) -> Corrido
     }
 }
 
+/// A corridor turned and moved to run outward from a map's cell `exit` across its side
+/// `outward`, its first cell next to `exit` and the border between them open: one map of the
+/// map's cells (same indices) followed by the corridor's, and the corridor's path in it.
+/// With `exit` on the map's outermost row or column on that side, every corridor cell lies
+/// beyond the map: none lands on a map cell, whatever the corridor's lengths.
+pub fn join_beyond(map: &CellMap, exit: usize, outward: Side, corridor: &Corridor) -> Corridor {
+    let turns = outward as usize;
+    let [ex, ey] = map.cells[exit].at;
+    let [ox, oy] = outward.offset();
+    let mut cells = map.cells.clone();
+    cells[exit].walls[outward as usize] = false;
+    let first = cells.len();
+    cells.extend(corridor.map.cells.iter().map(|cell| {
+        let [x, y] = turn_cell(cell.at, outward);
+        let mut walls = [false; 4];
+        for (side_idx, &wall) in cell.walls.iter().enumerate() {
+            walls[(side_idx + turns) % 4] = wall;
+        }
+        Cell {
+            at: [ex + ox + x, ey + oy + y],
+            walls,
+        }
+    }));
+    // The corridor's first cell opens back onto the exit.
+    cells[first + corridor.path[0]].walls[outward.opposite() as usize] = false;
+    Corridor {
+        map: CellMap::new(cells, map.cell_size, map.wall_thickness),
+        path: corridor.path.iter().map(|&idx| first + idx).collect(),
+    }
+}
+
+/// A corridor cell's grid offset from its first cell, turned from heading +y to `outward`.
+fn turn_cell([x, y]: [i32; 2], outward: Side) -> [i32; 2] {
+    match outward {
+        Side::Top => [x, y],
+        Side::Right => [y, -x],
+        Side::Bottom => [-x, -y],
+        Side::Left => [-y, x],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_corridor_joins_beyond_an_exit_on_any_side() {
+        // A plus of five cells: each arm's end is outermost on one side.
+        let at = [[0, 0], [0, 1], [1, 0], [0, -1], [-1, 0]];
+        let cells = at
+            .iter()
+            .map(|&at| Cell {
+                at,
+                // Open only between the centre and an arm.
+                walls: Side::ALL.map(|side| {
+                    let [dx, dy] = side.offset();
+                    let next = [at[0] + dx, at[1] + dy];
+                    !(next == [0, 0] || at == [0, 0])
+                }),
+            })
+            .collect();
+        let plus = CellMap::new(cells, MAZE_CELL_SIZE, MAZE_WALL_THICKNESS);
+        let corridor = build(Turn::Left, 2, 3, Junction::Bend);
+        for (exit, outward) in [
+            (1, Side::Top),
+            (2, Side::Right),
+            (3, Side::Bottom),
+            (4, Side::Left),
+        ] {
+            let joined = join_beyond(&plus, exit, outward, &corridor);
+            // The map's cells first, unchanged but for the exit's open side.
+            assert_eq!(joined.map.cells.len(), 5 + corridor.map.cells.len());
+            for (idx, (before, after)) in plus.cells.iter().zip(&joined.map.cells).enumerate() {
+                assert_eq!(before.at, after.at);
+                let mut walls = before.walls;
+                if idx == exit {
+                    walls[outward as usize] = false;
+                }
+                assert_eq!(walls, after.walls, "{outward:?}, cell {idx}");
+            }
+            // The corridor's first cell lies across the exit's side and opens onto it; the way
+            // runs from the plus's centre to the corridor's end, turning left of `outward`.
+            let first = joined.path[0];
+            let [ox, oy] = outward.offset();
+            let [ex, ey] = plus.cells[exit].at;
+            assert_eq!(joined.map.cells[first].at, [ex + ox, ey + oy]);
+            let way =
+                crate::geometry::cells::path_between(&joined.map, 0, *joined.path.last().unwrap())
+                    .expect("the corridor's end is reached through the exit");
+            assert_eq!(way.len(), 2 + joined.path.len(), "{outward:?}");
+            let end = joined.map.cells[*joined.path.last().unwrap()].at;
+            let left = Side::ALL[(outward as usize + 3) % 4].offset();
+            let along = |v: [i32; 2], d: [i32; 2]| v[0] * d[0] + v[1] * d[1];
+            assert_eq!(
+                along([end[0] - ex, end[1] - ey], [ox, oy]),
+                2,
+                "{outward:?}"
+            );
+            assert_eq!(along([end[0] - ex, end[1] - ey], left), 3, "{outward:?}");
+            // The walls close the whole: no open border leads out of the cells.
+            for (idx, cell) in joined.map.cells.iter().enumerate() {
+                for side in Side::ALL {
+                    let [dx, dy] = side.offset();
+                    let next = joined.map.index_of([cell.at[0] + dx, cell.at[1] + dy]);
+                    assert!(
+                        cell.walls[side as usize] || next.is_some(),
+                        "{outward:?} {idx}"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn straight_corridor_is_a_closed_tube() {

@@ -1314,6 +1314,98 @@ fn a_random_maze_is_drawn_per_sample_with_its_goal_reachable_from_the_start() {
 }
 
 #[test]
+fn a_corridor_beyond_a_map_is_drawn_per_sample_and_reached_through_the_map() {
+    let evaluator = Evaluator::new(example_task("map_to_corridor")).unwrap();
+    let n_map_cells = 6;
+    let mut shapes = std::collections::BTreeSet::new();
+    for seed in 0..40 {
+        let env = evaluator.environment(Sample::seeded(seed));
+        let goal = env.ground.goal.as_ref().expect("a goal in cells");
+        let map = &goal.map;
+        // The map's cells keep their places and indices; the corridor's follow, every one of
+        // them right of the map's exit column, and its first cell opens onto the exit.
+        assert_eq!(
+            map.cells[..n_map_cells]
+                .iter()
+                .map(|c| c.at)
+                .collect::<Vec<_>>(),
+            [[0, 4], [0, 3], [1, 3], [2, 3], [0, 2], [0, 1]]
+        );
+        assert!(
+            map.cells[n_map_cells..].iter().all(|c| c.at[0] > 2),
+            "seed {seed}"
+        );
+        assert!(map.neighbours(3).any(|n| n == n_map_cells), "seed {seed}");
+        // The way runs from the entrance through the exit to the corridor's end, every cell
+        // finitely far from the goal; the map's dead end is off it.
+        let start_cell = map.cell_at([env.start.x, env.start.y]);
+        assert_eq!(start_cell, Some(5), "seed {seed}");
+        for cell in [5, 4, 1, 2, 3, n_map_cells, goal.goal] {
+            assert!(goal.on_path[cell], "seed {seed}: cell {cell}");
+        }
+        assert!(!goal.on_path[0], "seed {seed}: the dead end");
+        assert!(goal.goal >= n_map_cells);
+        assert!(goal.distances.iter().all(|d| d.is_finite()), "seed {seed}");
+        assert!(!env.scene.disc_hits([env.start.x, env.start.y], 0.0375));
+        shapes.insert(env.variant);
+        // The same seed, the same corridor.
+        let again = evaluator.environment(Sample::seeded(seed));
+        let again_map = &again.ground.goal.as_ref().unwrap().map;
+        assert_eq!(map.cells, again_map.cells);
+    }
+    assert_eq!(shapes.len(), 2, "an L-bend and a T-junction: {shapes:?}");
+}
+
+#[test]
+fn a_corridor_beyond_a_map_needs_an_outermost_exit_and_no_other_goal() {
+    let text = example("map_to_corridor");
+    for (from, to, key, wanted) in [
+        (
+            "E = \"exit\"",
+            "E = \"way_out\"",
+            "world.corridor",
+            "the map's one-cell region 'exit'",
+        ),
+        (
+            "D##\n..E",
+            "D#E\n...",
+            "world.corridor",
+            "must be outermost on exactly one side",
+        ),
+        (
+            "cell_size = 0.30",
+            "cell_size = 0.40",
+            "world.map",
+            "a corridor joins a map of 0.3 m cells",
+        ),
+        (
+            "D##\n..E",
+            "D##\n#.E",
+            "world.corridor",
+            "no way leads from the start 'entrance' to the map's exit",
+        ),
+        (
+            "corridor = \"left\"",
+            "corridor = \"left\"\nroom = \"standalone\"",
+            "world.corridor",
+            "a map, a room and a corridor do not join",
+        ),
+        (
+            "[place]",
+            "[[variant]]\nname = \"one\"\ngoal = \"dead_end\"\n\n[place]",
+            "variant[0].goal",
+            "the goal of a corridor beyond a map is the corridor's end",
+        ),
+    ] {
+        let error = edit_refusal(text, from, to);
+        assert!(
+            error.contains(&format!("at `{key}`")) && error.contains(wanted),
+            "{to}: {error}"
+        );
+    }
+}
+
+#[test]
 fn a_random_maze_of_no_size_or_beside_another_world_is_refused() {
     let maze = example("random_maze");
     for (to, wanted) in [

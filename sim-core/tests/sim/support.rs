@@ -17,7 +17,7 @@ pub const ROOM_TO_CORRIDOR: &str =
     include_str!("../../../scenarios/examples/room_to_corridor.toml");
 
 /// The example scenarios of `scenarios/examples/`, by name.
-pub const EXAMPLES: [(&str, &str); 9] = [
+pub const EXAMPLES: [(&str, &str); 10] = [
     ("t_maze", T_MAZE),
     (
         "triple_t_maze",
@@ -44,6 +44,10 @@ pub const EXAMPLES: [(&str, &str); 9] = [
     (
         "random_maze",
         include_str!("../../../scenarios/examples/random_maze.toml"),
+    ),
+    (
+        "map_to_corridor",
+        include_str!("../../../scenarios/examples/map_to_corridor.toml"),
     ),
 ];
 

@@ -1,6 +1,6 @@
 //! `hevo scenario check` and `hevo scenario draw` as a user runs them, on the examples with a
-//! wandering teammate, with a room joined under a corridor, with the authors' room and with a
-//! random maze, and on the rescue: check
+//! wandering teammate, with a room joined under a corridor, with the authors' room, with a
+//! random maze and with a corridor beyond a map, and on the rescue: check
 //! accepts them, and every region `draw` should name (the map's, the generators') is in the
 //! picture, shaded and labelled. On a team's arena, `draw` shows where each other robot starts.
 
@@ -41,6 +41,17 @@ fn check_accepts_and_draw_names_every_region() {
             "scenarios/examples/random_maze.toml",
             "4",
             &["corridor.start", "corridor.end"][..],
+        ),
+        (
+            "scenarios/examples/map_to_corridor.toml",
+            "1",
+            &[
+                "dead_end",
+                "entrance",
+                "exit",
+                "corridor.start",
+                "corridor.end",
+            ][..],
         ),
         (
             "rescue",

@@ -43,6 +43,7 @@ pub static WORLDS: &[WorldKind] = &[
     worlds::MAP,
     worlds::ROOM,
     worlds::CORRIDOR,
+    worlds::CORRIDOR_BEYOND_MAP,
     worlds::ROOM_BELOW_MAP,
     worlds::ROOM_BELOW_CORRIDOR,
     worlds::SOLIDS,

@@ -1,11 +1,10 @@
 //! The worlds a scenario's `[world]` table names: a fixed map, a generated room, a generated
-//! corridor, the joins (a room below the map's entrance, a room below a corridor), and a
-//! random maze. Each
-//! recognises its combination of `map`, `room` and `corridor`, and draws one sample's layout
-//! from the environment stream in a fixed order.
+//! corridor, the joins (a room below the map's entrance, a room below a corridor, a corridor
+//! beyond a map), and a random maze. Each recognises its combination of `map`, `room` and
+//! `corridor`, and draws one sample's layout from the environment stream in a fixed order.
 
 use super::{Built, FixedLayout, Refusal, World, WorldKind};
-use crate::config::Params;
+use crate::config::{MAZE_CELL_SIZE, Params};
 use crate::geometry::cells::{CellMap, Side};
 use crate::geometry::scene::{Rect, Scene};
 use crate::math::rng::SimRng;
@@ -22,9 +21,11 @@ pub const MAP: WorldKind = WorldKind {
     syntax: "a map",
     compile: |decl, _| match (&decl.map, &decl.room, &decl.corridor) {
         (Some(_), None, None) => Some(Ok(Box::new(FixedMap))),
-        (Some(_), _, Some(_)) => Some(Err((
+        (Some(_), Some(_), Some(_)) => Some(Err((
             "world.corridor",
-            "a map and a generated corridor do not join: give one of them".into(),
+            "a map, a room and a corridor do not join: give a map and a corridor, or a room \
+             and one of them"
+                .into(),
         ))),
         _ => None,
     },
@@ -148,6 +149,119 @@ impl World for RoomBelowMap {
     }
 }
 
+/// `map` and `corridor`: a generated corridor beyond the map's one-cell region `exit`,
+/// running outward across the side where the exit is the map's outermost cell.
+pub const CORRIDOR_BEYOND_MAP: WorldKind = WorldKind {
+    syntax: "a map and a corridor (beyond the map's `exit`)",
+    compile: |decl, map| match (&decl.map, &decl.room, decl.corridor.as_deref()) {
+        (Some(_), None, Some(turn)) => Some(
+            parse_turn(turn)
+                .and_then(|turn| corridor_beyond(map.expect("a map world has its map"), turn)),
+        ),
+        _ => None,
+    },
+};
+
+/// The map's exit and the side the corridor leaves it by, or why the map cannot have one.
+fn corridor_beyond(map: &CompiledMap, turn: Turn) -> Result<Box<dyn World>, Refusal> {
+    let cells = &map.map;
+    if cells.cell_size != MAZE_CELL_SIZE || cells.wall_thickness != corridor::MAZE_WALL_THICKNESS {
+        return Err((
+            "world.map",
+            format!(
+                "a corridor joins a map of {MAZE_CELL_SIZE} m cells with {} m walls, as it is \
+                 drawn; this map's cells are {} m with {} m walls",
+                corridor::MAZE_WALL_THICKNESS,
+                cells.cell_size,
+                cells.wall_thickness
+            ),
+        ));
+    }
+    let exit = match map.regions.get("exit").map(Vec::as_slice) {
+        Some(&[exit]) => exit,
+        _ => {
+            return Err((
+                "world.corridor",
+                "a corridor beyond a map leaves by the map's one-cell region 'exit': name one \
+                 open cell `exit` in the legend"
+                    .into(),
+            ));
+        }
+    };
+    // The corridor leaves across the side where the exit is the map's outermost cell, so
+    // every cell of it lies beyond the map.
+    let [x, y] = cells.cells[exit].at;
+    let outermost = |side: Side| {
+        cells.cells.iter().all(|cell| match side {
+            Side::Top => cell.at[1] <= y,
+            Side::Right => cell.at[0] <= x,
+            Side::Bottom => cell.at[1] >= y,
+            Side::Left => cell.at[0] >= x,
+        })
+    };
+    let outward: Vec<Side> = Side::ALL
+        .into_iter()
+        .filter(|&side| outermost(side))
+        .collect();
+    match outward.as_slice() {
+        &[outward] => Ok(Box::new(CorridorBeyondMap {
+            turn,
+            exit,
+            outward,
+        })),
+        sides => Err((
+            "world.corridor",
+            format!(
+                "the corridor leaves the map across the side where its exit is the map's \
+                 outermost open cell: the exit (column {x}, row {y} from the origin) must be \
+                 outermost on exactly one side (top, right, bottom or left), and it is on {}",
+                match sides {
+                    [] => "none".to_string(),
+                    _ => sides
+                        .iter()
+                        .map(|side| format!("{side:?}").to_lowercase())
+                        .collect::<Vec<_>>()
+                        .join(" and "),
+                }
+            ),
+        )),
+    }
+}
+
+/// A generated corridor beyond a fixed map: the map's cells, then the corridor's.
+#[derive(Debug)]
+struct CorridorBeyondMap {
+    turn: Turn,
+    /// The map's exit cell.
+    exit: usize,
+    /// The exit's side the corridor leaves by.
+    outward: Side,
+}
+
+impl World for CorridorBeyondMap {
+    fn has_corridor(&self) -> bool {
+        true
+    }
+
+    fn shapes(&self) -> &'static [&'static str] {
+        Corridor::shapes_of(self.turn)
+    }
+
+    fn build(
+        &self,
+        scenario: &Scenario,
+        params: &Params,
+        _statics: Option<&FixedLayout>,
+        rng: &mut SimRng,
+    ) -> Built {
+        let map = &scenario.map.as_ref().expect("a map world has its map").map;
+        let (cells, path, junction) = generate_corridor(self.turn, params, rng);
+        let corridor = corridor::Corridor { map: cells, path };
+        let joined = corridor::join_beyond(map, self.exit, self.outward, &corridor);
+        cells_with_path(joined.map, joined.path, Some(junction.index()), params)
+    }
+}
+
 /// `corridor = "straight" | "left" | "right"`: a generated corridor.
 pub const CORRIDOR: WorldKind = WorldKind {
     syntax: "a corridor",
@@ -200,6 +314,17 @@ struct Corridor {
     room_below: bool,
 }
 
+impl Corridor {
+    /// The shapes a corridor turning `turn` reports: its junctions', for a turn.
+    fn shapes_of(turn: Turn) -> &'static [&'static str] {
+        if turn == Turn::Straight {
+            &[]
+        } else {
+            &["L-bend", "T-junction", "side junction"]
+        }
+    }
+}
+
 impl World for Corridor {
     fn has_room(&self) -> bool {
         self.room_below
@@ -214,11 +339,7 @@ impl World for Corridor {
     }
 
     fn shapes(&self) -> &'static [&'static str] {
-        if self.turn == Turn::Straight {
-            &[]
-        } else {
-            &["L-bend", "T-junction", "side junction"]
-        }
+        Corridor::shapes_of(self.turn)
     }
 
     fn build(
