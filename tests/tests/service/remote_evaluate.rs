@@ -198,6 +198,29 @@ fn assert_local_results(
     }
 }
 
+/// Results a worker makes up for every sample of `batch` without evaluating it: plausible
+/// (in range, of the sample's variant, ending where the maze's behaviour descriptor may), so
+/// only a spot check can catch them; `ending` as given (`None`: unset, as hevo sent before
+/// the field existed).
+fn made_up_results(batch: &v1::Batch, ending: Option<v1::SampleEnding>) -> Vec<v1::GenomeResult> {
+    let sample_result = |sample: &v1::SampleSpec| v1::SampleResult {
+        fitness: 0.5,
+        cycles: 10,
+        variant: sample.variant.unwrap_or(0),
+        descriptor: vec![0.1, 0.2],
+        ending: ending.map_or(0, Into::into),
+        ..v1::SampleResult::default()
+    };
+    let samples: Vec<v1::SampleResult> = batch.samples.iter().map(sample_result).collect();
+    batch
+        .genomes
+        .iter()
+        .map(|_| v1::GenomeResult {
+            samples: samples.clone(),
+        })
+        .collect()
+}
+
 #[test]
 fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
     let scratch = Scratch::new("remote-evaluate-forged");
@@ -212,24 +235,7 @@ fn a_forging_worker_caught_by_a_spot_check_makes_the_client_evaluate_again() {
             let mut forged_batches = 0;
             // Plausible results (in range, of the sample's variant) for every batch it gets, until the master gives it none.
             while let Some(batch) = lease(&mut forger, "forger", Duration::from_secs(3)).await {
-                let forged = batch
-                    .genomes
-                    .iter()
-                    .map(|_| v1::GenomeResult {
-                        samples: (batch.samples.iter())
-                            .map(|sample| v1::SampleResult {
-                                fitness: 0.5,
-                                cycles: 10,
-                                variant: sample.variant.unwrap_or(0),
-                                // Where the robot ended: the maze's behaviour descriptor, so the
-                                // lie is plausible and only a spot check can catch it.
-                                descriptor: vec![0.1, 0.2],
-                                ending: v1::SampleEnding::Timeout.into(),
-                                ..v1::SampleResult::default()
-                            })
-                            .collect(),
-                    })
-                    .collect();
+                let forged = made_up_results(&batch, Some(v1::SampleEnding::Timeout));
                 let _ = forger
                     .complete_batch(v1::CompleteBatchRequest {
                         worker: "forger".into(),
@@ -279,21 +285,7 @@ fn a_worker_older_than_the_ending_field_is_refused_naming_it() {
                 .await
                 .expect("a batch for the old worker");
             // What a worker built before the field sends: everything but the ending.
-            let results = batch
-                .genomes
-                .iter()
-                .map(|_| v1::GenomeResult {
-                    samples: (batch.samples.iter())
-                        .map(|sample| v1::SampleResult {
-                            fitness: 0.5,
-                            cycles: 10,
-                            variant: sample.variant.unwrap_or(0),
-                            descriptor: vec![0.1, 0.2],
-                            ..v1::SampleResult::default()
-                        })
-                        .collect(),
-                })
-                .collect();
+            let results = made_up_results(&batch, None);
             let refused = old
                 .complete_batch(v1::CompleteBatchRequest {
                     worker: "old".into(),
