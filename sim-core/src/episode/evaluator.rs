@@ -202,14 +202,9 @@ impl Evaluator {
             return Ok(());
         }
         let radius = self.task.params.robot.radius;
-        let corners: Vec<[f32; 2]> = env
-            .scene
-            .rects()
-            .iter()
-            .flat_map(|rect| rect.corners())
-            .collect();
-        let [x0, y0, x1, y1] = reach_bounds(&env.scene, &[&corners], 0.0);
-        let where_ = format!("in variant {variant}, seed {seed}");
+        // The walls' bounds: a waypoint beyond them is outside the world.
+        let [x0, y0, x1, y1] = reach_bounds(&env.scene, &[], 0.0);
+        let in_sample = format!("in variant {variant}, seed {seed}");
         for (mover_idx, path) in scenario.movers.iter().enumerate() {
             let key = |point_idx: usize| format!("movers[{mover_idx}].path[{point_idx}]");
             for (point_idx, &[x, y]) in path.points.iter().enumerate() {
@@ -219,7 +214,8 @@ impl Evaluator {
                     return Err(scenario.refusal(
                         &key(point_idx),
                         format!(
-                            "the waypoint ({x}, {y}) m of mover '{}' lies outside the world {where_}",
+                            "the waypoint ({x}, {y}) m of mover '{}' lies outside the world \
+                             {in_sample}",
                             path.name
                         ),
                     ));
@@ -231,7 +227,7 @@ impl Evaluator {
                         &key(leg_idx),
                         format!(
                             "the leg of mover '{}' from ({}, {}) to ({}, {}) m passes within its \
-                             radius ({} m) of a wall or obstacle {where_}",
+                             radius ({} m) of a wall or obstacle {in_sample}",
                             path.name, from[0], from[1], to[0], to[1], path.radius
                         ),
                     ));
@@ -242,7 +238,8 @@ impl Evaluator {
                 return Err(scenario.refusal(
                     "place",
                     format!(
-                        "the robot starts on mover '{}' at ({:.3}, {:.3}) m {where_}; move the                          start or the mover's `start`",
+                        "the robot starts on mover '{}' at ({:.3}, {:.3}) m {in_sample}; move the \
+                         start or the mover's `start`",
                         path.name, env.start.x, env.start.y
                     ),
                 ));
@@ -283,7 +280,7 @@ impl Evaluator {
                     format!(
                         "the region '{}' has no room for the {} boxes of group '{}' clear of \
                          walls, robots, items, movers and each other: one stands touching \
-                         {touching} at ({:.3}, {:.3}) m {where_}; give the group a larger region \
+                         {touching} at ({:.3}, {:.3}) m {in_sample}; give the group a larger region \
                          or fewer boxes",
                         scenario.file.box_groups[group_idx].region,
                         group.count,
