@@ -491,6 +491,30 @@ mod tests {
         assert!((beside - (1.5 - 2f32.sqrt())).abs() < 1e-5, "{beside}");
     }
 
+    #[test]
+    fn a_move_onto_a_mover_is_refused_and_a_mover_waits_for_a_box() {
+        // A mover running east along the x axis from x = 0, a box ahead of it at x = 0.2.
+        let paths = [path(&[[0.0, 0.0], [1.0, 0.0]], PathMode::Loop, 0.0)];
+        let boxes = discs(&[[0.2, 0.0]]);
+        let mut bodies = Bodies::new(&paths, boxes);
+        assert_eq!(bodies.discs().len(), 2);
+        let scene = Scene::new(Vec::new(), 0.25);
+        // A robot moving onto the mover is refused; one beside it moves.
+        assert!(!bodies.admit([0.05, 0.05], 0.037, &scene, |_| false));
+        assert!(bodies.admit([0.0, 0.5], 0.037, &scene, |_| false));
+        // The mover advances 1 cm a cycle until it touches the box, then waits.
+        for _ in 0..30 {
+            bodies.end_cycle(&paths, 0.1, &[[0.0, 0.5]], 0.037);
+        }
+        let mover = bodies.movers().discs()[0];
+        assert!(mover.center[0] <= 0.1 + 1e-6, "{mover:?}");
+        assert!(mover.center[0] > 0.09, "{mover:?}");
+        // A robot in its way holds it up as well.
+        let mut bodies = Bodies::new(&paths, Vec::new());
+        bodies.end_cycle(&paths, 0.1, &[[0.09, 0.0]], 0.037);
+        assert_eq!(bodies.movers().discs()[0].center, [0.0, 0.0]);
+    }
+
     proptest! {
         /// Whatever a robot does, no two boxes ever overlap, a box never lands where `blocked`
         /// says it may not be, and a refused push moves nothing.
