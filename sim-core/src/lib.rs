@@ -44,12 +44,13 @@ pub use network::controller::{
 };
 pub use network::ctrnn::{CtrnnTopology, GENE_MAX, GENE_MIN, logistic, tau_from_gene};
 pub use outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle, TracedItem,
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle, TracedBox,
+    TracedItem, TracedMover,
 };
 pub use scenario::file::ChildRef;
 pub use scenario::{
-    DEFAULT_DESCRIPTOR, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_ROBOTS, SHIPPED, SHIPPED_NAMES,
-    Scenario, ScenarioError,
+    DEFAULT_DESCRIPTOR, MAX_BOXES, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_MOVERS, MAX_ROBOTS,
+    SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError,
 };
 pub use sensors::IrCone;
 pub use sensors::calibration::MeanStd;

@@ -163,6 +163,10 @@ pub struct TraceCycle {
     /// A team's other robots' poses at the start of the cycle, group by group (`[[robots]]`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub team: Vec<Pose>,
+    /// The movers' then the boxes' centres at the start of the cycle (`[[movers]]`,
+    /// `[[boxes]]`), in the order of the trace's `movers` and `boxes`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bodies: Vec<[f32; 2]>,
 }
 
 /// One item of a trace: where it lay at the start and where it ended.
@@ -176,6 +180,32 @@ pub struct TracedItem {
     pub delivered: bool,
     /// Whether a robot carries it at the end.
     pub carried: bool,
+}
+
+/// One mover of a trace: its path and where it ended.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TracedMover {
+    /// Its name.
+    pub name: String,
+    /// Its radius, metres.
+    pub radius: f32,
+    /// Its waypoints.
+    pub path: Vec<[f32; 2]>,
+    /// Whether it runs the path as a loop (else back and forth).
+    pub looped: bool,
+    /// Where it stands at the end.
+    pub end: [f32; 2],
+}
+
+/// One box of a trace: where it stood at the start and where it ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TracedBox {
+    /// Its radius, metres.
+    pub radius: f32,
+    /// Where it stood at the sample's start.
+    pub start: [f32; 2],
+    /// Where it stands at the end.
+    pub end: [f32; 2],
 }
 
 /// What a replay needs to draw a sample: the world and every cycle.
@@ -207,6 +237,12 @@ pub struct Trace {
     /// The items of a scenario with `[[objects]]`, by item (empty without).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub items: Vec<TracedItem>,
+    /// The movers of a scenario with `[[movers]]`, by mover (empty without).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub movers: Vec<TracedMover>,
+    /// The boxes of a scenario with `[[boxes]]`, by box (empty without).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boxes: Vec<TracedBox>,
     /// The final pose of the robot.
     pub final_robot: Pose,
     /// The final poses of a team's other robots, in the order of each cycle's `team` (empty

@@ -1,7 +1,8 @@
 //! Replays of one evaluated sample as an SVG picture: the world drawn to scale (walls,
 //! obstacles, the room's exit, the maze's lights and goal), the teammate's path, a team's other
 //! robots (each one's path, start and last pose, in a muted colour per group), the items of a
-//! foraging sample (where each lay, where it ended, delivered or not), and the
+//! foraging sample (where each lay, where it ended, delivered or not), the movers (each one's
+//! path and where it ended) and boxes (where each stood, where it was pushed to), and the
 //! robot's trajectory coloured by which leaf controller of the tree was driving at each moment,
 //! with a legend naming those controllers, markers for the start, collisions and the final
 //! pose, optional IR sensor cones at chosen cycles, and an optional looping animation. It reads
@@ -86,6 +87,10 @@ const TEAM_PATH_WIDTH: f64 = 1.5;
 const ITEM_COLOUR: &str = "#d55e00";
 /// An item delivered in the nest.
 const DELIVERED_COLOUR: &str = "#009e73";
+/// A mover (`[[movers]]`): its path and its disc, a dark blue-grey.
+const MOVER_COLOUR: &str = "#44546a";
+/// A box robots push (`[[boxes]]`): a brown disc.
+const BOX_COLOUR: &str = "#8c564b";
 
 const WALL_COLOUR: &str = "#4d4d4d";
 const OBSTACLE_COLOUR: &str = "#a68a64";
@@ -667,6 +672,7 @@ fn render(
     // Under the focal robot's path and marks, which the picture is about.
     draw_team(&mut doc, trace, &team, &transform, radius_px);
     draw_items(&mut doc, trace, &transform);
+    draw_bodies(&mut doc, trace, &transform);
     let faint = options.animate;
     doc.open(
         Tag::new("g")
@@ -1343,7 +1349,6 @@ fn draw_items(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
         .iter()
         .filter(|item| finite(item.start) && finite(item.end))
     {
-        let (start, end) = (transform.apply(item.start), transform.apply(item.end));
         let colour = if item.delivered {
             DELIVERED_COLOUR
         } else {
@@ -1355,40 +1360,132 @@ fn draw_items(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 .attr("data-delivered", item.delivered.to_string())
                 .attr("data-carried", item.carried.to_string()),
         );
-        if item.start != item.end {
-            doc.leaf(
-                Tag::new("circle")
-                    .class("item-start")
-                    .num("cx", start[0])
-                    .num("cy", start[1])
-                    .num("r", radius_px)
-                    .attr("fill", "none")
-                    .attr("stroke", ITEM_COLOUR)
-                    .num("stroke-width", 1.0),
-            );
-            doc.leaf(
-                Tag::new("line")
-                    .class("item-way")
-                    .num("x1", start[0])
-                    .num("y1", start[1])
-                    .num("x2", end[0])
-                    .num("y2", end[1])
-                    .attr("stroke", colour)
-                    .num("stroke-width", 1.0)
-                    .attr("stroke-dasharray", "3 3"),
-            );
-        }
+        let moved = Moved {
+            start: item.start,
+            end: item.end,
+            radius_px,
+            ring: ITEM_COLOUR,
+            disc: colour,
+        };
+        draw_moved(doc, "item", &moved, transform);
+        doc.close();
+    }
+    doc.close();
+}
+
+/// A disc that moved: where it started and where it ended, metres, its radius in pixels, and
+/// its colours (the start's ring, the way's line and the end's disc).
+struct Moved {
+    start: [f32; 2],
+    end: [f32; 2],
+    radius_px: f64,
+    ring: &'static str,
+    disc: &'static str,
+}
+
+/// A disc that moved, as items and boxes are drawn: where it moved, a ring at its start and a
+/// thin dashed line to where it ended; a disc there (`class`-start, -way and -end).
+fn draw_moved(doc: &mut SvgDocument, class: &str, moved: &Moved, transform: &SceneTransform) {
+    let (start, end) = (transform.apply(moved.start), transform.apply(moved.end));
+    if moved.start != moved.end {
         doc.leaf(
             Tag::new("circle")
-                .class("item-end")
+                .class(&format!("{class}-start"))
+                .num("cx", start[0])
+                .num("cy", start[1])
+                .num("r", moved.radius_px)
+                .attr("fill", "none")
+                .attr("stroke", moved.ring)
+                .num("stroke-width", 1.0),
+        );
+        doc.leaf(
+            Tag::new("line")
+                .class(&format!("{class}-way"))
+                .num("x1", start[0])
+                .num("y1", start[1])
+                .num("x2", end[0])
+                .num("y2", end[1])
+                .attr("stroke", moved.disc)
+                .num("stroke-width", 1.0)
+                .attr("stroke-dasharray", "3 3"),
+        );
+    }
+    doc.leaf(
+        Tag::new("circle")
+            .class(&format!("{class}-end"))
+            .num("cx", end[0])
+            .num("cy", end[1])
+            .num("r", moved.radius_px)
+            .attr("fill", moved.disc)
+            .attr("stroke", "#ffffff")
+            .num("stroke-width", 0.5),
+    );
+}
+
+/// The movers and boxes of a sample (none without `[[movers]]` or `[[boxes]]`): each mover's
+/// path as a thin line (closed for a loop) and its disc where it ended; each box as an item
+/// is drawn ([`draw_moved`]).
+fn draw_bodies(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) {
+    if trace.movers.is_empty() && trace.boxes.is_empty() {
+        return;
+    }
+    doc.open(
+        Tag::new("g")
+            .class("bodies")
+            .attr("data-movers", trace.movers.len().to_string())
+            .attr("data-boxes", trace.boxes.len().to_string()),
+    );
+    for mover in trace.movers.iter().filter(|mover| {
+        mover.path.iter().copied().all(finite) && finite(mover.end) && mover.radius.is_finite()
+    }) {
+        doc.open(Tag::new("g").class("mover").attr("data-name", &mover.name));
+        let mut path = PathData::new();
+        for (idx, &point) in mover.path.iter().enumerate() {
+            let [x, y] = transform.apply(point);
+            path = if idx == 0 {
+                path.move_to(x, y)
+            } else {
+                path.line_to(x, y)
+            };
+        }
+        if mover.looped {
+            path = path.close();
+        }
+        doc.leaf(
+            Tag::new("path")
+                .class("mover-path")
+                .attr("d", path.as_str())
+                .attr("fill", "none")
+                .attr("stroke", MOVER_COLOUR)
+                .num("stroke-width", 1.0),
+        );
+        let end = transform.apply(mover.end);
+        doc.leaf(
+            Tag::new("circle")
+                .class("mover-end")
                 .num("cx", end[0])
                 .num("cy", end[1])
-                .num("r", radius_px)
-                .attr("fill", colour)
+                .num("r", transform.length(f64::from(mover.radius)).max(2.0))
+                .attr("fill", MOVER_COLOUR)
+                .attr("fill-opacity", "0.8")
                 .attr("stroke", "#ffffff")
                 .num("stroke-width", 0.5),
         );
         doc.close();
+    }
+    for one in trace
+        .boxes
+        .iter()
+        .filter(|one| finite(one.start) && finite(one.end) && one.radius.is_finite())
+    {
+        let moved = Moved {
+            start: one.start,
+            end: one.end,
+            radius_px: transform.length(f64::from(one.radius)).max(2.0),
+            ring: BOX_COLOUR,
+            disc: BOX_COLOUR,
+        };
+        draw_moved(doc, "box", &moved, transform);
     }
     doc.close();
 }
@@ -1785,6 +1882,10 @@ enum KeySymbol<'t> {
     Item,
     /// An item delivered in the nest.
     ItemDelivered,
+    /// A mover (`[[movers]]`): its path, its disc where it ended.
+    Mover,
+    /// A box (`[[boxes]]`): a ring where it started, a disc where it ended.
+    Box,
     /// A group of a team's other robots: its colour, name and count.
     Team(&'t TeamGroup<'t>),
 }
@@ -1802,6 +1903,8 @@ impl KeySymbol<'_> {
             KeySymbol::Exit => "room exit",
             KeySymbol::Item => "item: start, end",
             KeySymbol::ItemDelivered => "item delivered",
+            KeySymbol::Mover => "mover: path, end",
+            KeySymbol::Box => "box: start, end",
             KeySymbol::Teammate => "teammate and its path",
             KeySymbol::Cones => "IR cones (shade = reading)",
             KeySymbol::Animated => "animated robot, 10x real time",
@@ -1841,6 +1944,12 @@ fn key_items<'t>(
     }
     if trace.items.iter().any(|item| item.delivered) {
         items.push(KeySymbol::ItemDelivered);
+    }
+    if !trace.movers.is_empty() {
+        items.push(KeySymbol::Mover);
+    }
+    if !trace.boxes.is_empty() {
+        items.push(KeySymbol::Box);
     }
     if options
         .rays_at_cycles
@@ -1900,11 +2009,29 @@ fn draw_key(doc: &mut SvgDocument, items: &[KeySymbol<'_>], top: f64) {
             KeySymbol::FinalRobot => {
                 draw_robot(doc, Tag::new("g"), centre, 0.0, 7.0, FINAL_ROBOT);
             }
-            KeySymbol::Item | KeySymbol::ItemDelivered => {
-                let (ring, disc) = if slot.symbol == KeySymbol::Item {
-                    (Some(ITEM_COLOUR), ITEM_COLOUR)
-                } else {
-                    (None, DELIVERED_COLOUR)
+            KeySymbol::Mover => {
+                doc.leaf(
+                    Tag::new("line")
+                        .num("x1", centre[0] - 9.0)
+                        .num("y1", centre[1])
+                        .num("x2", centre[0] + 9.0)
+                        .num("y2", centre[1])
+                        .attr("stroke", MOVER_COLOUR)
+                        .attr("stroke-width", "1"),
+                );
+                doc.leaf(
+                    Tag::new("circle")
+                        .num("cx", centre[0] + 4.0)
+                        .num("cy", centre[1])
+                        .num("r", 4.0)
+                        .attr("fill", MOVER_COLOUR),
+                );
+            }
+            KeySymbol::Item | KeySymbol::ItemDelivered | KeySymbol::Box => {
+                let (ring, disc) = match slot.symbol {
+                    KeySymbol::Item => (Some(ITEM_COLOUR), ITEM_COLOUR),
+                    KeySymbol::Box => (Some(BOX_COLOUR), BOX_COLOUR),
+                    _ => (None, DELIVERED_COLOUR),
                 };
                 if let Some(colour) = ring {
                     doc.leaf(
@@ -2686,6 +2813,50 @@ mod tests {
         let arena = team_arena();
         let beacon = arena.evaluate_traced(&mut Circler, Sample::seeded(2));
         assert_eq!(light_label(&beacon, 0).as_deref(), Some("lit at cycle 0"));
+    }
+
+    /// The trace of a sample of the shipped scenario `file` (in scenarios/swarm/), driven by
+    /// the circling policy.
+    fn swarm_trace(text: &str, seed: u64) -> (Trace, Evaluator) {
+        let scenario = hevo_sim_core::Scenario::parse(text, "swarm.toml").unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        let evaluator = Evaluator::new(task).expect("valid");
+        let trace = evaluator.evaluate_traced(&mut Circler, Sample::seeded(seed));
+        (trace, evaluator)
+    }
+
+    #[test]
+    fn movers_are_drawn_as_their_paths_and_discs_and_boxes_as_items_are() {
+        let (trace, evaluator) =
+            swarm_trace(include_str!("../../../scenarios/swarm/crossing.toml"), 1);
+        assert_eq!(trace.movers.len(), 3);
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        assert_eq!(with_class(&elements, "mover-path").len(), 3);
+        let ends = with_class(&elements, "mover-end");
+        let attributes = scene_attributes(&elements);
+        for (mover, end) in trace.movers.iter().zip(&ends) {
+            let expected = expected_pixel(attributes, mover.end);
+            assert!((end.number("cx") - expected[0]).abs() < 0.01, "{mover:?}");
+            assert!((end.number("cy") - expected[1]).abs() < 0.01, "{mover:?}");
+        }
+        let key = key_items(&trace, &ReplayOptions::default(), &[]);
+        assert!(key.contains(&KeySymbol::Mover) && !key.contains(&KeySymbol::Box));
+
+        let (trace, evaluator) =
+            swarm_trace(include_str!("../../../scenarios/swarm/box_pushing.toml"), 1);
+        assert_eq!(trace.boxes.len(), 4);
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        assert_eq!(with_class(&elements, "box-end").len(), 4);
+        let moved = trace.boxes.iter().filter(|one| one.start != one.end);
+        assert_eq!(with_class(&elements, "box-start").len(), moved.count());
+        assert!(with_class(&elements, "mover-path").is_empty());
+        let key = key_items(&trace, &ReplayOptions::default(), &[]);
+        assert!(key.contains(&KeySymbol::Box) && !key.contains(&KeySymbol::Mover));
+        // A trace without bodies draws none.
+        let mut without = trace.clone();
+        without.boxes.clear();
+        let (_, elements) = render(&without, &evaluator, &ReplayOptions::default());
+        assert!(with_class(&elements, "bodies").is_empty());
     }
 
     #[test]

@@ -10,6 +10,7 @@ use super::stepping::{Episode, Recorder};
 use super::team::Team;
 use crate::body::{Arc, Pose, move_or_collide, noisy_speed, wheel_speed};
 use crate::config::ConfigError;
+use crate::geometry::bodies::{Bodies, Disc, MoverPath, PathMode, leg_meets_solid, overlaps_any};
 use crate::geometry::items::{ITEM_RADIUS, ItemState, Items};
 use crate::geometry::reach::Reach;
 use crate::geometry::scene::Scene;
@@ -17,7 +18,8 @@ use crate::math::rng::{SimRng, Stream, stream_rng};
 use crate::math::trig;
 use crate::network::Policy;
 use crate::outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TracedItem,
+    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TracedBox, TracedItem,
+    TracedMover,
 };
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
 use crate::scenario::{Scenario, ScenarioError};
@@ -156,6 +158,7 @@ impl Evaluator {
                 }
                 self.check_team_starts(&env, variant, seed)?;
                 self.check_items(&env, variant, seed)?;
+                self.check_bodies(&env, variant, seed)?;
                 if let Some(forbidden) = &scenario.forbidden {
                     let teammate = env
                         .teammate
@@ -184,6 +187,113 @@ impl Evaluator {
         Ok(())
     }
 
+    /// Refuses a mover whose path leaves the world or whose leg a wall crosses (for the mover's
+    /// disc, swept along the leg), a robot or item that starts on a mover's start (the focal
+    /// robot's fixed start, or a region with no room clear of it), and a box that starts
+    /// touching a solid, a robot, an item, a mover or another box.
+    fn check_bodies(
+        &self,
+        env: &Environment,
+        variant: u32,
+        seed: u64,
+    ) -> Result<(), ScenarioError> {
+        let scenario = &self.task.scenario;
+        if !scenario.has_bodies() {
+            return Ok(());
+        }
+        let radius = self.task.params.robot.radius;
+        // The walls' bounds: a waypoint beyond them is outside the world.
+        let [x0, y0, x1, y1] = reach_bounds(&env.scene, &[], 0.0);
+        let in_sample = format!("in variant {variant}, seed {seed}");
+        for (mover_idx, path) in scenario.movers.iter().enumerate() {
+            let key = |point_idx: usize| format!("movers[{mover_idx}].path[{point_idx}]");
+            for (point_idx, &[x, y]) in path.points.iter().enumerate() {
+                let outside = !((x0..=x1).contains(&x) && (y0..=y1).contains(&y))
+                    || start_outside_the_world(scenario, [x, y]).is_some();
+                if outside {
+                    return Err(scenario.refusal(
+                        &key(point_idx),
+                        format!(
+                            "the waypoint ({x}, {y}) m of mover '{}' lies outside the world \
+                             {in_sample}",
+                            path.name
+                        ),
+                    ));
+                }
+            }
+            for (leg_idx, (from, to)) in path.legs().enumerate() {
+                if leg_meets_solid(&env.scene, from, to, path.radius) {
+                    return Err(scenario.refusal(
+                        &key(leg_idx),
+                        format!(
+                            "the leg of mover '{}' from ({}, {}) to ({}, {}) m passes within its \
+                             radius ({} m) of a wall or obstacle {in_sample}",
+                            path.name, from[0], from[1], to[0], to[1], path.radius
+                        ),
+                    ));
+                }
+            }
+            let start = path.start_disc();
+            if start.overlaps(env.start.position(), radius) {
+                return Err(scenario.refusal(
+                    "place",
+                    format!(
+                        "the robot starts on mover '{}' at ({:.3}, {:.3}) m {in_sample}; move the \
+                         start or the mover's `start`",
+                        path.name, env.start.x, env.start.y
+                    ),
+                ));
+            }
+        }
+        let group_of = scenario
+            .box_groups
+            .iter()
+            .enumerate()
+            .flat_map(|(group_idx, group)| {
+                std::iter::repeat_n((group_idx, group), group.count as usize)
+            });
+        let mover_starts: Vec<Disc> = scenario.movers.iter().map(MoverPath::start_disc).collect();
+        for (box_idx, (disc, (group_idx, group))) in env.boxes.iter().zip(group_of).enumerate() {
+            let touches_robot = std::iter::once(&env.start)
+                .chain(&env.team)
+                .any(|robot| disc.overlaps(robot.position(), radius));
+            let touches_item = env
+                .items
+                .iter()
+                .any(|&item| disc.overlaps(item, ITEM_RADIUS));
+            let touching = if touches_robot {
+                Some("a robot")
+            } else if touches_item {
+                Some("an item")
+            } else if overlaps_any(&mover_starts, disc.center, disc.radius) {
+                Some("a mover")
+            } else if overlaps_any(&env.boxes[..box_idx], disc.center, disc.radius) {
+                Some("another box")
+            } else if env.scene.disc_hits_wide(disc.center, disc.radius) {
+                Some("a solid")
+            } else {
+                None
+            };
+            if let Some(touching) = touching {
+                return Err(scenario.refusal(
+                    &format!("boxes[{group_idx}].region"),
+                    format!(
+                        "the region '{}' has no room for the {} boxes of group '{}' clear of \
+                         walls, robots, items, movers and each other: one stands touching \
+                         {touching} at ({:.3}, {:.3}) m {in_sample}; give the group a larger region \
+                         or fewer boxes",
+                        scenario.file.box_groups[group_idx].region,
+                        group.count,
+                        group.name,
+                        disc.center[0],
+                        disc.center[1]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Refuses a team robot that starts touching a solid or another robot: its region had no
     /// room clear of them in [`setup`]'s tries.
     fn check_team_starts(
@@ -205,20 +315,21 @@ impl Evaluator {
             let earlier = std::iter::once(&env.start).chain(&env.team[..member]);
             let touches_robot = earlier
                 .into_iter()
-                .any(|other| other.distance_to(pose.position()) < 2.0 * radius);
+                .any(|other| other.distance_to(pose.position()) < 2.0 * radius)
+                || touches_a_mover(scenario, pose.position(), radius);
             if touches_robot || env.scene.disc_hits(pose.position(), radius) {
                 return Err(scenario.refusal(
                     &format!("robots[{group_idx}].region"),
                     format!(
                         "the region '{}' has no room for the {} robots of group '{}' clear of \
-                         walls and of each other: one starts touching {} at ({:.3}, {:.3}) m in \
-                         variant {variant}, seed {seed}; give the group a larger region or fewer \
-                         robots",
+                         walls, movers and each other: one starts touching {} at ({:.3}, {:.3}) m \
+                         in variant {variant}, seed {seed}; give the group a larger region or \
+                         fewer robots",
                         scenario.file.robot_groups[group_idx].region,
                         group.count,
                         group.name,
                         if touches_robot {
-                            "another robot"
+                            "another robot or a mover"
                         } else {
                             "a solid"
                         },
@@ -248,7 +359,8 @@ impl Evaluator {
         for (&at, (group_idx, group)) in env.items.iter().zip(group_of) {
             let touches_robot = std::iter::once(&env.start)
                 .chain(&env.team)
-                .any(|robot| robot.distance_to(at) <= radius + ITEM_RADIUS);
+                .any(|robot| robot.distance_to(at) <= radius + ITEM_RADIUS)
+                || touches_a_mover(scenario, at, ITEM_RADIUS);
             if touches_robot || env.scene.disc_hits(at, ITEM_RADIUS) {
                 return Err(scenario.refusal(
                     &format!("objects[{group_idx}].region"),
@@ -260,7 +372,11 @@ impl Evaluator {
                         scenario.file.object_groups[group_idx].region,
                         group.count,
                         group.name,
-                        if touches_robot { "a robot" } else { "a solid" },
+                        if touches_robot {
+                            "a robot or a mover"
+                        } else {
+                            "a solid"
+                        },
                         at[0],
                         at[1]
                     ),
@@ -359,6 +475,7 @@ impl Evaluator {
             robot: final_robot,
             team: final_team,
             items,
+            bodies,
         } = self.run(policy, sample, &mut cycles);
         let goal = env.ground.goal.as_ref().map(|g| g.map.center(g.goal));
         let exit = env
@@ -383,6 +500,12 @@ impl Evaluator {
                 .map(|group| (group.name.clone(), group.count))
                 .collect(),
             items: items.map_or_else(Vec::new, |items| traced_items(&env.items, &items)),
+            movers: bodies.as_ref().map_or_else(Vec::new, |bodies| {
+                traced_movers(&scenario.movers, bodies.movers().discs())
+            }),
+            boxes: bodies.as_ref().map_or_else(Vec::new, |bodies| {
+                traced_boxes(&env.boxes, bodies.boxes().discs())
+            }),
             final_robot,
             final_team,
             outcome,
@@ -448,6 +571,8 @@ pub(crate) struct SampleRun<'e> {
     team: Option<Team<'e>>,
     /// The items, in scenarios with `[[objects]]`.
     items: Option<Items>,
+    /// The movers and boxes, in scenarios with `[[movers]]` or `[[boxes]]`.
+    bodies: Option<Bodies>,
     lights: Vec<LiveLight>,
     /// Each light's position, by index: what the light sensor sees of the lights.
     light_positions: Vec<[f32; 2]>,
@@ -500,6 +625,10 @@ impl<'e> SampleRun<'e> {
         let team = Team::new(task, &evaluator.sensors, sample, &env.team, &robot);
         let items = (!task.scenario.object_groups.is_empty())
             .then(|| Items::new(env.items.clone(), task.scenario.n_robots()));
+        let bodies = task
+            .scenario
+            .has_bodies()
+            .then(|| Bodies::new(&task.scenario.movers, env.boxes.clone()));
         let lights: Vec<LiveLight> = env.lights.iter().map(LiveLight::new).collect();
         let light_positions = env.lights.iter().map(|spec| spec.position).collect();
         // The judge keeps the ground truth for the sample's length; `finish` hands it back.
@@ -511,6 +640,7 @@ impl<'e> SampleRun<'e> {
             teammate.as_ref().map(Teammate::view),
             team.as_ref().map_or(&[][..], Team::positions),
             items.as_ref(),
+            boxes_of(bodies.as_ref()),
             phase_child,
         );
         SampleRun {
@@ -522,6 +652,7 @@ impl<'e> SampleRun<'e> {
             teammate,
             team,
             items,
+            bodies,
             lights,
             light_positions,
             judge,
@@ -620,6 +751,7 @@ impl<'e> SampleRun<'e> {
             crowd: None,
             me: 0,
             items: self.items.as_ref(),
+            bodies: self.bodies.as_ref().map_or(&[][..], Bodies::discs),
         };
         let view = SenseView {
             teammate: self.teammate.as_ref().map(|mate| &mate.pose),
@@ -636,6 +768,7 @@ impl<'e> SampleRun<'e> {
             self.teammate.as_ref().map(Teammate::view),
             self.team.as_ref().map_or(&[][..], Team::positions),
             self.items.as_ref(),
+            boxes_of(self.bodies.as_ref()),
             lit_mask,
         );
         frame
@@ -709,9 +842,24 @@ impl<'e> SampleRun<'e> {
         let before = self.robot;
         let next = arc.end_pose(&self.robot, sin_half_turn, mid);
         let step = robot_config.v_max * robot_config.cycle_seconds;
-        let collided = match &self.team {
-            Some(team) if team.blocks_focal(next.position(), robot_config.radius, step) => true,
-            _ => move_or_collide(&mut self.robot, next, robot_config.radius, &self.env.scene),
+        let radius = robot_config.radius;
+        let collided = match (&self.team, self.bodies.as_mut()) {
+            (Some(team), _) if team.blocks_focal(next.position(), radius, step) => true,
+            (_, None) => move_or_collide(&mut self.robot, next, radius, &self.env.scene),
+            // Walls first, then the movers and boxes: a box is pushed only by a move that
+            // would otherwise stand.
+            (team, Some(bodies)) => {
+                let scene = &self.env.scene;
+                let admitted = !scene.disc_hits(next.position(), radius)
+                    && bodies.admit(next.position(), radius, scene, |disc| {
+                        team.as_ref()
+                            .is_some_and(|team| team.overlaps_robot(disc, 0, &before, step))
+                    });
+                if admitted {
+                    self.robot = next;
+                }
+                !admitted
+            }
         };
         self.collided_ever |= collided;
         (before, collided)
@@ -741,8 +889,9 @@ impl<'e> SampleRun<'e> {
             );
         }
         if let Some(team) = self.team.as_mut() {
-            team.move_members(&self.robot, task, &self.env.scene);
+            team.move_members(&self.robot, task, &self.env.scene, self.bodies.as_mut());
         }
+        self.move_movers();
         self.move_items();
         if collided && task.end_on_collision {
             return Some(Ending::Collision);
@@ -753,12 +902,38 @@ impl<'e> SampleRun<'e> {
             self.teammate.as_ref().map(Teammate::view),
             team_positions,
             self.items.as_ref(),
+            boxes_of(self.bodies.as_ref()),
             self.wheel_speeds,
             self.lit_mask,
         ) {
             return Some(end);
         }
         (self.cycles_run >= task.max_cycles()).then_some(Ending::Timeout)
+    }
+
+    /// Every mover and box at the start of the cycle, the movers first (none without).
+    pub(crate) fn body_centres(&self) -> Vec<[f32; 2]> {
+        self.bodies.as_ref().map_or_else(Vec::new, |bodies| {
+            bodies.discs().iter().map(|disc| disc.center).collect()
+        })
+    }
+
+    /// After every robot's move: the movers advance, each unless a robot or a box is in its
+    /// way.
+    fn move_movers(&mut self) {
+        let Some(bodies) = self.bodies.as_mut() else {
+            return;
+        };
+        let task = &self.evaluator.task;
+        let alone = [self.robot.position()];
+        let robots = self.team.as_ref().map_or(&alone[..], Team::positions);
+        let robot = &task.params.robot;
+        bodies.end_cycle(
+            &task.scenario.movers,
+            robot.cycle_seconds,
+            robots,
+            robot.radius,
+        );
     }
 
     /// After every robot's move: items are picked up and delivered, robot by robot, the
@@ -789,6 +964,7 @@ impl<'e> SampleRun<'e> {
             self.teammate.as_ref().map(Teammate::view),
             self.team.as_ref().map_or(&[][..], Team::positions),
             self.items.as_ref(),
+            boxes_of(self.bodies.as_ref()),
             &self.sub_task_choices,
         );
         let stage = judge.stage(ending);
@@ -815,6 +991,7 @@ impl<'e> SampleRun<'e> {
             robot: self.robot,
             team: self.team.as_ref().map_or_else(Vec::new, Team::poses),
             items: self.items,
+            bodies: self.bodies,
         }
     }
 }
@@ -829,6 +1006,8 @@ pub(crate) struct Finished {
     pub(crate) team: Vec<Pose>,
     /// The items as they ended, in a scenario with `[[objects]]`.
     pub(crate) items: Option<Items>,
+    /// The movers and boxes as they ended, in a scenario with either.
+    pub(crate) bodies: Option<Bodies>,
 }
 
 /// Each item of a trace: where it started (`starts`) and how it ended (`end`).
@@ -841,6 +1020,47 @@ fn traced_items(starts: &[[f32; 2]], end: &Items) -> Vec<TracedItem> {
             end: at,
             delivered: *state == ItemState::Delivered,
             carried: matches!(state, ItemState::Carried(_)),
+        })
+        .collect()
+}
+
+/// Where the boxes of `bodies` stand now (none without boxes).
+fn boxes_of(bodies: Option<&Bodies>) -> &[Disc] {
+    bodies.map_or(&[][..], |bodies| bodies.boxes().discs())
+}
+
+/// Whether a disc of `radius` at `at` overlaps a mover's start.
+fn touches_a_mover(scenario: &Scenario, at: [f32; 2], radius: f32) -> bool {
+    scenario
+        .movers
+        .iter()
+        .any(|path| path.start_disc().overlaps(at, radius))
+}
+
+/// Each mover of a trace: its path (`paths`) and where it ended (`end`).
+fn traced_movers(paths: &[MoverPath], end: &[Disc]) -> Vec<TracedMover> {
+    paths
+        .iter()
+        .zip(end)
+        .map(|(path, disc)| TracedMover {
+            name: path.name.clone(),
+            radius: path.radius,
+            path: path.points.clone(),
+            looped: path.mode == PathMode::Loop,
+            end: disc.center,
+        })
+        .collect()
+}
+
+/// Each box of a trace: where it started (`starts`) and where it ended (`end`).
+fn traced_boxes(starts: &[Disc], end: &[Disc]) -> Vec<TracedBox> {
+    starts
+        .iter()
+        .zip(end)
+        .map(|(start, end)| TracedBox {
+            radius: start.radius,
+            start: start.center,
+            end: end.center,
         })
         .collect()
 }

@@ -4,6 +4,7 @@
 //! ending, by calling the scenario's compiled blocks.
 
 use crate::body::Pose;
+use crate::geometry::bodies::Disc;
 use crate::geometry::items::Items;
 use crate::network::Policy;
 use crate::outcome::{Ending, N_SUB_TASKS, SubTaskChoices};
@@ -47,6 +48,7 @@ pub(crate) fn phase_children(scenario: &Scenario, policy: &impl Policy) -> [usiz
 }
 
 impl<'a> Judge<'a> {
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         task: &'a TaskConfig,
         ground: Ground,
@@ -54,6 +56,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
         items: Option<&Items>,
+        boxes: &[Disc],
         phase_child: [usize; N_SUB_TASKS],
     ) -> Judge<'a> {
         let scenario: &Scenario = &task.scenario;
@@ -67,7 +70,8 @@ impl<'a> Judge<'a> {
             max_cycles,
         )
         .with_team(team)
-        .with_items(items);
+        .with_items(items)
+        .with_boxes(boxes);
         let tracked = scenario
             .quantities
             .iter()
@@ -111,6 +115,7 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
         items: Option<&Items>,
+        boxes: &[Disc],
         lit_mask: u32,
     ) -> Option<u8> {
         if self.scenario.phases.is_empty() {
@@ -120,6 +125,7 @@ impl<'a> Judge<'a> {
             .view(robot, teammate)
             .with_team(team)
             .with_items(items)
+            .with_boxes(boxes)
             .with_lit(lit_mask);
         self.scenario
             .phases
@@ -132,12 +138,14 @@ impl<'a> Judge<'a> {
     /// `lit_mask`: the quantities observe, stages are reached, and the sample ends if it took a
     /// wrong branch, entered a forbidden region, or is solved.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn check(
         &mut self,
         robot: &Pose,
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
         items: Option<&Items>,
+        boxes: &[Disc],
         wheel_speeds: [f32; 2],
         lit_mask: u32,
     ) -> Option<Ending> {
@@ -153,7 +161,8 @@ impl<'a> Judge<'a> {
         .with_wheel_speeds(wheel_speeds)
         .with_team(team)
         .with_lit(lit_mask)
-        .with_items(items);
+        .with_items(items)
+        .with_boxes(boxes);
         for ((_, quantity), tracked) in scenario.quantities.iter().zip(&mut self.tracked) {
             quantity.observe(tracked, &view);
         }
@@ -191,10 +200,15 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         team: &[[f32; 2]],
         items: Option<&Items>,
+        boxes: &[Disc],
         sub_task_choices: &SubTaskChoices,
     ) -> (f32, Vec<f32>) {
         let end = EndView {
-            cycle: self.view(robot, teammate).with_team(team).with_items(items),
+            cycle: self
+                .view(robot, teammate)
+                .with_team(team)
+                .with_items(items)
+                .with_boxes(boxes),
             cycles,
             sub_task_choices,
         };
@@ -222,8 +236,17 @@ impl<'a> Judge<'a> {
         teammate: Option<TeammateView>,
         sub_task_choices: &SubTaskChoices,
     ) -> f32 {
-        self.fitness_and_descriptor(ending, cycles, robot, teammate, &[], None, sub_task_choices)
-            .0
+        self.fitness_and_descriptor(
+            ending,
+            cycles,
+            robot,
+            teammate,
+            &[],
+            None,
+            &[],
+            sub_task_choices,
+        )
+        .0
     }
 
     fn fitness_of(&self, ending: Ending, cycles: u32, value_of: &dyn Fn(usize) -> f32) -> f32 {
@@ -338,6 +361,7 @@ mod tests {
             None,
             &[],
             None,
+            &[],
             std::array::from_fn(|idx| idx),
         )
     }
@@ -532,7 +556,10 @@ mod tests {
         };
         let mut judge = judge(&task, &ground, at(0.0, 0.1));
         for y in [0.2, 0.3, 0.35, 0.2, 0.0] {
-            assert_eq!(judge.check(&at(0.0, y), None, &[], None, [0.0; 2], 0), None);
+            assert_eq!(
+                judge.check(&at(0.0, y), None, &[], None, &[], [0.0; 2], 0),
+                None
+            );
         }
         let f = judge.fitness(
             Ending::Timeout,
@@ -556,11 +583,11 @@ mod tests {
         // past the inner face.
         let mut judge = self::judge(&task, &ground, at(0.0, 0.0));
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.137), None, &[], None, [0.0; 2], 0),
+            judge.check(&at(0.0, 0.5 + 0.137), None, &[], None, &[], [0.0; 2], 0),
             None
         );
         assert_eq!(
-            judge.check(&at(0.0, 0.5 + 0.138), None, &[], None, [0.0; 2], 0),
+            judge.check(&at(0.0, 0.5 + 0.138), None, &[], None, &[], [0.0; 2], 0),
             Some(Ending::Solved)
         );
     }
@@ -662,34 +689,34 @@ mod tests {
         };
         // (0, 0.1) is in the corridor's first cell, (0, -0.2) below it, outside every cell.
         assert_eq!(
-            judge.phase(&at(0.0, -0.2), Some(waiting), &[], None, 0),
+            judge.phase(&at(0.0, -0.2), Some(waiting), &[], None, &[], 0),
             Some(0)
         );
         assert_eq!(
-            judge.phase(&at(0.0, 0.1), Some(waiting), &[], None, 0),
+            judge.phase(&at(0.0, 0.1), Some(waiting), &[], None, &[], 0),
             Some(1)
         );
         assert_eq!(
-            judge.phase(&at(0.0, -0.2), Some(following), &[], None, 0),
+            judge.phase(&at(0.0, -0.2), Some(following), &[], None, &[], 0),
             Some(2)
         );
         assert_eq!(
-            judge.phase(&at(0.0, 0.1), Some(following), &[], None, 0),
+            judge.phase(&at(0.0, 0.1), Some(following), &[], None, &[], 0),
             Some(2)
         );
         // The boundary of the first cell, half a cell below its centre.
         assert_eq!(
-            judge.phase(&at(0.0, -0.1499), Some(waiting), &[], None, 0),
+            judge.phase(&at(0.0, -0.1499), Some(waiting), &[], None, &[], 0),
             Some(1)
         );
         assert_eq!(
-            judge.phase(&at(0.0, -0.1501), Some(waiting), &[], None, 0),
+            judge.phase(&at(0.0, -0.1501), Some(waiting), &[], None, &[], 0),
             Some(0)
         );
         // Other tasks have no sub-tasks.
         let solve_maze = shipped("solve_maze");
         assert_eq!(
-            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None, &[], None, 0),
+            self::judge(&solve_maze, &ground, origin()).phase(&origin(), None, &[], None, &[], 0),
             None
         );
     }

@@ -4,10 +4,13 @@
 //! order for every scenario: the variant (when there are several and the sample does not fix
 //! one), the world's generators, the start anywhere in its region, the start's turn, its
 //! jitter, its advance (each only when the scenario asks for it), then the team's other
-//! robots and the items, each only in a scenario that has them. Layouts that never change (a
+//! robots, the items and the boxes, each only in a scenario that has them. Movers draw
+//! nothing: their paths are the scenario's, and every robot, item and box is drawn clear of
+//! their starts. Layouts that never change (a
 //! fixed map) are built once per evaluator and shared ([`Statics`]).
 
 use crate::body::Pose;
+use crate::geometry::bodies::{Disc, MoverPath, overlaps_any};
 use crate::geometry::cells::{self, CellMap};
 use crate::geometry::items::ITEM_RADIUS;
 use crate::geometry::scene::Scene;
@@ -144,6 +147,10 @@ pub fn build(
 
     // Anywhere in the start region: drawn first, as the path starts from the cell drawn.
     let place = &scenario.place;
+    // Robots, items and boxes are drawn clear of the movers' starts (none without movers: the
+    // test then holds everywhere and the draws are as they were).
+    let mover_starts: Vec<Disc> = scenario.movers.iter().map(MoverPath::start_disc).collect();
+    let radius = task.params.robot.radius;
     let drawn = place.anywhere.then(|| {
         draw_anywhere(
             scenario,
@@ -151,9 +158,9 @@ pub fn build(
             plan.start.as_deref(),
             &scene,
             cells.as_deref(),
-            task.params.robot.radius,
+            radius,
             rng,
-            |_| true,
+            |at| !overlaps_any(&mover_starts, at, radius),
         )
     });
 
@@ -300,7 +307,6 @@ pub fn build(
         .collect();
 
     // The team's other robots: drawn last, so a scenario without them draws as it did.
-    let radius = task.params.robot.radius;
     let mut team: Vec<Pose> = Vec::new();
     for group in &scenario.robot_groups {
         for _ in 0..group.count {
@@ -308,6 +314,7 @@ pub fn build(
                 std::iter::once(&start)
                     .chain(&team)
                     .all(|other| other.distance_to(at) >= 2.0 * radius)
+                    && !overlaps_any(&mover_starts, at, radius)
             };
             let at = draw_anywhere(
                 scenario,
@@ -343,6 +350,7 @@ pub fn build(
                         let (dx, dy) = (item[0] - at[0], item[1] - at[1]);
                         dx * dx + dy * dy >= (2.0 * ITEM_RADIUS) * (2.0 * ITEM_RADIUS)
                     })
+                    && !overlaps_any(&mover_starts, at, ITEM_RADIUS)
             };
             let at = draw_anywhere(
                 scenario,
@@ -358,12 +366,50 @@ pub fn build(
         }
     }
 
+    // The boxes: drawn after the items, so a scenario without them draws as it did; each
+    // clear of the walls (whatever its size), every robot, item and mover, and the boxes
+    // before it.
+    let mut boxes: Vec<Disc> = Vec::new();
+    for group in &scenario.box_groups {
+        for _ in 0..group.count {
+            let box_radius = group.radius;
+            let clear = |at: [f32; 2]| {
+                !scene.disc_hits_wide(at, box_radius)
+                    && std::iter::once(&start)
+                        .chain(&team)
+                        .all(|robot| robot.distance_to(at) >= radius + box_radius)
+                    && items.iter().all(|item| {
+                        let (dx, dy) = (item[0] - at[0], item[1] - at[1]);
+                        let apart = ITEM_RADIUS + box_radius;
+                        dx * dx + dy * dy >= apart * apart
+                    })
+                    && !overlaps_any(&mover_starts, at, box_radius)
+                    && !overlaps_any(&boxes, at, box_radius)
+            };
+            let center = draw_anywhere(
+                scenario,
+                &group.region,
+                plan.start.as_deref(),
+                &scene,
+                cells.as_deref(),
+                box_radius,
+                rng,
+                clear,
+            );
+            boxes.push(Disc {
+                center,
+                radius: box_radius,
+            });
+        }
+    }
+
     Environment {
         scene,
         start,
         teammate,
         team,
         items,
+        boxes,
         lights,
         ground: Ground {
             room: room_made,

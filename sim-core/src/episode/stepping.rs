@@ -169,6 +169,7 @@ impl<'e> Episode<'e> {
             lit_lights: run.lit_mask(),
             sub_task: run.sub_task().unwrap_or(0),
             team: run.team_poses(),
+            bodies: run.body_centres(),
         });
         match run.finish_cycle(&before, collided) {
             Some(ending) => {

@@ -3,11 +3,12 @@
 //! controller being evaluated, or a scripted motion). Every robot senses at the start of a
 //! cycle, all from the same instant: the focal robot first, then the others in group order.
 //! They move after the focal robot, in the same order, each against the walls and against
-//! every other robot where it stands at that moment; a move that would overlap either is
-//! undone, as a move into a wall is. A sample without a team has no `Team` at all, so it runs
+//! every other robot where it stands at that moment; a move that would overlap either (or a
+//! mover, or a box it cannot push) is undone, as a move into a wall is. A sample without a team has no `Team` at all, so it runs
 //! and draws exactly as before teams existed.
 
 use crate::body::{Arc, Pose, noisy_speed, wheel_speed};
+use crate::geometry::bodies::{Bodies, Disc};
 use crate::geometry::crowd::Crowd;
 use crate::geometry::scene::Scene;
 use crate::math::lanes::{LANES, Lanes};
@@ -79,6 +80,8 @@ pub(crate) struct Team<'e> {
     /// Every robot where it stands now, the focal robot first: what the judge's team
     /// quantities see after the cycle's moves.
     positions: Vec<[f32; 2]>,
+    /// The robots' radius.
+    radius: f32,
 }
 
 impl<'e> Team<'e> {
@@ -141,6 +144,7 @@ impl<'e> Team<'e> {
             wheels: vec![[0.5; 2]; n_evolved],
             crowd: Crowd::default(),
             positions: Vec::new(),
+            radius: task.params.robot.radius,
         };
         team.note_positions(focal);
         Some(team)
@@ -288,6 +292,22 @@ impl Team<'_> {
             })
     }
 
+    /// Whether `disc` (a pushed box) would overlap a robot other than robot `me` where it
+    /// stands now; `reach` as for [`Team::blocked`], less the robots' radius.
+    pub(crate) fn overlaps_robot(&self, disc: &Disc, me: usize, focal: &Pose, step: f32) -> bool {
+        let radius = self.radius;
+        self.crowd
+            .near(disc.center, radius + disc.radius + 2.0 * step)
+            .filter(|&(idx, _, _)| idx != me)
+            .any(|(idx, _, _)| {
+                let now = match idx {
+                    0 => focal.position(),
+                    _ => self.members[idx - 1].pose.position(),
+                };
+                disc.overlaps(now, radius)
+            })
+    }
+
     /// Whether the focal robot, moving to `at`, would overlap another robot (which have not
     /// moved yet in this cycle).
     pub(crate) fn blocks_focal(&self, at: [f32; 2], radius: f32, step: f32) -> bool {
@@ -300,8 +320,15 @@ impl Team<'_> {
     }
 
     /// The other robots decide, then move, in order, each after the focal robot's move to
-    /// `focal`.
-    pub(crate) fn move_members(&mut self, focal: &Pose, task: &TaskConfig, scene: &Scene) {
+    /// `focal`, each move also meeting the sample's movers and boxes (`bodies`, where it has
+    /// any) as [`Bodies::admit`] says.
+    pub(crate) fn move_members(
+        &mut self,
+        focal: &Pose,
+        task: &TaskConfig,
+        scene: &Scene,
+        mut bodies: Option<&mut Bodies>,
+    ) {
         let robot = &task.params.robot;
         let (radius, dt) = (robot.radius, robot.cycle_seconds);
         let step = robot.v_max * dt;
@@ -318,8 +345,14 @@ impl Team<'_> {
             let scripted = matches!(member.driver, Driver::Scripted(_));
             // A scripted motion checks the walls itself.
             let hits_solid = !scripted && scene.disc_hits(next.position(), radius);
-            let blocked =
-                hits_solid || self.blocked(next.position(), radius, reach, member_idx + 1, focal);
+            let me = member_idx + 1;
+            let blocked = hits_solid
+                || self.blocked(next.position(), radius, reach, me, focal)
+                || bodies.as_deref_mut().is_some_and(|bodies| {
+                    !bodies.admit(next.position(), radius, scene, |disc| {
+                        self.overlaps_robot(disc, me, focal, step)
+                    })
+                });
             let member = &mut self.members[member_idx];
             match (blocked, scripted) {
                 (false, _) => member.pose = next,

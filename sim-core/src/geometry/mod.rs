@@ -1,9 +1,11 @@
 //! Geometry: the solids of a world (rectangles and the scene that answers distance, ray and
 //! overlap queries about them) and worlds made of square cells (walls, neighbours, paths and
-//! corridor distances), the robots of a sample found by place (`crowd.rs`), the movable
+//! corridor distances), the robots of a sample found by place (`crowd.rs`), the movers and
+//! boxes robots must not overlap (`bodies.rs`), the movable
 //! items robots pick up and deliver (`items.rs`), and the floor a robot can reach from its
 //! start (`reach.rs`).
 
+pub mod bodies;
 pub mod cells;
 pub mod crowd;
 pub mod items;

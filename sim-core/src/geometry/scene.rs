@@ -130,6 +130,8 @@ pub struct Scene {
     candidates: Vec<u16>,
     /// Every solid, for a query from outside the grid (never on a legal trajectory).
     all_solids: Vec<u16>,
+    /// How far beyond its cell a cell's list reaches, metres: the widest disc the grid answers.
+    query_margin: f32,
 }
 
 /// The distance beyond a cell that its candidate list must cover: the robot's body, the IR
@@ -301,6 +303,7 @@ impl Scene {
 
         Scene {
             all_solids: (0..solids.len() as u16).collect(),
+            query_margin,
             rects,
             solids,
             grid,
@@ -342,6 +345,17 @@ impl Scene {
     /// Whether a disc of `radius` centred at `center` overlaps any solid.
     pub fn disc_hits(&self, center: [f32; 2], radius: f32) -> bool {
         self.disc_hits_among(self.near(center), center, radius)
+    }
+
+    /// [`Scene::disc_hits`] for a disc of any radius (a mover's, a box's): one wider than the
+    /// grid's margin (less a centimetre for the hair `near` may miss by) is tested against
+    /// every solid.
+    pub fn disc_hits_wide(&self, center: [f32; 2], radius: f32) -> bool {
+        if radius <= self.query_margin - 0.01 {
+            self.disc_hits(center, radius)
+        } else {
+            self.disc_hits_among(&self.all_solids, center, radius)
+        }
     }
 
     /// [`Scene::disc_hits`] over the solids of `candidates`.

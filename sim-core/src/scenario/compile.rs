@@ -9,12 +9,14 @@ use super::blocks::{self, Facts, World};
 use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
 use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
-    CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef, MAX_DESCRIPTOR, MAX_ITEMS,
-    MAX_LIGHTS, MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE,
-    MAX_SOLIDS, MAX_VARIANTS, Nest, ObjectGroup, Phase, Place, PlaceAt, RobotGroup, SCHEMA,
-    SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant, compile_map,
-    formula, is_proper_rect, line_of_path, shipped_map,
+    BOX_RADIUS, BoxGroup, CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef,
+    MAX_BOXES, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_MOVER_POINTS, MAX_MOVER_SPEED,
+    MAX_MOVERS, MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE,
+    MAX_SOLIDS, MAX_VARIANTS, MOVER_RADIUS, Nest, ObjectGroup, Phase, Place, PlaceAt, RobotGroup,
+    SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant,
+    compile_map, formula, is_proper_rect, line_of_path, shipped_map,
 };
+use crate::geometry::bodies::{MoverPath, PathMode};
 use crate::geometry::scene::{Rect, RectKind};
 use crate::sensors::frame::{InputGroup, SensorSet};
 use crate::world::lights::Trigger;
@@ -97,6 +99,17 @@ pub(super) fn compile(
     let teammate = teammate(&file, &variants, &regions, &error)?;
     let robot_groups = robot_groups(&file, &regions, &error)?;
     let (object_groups, nest) = objects(&file, &regions, &error)?;
+    let movers = movers(&file, &error)?;
+    let box_groups = box_groups(&file, &regions, &error)?;
+    if teammate.is_some() && (!movers.is_empty() || !box_groups.is_empty()) {
+        let key = if movers.is_empty() { "boxes" } else { "movers" };
+        return Err(error(
+            key,
+            "movers and boxes do not go with a [teammate], whose moves check walls alone; use \
+             [[robots]] for other robots"
+                .into(),
+        ));
+    }
 
     // What the blocks may rely on.
     let judged_region = |name: &str| regions.judged(name);
@@ -112,6 +125,7 @@ pub(super) fn compile(
         has_teammate: teammate.is_some(),
         has_team: !robot_groups.is_empty(),
         has_items: !object_groups.is_empty(),
+        has_boxes: !box_groups.is_empty(),
         has_phases: !file.phases.is_empty(),
         near_m: end.near_m,
     };
@@ -143,6 +157,8 @@ pub(super) fn compile(
         robot_groups,
         object_groups,
         nest,
+        movers,
+        box_groups,
         solved,
         wrong_branch,
         wrong_branch_ends: end.wrong_branch_ends,
@@ -933,6 +949,153 @@ fn objects(
         }),
     };
     Ok((groups, nest))
+}
+
+/// Refuses a group or body name that could not label a replay's key or a trace's column.
+fn check_name(name: &str) -> Result<(), String> {
+    let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+    if name.is_empty() || name.len() > 32 || !name.chars().all(plain) {
+        Err(format!(
+            "'{name}' is not a name: 1 to 32 ASCII letters, digits, '_' or '-'"
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// Refuses a number outside the closed range `[low, high]` (or not a number).
+fn check_range(value: f32, (low, high): (f32, f32), unit: &str) -> Result<(), String> {
+    if value.is_finite() && (low..=high).contains(&value) {
+        Ok(())
+    } else {
+        Err(format!("{value} is not in [{low}, {high}] {unit}"))
+    }
+}
+
+/// `[[movers]]`: the moving obstacles, each checked alone (whether its legs clear the walls
+/// depends on the world a sample builds: `Evaluator::check_starts` tells).
+fn movers(file: &ScenarioFile, error: Refuse<'_>) -> Result<Vec<MoverPath>, ScenarioError> {
+    if file.movers.len() > MAX_MOVERS {
+        return Err(error(
+            "movers",
+            format!(
+                "{} movers: a scenario holds at most {MAX_MOVERS}",
+                file.movers.len()
+            ),
+        ));
+    }
+    let mut names = std::collections::BTreeSet::new();
+    file.movers
+        .iter()
+        .enumerate()
+        .map(|(mover_idx, decl)| {
+            let key = |name: &str| format!("movers[{mover_idx}].{name}");
+            check_name(&decl.name).map_err(|message| error(&key("name"), message))?;
+            if !names.insert(decl.name.as_str()) {
+                return Err(error(
+                    &key("name"),
+                    format!("a second mover is named '{}'", decl.name),
+                ));
+            }
+            check_range(decl.radius, MOVER_RADIUS, "metres")
+                .map_err(|message| error(&key("radius"), message))?;
+            check_range(decl.speed, (0.0, MAX_MOVER_SPEED), "metres a second")
+                .and_then(|()| {
+                    (decl.speed > 0.0)
+                        .then_some(())
+                        .ok_or_else(|| "a mover's speed must be above 0".to_string())
+                })
+                .map_err(|message| error(&key("speed"), message))?;
+            if !(2..=MAX_MOVER_POINTS).contains(&decl.path.len()) {
+                return Err(error(
+                    &key("path"),
+                    format!(
+                        "{} waypoints: a path lists 2 to {MAX_MOVER_POINTS}",
+                        decl.path.len()
+                    ),
+                ));
+            }
+            for (point_idx, &point) in decl.path.iter().enumerate() {
+                let point_key = format!("movers[{mover_idx}].path[{point_idx}]");
+                check_point(point).map_err(|message| error(&point_key, message))?;
+                if point_idx > 0 && decl.path[point_idx - 1] == point {
+                    return Err(error(
+                        &point_key,
+                        "repeats the waypoint before it: a leg must have a length".into(),
+                    ));
+                }
+            }
+            let mode = match decl.mode.as_str() {
+                "loop" => PathMode::Loop,
+                "back_and_forth" => PathMode::BackAndForth,
+                other => {
+                    return Err(error(
+                        &key("mode"),
+                        format!("'{other}' is not a mode: `loop` or `back_and_forth`"),
+                    ));
+                }
+            };
+            if !(decl.start.is_finite() && (0.0..1.0).contains(&decl.start)) {
+                return Err(error(
+                    &key("start"),
+                    format!("{} is not a share of a lap in [0, 1)", decl.start),
+                ));
+            }
+            Ok(MoverPath {
+                name: decl.name.clone(),
+                radius: decl.radius,
+                points: decl.path.clone(),
+                speed: decl.speed,
+                mode,
+                start: decl.start,
+            })
+        })
+        .collect()
+}
+
+/// `[[boxes]]`: the boxes robots push, group by group.
+fn box_groups(
+    file: &ScenarioFile,
+    regions: &Regions<'_>,
+    error: Refuse<'_>,
+) -> Result<Vec<BoxGroup>, ScenarioError> {
+    let mut n_boxes = 0u64;
+    let mut names = std::collections::BTreeSet::new();
+    file.box_groups
+        .iter()
+        .enumerate()
+        .map(|(group_idx, decl)| {
+            let key = |name: &str| format!("boxes[{group_idx}].{name}");
+            check_name(&decl.name).map_err(|message| error(&key("name"), message))?;
+            if !names.insert(decl.name.as_str()) {
+                return Err(error(
+                    &key("name"),
+                    format!("a second group is named '{}'", decl.name),
+                ));
+            }
+            n_boxes += u64::from(decl.count);
+            if decl.count == 0 || n_boxes > u64::from(MAX_BOXES) {
+                return Err(error(
+                    &key("count"),
+                    format!(
+                        "{} boxes: a group holds at least 1, and a scenario at most {MAX_BOXES} \
+                         boxes",
+                        decl.count
+                    ),
+                ));
+            }
+            check_range(decl.radius, BOX_RADIUS, "metres")
+                .map_err(|message| error(&key("radius"), message))?;
+            let region = drawn_region(regions, &decl.region)
+                .map_err(|message| error(&key("region"), message))?;
+            Ok(BoxGroup {
+                name: decl.name.clone(),
+                count: decl.count,
+                region,
+                radius: decl.radius,
+            })
+        })
+        .collect()
 }
 
 /// `[end]`: when a sample is solved, whether a wrong branch ends it, what is forbidden.

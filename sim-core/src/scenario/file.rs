@@ -85,6 +85,12 @@ pub struct ScenarioFile {
     /// Where items are delivered (`[nest]`), in a scenario with `[[objects]]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nest: Option<NestDecl>,
+    /// Moving obstacles, each a disc patrolling a path (`[[movers]]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub movers: Vec<MoverDecl>,
+    /// Boxes the robots push, group by group (`[[boxes]]`).
+    #[serde(default, rename = "boxes", skip_serializing_if = "Vec::is_empty")]
+    pub box_groups: Vec<BoxGroupDecl>,
     /// When a sample ends.
     pub end: EndDecl,
     /// The fitness of a sample, per way of ending.
@@ -454,6 +460,48 @@ pub struct NestDecl {
     /// A `[regions]` rectangle, a map region or `room`: an item is delivered when its
     /// carrier's centre is in it.
     pub region: String,
+}
+
+/// `[[movers]]`: a moving obstacle, a disc that runs a path of waypoints at a fixed speed and
+/// waits while a robot or a box is in its way.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MoverDecl {
+    /// Its name, for messages and replays.
+    pub name: String,
+    /// Its radius, metres.
+    pub radius: f32,
+    /// The waypoints `[[x, y], ...]`, metres, at least two.
+    pub path: Vec<[f32; 2]>,
+    /// Metres a second.
+    pub speed: f32,
+    /// `loop` (back to the first point after the last) or `back_and_forth`.
+    #[serde(default = "MoverDecl::default_mode")]
+    pub mode: String,
+    /// Where it starts: a share of one lap, in [0, 1).
+    #[serde(default)]
+    pub start: f32,
+}
+
+impl MoverDecl {
+    fn default_mode() -> String {
+        "loop".into()
+    }
+}
+
+/// `[[boxes]]`: a group of boxes (discs) that robots push.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxGroupDecl {
+    /// The group's name, for messages and replays.
+    pub name: String,
+    /// How many boxes, at least 1.
+    pub count: u32,
+    /// Where they stand at a sample's start: a `[regions]` rectangle or a map region, each box
+    /// clear of solids, robots, items, movers and the boxes placed before it.
+    pub region: String,
+    /// Each box's radius, metres.
+    pub radius: f32,
 }
 
 /// `[end]`: what ends a sample besides a collision and the time limit.

@@ -13,7 +13,8 @@
 //! the cycles, a share of full speed for the whole cycle limit); with other robots
 //! (`[[robots]]`), `team.spread`, `team.nearest` (metres, averaged over the cycles) and
 //! `team.in REGION` (the share of the team in a region at the end); with items
-//! (`[[objects]]`), `items.delivered` and `items.picked` (shares of the items at the end).
+//! (`[[objects]]`), `items.delivered` and `items.picked` (shares of the items at the end);
+//! with boxes (`[[boxes]]`), `boxes.in REGION` (the share of the boxes in a region at the end).
 //!
 //! A *condition* says when a phase is in force, a stage reached or a sample solved: atoms
 //! joined by `and` and `or` (`and` binding tighter), each optionally preceded by `not`: `in maze` (the robot's centre in a map
@@ -21,7 +22,8 @@
 //! `beyond room.exit`, `near LIGHT` (within the scenario's `near_m`), `team gathered` (every
 //! robot within `near_m` of the team's centre), `team dispersed` (every robot's nearest
 //! neighbour at least `near_m` away), `team in REGION`, `items delivered` (every item
-//! delivered), `carrying` (the focal robot carries an item), `always`.
+//! delivered), `carrying` (the focal robot carries an item), `boxes in REGION` (every box's
+//! centre in the region), `always`.
 //!
 //! The quantities and atoms themselves are building blocks ([`super::blocks`]): this module
 //! only splits the text and asks the registered blocks what each piece names.
@@ -261,6 +263,7 @@ mod tests {
             has_teammate: true,
             has_team: true,
             has_items: true,
+            has_boxes: true,
             has_phases: true,
             near_m: 0.1,
         }
@@ -320,6 +323,7 @@ mod tests {
             has_teammate: false,
             has_team: false,
             has_items: false,
+            has_boxes: false,
             has_phases: false,
             ..facts()
         };
@@ -336,7 +340,8 @@ mod tests {
                 "speed",
                 "expected a number, time_bonus, progress, derived, approach room.exit, \
                  approach teammate, approach LIGHT, final.x, final.y, distance, energy, \
-                 team.spread, team.nearest, team.in REGION, items.delivered or items.picked",
+                 team.spread, team.nearest, team.in REGION, items.delivered, items.picked or \
+                 boxes.in REGION",
             ),
             (
                 "team.spread",
@@ -358,6 +363,7 @@ mod tests {
                 "items.delivered",
                 "'items.delivered': needs items ([[objects]] and a [nest])",
             ),
+            ("boxes.in nest", "'boxes.in nest': needs boxes ([[boxes]])"),
         ] {
             let error = Formula::parse(text, &bare, &mut Quantities::new()).unwrap_err();
             assert!(error.contains(wanted), "{text}: {error}");
@@ -456,6 +462,7 @@ mod tests {
                     has_teammate: true,
                     has_team: true,
                     has_items: true,
+                    has_boxes: true,
                     has_phases: true,
                     near_m: 0.1,
                 };

@@ -18,6 +18,7 @@ mod compile;
 pub mod file;
 pub mod formula;
 
+use crate::geometry::bodies::MoverPath;
 use crate::geometry::cells::{Cell, CellMap};
 use crate::geometry::scene::Rect;
 use crate::math::hash::fnv1a_hex;
@@ -277,6 +278,41 @@ pub struct ObjectGroup {
     pub region: PlaceAt,
 }
 
+/// The most movers a scenario may hold (`[[movers]]`): a bound on a cycle's cost (every
+/// robot's sensors and moves test every mover).
+pub const MAX_MOVERS: usize = 16;
+
+/// The most waypoints a mover's path may list.
+pub const MAX_MOVER_POINTS: usize = 32;
+
+/// A mover's radius, metres: from a cable's width to a large bin (the range is closed).
+pub const MOVER_RADIUS: (f32, f32) = (0.01, 0.5);
+
+/// A mover's top speed, metres a second: twice the e-puck's. A cycle's step (at most 2 cm at
+/// the default 0.1 s cycle) is shorter than the narrowest robot or box, so a mover never
+/// steps over one it should wait for.
+pub const MAX_MOVER_SPEED: f32 = 0.2;
+
+/// The most boxes a scenario may hold (`[[boxes]]`): a bound on a cycle's cost.
+pub const MAX_BOXES: u32 = 32;
+
+/// A box's radius, metres (the range is closed): no wider than an e-puck can be said to push.
+pub const BOX_RADIUS: (f32, f32) = (0.01, 0.1);
+
+/// A group of boxes (`[[boxes]]`).
+#[derive(Debug, Clone)]
+pub struct BoxGroup {
+    /// Its name.
+    pub name: String,
+    /// How many boxes.
+    pub count: u32,
+    /// Where they stand at the start: a `[regions]` rectangle (`PlaceAt::Rect`) or a map
+    /// region (`PlaceAt::Region`).
+    pub region: PlaceAt,
+    /// Each box's radius, metres.
+    pub radius: f32,
+}
+
 /// Where items are delivered (`[nest]`).
 #[derive(Debug, Clone)]
 pub struct Nest {
@@ -349,6 +385,10 @@ pub struct Scenario {
     pub object_groups: Vec<ObjectGroup>,
     /// Where items are delivered, in a scenario with items.
     pub nest: Option<Nest>,
+    /// The moving obstacles (`[[movers]]`), by mover.
+    pub movers: Vec<MoverPath>,
+    /// The boxes robots push, group by group (`[[boxes]]`).
+    pub box_groups: Vec<BoxGroup>,
     /// When a sample is solved.
     pub solved: Condition,
     /// Whether wrong branches are judged (cells off the path).
@@ -619,6 +659,19 @@ impl Scenario {
             has_team: !self.robot_groups.is_empty(),
             has_items: !self.object_groups.is_empty(),
         }
+    }
+
+    /// Each box's radius, group by group, box by box (empty without boxes).
+    pub fn box_radii(&self) -> Vec<f32> {
+        self.box_groups
+            .iter()
+            .flat_map(|group| std::iter::repeat_n(group.radius, group.count as usize))
+            .collect()
+    }
+
+    /// Whether a sample has movers or boxes, bodies the robots must not overlap.
+    pub fn has_bodies(&self) -> bool {
+        !self.movers.is_empty() || !self.box_groups.is_empty()
     }
 
     /// The number of items in a sample.

@@ -158,15 +158,16 @@ fn read_ir(
         &cones,
         sensor.config.range_m,
     );
-    if view.crowd.is_some() {
+    if view.crowd.is_some() || !view.bodies.is_empty() {
         see_other_robots(sensor, view, &origins, &cones, &mut distances);
     }
     out.copy_from_slice(&sensor.model.read_all(setup, &distances, noise));
 }
 
-/// Lowers each IR distance to the nearest other robot of a team inside that sensor's cone:
-/// robots are discs of the robot's own radius, and a body is candidate only when its centre
-/// lies within the range plus two radii of the sensing robot's (its sensors sit on its rim).
+/// Lowers each IR distance to the nearest other robot of a team, mover or box inside that
+/// sensor's cone: robots are discs of the robot's own radius, movers and boxes discs of
+/// theirs, and a body is candidate only when its centre lies within the range plus its radius
+/// and the sensing robot's of the sensing robot's centre (its sensors sit on its rim).
 #[inline(never)]
 fn see_other_robots(
     sensor: &IrSensor,
@@ -181,6 +182,14 @@ fn see_other_robots(
     let mut hit = distances.map(|d| if d.is_some() { u32::MAX } else { 0 });
     for (center, _) in view.others_near(reach) {
         cones.disc_lanes(origins, center, sensor.radius, &mut best, &mut hit);
+    }
+    let at = view.robot.position();
+    for disc in view.bodies {
+        let reach = range + sensor.radius + disc.radius;
+        let (dx, dy) = (disc.center[0] - at[0], disc.center[1] - at[1]);
+        if dx * dx + dy * dy <= reach * reach {
+            cones.disc_lanes(origins, disc.center, disc.radius, &mut best, &mut hit);
+        }
     }
     *distances = std::array::from_fn(|s| (hit[s] != 0).then_some(best[s]));
 }

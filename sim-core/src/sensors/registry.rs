@@ -6,6 +6,7 @@
 
 use crate::body::Pose;
 use crate::config::Params;
+use crate::geometry::bodies::Disc;
 use crate::geometry::crowd::Crowd;
 use crate::geometry::items::Items;
 use crate::geometry::scene::Scene;
@@ -83,6 +84,9 @@ pub struct SenseView<'a> {
     pub me: usize,
     /// The items, in a scenario with `[[objects]]`.
     pub items: Option<&'a Items>,
+    /// The movers and boxes where they stand (`[[movers]]`, `[[boxes]]`; empty without):
+    /// discs the IR sensors see as they see another robot.
+    pub bodies: &'a [Disc],
 }
 
 /// The crowd of a robot alone.
@@ -120,6 +124,7 @@ impl<'a> SenseView<'a> {
             crowd: None,
             me: 0,
             items: None,
+            bodies: &[],
         }
     }
 }

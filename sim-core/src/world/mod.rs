@@ -12,6 +12,7 @@ pub mod random_maze;
 pub mod room;
 
 use crate::body::Pose;
+use crate::geometry::bodies::Disc;
 use crate::geometry::cells::CellMap;
 use crate::geometry::scene::Scene;
 use lights::LightSpec;
@@ -98,6 +99,8 @@ pub struct Environment {
     pub team: Vec<Pose>,
     /// Where the items lie at the start, group by group (`[[objects]]`).
     pub items: Vec<[f32; 2]>,
+    /// Where the boxes stand at the start, group by group (`[[boxes]]`).
+    pub boxes: Vec<Disc>,
     /// The lights.
     pub lights: Vec<LightSpec>,
     /// The ground truth.

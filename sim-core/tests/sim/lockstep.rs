@@ -1,7 +1,7 @@
 //! The lockstep evaluator against the scalar reference: on random controller trees (depth up to
 //! three, any input groups and sizes, with and without a minimum time on, with and without a
 //! free node), every shipped scenario, the example T-maze and the wandering teammate's example,
-//! the team arena and the foraging scenario, random seeds and variants, cycle limits and
+//! the team arena, the foraging scenario and the movers' and boxes' scenarios, random seeds and variants, cycle limits and
 //! collision rules, both must give the same outcome for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
 //! lanes left empty.
 
@@ -30,6 +30,9 @@ pub(crate) fn tasks() -> Vec<TaskConfig> {
     tasks.push(crate::schedules::scheduled_task());
     // Items: picked up, carried and delivered by the lane's robot and its team.
     tasks.push(crate::objects::foraging_task());
+    // Movers that wait for robots, and boxes the robots push.
+    tasks.push(crate::bodies::crossing_task());
+    tasks.push(crate::bodies::box_pushing_task());
     tasks
 }
 

@@ -3,6 +3,7 @@
 //! `support` holds what they share. Run one module with `cargo test -p hevo-sim-core --test
 //! sim MODULE::`.
 
+mod bodies;
 mod fitness;
 mod floors;
 mod fuzz_controller;

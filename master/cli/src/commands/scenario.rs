@@ -144,6 +144,13 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
             scenario.solids.len()
         ));
     }
+    if !scenario.movers.is_empty() {
+        let names: Vec<&str> = scenario.movers.iter().map(|m| m.name.as_str()).collect();
+        text.push_str(&format!("\n  movers: {}", names.join(", ")));
+    }
+    if !scenario.box_groups.is_empty() {
+        text.push_str(&format!("\n  boxes: {}", scenario.box_radii().len()));
+    }
     text.push_str(&endings_summary(task));
     text.push_str(&inputs_summary(scenario));
     if !scenario.stages.is_empty() {

@@ -280,6 +280,7 @@ const PROVENANCE: &[(&str, &str)] = &[
     ("homing.json", "experiments/runs-swarm/homing/run-1"),
     ("mission.json", "experiments/runs-mission/mission/run-1"),
     ("foraging.json", "experiments/runs-foraging/foraging/run-1"),
+    ("crossing.json", "experiments/runs-bodies/crossing/run-0"),
     (
         "room_to_yard.json",
         "experiments/runs-yard/room_to_yard/run-0",

@@ -15,6 +15,7 @@
 //! ([`CycleView`]), never a lookup by name.
 
 pub mod atoms;
+pub mod boxes;
 pub mod items;
 pub mod quantities;
 pub mod team;
@@ -23,6 +24,7 @@ pub mod worlds;
 
 use crate::body::Pose;
 use crate::config::Params;
+use crate::geometry::bodies::Disc;
 use crate::geometry::cells::CellMap;
 use crate::geometry::items::Items;
 use crate::geometry::scene::Scene;
@@ -65,6 +67,7 @@ pub static ATOMS: &[AtomKind] = &[
     atoms::LIGHT_LIT,
     items::ALL_DELIVERED,
     items::CARRYING,
+    boxes::BOXES_IN_REGION,
     atoms::ALWAYS,
 ];
 
@@ -82,6 +85,7 @@ pub static QUANTITIES: &[QuantityKind] = &[
     team::TEAM_IN,
     items::ITEMS_DELIVERED,
     items::ITEMS_PICKED,
+    boxes::BOXES_IN,
 ];
 
 /// The teammate's behaviours, by the name `teammate.behaviour` gives (the first is the
@@ -107,6 +111,8 @@ pub struct Facts<'a> {
     pub has_team: bool,
     /// Whether the scenario has items (`[[objects]]`) and a nest.
     pub has_items: bool,
+    /// Whether the scenario has boxes (`[[boxes]]`).
+    pub has_boxes: bool,
     /// Whether the scenario has phases (a derived fitness).
     pub has_phases: bool,
     /// `end.near_m`.
@@ -122,6 +128,7 @@ impl std::fmt::Debug for Facts<'_> {
             .field("has_teammate", &self.has_teammate)
             .field("has_team", &self.has_team)
             .field("has_items", &self.has_items)
+            .field("has_boxes", &self.has_boxes)
             .field("has_phases", &self.has_phases)
             .field("near_m", &self.near_m)
             .finish_non_exhaustive()
@@ -168,6 +175,8 @@ pub struct CycleView<'a> {
     pub lit_mask: u32,
     /// The items, in a scenario with `[[objects]]`.
     pub items: Option<&'a Items>,
+    /// The boxes where they stand, by box (empty without `[[boxes]]`).
+    pub boxes: &'a [Disc],
     /// The world's cell map (the ground's cells, else its goal's) and the robot's cell in it,
     /// found once per view: several blocks of a cycle ask for it, and each finding costs two
     /// divisions.
@@ -199,6 +208,7 @@ impl<'a> CycleView<'a> {
             team: &[],
             lit_mask: 0,
             items: None,
+            boxes: &[],
             world_cell: world_map.map(|map| (map, map.cell_at(robot.position()))),
         }
     }
@@ -228,6 +238,12 @@ impl<'a> CycleView<'a> {
     #[inline]
     pub fn with_items(self, items: Option<&'a Items>) -> CycleView<'a> {
         CycleView { items, ..self }
+    }
+
+    /// The view of a cycle whose boxes stand at `boxes`.
+    #[inline]
+    pub fn with_boxes(self, boxes: &'a [Disc]) -> CycleView<'a> {
+        CycleView { boxes, ..self }
     }
 
     /// The cell of `map` the robot's centre is in, if any: `map.cell_at` of the robot's
@@ -502,6 +518,7 @@ mod doc_examples {
             has_teammate: false,
             has_team: false,
             has_items: false,
+            has_boxes: false,
             has_phases: false,
             near_m: 0.0,
         };
