@@ -345,6 +345,30 @@ mod tests {
     }
 
     #[test]
+    fn a_task_whose_group_runs_a_controller_file_travels_with_the_file() {
+        let text = include_str!("../../scenarios/swarm/mixed_aggregation.toml");
+        let pilot = include_str!("../../controllers/aggregation.json");
+        let path = "../../controllers/aggregation.json";
+        let give = |written: &str| {
+            (written == path)
+                .then(|| pilot.to_string())
+                .ok_or_else(|| format!("no {written}"))
+        };
+        let scenario = hevo_sim_core::Scenario::parse_with(text, "mixed.toml", &give).unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        let hash = task_content_hash(&task);
+        let json = task_to_json(&task);
+        let back = task_from_json(&json, &hash).unwrap();
+        assert_eq!(back, task);
+        assert_eq!(back.scenario.controller_files[path], pilot);
+        // Another controller in the same place is another task: the old hash refuses it.
+        let other = json.replacen("5.9303937", "5.9303938", 1);
+        assert_ne!(other, json);
+        let error = task_from_json(&other, &hash).unwrap_err().to_string();
+        assert!(error.starts_with("task_hash"), "{error}");
+    }
+
+    #[test]
     fn a_wrong_hash_is_refused() {
         let file = template(None);
         let err = template_from_json(&template_to_json(&file), "0000000000000000").unwrap_err();

@@ -49,8 +49,8 @@ pub use outcome::{
 };
 pub use scenario::file::ChildRef;
 pub use scenario::{
-    DEFAULT_DESCRIPTOR, MAX_BOXES, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_MOVERS, MAX_ROBOTS,
-    SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError,
+    ControllerSource, DEFAULT_DESCRIPTOR, MAX_BOXES, MAX_CONTROLLER_FILE_BYTES, MAX_DESCRIPTOR,
+    MAX_ITEMS, MAX_LIGHTS, MAX_MOVERS, MAX_ROBOTS, SHIPPED, SHIPPED_NAMES, Scenario, ScenarioError,
 };
 pub use sensors::IrCone;
 pub use sensors::calibration::MeanStd;

@@ -10,6 +10,7 @@ use crate::config::{
 };
 use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Everything that defines a task's samples: the scenario and the numbers in force.
@@ -41,6 +42,7 @@ pub struct TaskConfig {
 
 impl PartialEq for TaskConfig {
     fn eq(&self, other: &TaskConfig) -> bool {
+        // The wire form holds the controller files' texts.
         self.scenario.source == other.scenario.source && self.wire() == other.wire()
     }
 }
@@ -48,7 +50,9 @@ impl PartialEq for TaskConfig {
 /// A task as it is serialised: the shape tasks had before scenarios, with the scenario given
 /// by its legacy task name (`kind`) for the shipped paper tasks, so their content hashes and
 /// run fingerprints stay what they were, and by its text (`scenario`) for any other, so a
-/// worker needs no file. The numbers follow.
+/// worker needs no file; the controller files its groups run travel beside it (`controllers`,
+/// by the path as written; absent when there are none, so every other task hashes as before).
+/// The numbers follow.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TaskWire {
@@ -56,6 +60,8 @@ struct TaskWire {
     kind: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     scenario: Option<String>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    controllers: BTreeMap<String, String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     max_cycles: Option<u32>,
     #[serde(default = "default_true")]
@@ -110,7 +116,29 @@ impl<'de> Deserialize<'de> for TaskConfig {
                 ))
             })?,
             (None, Some(text)) => {
-                Arc::new(Scenario::parse(text, "the task's scenario").map_err(D::Error::custom)?)
+                let carried = |path: &str| {
+                    wire.controllers.get(path).cloned().ok_or_else(|| {
+                        format!(
+                            "'{}' is not among the task's controllers",
+                            crate::scenario::bounded(path)
+                        )
+                    })
+                };
+                let scenario = Scenario::parse_with(text, "the task's scenario", &carried)
+                    .map_err(D::Error::custom)?;
+                // Canonical: a task carries exactly the files its scenario runs, so that
+                // equal tasks hash alike.
+                if let Some(path) = wire
+                    .controllers
+                    .keys()
+                    .find(|path| !scenario.controller_files.contains_key(*path))
+                {
+                    return Err(D::Error::custom(format!(
+                        "controllers: '{}' is run by no group of the task's scenario",
+                        crate::scenario::bounded(path)
+                    )));
+                }
+                Arc::new(scenario)
             }
             _ => {
                 return Err(D::Error::custom(
@@ -168,6 +196,7 @@ impl TaskConfig {
             Some(kind) => (Some(kind.to_string()), None),
             None => (None, Some(self.scenario.source.clone())),
         };
+        let controllers = self.scenario.controller_files.clone();
         let Params {
             robot,
             ir,
@@ -180,6 +209,7 @@ impl TaskConfig {
         TaskWire {
             kind,
             scenario,
+            controllers,
             max_cycles: self.max_cycles,
             end_on_collision: self.end_on_collision,
             end_on_wrong_branch: self.end_on_wrong_branch,

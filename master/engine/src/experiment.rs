@@ -1742,7 +1742,13 @@ fn node_scenario(task: &str, files: &dyn ExternalFiles) -> Result<Arc<Scenario>,
         let text = files
             .read(task)
             .map_err(|e| format!("{}: cannot read the scenario file ({e})", cut(task, 200)))?;
-        return Scenario::parse(&text, task)
+        let read_controller = |written: &str| {
+            let path = controller_beside(task, written);
+            files
+                .read(&path)
+                .map_err(|e| format!("cannot read {}: {e}", cut(&path, 200)))
+        };
+        return Scenario::parse_with(&text, task, &read_controller)
             .map(Arc::new)
             .map_err(|e| e.to_string());
     }
@@ -1753,6 +1759,18 @@ fn node_scenario(task: &str, files: &dyn ExternalFiles) -> Result<Arc<Scenario>,
             Scenario::shipped_names().join(", ")
         )
     })
+}
+
+/// Where the controller file a scenario file at `scenario` runs as `written`
+/// (`robots[i].controller.file`) lies: relative to the scenario file's folder, as `scenario`
+/// itself is given (relative to an experiment, or to the working directory).
+pub fn controller_beside(scenario: &str, written: &str) -> String {
+    Path::new(scenario)
+        .parent()
+        .unwrap_or(Path::new(""))
+        .join(written)
+        .to_string_lossy()
+        .into_owned()
 }
 
 /// Deep-merges `overrides` into `base` (tables merge key by key, anything else replaces).
@@ -1937,6 +1955,37 @@ runs = 1
             serde_json::to_string(&scenario.nodes[0].decl).unwrap()
         );
         assert_eq!(scenario.nodes[0].task.name(), "t_maze");
+    }
+
+    #[test]
+    fn a_node_scenario_reads_its_groups_controller_files_beside_it_from_the_same_files() {
+        let mixed = include_str!("../../../scenarios/swarm/mixed_aggregation.toml").to_string();
+        let pilot = include_str!("../../../controllers/aggregation.json").to_string();
+        let text = "[experiment]\nname = \"t\"\n\n[[node]]\nname = \"t\"\nkind = \"primitive\"\n\
+                    inputs = [\"ir\", \"rab\"]\nhidden = 3\ntask = \"scenarios/swarm/mixed.toml\"\n\
+                    samples = 2\ngenerations = 1\nruns = 1\n";
+        // Relative to the scenario file: `scenarios/swarm/../../controllers/aggregation.json`.
+        let beside = controller_beside(
+            "scenarios/swarm/mixed.toml",
+            "../../controllers/aggregation.json",
+        );
+        assert_eq!(beside, "scenarios/swarm/../../controllers/aggregation.json");
+        let mut files: BTreeMap<String, String> =
+            [("scenarios/swarm/mixed.toml".to_string(), mixed)].into();
+        let error = Experiment::parse_with(text, Path::new("x.toml"), &files)
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("robots[1].controller.file"), "{error}");
+        assert!(error.contains("not among the files sent"), "{error}");
+        files.insert(beside.clone(), pilot.clone());
+        let experiment = Experiment::parse_with(text, Path::new("x.toml"), &files).unwrap();
+        let scenario = &experiment.nodes[0].task.scenario;
+        assert_eq!(
+            scenario
+                .controller_files
+                .get("../../controllers/aggregation.json"),
+            Some(&pilot)
+        );
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! with some numbers overridden, and a controller file from disk. One place, so the command
 //! line and Python refuse the same inputs with the same messages (file, key, what was expected).
 
-use crate::experiment::with_task_overrides;
+use crate::experiment::{controller_beside, with_task_overrides};
 use hevo_sim_core::ControllerFile;
 use hevo_sim_core::Scenario;
 use hevo_sim_core::TaskConfig;
@@ -50,13 +50,7 @@ pub enum TaskInputError {
 /// alias), or a scenario file (a path ending in `.toml`).
 pub fn task_by_name(name: &str) -> Result<TaskConfig, TaskInputError> {
     if name.ends_with(".toml") {
-        let text = std::fs::read_to_string(name).map_err(|reason| TaskInputError::Read {
-            file: name.to_string(),
-            reason,
-        })?;
-        let scenario =
-            Scenario::parse(&text, name).map_err(|e| TaskInputError::Scenario(e.to_string()))?;
-        let task = TaskConfig::from_scenario(Arc::new(scenario));
+        let task = TaskConfig::from_scenario(Arc::new(read_scenario(name)?));
         task.validate().map_err(|error| TaskInputError::Settings {
             origin: name.to_string(),
             key: error.key,
@@ -68,6 +62,21 @@ pub fn task_by_name(name: &str) -> Result<TaskConfig, TaskInputError> {
         name: crate::experiment::cut(name, 80),
         known: Scenario::shipped_names().join(", "),
     })
+}
+
+/// Reads and compiles the scenario file at `path`, and the controller files its groups run
+/// (relative to it).
+pub fn read_scenario(path: &str) -> Result<Scenario, TaskInputError> {
+    let text = std::fs::read_to_string(path).map_err(|reason| TaskInputError::Read {
+        file: path.to_string(),
+        reason,
+    })?;
+    let read_controller = |written: &str| {
+        let file = controller_beside(path, written);
+        std::fs::read_to_string(&file).map_err(|reason| format!("cannot read {file}: {reason}"))
+    };
+    Scenario::parse_with(&text, path, &read_controller)
+        .map_err(|e| TaskInputError::Scenario(e.to_string()))
 }
 
 /// `task` with the settings in `overrides` (an object shaped like an experiment node's
@@ -183,6 +192,41 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(range.contains("robot.v_max"), "{range}");
+    }
+
+    #[test]
+    fn a_scenario_file_reads_the_controller_files_its_groups_run_beside_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let scenarios = dir.path().join("scenarios");
+        std::fs::create_dir(&scenarios).unwrap();
+        let scenario_path = scenarios.join("mixed.toml");
+        std::fs::write(
+            &scenario_path,
+            include_str!("../../../scenarios/swarm/mixed_aggregation.toml")
+                .replace("../../controllers/aggregation.json", "../pilots/pilot.json"),
+        )
+        .unwrap();
+        let path = scenario_path.to_string_lossy().into_owned();
+        let missing = task_by_name(&path).unwrap_err().to_string();
+        assert!(missing.contains("robots[1].controller.file"), "{missing}");
+        assert!(missing.contains("cannot read"), "{missing}");
+        assert!(missing.contains("pilot.json"), "{missing}");
+
+        std::fs::create_dir(dir.path().join("pilots")).unwrap();
+        let pilot = include_str!("../../../controllers/aggregation.json");
+        std::fs::write(dir.path().join("pilots/pilot.json"), pilot).unwrap();
+        let task = task_by_name(&path).unwrap();
+        assert_eq!(
+            task.scenario
+                .controller_files
+                .get("../pilots/pilot.json")
+                .map(String::as_str),
+            Some(pilot)
+        );
+        // The text travels with the task: a worker needs no file.
+        let json = serde_json::to_string(&task).unwrap();
+        let back: TaskConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, task);
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! A team's other robots in one sample (`[[robots]]`): each has the focal robot's body and
 //! sensors, its own sensor setup and noise streams, and its own driver (a reset copy of the
-//! controller being evaluated, or a scripted motion). Every robot senses at the start of a
-//! cycle, all from the same instant: the focal robot first, then the others in group order.
+//! controller being evaluated or of a controller file's tree, or a scripted motion). The
+//! copies of one controller are a *crew*, stepped eight at a time. Every robot senses at the
+//! start of a cycle, all from the same instant: the focal robot first, then the others in
+//! group order.
 //! They move after the focal robot, in the same order, each against the walls and against
 //! every other robot where it stands at that moment; a move that would overlap either (or a
 //! mover, or a box it cannot push) is undone, as a move into a wall is. A sample without a team has no `Team` at all, so it runs
@@ -15,10 +17,11 @@ use crate::math::lanes::{LANES, Lanes};
 use crate::math::rng::{SimRng, Stream, member_rng, member_seed};
 use crate::math::trig;
 use crate::network::Policy;
+use crate::network::controller::Controller;
 use crate::network::lanes::LaneController;
 use crate::outcome::Sample;
 use crate::scenario::GroupDriver;
-use crate::scenario::blocks::Motion;
+use crate::scenario::blocks::{Motion, TeammateBehaviour};
 use crate::sensors::frame::{N_FLAT, N_GROUPS, SensorFrame};
 use crate::sensors::{SenseView, Sensor, SensorRun};
 use crate::task::TaskConfig;
@@ -26,14 +29,21 @@ use crate::task::TaskConfig;
 /// What drives one of the other robots.
 #[derive(Debug)]
 enum Driver {
-    /// The `idx`-th copy of the controller being evaluated (counted over the team's evolved
-    /// robots).
-    Evolved(usize),
+    /// Copy `copy` of crew `crew`'s controller ([`Team::crews`]).
+    Copy {
+        /// The crew.
+        crew: usize,
+        /// The copy, counted over the crew's robots.
+        copy: usize,
+    },
     /// A scripted motion (`wander`, `fixed`).
     Scripted(Box<dyn Motion>),
 }
 
-/// The copies of the controller being evaluated that a team's `evolved` robots run.
+/// The crew of the team's `evolved` robots, whose controller [`Team::drive_with`] gives.
+const EVOLVED_CREW: usize = 0;
+
+/// The copies of one controller that a crew's robots run.
 enum Copies {
     /// None given yet ([`Team::drive_with`]): the robots stand still.
     None,
@@ -42,6 +52,74 @@ enum Copies {
     Lanes(Vec<LaneController>),
     /// A policy that is no tree, one copy a robot.
     Each(Vec<Box<dyn Policy + Send>>),
+}
+
+impl Copies {
+    /// `n_copies` reset copies of `controller` in [`LaneController`]s, for steps of `dt`.
+    fn lanes(controller: &Controller, n_copies: usize, dt: f32) -> Copies {
+        Copies::Lanes(
+            (0..n_copies.div_ceil(LANES))
+                .map(|_| LaneController::new(controller.clone(), dt))
+                .collect(),
+        )
+    }
+}
+
+/// The robots that run copies of one controller: the team's `evolved` robots, or the robots
+/// of one group that runs a controller file.
+#[derive(Debug)]
+struct Crew {
+    copies: Copies,
+    /// Each copy's wheel outputs of the current cycle, by copy.
+    wheels: Vec<[f32; 2]>,
+}
+
+impl Crew {
+    /// A crew of `n_copies` robots running `copies`.
+    fn new(copies: Copies, n_copies: usize) -> Crew {
+        Crew {
+            copies,
+            wheels: vec![[0.5; 2]; n_copies],
+        }
+    }
+
+    /// Whether its robots have a controller (else they stand still).
+    fn is_driven(&self) -> bool {
+        !matches!(self.copies, Copies::None)
+    }
+
+    /// Each copy's wheel outputs for the frame its robot sensed this cycle, given as
+    /// (copy, frame) pairs.
+    fn decide<'f>(&mut self, frames: impl Iterator<Item = (usize, &'f SensorFrame)>, dt: f32) {
+        let n_copies = self.wheels.len();
+        match &mut self.copies {
+            Copies::None => {}
+            Copies::Each(copies) => {
+                for (copy, frame) in frames {
+                    self.wheels[copy] = copies[copy].step(frame, dt);
+                }
+            }
+            Copies::Lanes(controllers) => {
+                let mut frame_lanes: Vec<[Lanes; N_FLAT]> =
+                    vec![[Lanes::ZERO; N_FLAT]; controllers.len()];
+                for (copy, frame) in frames {
+                    let lanes = &mut frame_lanes[copy / LANES];
+                    for (input, &value) in lanes.iter_mut().zip(&frame.inputs) {
+                        input.0[copy % LANES] = value;
+                    }
+                }
+                for (chunk, (controller, lanes)) in
+                    controllers.iter_mut().zip(&frame_lanes).enumerate()
+                {
+                    let n_live = (n_copies - chunk * LANES).min(LANES);
+                    let live = (1 << n_live) - 1;
+                    let wheels = controller.step(lanes, live);
+                    self.wheels[chunk * LANES..chunk * LANES + n_live]
+                        .copy_from_slice(&wheels[..n_live]);
+                }
+            }
+        }
+    }
 }
 
 impl std::fmt::Debug for Copies {
@@ -69,11 +147,9 @@ struct Member<'e> {
 #[derive(Debug)]
 pub(crate) struct Team<'e> {
     members: Vec<Member<'e>>,
-    /// How many members are `evolved`.
-    n_evolved: usize,
-    copies: Copies,
-    /// Each evolved copy's wheel outputs of the current cycle, by copy.
-    wheels: Vec<[f32; 2]>,
+    /// The crews: the `evolved` robots ([`EVOLVED_CREW`]), then one for each group that
+    /// runs a controller file, in group order.
+    crews: Vec<Crew>,
     /// Every robot at the start of the cycle, the focal robot as robot 0: what the sensors see
     /// and what a move is checked against.
     crowd: Crowd,
@@ -100,23 +176,45 @@ impl<'e> Team<'e> {
             return None;
         }
         let max_cycles = task.max_cycles();
-        let mut n_evolved = 0;
-        let drivers = scenario
+        let dt = task.params.robot.cycle_seconds;
+        // The evolved crew has no controller until `drive_with` gives one; a file's crew has
+        // its own from the start.
+        let mut crews = vec![Crew::new(Copies::None, 0)];
+        // Per group: its crew, or its scripted behaviour.
+        let roles: Vec<Result<usize, &dyn TeammateBehaviour>> = scenario
             .robot_groups
             .iter()
-            .flat_map(|group| std::iter::repeat_n(group.driver, group.count as usize));
-        let members = starts
+            .map(|group| match &group.driver {
+                GroupDriver::Evolved => Ok(EVOLVED_CREW),
+                GroupDriver::File { controller, .. } => {
+                    let n_copies = group.count as usize;
+                    crews.push(Crew::new(Copies::lanes(controller, n_copies, dt), n_copies));
+                    Ok(crews.len() - 1)
+                }
+                GroupDriver::Scripted(behaviour) => Err(*behaviour),
+            })
+            .collect();
+        let roles = scenario
+            .robot_groups
             .iter()
-            .zip(drivers)
+            .zip(roles)
+            .flat_map(|(group, role)| std::iter::repeat_n(role, group.count as usize));
+        let mut n_copies = vec![0; crews.len()];
+        let members: Vec<Member<'e>> = starts
+            .iter()
+            .zip(roles)
             .enumerate()
-            .map(|(member, (&start, driver))| {
+            .map(|(member, (&start, role))| {
                 let mut pose = start;
-                let driver = match driver {
-                    GroupDriver::Evolved => {
-                        n_evolved += 1;
-                        Driver::Evolved(n_evolved - 1)
+                let driver = match role {
+                    Ok(crew) => {
+                        n_copies[crew] += 1;
+                        Driver::Copy {
+                            crew,
+                            copy: n_copies[crew] - 1,
+                        }
                     }
-                    GroupDriver::Scripted(behaviour) => Driver::Scripted(behaviour.start(
+                    Err(behaviour) => Driver::Scripted(behaviour.start(
                         &mut pose,
                         member_seed(sample.seed, member),
                         max_cycles,
@@ -137,11 +235,11 @@ impl<'e> Team<'e> {
                 }
             })
             .collect();
+        // The evolved crew's size is known once its robots are counted.
+        crews[EVOLVED_CREW] = Crew::new(Copies::None, n_copies[EVOLVED_CREW]);
         let mut team = Team {
             members,
-            n_evolved,
-            copies: Copies::None,
-            wheels: vec![[0.5; 2]; n_evolved],
+            crews,
             crowd: Crowd::default(),
             positions: Vec::new(),
             radius: task.params.robot.radius,
@@ -153,14 +251,11 @@ impl<'e> Team<'e> {
     /// Gives every `evolved` robot its own reset copy of `policy`, stepped for `dt` seconds
     /// (none where the policy can be neither laned nor copied: those robots stand still).
     pub(crate) fn drive_with(&mut self, policy: &dyn Policy, dt: f32) {
-        let n_evolved = self.n_evolved;
-        self.copies = match policy.controller() {
+        let crew = &mut self.crews[EVOLVED_CREW];
+        let n_evolved = crew.wheels.len();
+        crew.copies = match policy.controller() {
             _ if n_evolved == 0 => Copies::None,
-            Some(controller) => Copies::Lanes(
-                (0..n_evolved.div_ceil(LANES))
-                    .map(|_| LaneController::new(controller.clone(), dt))
-                    .collect(),
-            ),
+            Some(controller) => Copies::lanes(controller, n_evolved, dt),
             None => (0..n_evolved)
                 .map(|_| policy.team_copy())
                 .collect::<Option<Vec<_>>>()
@@ -168,41 +263,17 @@ impl<'e> Team<'e> {
         };
     }
 
-    /// Each evolved copy's wheel outputs for the frame its robot sensed this cycle.
+    /// Each crew's wheel outputs for the frames its robots sensed this cycle.
     fn decide(&mut self, dt: f32) {
-        let frames = self
-            .members
-            .iter()
-            .filter_map(|member| match member.driver {
-                Driver::Evolved(copy) => Some((copy, &member.frame)),
-                Driver::Scripted(_) => None,
-            });
-        match &mut self.copies {
-            Copies::None => {}
-            Copies::Each(copies) => {
-                for (copy, frame) in frames {
-                    self.wheels[copy] = copies[copy].step(frame, dt);
-                }
-            }
-            Copies::Lanes(controllers) => {
-                let mut frame_lanes: Vec<[Lanes; N_FLAT]> =
-                    vec![[Lanes::ZERO; N_FLAT]; controllers.len()];
-                for (copy, frame) in frames {
-                    let lanes = &mut frame_lanes[copy / LANES];
-                    for (input, &value) in lanes.iter_mut().zip(&frame.inputs) {
-                        input.0[copy % LANES] = value;
-                    }
-                }
-                for (chunk, (controller, lanes)) in
-                    controllers.iter_mut().zip(&frame_lanes).enumerate()
-                {
-                    let n_live = (self.n_evolved - chunk * LANES).min(LANES);
-                    let live = (1 << n_live) - 1;
-                    let wheels = controller.step(lanes, live);
-                    self.wheels[chunk * LANES..chunk * LANES + n_live]
-                        .copy_from_slice(&wheels[..n_live]);
-                }
-            }
+        for (crew_idx, crew) in self.crews.iter_mut().enumerate() {
+            let frames = self
+                .members
+                .iter()
+                .filter_map(|member| match member.driver {
+                    Driver::Copy { crew, copy } if crew == crew_idx => Some((copy, &member.frame)),
+                    _ => None,
+                });
+            crew.decide(frames, dt);
         }
     }
 
@@ -370,16 +441,16 @@ impl Team<'_> {
     fn plan_moves(&mut self, task: &TaskConfig, scene: &Scene) -> Vec<Option<Pose>> {
         let robot = &task.params.robot;
         let step = robot.v_max * robot.cycle_seconds;
-        let driven = !matches!(self.copies, Copies::None);
         let mut nexts = Vec::with_capacity(self.members.len());
         for chunk in self.members.chunks_mut(LANES) {
             let arcs: [Option<Arc>; LANES] = std::array::from_fn(|lane| {
                 let member = chunk.get_mut(lane)?;
-                let Driver::Evolved(copy) = member.driver else {
+                let Driver::Copy { crew, copy } = member.driver else {
                     return None;
                 };
-                driven.then(|| {
-                    let [left, right] = self.wheels[copy].map(|wheel| {
+                let crew = &self.crews[crew];
+                crew.is_driven().then(|| {
+                    let [left, right] = crew.wheels[copy].map(|wheel| {
                         noisy_speed(wheel_speed(wheel, robot.v_max), robot, &mut member.noise)
                     });
                     Arc::of(&member.pose, left, right, robot)
@@ -395,12 +466,12 @@ impl Team<'_> {
                         motion.before_met(&mut next, step, scene, robot.radius);
                         Some(next)
                     }
-                    (Driver::Evolved(_), Some(arc)) => Some(arc.end_pose(
+                    (Driver::Copy { .. }, Some(arc)) => Some(arc.end_pose(
                         &member.pose,
                         sin_half_turns[lane],
                         (sin_mids[lane], cos_mids[lane]),
                     )),
-                    (Driver::Evolved(_), None) => None,
+                    (Driver::Copy { .. }, None) => None,
                 });
             }
         }

@@ -6,18 +6,22 @@
 
 use super::blocks::atoms::RegionTest;
 use super::blocks::{self, Facts, World};
-use super::file::{MapFile, MapRef, ScenarioFile, TriggerDecl};
+use super::file::{
+    ControllerFileRef, GroupControllerDecl, MapFile, MapRef, ScenarioFile, TriggerDecl,
+};
 use super::formula::{Condition, Formula, Quantities, quantity_index};
 use super::{
-    BOX_RADIUS, BoxGroup, CompiledMap, DEFAULT_DESCRIPTOR, Facing, GroupDriver, LightDef,
-    MAX_BOXES, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS, MAX_MOVER_POINTS, MAX_MOVER_SPEED,
-    MAX_MOVERS, MAX_PHASES, MAX_REGIONS, MAX_ROBOTS, MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE,
-    MAX_SOLIDS, MAX_VARIANTS, MOVER_RADIUS, Nest, ObjectGroup, Phase, Place, PlaceAt, RobotGroup,
-    SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario, ScenarioError, Stage, TeammatePlan, Variant,
-    compile_map, formula, is_proper_rect, line_of_path, shipped_map,
+    BOX_RADIUS, BoxGroup, CompiledMap, ControllerSource, DEFAULT_DESCRIPTOR, Facing, GroupDriver,
+    LightDef, MAX_BOXES, MAX_CONTROLLER_FILE_BYTES, MAX_DESCRIPTOR, MAX_ITEMS, MAX_LIGHTS,
+    MAX_MOVER_POINTS, MAX_MOVER_SPEED, MAX_MOVERS, MAX_PHASES, MAX_REGIONS, MAX_ROBOTS,
+    MAX_SCHEDULE_CYCLES, MAX_SOLID_COORDINATE, MAX_SOLIDS, MAX_VARIANTS, MOVER_RADIUS, Nest,
+    ObjectGroup, Phase, Place, PlaceAt, RobotGroup, SCHEMA, SHIPPED, SHIPPED_MAPS, Scenario,
+    ScenarioError, Stage, TeammatePlan, Variant, bounded, check_sensors, compile_map, formula,
+    is_proper_rect, line_of_path, shipped_map,
 };
 use crate::geometry::bodies::{MoverPath, PathMode};
 use crate::geometry::scene::{Rect, RectKind};
+use crate::network::controller::{Controller, ControllerFile};
 use crate::sensors::frame::{InputGroup, SensorSet};
 use crate::world::lights::Trigger;
 use std::collections::BTreeMap;
@@ -82,6 +86,7 @@ pub(super) fn compile(
     file: ScenarioFile,
     text: &str,
     origin: &str,
+    controllers: ControllerSource<'_>,
 ) -> Result<Scenario, ScenarioError> {
     let error = |path: &str, message: String| ScenarioError {
         origin: origin.to_string(),
@@ -97,7 +102,8 @@ pub(super) fn compile(
     let variants = variants(&file, &lights, &regions, &error)?;
     let place = place(&file, world.as_ref(), &variants, &regions, &error)?;
     let teammate = teammate(&file, &variants, &regions, &error)?;
-    let robot_groups = robot_groups(&file, &regions, &error)?;
+    let (robot_groups, controller_files) =
+        robot_groups(&file, &regions, sensors, controllers, &error)?;
     let (object_groups, nest) = objects(&file, &regions, &error)?;
     let movers = movers(&file, &error)?;
     let box_groups = box_groups(&file, &regions, &error)?;
@@ -155,6 +161,7 @@ pub(super) fn compile(
         place,
         teammate,
         robot_groups,
+        controller_files,
         object_groups,
         nest,
         movers,
@@ -807,15 +814,20 @@ fn teammate(
     Ok(teammate)
 }
 
-/// `[[robots]]`: the team's other robots, group by group.
+/// `[[robots]]`: the team's other robots, group by group, and the texts of the controller
+/// files they run, by the path as written.
 fn robot_groups(
     file: &ScenarioFile,
     regions: &Regions<'_>,
+    sensors: SensorSet,
+    controllers: ControllerSource<'_>,
     error: Refuse<'_>,
-) -> Result<Vec<RobotGroup>, ScenarioError> {
+) -> Result<(Vec<RobotGroup>, BTreeMap<String, String>), ScenarioError> {
     let mut n_robots = 1u64;
     let mut names = std::collections::BTreeSet::new();
-    file.robot_groups
+    let mut controller_files = BTreeMap::new();
+    let groups = file
+        .robot_groups
         .iter()
         .enumerate()
         .map(|(group_idx, decl)| {
@@ -850,9 +862,9 @@ fn robot_groups(
             }
             let region = drawn_region(regions, &decl.region)
                 .map_err(|message| error(&key("region"), message))?;
-            let driver = match decl.controller.as_str() {
-                "evolved" => GroupDriver::Evolved,
-                name => GroupDriver::Scripted(
+            let driver = match &decl.controller {
+                GroupControllerDecl::Named(name) if name == "evolved" => GroupDriver::Evolved,
+                GroupControllerDecl::Named(name) => GroupDriver::Scripted(
                     *blocks::BEHAVIOURS
                         .iter()
                         .filter(|b| b.name() != "follow")
@@ -860,10 +872,23 @@ fn robot_groups(
                         .ok_or_else(|| {
                             error(
                                 &key("controller"),
-                                format!("'{name}' is not evolved, wander or fixed"),
+                                format!(
+                                    "'{}' is not evolved, wander, fixed or {{ file = \"PATH\" }}",
+                                    bounded(name)
+                                ),
                             )
                         })?,
                 ),
+                GroupControllerDecl::File(ControllerFileRef { file: path }) => {
+                    let (controller, text) =
+                        group_controller(path, sensors, &file.name, controllers)
+                            .map_err(|message| error(&key("controller.file"), message))?;
+                    controller_files.insert(path.clone(), text);
+                    GroupDriver::File {
+                        path: path.clone(),
+                        controller: Arc::new(controller),
+                    }
+                }
             };
             Ok(RobotGroup {
                 name: decl.name.clone(),
@@ -872,7 +897,46 @@ fn robot_groups(
                 driver,
             })
         })
-        .collect()
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((groups, controller_files))
+}
+
+/// The controller file at `path` (as written) that a group runs, from `controllers`, and its
+/// text: a complete tree (every node with its genome) that reads only the sensors the robot
+/// carries (`sensors`, of scenario `scenario_name`).
+fn group_controller(
+    path: &str,
+    sensors: SensorSet,
+    scenario_name: &str,
+    controllers: ControllerSource<'_>,
+) -> Result<(Controller, String), String> {
+    if path.is_empty() {
+        return Err("is empty; give the controller file's path, relative to the scenario".into());
+    }
+    let text = controllers(path)?;
+    let shown = bounded(path);
+    if text.len() > MAX_CONTROLLER_FILE_BYTES {
+        return Err(format!(
+            "'{shown}' is {} bytes, at most {MAX_CONTROLLER_FILE_BYTES} are accepted",
+            text.len()
+        ));
+    }
+    let tree = ControllerFile::from_json_str(&text).map_err(|e| {
+        format!(
+            "'{shown}' is not a controller file: {}",
+            bounded(&e.to_string())
+        )
+    })?;
+    if let Some((node, _)) = tree.free_node_topology() {
+        return Err(format!(
+            "'{shown}': node '{node}' has no genome; a group's controller must be complete"
+        ));
+    }
+    check_sensors(sensors, scenario_name, &tree.root.groups_read())
+        .map_err(|problem| format!("'{shown}': controller '{}' {problem}", tree.root.name))?;
+    let controller = Controller::new(&tree, None)
+        .map_err(|e| format!("'{shown}' is not a controller file: {e}"))?;
+    Ok((controller, text))
 }
 
 /// Where a group of robots or items is drawn: a `[regions]` rectangle or a map region.

@@ -433,10 +433,59 @@ pub struct RobotGroupDecl {
     /// Where they start: a `[regions]` rectangle or a map region, each robot anywhere in it
     /// clear of solids and of the robots placed before it, at any heading.
     pub region: String,
+    /// What drives them ([`GroupControllerDecl`]).
+    pub controller: GroupControllerDecl,
+}
+
+/// `robots[i].controller`: a name, or a controller file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum GroupControllerDecl {
     /// `"evolved"`: each runs its own copy of the controller being evaluated, with its own
     /// network state (a homogeneous team); `"wander"` or `"fixed"`: a scripted robot (the
     /// teammate's walk, or standing still).
-    pub controller: String,
+    Named(String),
+    /// `{ file = "PATH" }`: each runs its own copy of the complete controller tree in that
+    /// controller file (`hevo.controller/1`), the path relative to the scenario file.
+    File(ControllerFileRef),
+}
+
+/// `{ file = "PATH" }`: a controller file a group runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerFileRef {
+    /// The path as written, relative to the scenario file: the key its text travels under.
+    pub file: String,
+}
+
+impl<'de> Deserialize<'de> for GroupControllerDecl {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        // By hand rather than `untagged`, whose error names neither form nor the inner key.
+        struct Either;
+        impl<'de> serde::de::Visitor<'de> for Either {
+            type Value = GroupControllerDecl;
+
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(
+                    "\"evolved\", \"wander\", \"fixed\" or a controller file, \
+                     { file = \"PATH\" }",
+                )
+            }
+
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<Self::Value, E> {
+                Ok(GroupControllerDecl::Named(name.to_string()))
+            }
+
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<Self::Value, A::Error> {
+                ControllerFileRef::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(GroupControllerDecl::File)
+            }
+        }
+        deserializer.deserialize_any(Either)
+    }
 }
 
 /// `[[objects]]`: a group of items on the floor, small discs the robots drive over, pick up

@@ -21,7 +21,8 @@ pub mod formula;
 use crate::geometry::bodies::MoverPath;
 use crate::geometry::cells::{Cell, CellMap};
 use crate::geometry::scene::Rect;
-use crate::math::hash::fnv1a_hex;
+use crate::math::hash::{Fnv1a, fnv1a_hex};
+use crate::network::controller::Controller;
 use crate::sensors::SensedWorld;
 use crate::sensors::frame::{InputGroup, SensorSet};
 use crate::world::lights::Trigger;
@@ -74,6 +75,23 @@ pub const DEFAULT_DESCRIPTOR: [&str; 2] = ["final.x", "final.y"];
 
 /// The most `[[variant]]`s: every variant's starts are built and checked when a task is made.
 pub const MAX_VARIANTS: usize = 256;
+
+/// Whether a robot with `sensors` (of scenario `name`) has a sensor for every group of
+/// `groups`; else which one it lacks, as words that follow a controller's name.
+fn check_sensors(sensors: SensorSet, name: &str, groups: &[InputGroup]) -> Result<(), String> {
+    match groups.iter().find(|&&group| !sensors.carries(group)) {
+        None => Ok(()),
+        Some(group) => {
+            let carried: Vec<&str> = sensors.groups().map(InputGroup::name).collect();
+            Err(format!(
+                "reads '{}', a sensor the robot of scenario '{}' lacks (it has {})",
+                group.name(),
+                name,
+                carried.join(", ")
+            ))
+        }
+    }
+}
 
 /// Whether `[x0, y0, x1, y1]` is a rectangle of some area: finite, `x0 < x1` and `y0 < y1`.
 fn is_proper_rect([x0, y0, x1, y1]: [f32; 4]) -> bool {
@@ -262,6 +280,16 @@ pub struct RobotGroup {
     pub driver: GroupDriver,
 }
 
+impl RobotGroup {
+    /// The controller file its robots run, as written (`robots[i].controller.file`).
+    pub fn controller_file(&self) -> Option<&str> {
+        match &self.driver {
+            GroupDriver::File { path, .. } => Some(path),
+            _ => None,
+        }
+    }
+}
+
 /// The most items a scenario may hold: a bound on a cycle's cost (every robot not carrying
 /// looks at every item on the floor) checked before any evaluation.
 pub const MAX_ITEMS: u32 = 64;
@@ -323,12 +351,38 @@ pub struct Nest {
 }
 
 /// What drives the robots of a group.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub enum GroupDriver {
     /// Each its own copy of the controller being evaluated.
     Evolved,
+    /// Each its own copy of a controller file's complete tree (`{ file = "PATH" }`), reset at
+    /// a sample's start as the evolved copies are.
+    File {
+        /// The path as written in the scenario file.
+        path: String,
+        /// The tree, every node with its genome.
+        controller: Arc<Controller>,
+    },
     /// A scripted behaviour ([`blocks::BEHAVIOURS`]), never "met": a wanderer keeps wandering.
     Scripted(&'static dyn TeammateBehaviour),
+}
+
+/// The largest controller file a group may run, bytes: its text travels with the scenario's.
+pub const MAX_CONTROLLER_FILE_BYTES: usize = 1024 * 1024;
+
+/// Where compiling a scenario finds the text of a controller file a group runs
+/// (`robots[i].controller.file`), given the path as written: sim-core reads no file, so the
+/// caller reads it (relative to the scenario file), or a task's wire form carries it. `Err`
+/// says why there is none.
+pub type ControllerSource<'a> = &'a dyn Fn(&str) -> Result<String, String>;
+
+/// The [`ControllerSource`] of a scenario that comes as text alone: it has no controller files.
+pub fn no_controller_files(path: &str) -> Result<String, String> {
+    Err(format!(
+        "'{}' was not given with the scenario's text (a controller file is read where the \
+         scenario file is read, relative to it)",
+        bounded(path)
+    ))
 }
 
 /// One phase of the derived fitness.
@@ -381,6 +435,9 @@ pub struct Scenario {
     pub teammate: Option<TeammatePlan>,
     /// The other robots of a team, group by group (none: the focal robot alone).
     pub robot_groups: Vec<RobotGroup>,
+    /// The texts of the controller files its groups run, by the path as written: they travel
+    /// with `source` and its content hash covers them (empty for most scenarios).
+    pub controller_files: BTreeMap<String, String>,
     /// The items on the floor, group by group (none: a scenario without objects).
     pub object_groups: Vec<ObjectGroup>,
     /// Where items are delivered, in a scenario with items.
@@ -424,8 +481,19 @@ pub mod ending_slot {
 }
 
 impl Scenario {
-    /// Parses and compiles a scenario file; `origin` names it in errors.
+    /// Parses and compiles a scenario file; `origin` names it in errors. A file whose groups
+    /// run controller files is refused: [`Scenario::parse_with`] is given their texts.
     pub fn parse(text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+        Scenario::parse_with(text, origin, &no_controller_files)
+    }
+
+    /// Parses and compiles a scenario file whose groups may run controller files, whose texts
+    /// `controllers` gives by the path as written; `origin` names it in errors.
+    pub fn parse_with(
+        text: &str,
+        origin: &str,
+        controllers: ControllerSource<'_>,
+    ) -> Result<Scenario, ScenarioError> {
         let error = |path: &str, line: Option<usize>, message: String| ScenarioError {
             origin: origin.to_string(),
             path: path.to_string(),
@@ -458,7 +526,7 @@ impl Scenario {
                 crate::scenario::bounded(e.inner().message()),
             )
         })?;
-        compile::compile(file, text, origin)
+        compile::compile(file, text, origin, controllers)
     }
 
     /// A shipped scenario by name (or alias), compiled once per process.
@@ -490,18 +558,7 @@ impl Scenario {
     /// Whether the robot has a sensor for every group of `groups` (those a controller's nodes
     /// read); else which one it lacks, for the message that refuses the controller.
     pub fn check_sensors(&self, groups: &[InputGroup]) -> Result<(), String> {
-        match groups.iter().find(|&&group| !self.sensors.carries(group)) {
-            None => Ok(()),
-            Some(group) => {
-                let carried: Vec<&str> = self.sensors.groups().map(InputGroup::name).collect();
-                Err(format!(
-                    "reads '{}', a sensor the robot of scenario '{}' lacks (it has {})",
-                    group.name(),
-                    self.name(),
-                    carried.join(", ")
-                ))
-            }
-        }
+        check_sensors(self.sensors, self.name(), groups)
     }
 
     /// A refusal of this file at key path `path`, found after it compiled (when a task or a
@@ -640,7 +697,11 @@ impl Scenario {
         }
         let text = toml::to_string(&file)
             .map_err(|error| refuse(format!("cannot be written back: {error}")))?;
-        Scenario::parse(&text, &format!("{} (a team of {n_robots})", self.origin))
+        Scenario::parse_with(
+            &text,
+            &format!("{} (a team of {n_robots})", self.origin),
+            &|path| self.controller_file(path),
+        )
     }
 
     /// Whether other robots run copies of the controller being evaluated: a caller that
@@ -682,9 +743,27 @@ impl Scenario {
             .sum()
     }
 
-    /// A content hash of the scenario's text.
+    /// A content hash of the scenario's text and of the controller files its groups run.
     pub fn content_hash(&self) -> String {
-        fnv1a_hex(self.source.as_bytes())
+        if self.controller_files.is_empty() {
+            return fnv1a_hex(self.source.as_bytes());
+        }
+        let mut hasher = Fnv1a::new();
+        hasher.write_str(&self.source);
+        for (path, text) in &self.controller_files {
+            hasher.write_str(path);
+            hasher.write_str(text);
+        }
+        format!("{:016x}", hasher.finish())
+    }
+
+    /// The text of the controller file a group runs, by the path as written: the
+    /// [`ControllerSource`] that compiles this scenario again.
+    pub fn controller_file(&self, path: &str) -> Result<String, String> {
+        self.controller_files
+            .get(path)
+            .cloned()
+            .ok_or_else(|| no_controller_files(path).unwrap_err())
     }
 
     /// The children the phases ask for by name, each once, in the phases' order: what an

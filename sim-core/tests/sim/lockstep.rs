@@ -1,7 +1,7 @@
 //! The lockstep evaluator against the scalar reference: on random controller trees (depth up to
 //! three, any input groups and sizes, with and without a minimum time on, with and without a
 //! free node), every shipped scenario, the example T-maze and the wandering teammate's example,
-//! the team arena, the foraging scenario and the movers' and boxes' scenarios, random seeds and variants, cycle limits and
+//! the team arena (also with a group running a controller file), the foraging scenario and the movers' and boxes' scenarios, random seeds and variants, cycle limits and
 //! collision rules, both must give the same outcome for every sample, fitness to the bit. Sample counts that are not a multiple of the lane count exercise lanes that refill and
 //! lanes left empty.
 
@@ -26,6 +26,8 @@ pub(crate) fn tasks() -> Vec<TaskConfig> {
     tasks.push(example_task("find_wanderer"));
     // A team: copies of the lane's controller, wanderers and a fixed robot beside it.
     tasks.push(crate::team::team_task());
+    // A group running a controller file's copies beside them.
+    tasks.push(crate::group_files::file_group_task(17));
     // Scheduled lights, and phases and stages that see them and the team.
     tasks.push(crate::schedules::scheduled_task());
     // Items: picked up, carried and delivered by the lane's robot and its team.

@@ -8,6 +8,7 @@ mod fitness;
 mod floors;
 mod fuzz_controller;
 mod golden;
+mod group_files;
 mod lockstep;
 mod objects;
 mod scenario_files;

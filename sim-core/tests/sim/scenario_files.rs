@@ -1159,6 +1159,16 @@ fn the_docs_room_block_is_the_authors_room_of_the_example() {
     );
 }
 
+#[test]
+fn the_docs_file_group_block_is_the_mixed_aggregation_examples() {
+    let block = scenario_doc_toml_blocks()
+        .into_iter()
+        .find(|block| block.contains("controller = { file"))
+        .expect("docs/scenario-file.md shows a group that runs a controller file");
+    let example = include_str!("../../../scenarios/swarm/mixed_aggregation.toml");
+    assert!(example.contains(&block), "{block}");
+}
+
 /// An open arena 2 m wide, the robot at its centre facing east; `end` is the `[end]` table.
 fn arena_with_regions(end: &str) -> TaskConfig {
     let text = format!(

@@ -203,7 +203,7 @@ fn a_team_that_cannot_be_built_is_refused_naming_the_key() {
         (
             "controller = \"wander\"",
             "controller = \"follow\"",
-            "not evolved, wander or fixed",
+            "not evolved, wander, fixed or { file = \"PATH\" }",
         ),
         ("name = \"post\"", "name = \"copies\"", "robots[2].name"),
         ("name = \"post\"", "name = \"a post\"", "not a group name"),

@@ -4,7 +4,8 @@
 //! forging results that a spot check catches (the evaluation ends and the client evaluates
 //! again); dropping the stream or cancelling the evaluation by its id takes its batches off
 //! the queue, and the client stops at a cancel; a worker's token and requests over a limit or
-//! with a bad gene are refused naming the field.
+//! with a bad gene are refused naming the field; a task whose group runs a controller file
+//! travels with the file's text.
 
 use hevo_client::EvaluationEvent;
 use hevo_engine::dispatch::{EvaluationRequest, RequestShared};
@@ -122,6 +123,45 @@ fn remote_results_are_the_local_ones_with_a_worker_killed_mid_batch() {
     let endings: std::collections::BTreeSet<u8> =
         remote.iter().flatten().map(|s| s.ending.code()).collect();
     assert!(endings.len() >= 2, "endings {endings:?}");
+}
+
+/// A task whose group runs a controller file (`scenarios/swarm/mixed_aggregation.toml`)
+/// reaches the worker as text, the file's text with it, and comes back as the local
+/// evaluation's results, bit for bit.
+#[test]
+fn a_group_running_a_controller_file_is_evaluated_remotely_as_locally() {
+    let scratch = Scratch::new("remote-group-file");
+    let master = master_with_roles(&scratch, &[]);
+    let scenario = repo_root().join("scenarios/swarm/mixed_aggregation.toml");
+    let scenario = hevo_engine::inputs::read_scenario(&scenario.to_string_lossy()).unwrap();
+    assert_eq!(scenario.controller_files.len(), 1);
+    let task = TaskConfig::from_scenario(Arc::new(scenario));
+    let path = repo_root().join("controllers/aggregation.json");
+    let mut template = hevo_engine::inputs::read_controller(&path).unwrap();
+    let genes = template.root.genome.take().unwrap();
+    let genomes: Vec<Arc<[f32]>> = (0..3)
+        .map(|idx| {
+            let moved: Vec<f32> = genes
+                .iter()
+                .map(|&gene| (gene + 0.3 * idx as f32).clamp(-10.0, 10.0))
+                .collect();
+            moved.into()
+        })
+        .collect();
+    let (samples, seed) = (2, 5);
+    let (remote, _) = std::thread::scope(|scope| {
+        let evaluation =
+            scope.spawn(|| evaluate_remotely(&master, &template, &task, &genomes, samples, seed));
+        let _worker = start_worker(
+            &master.url,
+            WORKER_TOKEN,
+            "w0",
+            &[],
+            &scratch.join("w0.log"),
+        );
+        evaluation.join().unwrap()
+    });
+    assert_local_results(&remote, &template, &task, &genomes, samples, seed);
 }
 
 /// `hevo_client::evaluate_genomes` on `master`: the results, `[genome][sample]`, and how many

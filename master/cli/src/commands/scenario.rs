@@ -74,9 +74,7 @@ pub fn scenario(args: ScenarioArgs) -> Result<()> {
 /// A scenario's task by file path (ending in `.toml`) or shipped name.
 fn load(file: &str) -> Result<TaskConfig> {
     let task = if file.ends_with(".toml") {
-        let text = std::fs::read_to_string(file)
-            .with_context(|| format!("cannot read scenario file {file}"))?;
-        TaskConfig::from_scenario(Arc::new(Scenario::parse(&text, file)?))
+        TaskConfig::from_scenario(Arc::new(hevo_engine::inputs::read_scenario(file)?))
     } else {
         TaskConfig::shipped(file).with_context(|| {
             format!(
@@ -150,6 +148,17 @@ fn check(task: &TaskConfig, samples: u32) -> Result<String> {
     }
     if !scenario.box_groups.is_empty() {
         text.push_str(&format!("\n  boxes: {}", scenario.box_radii().len()));
+    }
+    let runs_files: Vec<String> = scenario
+        .robot_groups
+        .iter()
+        .filter_map(|group| {
+            let path = group.controller_file()?;
+            Some(format!("{} runs {path}", group.name))
+        })
+        .collect();
+    if !runs_files.is_empty() {
+        text.push_str(&format!("\n  controller files: {}", runs_files.join("; ")));
     }
     text.push_str(&endings_summary(task));
     text.push_str(&inputs_summary(scenario));

@@ -160,6 +160,19 @@ const SHIPPED: &[Floor] = &[
         stages: None,
         solved_samples: "6bf4b31f38d38dd9",
     },
+    // A heterogeneous team: five robots run aggregation.json read from the scenario's group
+    // (`controller = { file = ... }`), five (the focal one too) the controller judged, here
+    // aggregation.json again. That is the aggregation team robot for robot (the same arena,
+    // starts and streams), so it solves exactly aggregation.toml's samples: a file's copies
+    // run as evolved copies do.
+    Floor {
+        file: "aggregation.json",
+        task: "scenarios/swarm/mixed_aggregation.toml",
+        solved: 79, // measured 82 of 100
+        per_variant: &[],
+        stages: None,
+        solved_samples: "17e9b2b2af0511a9",
+    },
     Floor {
         file: "homing.json",
         task: "scenarios/swarm/homing.toml",
@@ -220,10 +233,10 @@ fn task_of(floor: &Floor) -> TaskConfig {
     if !floor.task.ends_with(".toml") {
         return TaskConfig::shipped(floor.task).expect("a shipped task");
     }
-    let text = std::fs::read_to_string(repo_root().join(floor.task))
-        .unwrap_or_else(|e| panic!("{}: {e}", floor.task));
-    let scenario =
-        hevo_sim_core::Scenario::parse(&text, floor.task).unwrap_or_else(|e| panic!("{e}"));
+    // Read as the command line reads it: with the controller files its groups run.
+    let path = repo_root().join(floor.task);
+    let scenario = hevo_engine::inputs::read_scenario(&path.to_string_lossy())
+        .unwrap_or_else(|e| panic!("{e}"));
     TaskConfig::from_scenario(std::sync::Arc::new(scenario))
 }
 
