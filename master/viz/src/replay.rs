@@ -965,8 +965,13 @@ fn draw_world(doc: &mut SvgDocument, trace: &Trace, transform: &SceneTransform) 
                 halo_label("light-label", at[0], at[1] + radius * 2.0 + 14.0, "middle")
             } else {
                 // Labels go on the outer side of the stem, away from the corridor and the path,
-                // and clear of the wall the light is mounted on.
-                let outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
+                // and clear of the wall the light is mounted on; on the inner side when the
+                // outer one has no room left in the picture (a beacon on a side wall).
+                let mut outward = if at[0] >= scene_centre_x { 1.0 } else { -1.0 };
+                let reach = radius * 2.0 + 16.0 + text_width(&label, LABEL_FONT);
+                if !(0.0..=WIDTH).contains(&(at[0] + outward * reach)) {
+                    outward = -outward;
+                }
                 let anchor = if outward > 0.0 { "start" } else { "end" };
                 halo_label(
                     "light-label",
@@ -2813,6 +2818,24 @@ mod tests {
         let arena = team_arena();
         let beacon = arena.evaluate_traced(&mut Circler, Sample::seeded(2));
         assert_eq!(light_label(&beacon, 0).as_deref(), Some("lit at cycle 0"));
+    }
+
+    /// A beacon on the east wall (the crossing task's) has its label on the inner side, inside
+    /// the picture, where the outer side would run off its edge.
+    #[test]
+    fn a_label_with_no_room_outside_goes_inside() {
+        let (trace, evaluator) =
+            swarm_trace(include_str!("../../../scenarios/swarm/crossing.toml"), 2);
+        let (_, elements) = render(&trace, &evaluator, &ReplayOptions::default());
+        let labels = with_class(&elements, "light-label");
+        assert_eq!(labels.len(), 1);
+        let label = &labels[0];
+        let x = label.number("x");
+        assert_eq!(label.get("text-anchor"), "end", "{label:?}");
+        assert!(
+            x - text_width(&label.text, LABEL_FONT) >= 0.0 && x <= WIDTH,
+            "{x}"
+        );
     }
 
     /// The trace of a sample of the shipped scenario `file` (in scenarios/swarm/), driven by
