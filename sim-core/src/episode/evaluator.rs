@@ -22,7 +22,7 @@ use crate::outcome::{
     TracedMover,
 };
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::{ObjectGroup, Scenario, ScenarioError};
 use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
 use crate::sensors::kinds::ir_cones;
 use crate::sensors::{IrCone, SenseView, Sensor, SensorRun};
@@ -349,14 +349,7 @@ impl Evaluator {
     fn check_items(&self, env: &Environment, variant: u32, seed: u64) -> Result<(), ScenarioError> {
         let scenario = &self.task.scenario;
         let radius = self.task.params.robot.radius;
-        let group_of = scenario
-            .object_groups
-            .iter()
-            .enumerate()
-            .flat_map(|(group_idx, group)| {
-                std::iter::repeat_n((group_idx, group), group.count as usize)
-            });
-        for (&at, (group_idx, group)) in env.items.iter().zip(group_of) {
+        for (&at, (group_idx, group)) in env.items.iter().zip(group_of_each_item(scenario)) {
             let touches_robot = std::iter::once(&env.start)
                 .chain(&env.team)
                 .any(|robot| robot.distance_to(at) <= radius + ITEM_RADIUS)
@@ -435,12 +428,7 @@ impl Evaluator {
                     ),
                 ));
             }
-            let group_of = scenario
-                .object_groups
-                .iter()
-                .enumerate()
-                .flat_map(|(idx, group)| std::iter::repeat_n(idx, group.count as usize));
-            for (&at, group_idx) in env.items.iter().zip(group_of) {
+            for (&at, (group_idx, _)) in env.items.iter().zip(group_of_each_item(scenario)) {
                 if !reach.comes_within(at, radius + ITEM_RADIUS) {
                     return Err(scenario.refusal(
                         &format!("objects[{group_idx}].region"),
@@ -1137,4 +1125,15 @@ fn reach_bounds(scene: &Scene, points: &[&[[f32; 2]]], radius: f32) -> [f32; 4] 
         bounds[2] + margin,
         bounds[3] + margin,
     ]
+}
+
+/// The group of each of a sample's items, with its index, in the order the items are drawn.
+fn group_of_each_item(scenario: &Scenario) -> impl Iterator<Item = (usize, &ObjectGroup)> {
+    scenario
+        .object_groups
+        .iter()
+        .enumerate()
+        .flat_map(|(group_idx, group)| {
+            std::iter::repeat_n((group_idx, group), group.count as usize)
+        })
 }
