@@ -75,6 +75,16 @@ class Cluster:
         self.workers = workers
         self.directory = directory
 
+    def start_worker(self, binaries):
+        """One more `hevo-worker` of one thread, `py0`, `py1`, ... (killed with the cluster)."""
+        k = len(self.workers)
+        self.workers.append(subprocess.Popen(
+            [str(binaries["hevo-worker"]), "--master", self.url, "--threads", "1", "--name", f"py{k}"],
+            env={"HEVO_TOKEN": WORKER_TOKEN, "PATH": "/usr/bin:/bin"},
+            stdout=subprocess.DEVNULL, stderr=open(self.directory / f"worker{k}.log", "w"),
+        ))
+        return self.workers[-1]
+
 
 @contextlib.contextmanager
 def cluster(binaries, directory, workers=1, master_args=()):
@@ -103,13 +113,10 @@ def cluster(binaries, directory, workers=1, master_args=()):
             second = serve.stdout.readline().strip()
             assert second.startswith("metrics on "), second
             metrics_url = "http://" + second[len("metrics on "):] + "/metrics"
-        for k in range(workers):
-            started.append(subprocess.Popen(
-                [str(binaries["hevo-worker"]), "--master", url, "--threads", "1", "--name", f"py{k}"],
-                env={"HEVO_TOKEN": WORKER_TOKEN, "PATH": "/usr/bin:/bin"},
-                stdout=subprocess.DEVNULL, stderr=open(directory / f"worker{k}.log", "w"),
-            ))
-        yield Cluster(url, metrics_url, started, directory)
+        running = Cluster(url, metrics_url, started, directory)
+        for _ in range(workers):
+            running.start_worker(binaries)
+        yield running
     finally:
         for process in (*started, serve):
             process.kill()

@@ -1,6 +1,6 @@
 """hevo.Client.evaluate against a real master (`hevo serve` on 127.0.0.1 port 0, spot checks
-on) and two workers (`hevo-worker`): the Evaluation `hevo.evaluate` returns, byte for byte,
-with one worker killed while it holds a batch; the master's refusals."""
+on) and its workers (`hevo-worker`): the Evaluation `hevo.evaluate` returns, byte for byte,
+with a worker killed while it holds a batch and another taking over; the master's refusals."""
 
 import re
 import signal
@@ -34,12 +34,23 @@ def wait_for(condition, what, seconds=120):
         time.sleep(0.02)
 
 
+def cluster_with(tmp_path, binaries, workers):
+    """A master with metrics and spot checks, and `workers` workers."""
+    return cluster(
+        binaries, tmp_path, workers=workers,
+        master_args=("--metrics-listen", "127.0.0.1:0", "--verify-share", "0.2"),
+    )
+
+
+@pytest.fixture
+def one_worker(tmp_path, binaries):
+    with cluster_with(tmp_path, binaries, 1) as running:
+        yield running
+
+
 @pytest.fixture
 def two_workers(tmp_path, binaries):
-    with cluster(
-        binaries, tmp_path, workers=2,
-        master_args=("--metrics-listen", "127.0.0.1:0", "--verify-share", "0.2"),
-    ) as running:
+    with cluster_with(tmp_path, binaries, 2) as running:
         yield running
 
 
@@ -52,10 +63,11 @@ def maze_batch(repo, n, seed):
     return template, genomes
 
 
-def test_equal_to_local_evaluate_with_a_worker_killed_mid_batch(repo, two_workers):
-    template, genomes = maze_batch(repo, 48, seed=2)
+def test_equal_to_local_evaluate_with_a_worker_killed_mid_batch(repo, binaries, one_worker):
+    # Enough batches that the one worker is still busy with them when the test looks.
+    template, genomes = maze_batch(repo, 96, seed=2)
     task = hevo.Task("solve_maze")
-    client = hevo.Client(two_workers.url, token=CLIENT_TOKEN)
+    client = hevo.Client(one_worker.url, token=CLIENT_TOKEN)
     outcome = {}
 
     def evaluate():
@@ -66,37 +78,34 @@ def test_equal_to_local_evaluate_with_a_worker_killed_mid_batch(repo, two_worker
 
     thread = threading.Thread(target=evaluate)
     thread.start()
-    # Kill one worker while it holds a batch. Each worker has one thread and so holds at most
-    # one batch: with both stopped (SIGSTOP) and two batches still leased, each holds one, and
-    # neither can finish it between the look and the kill.
-    doomed, survivor = two_workers.workers
+    # One worker alone, so a leased batch is its own; stopped (SIGSTOP) so it cannot finish the
+    # batch between the look and the kill, and killed only if it still holds one once stopped.
+    (doomed,) = one_worker.workers
 
-    def both_stopped_holding_a_batch():
-        if metrics(two_workers.metrics_url).get("hevo_batches_leased", 0) < 2:
+    def stopped_holding_a_batch():
+        if metrics(one_worker.metrics_url).get("hevo_batches_leased", 0) < 1:
             return False
-        for worker in (doomed, survivor):
-            worker.send_signal(signal.SIGSTOP)
+        doomed.send_signal(signal.SIGSTOP)
         # Results sent just before the stop reach the master within this pause.
         time.sleep(0.2)
-        holding = metrics(two_workers.metrics_url).get("hevo_batches_leased", 0) >= 2
+        holding = metrics(one_worker.metrics_url).get("hevo_batches_leased", 0) >= 1
         if not holding:
-            for worker in (doomed, survivor):
-                worker.send_signal(signal.SIGCONT)
+            doomed.send_signal(signal.SIGCONT)
         return holding
 
-    wait_for(both_stopped_holding_a_batch, "both workers to be stopped holding a batch")
+    wait_for(stopped_holding_a_batch, "the worker to be stopped holding a batch")
     doomed.kill()
-    survivor.send_signal(signal.SIGCONT)
+    one_worker.start_worker(binaries)
     thread.join(timeout=600)
     assert not thread.is_alive(), "Client.evaluate did not return"
     assert "error" not in outcome, outcome.get("error")
     remote = outcome["result"]
     # The killed worker's lease was taken back and its batch evaluated by the other.
-    after = metrics(two_workers.metrics_url)
+    after = metrics(one_worker.metrics_url)
     assert after["hevo_lease_revocations_total"] + after["hevo_lease_expiries_total"] >= 1, after
     local = hevo.evaluate(template, genomes, task, samples=3, seed=7, clip=True)
     assert_same_evaluation(remote, local)
-    assert len(remote) == 48 and remote.samples == 12
+    assert len(remote) == 96 and remote.samples == 12
 
 
 def test_small_batches_and_refusals(repo, two_workers):
