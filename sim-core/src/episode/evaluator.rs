@@ -22,7 +22,7 @@ use crate::outcome::{
     TracedMover,
 };
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
-use crate::scenario::{ObjectGroup, Scenario, ScenarioError};
+use crate::scenario::{Scenario, ScenarioError};
 use crate::sensors::frame::{InputGroup, N_GROUPS, SensorFrame};
 use crate::sensors::kinds::ir_cones;
 use crate::sensors::{IrCone, SenseView, Sensor, SensorRun};
@@ -245,13 +245,7 @@ impl Evaluator {
                 ));
             }
         }
-        let group_of = scenario
-            .box_groups
-            .iter()
-            .enumerate()
-            .flat_map(|(group_idx, group)| {
-                std::iter::repeat_n((group_idx, group), group.count as usize)
-            });
+        let group_of = member_groups(&scenario.box_groups, |group| group.count);
         let mover_starts: Vec<Disc> = scenario.movers.iter().map(MoverPath::start_disc).collect();
         for (box_idx, (disc, (group_idx, group))) in env.boxes.iter().zip(group_of).enumerate() {
             let touches_robot = std::iter::once(&env.start)
@@ -304,13 +298,7 @@ impl Evaluator {
     ) -> Result<(), ScenarioError> {
         let scenario = &self.task.scenario;
         let radius = self.task.params.robot.radius;
-        let group_of = scenario
-            .robot_groups
-            .iter()
-            .enumerate()
-            .flat_map(|(group_idx, group)| {
-                std::iter::repeat_n((group_idx, group), group.count as usize)
-            });
+        let group_of = member_groups(&scenario.robot_groups, |group| group.count);
         for ((member, pose), (group_idx, group)) in env.team.iter().enumerate().zip(group_of) {
             let earlier = std::iter::once(&env.start).chain(&env.team[..member]);
             let touches_robot = earlier
@@ -349,7 +337,11 @@ impl Evaluator {
     fn check_items(&self, env: &Environment, variant: u32, seed: u64) -> Result<(), ScenarioError> {
         let scenario = &self.task.scenario;
         let radius = self.task.params.robot.radius;
-        for (&at, (group_idx, group)) in env.items.iter().zip(group_of_each_item(scenario)) {
+        for (&at, (group_idx, group)) in env
+            .items
+            .iter()
+            .zip(member_groups(&scenario.object_groups, |group| group.count))
+        {
             let touches_robot = std::iter::once(&env.start)
                 .chain(&env.team)
                 .any(|robot| robot.distance_to(at) <= radius + ITEM_RADIUS)
@@ -428,7 +420,11 @@ impl Evaluator {
                     ),
                 ));
             }
-            for (&at, (group_idx, _)) in env.items.iter().zip(group_of_each_item(scenario)) {
+            for (&at, (group_idx, _)) in env
+                .items
+                .iter()
+                .zip(member_groups(&scenario.object_groups, |group| group.count))
+            {
                 if !reach.comes_within(at, radius + ITEM_RADIUS) {
                     return Err(scenario.refusal(
                         &format!("objects[{group_idx}].region"),
@@ -1127,13 +1123,13 @@ fn reach_bounds(scene: &Scene, points: &[&[[f32; 2]]], radius: f32) -> [f32; 4] 
     ]
 }
 
-/// The group of each of a sample's items, with its index, in the order the items are drawn.
-fn group_of_each_item(scenario: &Scenario) -> impl Iterator<Item = (usize, &ObjectGroup)> {
-    scenario
-        .object_groups
+/// The group of each member of `groups` (robots, items or boxes), with its index, in the
+/// order the members are drawn: group by group, `count` of each.
+fn member_groups<G>(groups: &[G], count: impl Fn(&G) -> u32) -> impl Iterator<Item = (usize, &G)> {
+    groups
         .iter()
         .enumerate()
-        .flat_map(|(group_idx, group)| {
-            std::iter::repeat_n((group_idx, group), group.count as usize)
+        .flat_map(move |(group_idx, group)| {
+            std::iter::repeat_n((group_idx, group), count(group) as usize)
         })
 }
