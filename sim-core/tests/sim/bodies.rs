@@ -5,11 +5,13 @@
 //! evaluators (the lockstep property test draws from both shipped scenarios too); and a file
 //! whose movers or boxes cannot work is refused before any evaluation, naming the key.
 
-use hevo_sim_core::{BatchEvaluator, Ending, Evaluator, InputGroup, Rect, Sample, Scenario};
+use hevo_sim_core::{BatchEvaluator, Ending, Evaluator, InputGroup, Sample, Scenario};
 use hevo_sim_core::{SimRng, TaskConfig, Trace};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use std::sync::Arc;
+
+use crate::support::signed_distance;
 
 /// The shipped crossing scenario: three robots, three movers.
 const CROSSING: &str = include_str!("../../../scenarios/swarm/crossing.toml");
@@ -29,18 +31,6 @@ pub(crate) fn crossing_task() -> TaskConfig {
 
 pub(crate) fn box_pushing_task() -> TaskConfig {
     task(BOX_PUSHING)
-}
-
-/// Signed distance from a point to a possibly rotated rectangle: negative inside.
-fn signed_distance(point: [f32; 2], rect: &Rect) -> f32 {
-    let (sin, cos) = rect.angle.sin_cos();
-    let (dx, dy) = (point[0] - rect.center[0], point[1] - rect.center[1]);
-    let local = [cos * dx + sin * dy, -sin * dx + cos * dy];
-    let q = [
-        local[0].abs() - rect.half_extents[0],
-        local[1].abs() - rect.half_extents[1],
-    ];
-    q[0].max(0.0).hypot(q[1].max(0.0)) + q[0].max(q[1]).min(0.0)
 }
 
 fn apart(a: [f32; 2], b: [f32; 2]) -> f32 {

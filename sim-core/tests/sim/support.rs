@@ -5,7 +5,7 @@
 use hevo_scripted::{
     CorridorFollower, MazeSolver, Rescuer, Returner, RoomExiter, TurnSide, Turner,
 };
-use hevo_sim_core::{Evaluator, Policy, Scenario, SensorFrame, TaskConfig};
+use hevo_sim_core::{Evaluator, Policy, Rect, Scenario, SensorFrame, TaskConfig};
 use std::sync::Arc;
 
 /// `scenarios/examples/t_maze.toml`.
@@ -266,4 +266,19 @@ pub fn outcomes_on_every_evaluator(
     assert_eq!(scalar, outcomes(EvaluatorKind::Scalar), "run twice");
     assert_eq!(scalar, outcomes(EvaluatorKind::Lockstep), "lockstep");
     scalar
+}
+
+/// Signed distance from a point to a possibly rotated rectangle: negative inside.
+pub fn signed_distance(point: [f32; 2], rect: &Rect) -> f32 {
+    let (sin, cos) = rect.angle.sin_cos();
+    let (dx, dy) = (point[0] - rect.center[0], point[1] - rect.center[1]);
+    // Into the rectangle's own frame (rotation by -angle).
+    let local = [cos * dx + sin * dy, -sin * dx + cos * dy];
+    let q = [
+        local[0].abs() - rect.half_extents[0],
+        local[1].abs() - rect.half_extents[1],
+    ];
+    let outside = q[0].max(0.0).hypot(q[1].max(0.0));
+    let inside = q[0].max(q[1]).min(0.0);
+    outside + inside
 }

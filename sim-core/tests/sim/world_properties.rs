@@ -25,7 +25,7 @@ use hevo_sim_core::{SHIPPED_NAMES, Scenario};
 use hevo_sim_core::{Stream, stream_rng};
 use proptest::prelude::*;
 
-use crate::support::Scripted;
+use crate::support::{Scripted, signed_distance};
 
 /// Drives by a fixed list of (cycles, left output, right output) segments, repeated.
 #[derive(Debug, Clone)]
@@ -83,21 +83,6 @@ fn evaluator(kind: &'static str, max_cycles: Option<u32>, end_on_collision: bool
         ..TaskConfig::shipped(kind).unwrap()
     };
     Evaluator::new(task).expect("the paper's task configurations are valid")
-}
-
-/// Signed distance from a point to a possibly rotated rectangle: negative inside.
-fn signed_distance(point: [f32; 2], rect: &Rect) -> f32 {
-    let (sin, cos) = rect.angle.sin_cos();
-    let (dx, dy) = (point[0] - rect.center[0], point[1] - rect.center[1]);
-    // Into the rectangle's own frame (rotation by -angle).
-    let local = [cos * dx + sin * dy, -sin * dx + cos * dy];
-    let q = [
-        local[0].abs() - rect.half_extents[0],
-        local[1].abs() - rect.half_extents[1],
-    ];
-    let outside = q[0].max(0.0).hypot(q[1].max(0.0));
-    let inside = q[0].max(q[1]).min(0.0);
-    outside + inside
 }
 
 /// The nearest rectangle's distance from the robot's centre, and which rectangle it is.
