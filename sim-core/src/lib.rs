@@ -44,8 +44,8 @@ pub use network::controller::{
 };
 pub use network::ctrnn::{CtrnnTopology, GENE_MAX, GENE_MIN, logistic, tau_from_gene};
 pub use outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle, TracedBox,
-    TracedItem, TracedMover,
+    CycleItem, Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TraceCycle,
+    TracedBox, TracedItem, TracedMover,
 };
 pub use scenario::file::ChildRef;
 pub use scenario::{

@@ -167,6 +167,23 @@ pub struct TraceCycle {
     /// `[[boxes]]`), in the order of the trace's `movers` and `boxes`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub bodies: Vec<[f32; 2]>,
+    /// Each item at the start of the cycle (`[[objects]]`), in the order of the trace's
+    /// `items`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub items: Vec<CycleItem>,
+}
+
+/// Where one item is in one cycle of a trace. An item on the floor is where it lies; a carried
+/// one is at its carrier's centre; a delivered one stays where its carrier delivered it (the
+/// carrier's centre on entering the nest), flagged so a replay can draw it as done.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CycleItem {
+    /// Where it is.
+    pub at: [f32; 2],
+    /// Whether a robot carries it.
+    pub carried: bool,
+    /// Whether it has been delivered in the nest.
+    pub delivered: bool,
 }
 
 /// One item of a trace: where it lay at the start and where it ended.

@@ -18,8 +18,8 @@ use crate::math::rng::{SimRng, Stream, stream_rng};
 use crate::math::trig;
 use crate::network::Policy;
 use crate::outcome::{
-    Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TracedBox, TracedItem,
-    TracedMover,
+    CycleItem, Ending, N_SUB_TASKS, NodeUse, Outcome, Sample, SubTaskChoices, Trace, TracedBox,
+    TracedItem, TracedMover,
 };
 use crate::scenario::blocks::{self, CycleView, Motion, TeammateBehaviour, TeammateView};
 use crate::scenario::{Scenario, ScenarioError};
@@ -902,6 +902,13 @@ impl<'e> SampleRun<'e> {
         })
     }
 
+    /// Every item at the start of the cycle, by item (none without items).
+    pub(crate) fn item_places(&self) -> Vec<CycleItem> {
+        self.items
+            .as_ref()
+            .map_or_else(Vec::new, |items| item_places(items).collect())
+    }
+
     /// After every robot's move: the movers advance, each unless a robot or a box is in its
     /// way.
     fn move_movers(&mut self) {
@@ -994,16 +1001,29 @@ pub(crate) struct Finished {
     pub(crate) bodies: Option<Bodies>,
 }
 
+/// Where each item of `items` is now and in which state, by item.
+fn item_places(items: &Items) -> impl Iterator<Item = CycleItem> + '_ {
+    items
+        .positions()
+        .iter()
+        .zip(items.states())
+        .map(|(&at, state)| CycleItem {
+            at,
+            carried: matches!(state, ItemState::Carried(_)),
+            delivered: *state == ItemState::Delivered,
+        })
+}
+
 /// Each item of a trace: where it started (`starts`) and how it ended (`end`).
 fn traced_items(starts: &[[f32; 2]], end: &Items) -> Vec<TracedItem> {
     starts
         .iter()
-        .zip(end.positions().iter().zip(end.states()))
-        .map(|(&start, (&at, state))| TracedItem {
+        .zip(item_places(end))
+        .map(|(&start, place)| TracedItem {
             start,
-            end: at,
-            delivered: *state == ItemState::Delivered,
-            carried: matches!(state, ItemState::Carried(_)),
+            end: place.at,
+            delivered: place.delivered,
+            carried: place.carried,
         })
         .collect()
 }

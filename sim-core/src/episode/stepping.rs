@@ -8,8 +8,9 @@
 //! no node use is counted and no root choice is made.
 
 use super::evaluator::{Evaluator, Finished, SampleRun};
+use crate::body::Pose;
 use crate::network::Policy;
-use crate::outcome::{Ending, N_SUB_TASKS, Outcome, Sample, TraceCycle};
+use crate::outcome::{CycleItem, Ending, N_SUB_TASKS, Outcome, Sample, TraceCycle};
 use crate::sensors::frame::SensorFrame;
 
 /// Receives each cycle; the plain evaluation records nothing and compiles to nothing.
@@ -116,6 +117,24 @@ impl<'e> Episode<'e> {
         self.run.cycles_run()
     }
 
+    /// A team's other robots' poses at the start of the current cycle (once ended: where
+    /// they ended), group by group as a trace's `team`; empty without a team.
+    pub fn team_poses(&self) -> Vec<Pose> {
+        self.run.team_poses()
+    }
+
+    /// The movers' then the boxes' centres at the start of the current cycle (once ended:
+    /// where they ended), as a trace's `bodies`; empty without either.
+    pub fn body_centres(&self) -> Vec<[f32; 2]> {
+        self.run.body_centres()
+    }
+
+    /// Every item at the start of the current cycle (once ended: where it ended), as a
+    /// trace's per-cycle `items`; empty without items.
+    pub fn item_places(&self) -> Vec<CycleItem> {
+        self.run.item_places()
+    }
+
     /// The variant the sample runs (light configuration, start branch).
     pub fn variant(&self) -> u32 {
         self.run.variant()
@@ -170,6 +189,7 @@ impl<'e> Episode<'e> {
             sub_task: run.sub_task().unwrap_or(0),
             team: run.team_poses(),
             bodies: run.body_centres(),
+            items: run.item_places(),
         });
         match run.finish_cycle(&before, collided) {
             Some(ending) => {

@@ -1,10 +1,11 @@
 //! Items (`[[objects]]` and `[nest]`): a robot that drives over an item carries it and delivers
 //! it in the nest; no item is created or lost (every item ends on the floor, carried by one
-//! robot, or delivered); a sample is the same every time and on both evaluators (the
-//! lockstep property test draws from the foraging scenario too); and a file whose items or
-//! nest cannot work is refused before any evaluation, naming the key.
+//! robot, or delivered); a trace shows every item every cycle; a sample is the same every
+//! time and on both evaluators (the lockstep property test draws from the foraging scenario
+//! too); and a file whose items or nest cannot work is refused before any evaluation, naming
+//! the key.
 
-use hevo_sim_core::{BatchEvaluator, ControllerFile, Sample};
+use hevo_sim_core::{BatchEvaluator, ControllerFile, EvaluatorKind, Sample};
 use hevo_sim_core::{Evaluator, InputGroup, Scenario, SimRng, TaskConfig};
 use proptest::prelude::*;
 use rand::SeedableRng;
@@ -61,6 +62,55 @@ proptest! {
         for item in trace.items.iter().filter(|item| !item.carried && !item.delivered) {
             prop_assert_eq!(item.start, item.end);
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Every cycle of a trace shows every item: the first where it was drawn, one on the
+    /// floor where it lay the cycle before, a carried one on a robot, a delivered one where it
+    /// was delivered for the rest of the sample. Tracing changes nothing: the traced outcome
+    /// is the plain one, and the lockstep evaluator's.
+    #[test]
+    fn every_cycle_of_a_trace_shows_every_item(case_seed in any::<u64>(), seed in 0u64..1000) {
+        let task = foraging_task();
+        let rng = &mut SimRng::seed_from_u64(case_seed);
+        let (template, genes) = random_controller(rng);
+        let batch = BatchEvaluator::new(template.clone(), task.clone()).expect("valid");
+        let mut controller = batch.controller(Some(&genes)).expect("genes fit");
+        let sample = Sample::seeded(seed);
+        let trace = batch.evaluator().evaluate_traced(&mut controller, sample);
+        let n_items = task.scenario.n_items();
+        prop_assert!(trace.cycles.iter().all(|cycle| cycle.items.len() == n_items));
+        for (place, item) in trace.cycles[0].items.iter().zip(&trace.items) {
+            prop_assert_eq!(place.at, item.start);
+            prop_assert!(!place.carried && !place.delivered);
+        }
+        for pair in trace.cycles.windows(2) {
+            let robots: Vec<[f32; 2]> = std::iter::once(&pair[1].robot)
+                .chain(&pair[1].team)
+                .map(|pose| pose.position())
+                .collect();
+            for (before, now) in pair[0].items.iter().zip(&pair[1].items) {
+                prop_assert!(!(now.carried && now.delivered), "{:?}", now);
+                if before.delivered || !(now.carried || now.delivered) {
+                    prop_assert_eq!(before.at, now.at);
+                }
+                prop_assert!(!before.delivered || now.delivered);
+                if now.carried {
+                    prop_assert!(robots.contains(&now.at), "{:?} on no robot", now);
+                }
+            }
+        }
+        let mut plain = batch.controller(Some(&genes)).expect("genes fit");
+        prop_assert_eq!(&trace.outcome, &batch.evaluator().evaluate(&mut plain, sample));
+        let lockstep = BatchEvaluator::new(template, task)
+            .expect("valid")
+            .with_kind(EvaluatorKind::Lockstep)
+            .evaluate_genome(Some(&genes), &[sample])
+            .expect("genes fit");
+        prop_assert_eq!(&trace.outcome, &lockstep[0]);
     }
 }
 
@@ -130,6 +180,35 @@ fn a_robot_driving_over_an_item_carries_it_into_the_nest() {
         .filter(|cycle| cycle.frame.values(InputGroup::ITEMS)[4] == 1.0)
         .count();
     assert!(carrying > 0 && carrying < trace.cycles.len(), "{carrying}");
+    // Cycle by cycle: on the floor, then on the robot to the end (delivering it ended the
+    // sample, so no cycle began with it delivered).
+    let places: Vec<_> = trace.cycles.iter().map(|cycle| cycle.items[0]).collect();
+    let carried_from = places.iter().position(|place| place.carried).unwrap();
+    assert!(carried_from > 0);
+    assert!(
+        places[..carried_from]
+            .iter()
+            .all(|place| place.at == item.start)
+    );
+    for (cycle, place) in trace.cycles.iter().zip(&places).skip(carried_from) {
+        assert!(place.carried && !place.delivered);
+        assert_eq!(place.at, cycle.robot.position());
+    }
+    // Not ended by the delivery, the sample shows the item delivered where it was delivered
+    // for the rest of its cycles.
+    let open_ended = ONE_ITEM.replace(r#"solved = "items delivered""#, r#"solved = "not always""#);
+    let open_evaluator = Evaluator::new(task(&open_ended)).expect("valid");
+    let long =
+        open_evaluator.evaluate_traced(&mut crate::support::Fixed::straight(), Sample::seeded(0));
+    let places: Vec<_> = long.cycles.iter().map(|cycle| cycle.items[0]).collect();
+    let delivered_from = places.iter().position(|place| place.delivered).unwrap();
+    assert!(delivered_from > carried_from && delivered_from + 1 < places.len());
+    assert!(
+        places[delivered_from..]
+            .iter()
+            .all(|place| place.at == item.end && !place.carried)
+    );
+    assert_eq!(long.items[0].end, item.end);
     // Standing still, the robot picks nothing up.
     let still = evaluator.evaluate_traced(&mut crate::support::Fixed::still(), Sample::seeded(0));
     assert!(!still.outcome.solved);
