@@ -1,15 +1,17 @@
 //! The best controller's replays on a job page: one traced sample per variant (light
 //! configuration) of the node's task, drawn by hevo-viz's replay renderer, with the robot's
-//! pose at every cycle in picture coordinates (and a team's other robots' poses too) so the
-//! page's script can move a marker for each robot along its path with a cycle slider and play
-//! it. Without the script the picture is the whole replay.
+//! pose at every cycle in picture coordinates (and a team's other robots' poses, and where
+//! each mover, box and item is, too) so the page's script can move a marker for each along
+//! its path with a cycle slider and play it. Without the script the picture is the whole
+//! replay.
 
 use crate::BestController;
 use crate::html::escape;
-use hevo_sim_core::Controller;
+use hevo_sim_core::{Controller, CycleItem, ITEM_RADIUS, Trace};
 use hevo_sim_core::{Evaluator, Pose, Sample};
 use hevo_viz::replay::SceneTransform;
 use hevo_viz::svg::num_with;
+use serde::Serialize;
 
 /// One replay, ready for the page.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,10 +26,41 @@ pub struct ReplayFigure {
     /// Each of a team's other robots, as `poses`: a trace records no final pose for them, so
     /// each ends on its last recorded pose again, in step with the robot. Empty without a team.
     pub team_poses: Vec<Vec<[f64; 3]>>,
+    /// Each mover, then each box, then each item of the sample, in step with `poses`. Empty
+    /// without `[[movers]]`, `[[boxes]]` and `[[objects]]`.
+    pub bodies: Vec<BodyTrack>,
     /// The robot's radius in picture units.
     pub radius: f64,
     /// How the sample ended, in words.
     pub ending: String,
+}
+
+/// What a [`BodyTrack`] follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BodyKind {
+    /// A mover (`[[movers]]`).
+    Mover,
+    /// A box robots push (`[[boxes]]`).
+    Box,
+    /// An item (`[[objects]]`).
+    Item,
+}
+
+/// One mover, box or item of a replay, as the page's script reads it (`data-bodies`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BodyTrack {
+    /// What it is.
+    pub kind: BodyKind,
+    /// Its radius in picture units.
+    pub radius: f64,
+    /// Its centre at the start of each cycle and at the end, in picture coordinates (two
+    /// decimals).
+    pub at: Vec<[f64; 2]>,
+    /// An item's state at each entry of `at`, one letter each: `f` on the floor, `c` carried,
+    /// `d` delivered. Empty for movers and boxes.
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub states: String,
 }
 
 /// The replays of `best` on sample `seed`, one per variant of its task.
@@ -82,6 +115,7 @@ pub fn replays(node: &str, best: &BestController, seed: u64) -> Result<Vec<Repla
             svg,
             poses,
             team_poses,
+            bodies: body_tracks(&trace, &transform),
             radius: transform.length(radius_m as f64),
             ending: format!(
                 "{:?} after {} cycles, fitness {:.3}",
@@ -102,6 +136,70 @@ fn picture_poses(transform: &SceneTransform, poses: impl Iterator<Item = Pose>) 
             [x, y, -(p.heading as f64).to_degrees()]
         })
         .collect()
+}
+
+/// Each mover, box and item of `trace`, cycle by cycle and then where it ended, in picture
+/// coordinates. The cycles record the movers then the boxes (`bodies`) and the items (`items`)
+/// in the order of the trace's `movers`, `boxes` and `items`.
+fn body_tracks(trace: &Trace, transform: &SceneTransform) -> Vec<BodyTrack> {
+    let n_movers = trace.movers.len();
+    let track = |kind, radius: f32, at: Vec<[f32; 2]>, states: String| BodyTrack {
+        kind,
+        radius: round2(transform.length(f64::from(radius))),
+        at: at
+            .into_iter()
+            .map(|point| transform.apply(point).map(round2))
+            .collect(),
+        states,
+    };
+    let recorded = |body: usize| trace.cycles.iter().filter_map(move |c| c.bodies.get(body));
+    let movers = trace.movers.iter().enumerate().map(|(idx, mover)| {
+        let at = recorded(idx).copied().chain([mover.end]).collect();
+        track(BodyKind::Mover, mover.radius, at, String::new())
+    });
+    let boxes = trace.boxes.iter().enumerate().map(|(idx, traced)| {
+        let at = recorded(n_movers + idx)
+            .copied()
+            .chain([traced.end])
+            .collect();
+        track(BodyKind::Box, traced.radius, at, String::new())
+    });
+    let items = trace.items.iter().enumerate().map(|(idx, traced)| {
+        let end = CycleItem {
+            at: traced.end,
+            carried: traced.carried,
+            delivered: traced.delivered,
+        };
+        let places: Vec<CycleItem> = trace
+            .cycles
+            .iter()
+            .filter_map(|c| c.items.get(idx))
+            .copied()
+            .chain([end])
+            .collect();
+        let states = places.iter().map(item_state_letter).collect();
+        let at = places.iter().map(|place| place.at).collect();
+        track(BodyKind::Item, ITEM_RADIUS, at, states)
+    });
+    movers
+        .chain(boxes)
+        .chain(items)
+        .filter(|track| track.at.iter().flatten().all(|v| v.is_finite()))
+        .collect()
+}
+
+/// An item's state as [`BodyTrack::states`] spells it.
+fn item_state_letter(place: &CycleItem) -> char {
+    match (place.carried, place.delivered) {
+        (_, true) => 'd',
+        (true, false) => 'c',
+        (false, false) => 'f',
+    }
+}
+
+/// `value` to two decimals, as the page's coordinates are written.
+fn round2(value: f64) -> f64 {
+    (value * 100.0).round() / 100.0
 }
 
 /// The poses as the `data-poses` attribute's JSON: `[[x,y,deg],...]`, two decimals.
@@ -134,8 +232,15 @@ pub fn figure_html(node: &str, figure: &ReplayFigure) -> String {
         let members: Vec<String> = figure.team_poses.iter().map(|p| poses_json(p)).collect();
         format!(r#" data-team-poses="[{}]""#, members.join(","))
     };
+    // Likewise the movers', boxes' and items' tracks.
+    let bodies = if figure.bodies.is_empty() {
+        String::new()
+    } else {
+        let json = serde_json::to_string(&figure.bodies).expect("tracks are plain numbers");
+        format!(r#" data-bodies="{}""#, escape(&json))
+    };
     format!(
-        r#"<figure class="replay" data-node="{node}" data-variant="{variant}" data-radius="{radius}" data-poses="{poses}"{team_poses}>
+        r#"<figure class="replay" data-node="{node}" data-variant="{variant}" data-radius="{radius}" data-poses="{poses}"{team_poses}{bodies}>
 {svg}
 <figcaption>{label}: {ending}</figcaption>
 <div class="replay-controls" hidden>
@@ -180,6 +285,7 @@ mod tests {
         assert!(html.contains(r#"class="cycle-slider""#));
         assert!(html.contains("<svg"));
         assert!(figure.team_poses.is_empty() && !html.contains("data-team-poses"));
+        assert!(figure.bodies.is_empty() && !html.contains("data-bodies"));
     }
 
     #[test]
@@ -207,6 +313,93 @@ mod tests {
             .expect("the figure carries the team's poses");
         let parsed: Vec<Vec<[f64; 3]>> = serde_json::from_str(attribute).unwrap();
         assert_eq!(parsed.len(), 3);
+    }
+
+    /// The picture's width and height, from its `viewBox`.
+    fn picture_size(svg: &str) -> [f64; 2] {
+        let view_box = svg
+            .split(r#"viewBox="0 0 "#)
+            .nth(1)
+            .and_then(|rest| rest.split('"').next())
+            .expect("the picture has a viewBox");
+        let mut sizes = view_box.split(' ').map(|v| v.parse::<f64>().unwrap());
+        [sizes.next().unwrap(), sizes.next().unwrap()]
+    }
+
+    /// A shipped swarm scenario's replay: its movers', boxes' or items' tracks hold one
+    /// centre per cycle and the end, each inside the picture, and the page carries them.
+    fn swarm_replay(scenario: &str, text: &str, controller: &str) -> ReplayFigure {
+        let file_name = format!("{scenario}.toml");
+        let scenario = hevo_sim_core::Scenario::parse(text, &file_name).unwrap();
+        let best = BestController {
+            file: shipped_controller(controller),
+            task: TaskConfig::from_scenario(std::sync::Arc::new(scenario)),
+        };
+        let figures = replays(&file_name, &best, 1).unwrap();
+        let figure = figures.into_iter().next().unwrap();
+        let [width, height] = picture_size(&figure.svg);
+        for track in &figure.bodies {
+            assert_eq!(track.at.len(), figure.poses.len(), "{track:?}");
+            assert!(
+                track
+                    .at
+                    .iter()
+                    .all(|&[x, y]| (0.0..=width).contains(&x) && (0.0..=height).contains(&y)),
+                "{track:?} leaves the {width} by {height} picture"
+            );
+            assert!(track.radius > 0.0);
+        }
+        let html = figure_html(&file_name, &figure);
+        let attribute = html
+            .split(r#"data-bodies=""#)
+            .nth(1)
+            .and_then(|rest| rest.split('"').next())
+            .expect("the figure carries the bodies' tracks");
+        let parsed: Vec<serde_json::Value> =
+            serde_json::from_str(&attribute.replace("&quot;", "\"")).unwrap();
+        assert_eq!(parsed.len(), figure.bodies.len());
+        figure
+    }
+
+    /// The tracks of one kind in `figure`.
+    fn tracks_of(figure: &ReplayFigure, kind: BodyKind) -> Vec<&BodyTrack> {
+        figure.bodies.iter().filter(|t| t.kind == kind).collect()
+    }
+
+    #[test]
+    fn a_swarm_replay_moves_each_mover_box_and_item() {
+        let crossing = swarm_replay(
+            "crossing",
+            include_str!("../../../scenarios/swarm/crossing.toml"),
+            include_str!("../../../controllers/crossing.json"),
+        );
+        let movers = tracks_of(&crossing, BodyKind::Mover);
+        assert_eq!((movers.len(), crossing.bodies.len()), (3, 3));
+        // Movers patrol: each is somewhere else at the end than at the start.
+        assert!(movers.iter().all(|t| t.at[0] != t.at[t.at.len() - 1]));
+        assert!(movers.iter().all(|t| t.states.is_empty()));
+
+        let box_pushing = swarm_replay(
+            "box_pushing",
+            include_str!("../../../scenarios/swarm/box_pushing.toml"),
+            include_str!("../../../controllers/follow_wall.json"),
+        );
+        assert_eq!(tracks_of(&box_pushing, BodyKind::Box).len(), 4);
+        assert_eq!(box_pushing.bodies.len(), 4);
+
+        let foraging = swarm_replay(
+            "foraging",
+            include_str!("../../../scenarios/swarm/foraging.toml"),
+            include_str!("../../../controllers/foraging.json"),
+        );
+        let items = tracks_of(&foraging, BodyKind::Item);
+        assert_eq!((items.len(), foraging.bodies.len()), (10, 10));
+        for item in &items {
+            assert_eq!(item.states.chars().count(), item.at.len());
+            assert!(item.states.starts_with('f'), "{}", item.states);
+        }
+        // The shipped forager picks items up: the page can tell carried ones apart.
+        assert!(items.iter().any(|t| t.states.contains('c')));
     }
 
     #[test]

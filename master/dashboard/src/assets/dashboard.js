@@ -2,8 +2,8 @@
 // Server-Sent Events stream and updates the state, the progress, each run's line and the
 // node's fitness plot (fetched again from the server, which draws it); when a node or the job
 // finishes it reloads to show the tables and replays. Each replay gets a robot marker (and one
-// for each of a team's other robots), a cycle slider and a play button. Without JavaScript the
-// pages show the same facts, not live.
+// for each of a team's other robots, mover, box and item), a cycle slider and a play button.
+// Without JavaScript the pages show the same facts, not live.
 (function () {
   "use strict";
   var SVG_NS = "http://www.w3.org/2000/svg";
@@ -137,6 +137,53 @@
     return marker;
   }
 
+  // The replay picture's colours: movers blue-grey, boxes brown, items orange (green once
+  // delivered, outlined black while carried).
+  var MOVER_COLOUR = "#44546a";
+  var BOX_COLOUR = "#8c564b";
+  var ITEM_COLOURS = { f: "#d55e00", c: "#d55e00", d: "#009e73" };
+
+  // A mover (a diamond), a box (a square) or an item (a small disc) of `track`, drawn apart
+  // from the robots' discs with noses; placed by its transform.
+  function bodyMarker(track) {
+    var marker = document.createElementNS(SVG_NS, "g");
+    marker.setAttribute("class", track.kind + "-marker");
+    var r = Math.max(track.radius, 3);
+    var shape;
+    if (track.kind === "item") {
+      shape = document.createElementNS(SVG_NS, "circle");
+      shape.setAttribute("r", r);
+    } else {
+      shape = document.createElementNS(SVG_NS, "rect");
+      shape.setAttribute("x", -r);
+      shape.setAttribute("y", -r);
+      shape.setAttribute("width", 2 * r);
+      shape.setAttribute("height", 2 * r);
+      if (track.kind === "mover") shape.setAttribute("transform", "rotate(45)");
+      var colour = track.kind === "mover" ? MOVER_COLOUR : BOX_COLOUR;
+      shape.setAttribute("fill", colour);
+      shape.setAttribute("fill-opacity", "0.45");
+      shape.setAttribute("stroke", colour);
+      shape.setAttribute("stroke-width", "2");
+    }
+    marker.appendChild(shape);
+    return marker;
+  }
+
+  // Moves a body's marker to entry `cycle` of its track (its last entry after that); an item
+  // takes its state's look.
+  function placeBody(marker, track, cycle) {
+    var at = track.at[Math.min(cycle, track.at.length - 1)];
+    marker.setAttribute("transform", "translate(" + at[0] + " " + at[1] + ")");
+    if (track.kind !== "item") return;
+    var state = track.states.charAt(Math.min(cycle, track.states.length - 1)) || "f";
+    var shape = marker.firstChild;
+    shape.setAttribute("fill", ITEM_COLOURS[state] || ITEM_COLOURS.f);
+    shape.setAttribute("stroke", state === "c" ? "#000000" : "none");
+    shape.setAttribute("stroke-width", "1.5");
+    marker.dataset.state = state;
+  }
+
   function place(marker, pose) {
     marker.setAttribute("transform", "translate(" + pose[0] + " " + pose[1] + ") rotate(" + pose[2] + ")");
   }
@@ -144,9 +191,11 @@
   function initReplay(figure) {
     var poses;
     var teamPoses = [];
+    var bodies = [];
     try {
       poses = JSON.parse(figure.dataset.poses);
       if (figure.dataset.teamPoses) teamPoses = JSON.parse(figure.dataset.teamPoses);
+      if (figure.dataset.bodies) bodies = JSON.parse(figure.dataset.bodies);
     } catch (e) {
       return;
     }
@@ -154,7 +203,13 @@
     var controls = figure.querySelector(".replay-controls");
     if (!svg || !controls || !poses.length) return;
     var radius = Math.max(parseFloat(figure.dataset.radius) || 0, 5);
-    // The other robots' markers go under the robot's, which the replay is about.
+    // The movers', boxes' and items' markers go under the robots'; the other robots' under
+    // the robot's, which the replay is about.
+    var bodyMarkers = bodies.map(function (track) {
+      var trackMarker = bodyMarker(track);
+      svg.appendChild(trackMarker);
+      return trackMarker;
+    });
     var teamMarkers = teamPoses.map(function () {
       var teamMarker = robotMarker("team-marker", radius, "#555555", "1.5");
       svg.appendChild(teamMarker);
@@ -173,6 +228,9 @@
       teamMarkers.forEach(function (teamMarker, member) {
         var memberPoses = teamPoses[member];
         if (memberPoses.length) place(teamMarker, memberPoses[Math.min(cycle, memberPoses.length - 1)]);
+      });
+      bodyMarkers.forEach(function (trackMarker, body) {
+        if (bodies[body].at.length) placeBody(trackMarker, bodies[body], cycle);
       });
       marker.dataset.cycle = cycle;
       label.textContent = cycle + " of " + last;
