@@ -1,8 +1,9 @@
 //! A traced sample as a table, one row per control cycle, for readers outside hevo
 //! (`hevo replay --trace-out FILE.csv` or `FILE.json`): the robot's pose (and the teammate's),
 //! the sensor inputs the controller read, its wheel outputs, the node that drove and what
-//! happened, then a team's other robots' poses (`[[robots]]`). The Python module's
-//! `hevo.trace` gives the same values as numpy arrays.
+//! happened, then a team's other robots' poses (`[[robots]]`), the movers' and boxes' centres
+//! and the items' places (`[[movers]]`, `[[boxes]]`, `[[objects]]`). The Python module's
+//! `hevo.trace` gives the robots' values as numpy arrays.
 
 use hevo_sim_core::Trace;
 use hevo_sim_core::TraceCycle;
@@ -53,21 +54,39 @@ pub const TRACE_COLUMNS: [&str; POSE_COLUMNS.len() + N_FLAT + OUTCOME_COLUMNS.le
 
 /// The columns of `trace`'s rows: [`TRACE_COLUMNS`], then, for each of a team's other robots
 /// ([`Trace::team_member_names`]: `swarm_0`, ...), its `_x`, `_y` and `_heading` at the start of
-/// the cycle.
+/// the cycle; then each mover's and box's centre (`mover[0]_x`, `mover[0]_y`, ...,
+/// `box[0]_x`, ...) and each item's place and state (`item[0]_x`, `item[0]_y`,
+/// `item[0]_state`: `floor`, `carried` or `delivered`), by index in the trace's `movers`,
+/// `boxes` and `items`. Brackets cannot be in a group's name, so no team column takes these
+/// names.
 pub fn trace_columns(trace: &Trace) -> Vec<String> {
     let team = trace
         .team_member_names()
         .into_iter()
         .flat_map(|member| TEAM_POSE_SUFFIXES.map(|suffix| format!("{member}{suffix}")));
+    let indexed = |kind: &'static str, count: usize, suffixes: &'static [&'static str]| {
+        (0..count).flat_map(move |idx| {
+            suffixes
+                .iter()
+                .map(move |suffix| format!("{kind}[{idx}]{suffix}"))
+        })
+    };
     TRACE_COLUMNS
         .iter()
         .map(|column| column.to_string())
         .chain(team)
+        .chain(indexed("mover", trace.movers.len(), &CENTRE_SUFFIXES))
+        .chain(indexed("box", trace.boxes.len(), &CENTRE_SUFFIXES))
+        .chain(indexed("item", trace.items.len(), &ITEM_SUFFIXES))
         .collect()
 }
 
 /// The suffixes of a team robot's pose columns.
 const TEAM_POSE_SUFFIXES: [&str; 3] = ["_x", "_y", "_heading"];
+/// The suffixes of a mover's or a box's columns.
+const CENTRE_SUFFIXES: [&str; 2] = ["_x", "_y"];
+/// The suffixes of an item's columns.
+const ITEM_SUFFIXES: [&str; 3] = ["_x", "_y", "_state"];
 
 /// One cell.
 enum Cell {
@@ -120,11 +139,27 @@ fn cells(index: usize, cycle: &TraceCycle, node_paths: &[String]) -> Vec<Cell> {
         .team
         .iter()
         .flat_map(|pose| [pose.x, pose.y, pose.heading].map(number));
+    // The movers' then the boxes' centres, as the columns list them.
+    let bodies = cycle.bodies.iter().flat_map(|centre| centre.map(number));
+    let items = cycle.items.iter().flat_map(|item| {
+        let state = match (item.carried, item.delivered) {
+            (_, true) => "delivered",
+            (true, false) => "carried",
+            (false, false) => "floor",
+        };
+        [
+            number(item.at[0]),
+            number(item.at[1]),
+            Cell::Text(state.to_string()),
+        ]
+    });
     poses
         .into_iter()
         .chain(inputs)
         .chain(outcomes)
         .chain(team)
+        .chain(bodies)
+        .chain(items)
         .collect()
 }
 
@@ -293,5 +328,69 @@ mod tests {
             .unwrap()
             .evaluate_traced(&mut Circler, Sample::seeded(2));
         assert_eq!(trace_columns(&alone), TRACE_COLUMNS);
+    }
+
+    /// The shipped swarm scenario `name` traced with the robots circling.
+    fn swarm_trace(name: &str, text: &str) -> Trace {
+        let scenario = hevo_sim_core::Scenario::parse(text, name).unwrap();
+        let task = TaskConfig::from_scenario(std::sync::Arc::new(scenario));
+        Evaluator::new(task)
+            .unwrap()
+            .evaluate_traced(&mut Circler, Sample::seeded(2))
+    }
+
+    #[test]
+    fn movers_boxes_and_items_add_their_columns() {
+        let crossing = swarm_trace(
+            "crossing.toml",
+            include_str!("../../../scenarios/swarm/crossing.toml"),
+        );
+        let columns = trace_columns(&crossing);
+        let n_team = 2 * 3;
+        assert_eq!(
+            columns[TRACE_COLUMNS.len() + n_team..],
+            [
+                "mover[0]_x",
+                "mover[0]_y",
+                "mover[1]_x",
+                "mover[1]_y",
+                "mover[2]_x",
+                "mover[2]_y"
+            ]
+        );
+        let csv = trace_csv(&crossing, &[]);
+        let last = crossing.cycles.len() - 1;
+        let row: Vec<&str> = csv.lines().nth(last + 1).unwrap().split(',').collect();
+        assert_eq!(row.len(), columns.len());
+        let column =
+            |columns: &[String], name: &str| columns.iter().position(|c| c == name).unwrap();
+        assert_eq!(
+            row[column(&columns, "mover[2]_y")].parse::<f32>().unwrap(),
+            crossing.cycles[last].bodies[2][1]
+        );
+
+        let boxes = swarm_trace(
+            "box_pushing.toml",
+            include_str!("../../../scenarios/swarm/box_pushing.toml"),
+        );
+        let columns = trace_columns(&boxes);
+        assert_eq!(columns[columns.len() - 2..], ["box[3]_x", "box[3]_y"]);
+
+        let foraging = swarm_trace(
+            "foraging.toml",
+            include_str!("../../../scenarios/swarm/foraging.toml"),
+        );
+        let columns = trace_columns(&foraging);
+        assert_eq!(
+            columns[columns.len() - 3..],
+            ["item[9]_x", "item[9]_y", "item[9]_state"]
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&trace_json(&foraging, &[]).unwrap()).unwrap();
+        assert_eq!(json["cycles"][0]["item[0]_state"], "floor");
+        assert_eq!(
+            json["cycles"][0]["item[4]_x"].as_f64().unwrap() as f32,
+            foraging.items[4].start[0]
+        );
     }
 }
