@@ -277,7 +277,16 @@ class Env:
     the range; NaN and infinity raise ValueError. Reward: 0 until the end, then the task's
     fitness. `terminated` when the task ends the sample (solved, collision, wrong branch),
     `truncated` at its cycle limit. Episode k after `reset(seed=s)` runs the sample of seed
-    `derive_seed(s, [k])`, named in every info as `sample_seed`."""
+    `derive_seed(s, [k])`, named in every info as `sample_seed`.
+
+    Every info (the reset's and each step's) also says where everything besides the robot is,
+    each key only in a scenario with such bodies (absent, not empty, without): `team_poses`
+    (a team's other robots, float64 (n, 3): x, y in metres, heading in radians, in the order
+    of `Trace.robots`), `mover_positions` and `box_positions` (centres, float64 (n, 2)),
+    `item_positions` (float64 (n, 2): where an item lies, its carrier's centre while carried,
+    where it was delivered once delivered) with `item_carried` and `item_delivered` (bool
+    (n,)). After a step they are where things stand for the next cycle; at the end, where
+    they ended."""
 
     observation_space: Space
     action_space: Space
@@ -286,7 +295,8 @@ class Env:
     def reset(
         self, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None
     ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]:
-        """Starts an episode: `(observation, info)`; info has `sample_seed` and `variant`.
+        """Starts an episode: `(observation, info)`; info has `sample_seed`, `variant` and
+        the positions at the start.
         `seed` restarts the episodes from that seed; `options={"sample_seed": s, "variant": v}`
         runs that sample exactly, as `trace(controller, task, seed=s, variant=v)` does."""
     def step(
@@ -294,8 +304,8 @@ class Env:
     ) -> Tuple[npt.NDArray[np.float32], float, bool, bool, Dict[str, Any]]:
         """One control cycle: `(observation, reward, terminated, truncated, info)`. At the end,
         info holds the outcome: fitness, solved, collided, ending, stage, variant, cycles,
-        sample_seed; the observation is the last cycle's frame. RunError before `reset()` and
-        after the end."""
+        sample_seed; the observation is the last cycle's frame. Every info holds the positions
+        after the step. RunError before `reset()` and after the end."""
     @property
     def observation_names(self) -> List[str]:
         """The observation's columns (`trace.input_names`)."""

@@ -9,12 +9,18 @@
 //! Samples: a lane seeded `s` runs episode k on the sample of seed `derive_seed(s, [k])`, its
 //! variant drawn from that seed, as `hevo.trace(controller, task, seed=...)` runs it; every
 //! info names the sample's seed, so any episode can be traced or evaluated again.
+//!
+//! Positions: `Env`'s info shows, after every reset and step, where everything besides the
+//! robot is (a team's other robots, movers, boxes, items), each key only in a scenario that
+//! has such bodies, so a single-robot task's info is as it was. `VectorEnv`'s info stays
+//! Gymnasium's per-episode facts (what ended or began); step an `Env` for the positions.
 
 use crate::genomes::{Floats, float_array, floats_2d};
 use crate::task::Task;
 use crate::{ConfigError, RunError};
 use hevo_sim_core::{
-    Ending, Episode, Evaluator, N_FLAT, Outcome, Sample, SensorFrame, WHEEL_RANGE, derive_seed,
+    CycleItem, Ending, Episode, Evaluator, N_FLAT, Outcome, Pose, Sample, SensorFrame, WHEEL_RANGE,
+    derive_seed,
 };
 use numpy::ndarray::{Array1, Array2};
 use numpy::{PyArray1, PyArray2};
@@ -76,6 +82,76 @@ struct Ended {
     lane: usize,
     outcome: Outcome,
     sample: Sample,
+}
+
+/// Where everything besides the focal robot is at one moment of an episode: what `Env`'s info
+/// shows per cycle.
+#[derive(Debug, Default)]
+struct Positions {
+    /// A team's other robots, group by group.
+    team: Vec<Pose>,
+    /// The movers' centres, by mover.
+    movers: Vec<[f32; 2]>,
+    /// The boxes' centres, by box.
+    boxes: Vec<[f32; 2]>,
+    /// The items, by item.
+    items: Vec<CycleItem>,
+}
+
+impl Positions {
+    /// `episode`'s now, in a scenario of `n_movers` movers (its bodies list movers first).
+    fn of(episode: &Episode<'_>, n_movers: usize) -> Positions {
+        let mut movers = episode.body_centres();
+        let boxes = movers.split_off(n_movers.min(movers.len()));
+        Positions {
+            team: episode.team_poses(),
+            movers,
+            boxes,
+            items: episode.item_places(),
+        }
+    }
+
+    /// Sets info's position keys, each only for a scenario with such bodies: `team_poses`
+    /// (n, 3: x, y, heading), `mover_positions`, `box_positions`, `item_positions` (n, 2: x,
+    /// y), and with the items `item_carried` and `item_delivered` (n,); float64 and bool.
+    fn set_info(&self, info: &Bound<'_, PyDict>) -> PyResult<()> {
+        let py = info.py();
+        if !self.team.is_empty() {
+            let poses = self.team.iter().map(|pose| [pose.x, pose.y, pose.heading]);
+            info.set_item("team_poses", rows(py, poses)?)?;
+        }
+        for (key, centres) in [
+            ("mover_positions", &self.movers),
+            ("box_positions", &self.boxes),
+        ] {
+            if !centres.is_empty() {
+                info.set_item(key, rows(py, centres.iter().copied())?)?;
+            }
+        }
+        if !self.items.is_empty() {
+            let items = &self.items;
+            info.set_item(
+                "item_positions",
+                rows(py, items.iter().map(|item| item.at))?,
+            )?;
+            let carried = items.iter().map(|item| item.carried).collect();
+            info.set_item("item_carried", PyArray1::from_vec(py, carried))?;
+            let delivered = items.iter().map(|item| item.delivered).collect();
+            info.set_item("item_delivered", PyArray1::from_vec(py, delivered))?;
+        }
+        Ok(())
+    }
+}
+
+/// `values`, one row each, as a float64 array of shape `(rows, N)`.
+fn rows<'py, const N: usize>(
+    py: Python<'py>,
+    values: impl Iterator<Item = [f32; N]>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let flat: Vec<f64> = values.flat_map(|row| row.map(f64::from)).collect();
+    let array = Array2::from_shape_vec((flat.len() / N, N), flat)
+        .map_err(|error| RunError::new_err(format!("internal: positions' shape: {error}")))?;
+    Ok(PyArray2::from_owned_array(py, array))
 }
 
 /// The environments' state: the evaluator, one episode per lane, and each lane's seeds and
@@ -140,10 +216,29 @@ impl Core {
         self.lanes.borrow_dependent()[lane].is_some()
     }
 
+    /// Where everything besides the focal robot is in `lane`'s running episode (nothing once
+    /// it ended).
+    fn positions(&self, lane: usize) -> Positions {
+        let n_movers = self.evaluator().task().scenario.movers.len();
+        self.lanes.borrow_dependent()[lane]
+            .as_ref()
+            .map_or_else(Positions::default, |episode| {
+                Positions::of(episode, n_movers)
+            })
+    }
+
     /// One cycle of `lane`'s running episode; its outcome if it ended there. The wheels are
-    /// finite (checked by the caller), so a running episode takes them.
-    fn step(&mut self, lane: usize, wheels: [f32; 2]) -> Result<Option<Ended>, String> {
+    /// finite (checked by the caller), so a running episode takes them. `positions` receives
+    /// where everything besides the focal robot is after the cycle (where it ended, if it
+    /// ended), when asked for (`Env`'s info).
+    fn step(
+        &mut self,
+        lane: usize,
+        wheels: [f32; 2],
+        positions: Option<&mut Positions>,
+    ) -> Result<Option<Ended>, String> {
         let sample = self.seeds[lane].sample;
+        let n_movers = self.evaluator().task().scenario.movers.len();
         let (frame, outcome) = self.lanes.with_dependent_mut(|_, episodes| {
             let Some(episode) = episodes[lane].as_mut() else {
                 return Err(
@@ -153,6 +248,9 @@ impl Core {
             };
             let ended = episode.step(wheels).map_err(|error| error.to_string())?;
             let frame = *episode.frame();
+            if let Some(positions) = positions {
+                *positions = Positions::of(episode, n_movers);
+            }
             let outcome = match ended {
                 Some(_) => episodes[lane].take().and_then(Episode::into_outcome),
                 None => None,
@@ -390,6 +488,13 @@ fn frame_array<'py>(py: Python<'py>, frame: &SensorFrame) -> Bound<'py, PyArray1
 /// outputs and `trace.outputs`), clipped to it, NaN and infinity refused. The reward is 0
 /// until the episode ends, then the task's fitness; `terminated` when the task ended it
 /// (solved, collision, wrong branch), `truncated` at the task's cycle limit.
+///
+/// Every info also says where everything besides the robot is, each key only in a scenario
+/// with such bodies (absent, not empty, without): `team_poses` (a team's other robots, float64
+/// `(n, 3)`: x, y in metres, heading in radians, in the order of `trace.robots`),
+/// `mover_positions` and `box_positions` (centres, float64 `(n, 2)`), `item_positions`
+/// (float64 `(n, 2)`: where an item lies, its carrier's centre while carried, where it was
+/// delivered once delivered) with `item_carried` and `item_delivered` (bool `(n,)`).
 #[pyclass(module = "hevo", frozen)]
 #[derive(Debug)]
 pub struct Env {
@@ -421,7 +526,8 @@ impl Env {
     /// (the first episode after `reset(seed=s)` is always the same sample); without it, the
     /// next episode of the current seed. `options={"sample_seed": s, "variant": v}` runs that
     /// sample exactly (as `hevo.trace(controller, task, seed=s, variant=v)`; `variant` drawn
-    /// from the seed when omitted). info: `sample_seed`, `variant`.
+    /// from the seed when omitted). info: `sample_seed`, `variant`, and the positions at the
+    /// start (see `Env`).
     #[pyo3(signature = (seed=None, options=None))]
     fn reset<'py>(
         &self,
@@ -441,6 +547,7 @@ impl Env {
             .as_ref()
             .map_or(0, Episode::variant);
         info.set_item("variant", variant)?;
+        core.positions(0).set_info(&info)?;
         Ok((frame_array(py, &core.frames[0]), info))
     }
 
@@ -448,7 +555,8 @@ impl Env {
     /// `(observation, reward, terminated, truncated, info)`. When the episode ends, info holds
     /// its outcome (`fitness`, `solved`, `collided`, `ending`, `stage`, `variant`, `cycles`,
     /// `sample_seed`) and the observation is its last cycle's frame (nothing is sensed after
-    /// the end); step again only after `reset()`.
+    /// the end); step again only after `reset()`. Every info holds the positions after the
+    /// step (where they ended, at the end; see `Env`).
     #[allow(clippy::type_complexity)]
     fn step<'py>(
         &self,
@@ -463,9 +571,13 @@ impl Env {
     )> {
         let wheels = action_of(action)?;
         let mut core = Core::lock(&self.core)?;
-        let ended = core.step(0, wheels).map_err(RunError::new_err)?;
+        let mut positions = Positions::default();
+        let ended = core
+            .step(0, wheels, Some(&mut positions))
+            .map_err(RunError::new_err)?;
         let obs = frame_array(py, &core.frames[0]);
         let info = PyDict::new(py);
+        positions.set_info(&info)?;
         let Some(ended) = ended else {
             return Ok((obs, 0.0, false, false, info));
         };
@@ -540,7 +652,7 @@ impl Core {
         };
         for (lane, &wheels) in actions.iter().enumerate() {
             if self.running(lane) {
-                if let Some(ended) = self.step(lane, wheels)? {
+                if let Some(ended) = self.step(lane, wheels, None)? {
                     step.rewards[lane] = f64::from(ended.outcome.fitness);
                     (step.terminated[lane], step.truncated[lane]) = end_flags(ended.outcome.ending);
                     step.ended.push(ended);
