@@ -334,7 +334,8 @@ class VectorEnv:
         self, seed: Union[int, Sequence[int], None] = None, options: Optional[Dict[str, Any]] = None
     ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]:
         """Starts an episode in every environment: `(observations (n_envs, 17), info)`, info
-        with `sample_seed` and `variant` arrays and their masks. `seed`: an int (environment i
+        with `sample_seed` and `variant` arrays and their masks, and the positions at the
+        start (see `step`). `seed`: an int (environment i
         seeded `seed + i`) or one seed per environment; no options."""
     def step(
         self, actions: npt.ArrayLike
@@ -349,7 +350,10 @@ class VectorEnv:
         `(observations, rewards, terminated, truncated, info)`. info: the outcome of each
         episode that ended (fitness, solved, collided, ending, stage, variant, cycles,
         sample_seed) and the `sample_seed` and `variant` of each that began, every key with
-        its mask (`_fitness`, ...); empty when none ended or began."""
+        its mask (`_fitness`, ...). In a scenario with a team, movers, boxes or items, also
+        every environment's positions: `Env`'s keys with a leading n_envs axis, every mask
+        set (where an episode ended or began, for one that did). Otherwise empty when none
+        ended or began."""
     @property
     def observation_names(self) -> List[str]: ...
     @property

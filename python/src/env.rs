@@ -10,10 +10,10 @@
 //! variant drawn from that seed, as `hevo.trace(controller, task, seed=...)` runs it; every
 //! info names the sample's seed, so any episode can be traced or evaluated again.
 //!
-//! Positions: `Env`'s info shows, after every reset and step, where everything besides the
+//! Positions: every info shows, after every reset and step, where everything besides the
 //! robot is (a team's other robots, movers, boxes, items), each key only in a scenario that
-//! has such bodies, so a single-robot task's info is as it was. `VectorEnv`'s info stays
-//! Gymnasium's per-episode facts (what ended or began); step an `Env` for the positions.
+//! has such bodies, so a single-robot task's info is as it was; `VectorEnv`'s with a leading
+//! environment axis and Gymnasium's masks.
 
 use crate::genomes::{Floats, float_array, floats_2d};
 use crate::task::Task;
@@ -22,8 +22,8 @@ use hevo_sim_core::{
     CycleItem, Ending, Episode, Evaluator, N_FLAT, Outcome, Pose, Sample, SensorFrame, WHEEL_RANGE,
     derive_seed,
 };
-use numpy::ndarray::{Array1, Array2};
-use numpy::{PyArray1, PyArray2};
+use numpy::ndarray::{Array1, Array2, ArrayD, IxDyn};
+use numpy::{PyArray1, PyArray2, PyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -110,48 +110,96 @@ impl Positions {
             items: episode.item_places(),
         }
     }
-
-    /// Sets info's position keys, each only for a scenario with such bodies: `team_poses`
-    /// (n, 3: x, y, heading), `mover_positions`, `box_positions`, `item_positions` (n, 2: x,
-    /// y), and with the items `item_carried` and `item_delivered` (n,); float64 and bool.
-    fn set_info(&self, info: &Bound<'_, PyDict>) -> PyResult<()> {
-        let py = info.py();
-        if !self.team.is_empty() {
-            let poses = self.team.iter().map(|pose| [pose.x, pose.y, pose.heading]);
-            info.set_item("team_poses", rows(py, poses)?)?;
-        }
-        for (key, centres) in [
-            ("mover_positions", &self.movers),
-            ("box_positions", &self.boxes),
-        ] {
-            if !centres.is_empty() {
-                info.set_item(key, rows(py, centres.iter().copied())?)?;
-            }
-        }
-        if !self.items.is_empty() {
-            let items = &self.items;
-            info.set_item(
-                "item_positions",
-                rows(py, items.iter().map(|item| item.at))?,
-            )?;
-            let carried = items.iter().map(|item| item.carried).collect();
-            info.set_item("item_carried", PyArray1::from_vec(py, carried))?;
-            let delivered = items.iter().map(|item| item.delivered).collect();
-            info.set_item("item_delivered", PyArray1::from_vec(py, delivered))?;
-        }
-        Ok(())
-    }
 }
 
-/// `values`, one row each, as a float64 array of shape `(rows, N)`.
-fn rows<'py, const N: usize>(
+/// Sets info's position keys from each lane's positions (`lanes`; all of one scenario, so of
+/// one size), each key only for a scenario with such bodies: `team_poses` (n, 3: x, y,
+/// heading), `mover_positions`, `box_positions`, `item_positions` (n, 2: x, y), and with the
+/// items `item_carried` and `item_delivered` (n,); float64 and bool. `batched` (`VectorEnv`)
+/// puts a leading lane axis on each and adds its mask (`_team_poses`, ..., every lane set);
+/// else `lanes` is the one environment's.
+fn set_positions_info(
+    info: &Bound<'_, PyDict>,
+    lanes: &[Positions],
+    batched: bool,
+) -> PyResult<()> {
+    let Some(first) = lanes.first() else {
+        return Ok(());
+    };
+    let py = info.py();
+    let set = |key: &str, array: Bound<'_, PyAny>| -> PyResult<()> {
+        info.set_item(key, array)?;
+        if batched {
+            info.set_item(
+                format!("_{key}"),
+                PyArray1::from_vec(py, vec![true; lanes.len()]),
+            )?;
+        }
+        Ok(())
+    };
+    // `(lanes, n, ...row)` batched, else `(n, ...row)`.
+    let shape = |n: usize, row: &[usize]| -> Vec<usize> {
+        let lead = if batched {
+            vec![lanes.len(), n]
+        } else {
+            vec![n]
+        };
+        lead.into_iter().chain(row.iter().copied()).collect()
+    };
+    if !first.team.is_empty() {
+        let flat: Vec<f64> = lanes
+            .iter()
+            .flat_map(|lane| &lane.team)
+            .flat_map(|pose| [pose.x, pose.y, pose.heading].map(f64::from))
+            .collect();
+        set(
+            "team_poses",
+            shaped(py, &shape(first.team.len(), &[3]), flat)?,
+        )?;
+    }
+    let centres = |pick: fn(&Positions) -> &Vec<[f32; 2]>| -> Vec<f64> {
+        lanes
+            .iter()
+            .flat_map(pick)
+            .flat_map(|centre| centre.map(f64::from))
+            .collect()
+    };
+    if !first.movers.is_empty() {
+        let flat = centres(|lane| &lane.movers);
+        set(
+            "mover_positions",
+            shaped(py, &shape(first.movers.len(), &[2]), flat)?,
+        )?;
+    }
+    if !first.boxes.is_empty() {
+        let flat = centres(|lane| &lane.boxes);
+        set(
+            "box_positions",
+            shaped(py, &shape(first.boxes.len(), &[2]), flat)?,
+        )?;
+    }
+    if !first.items.is_empty() {
+        let n = first.items.len();
+        let items = || lanes.iter().flat_map(|lane| &lane.items);
+        let flat: Vec<f64> = items().flat_map(|item| item.at.map(f64::from)).collect();
+        set("item_positions", shaped(py, &shape(n, &[2]), flat)?)?;
+        let carried: Vec<bool> = items().map(|item| item.carried).collect();
+        set("item_carried", shaped(py, &shape(n, &[]), carried)?)?;
+        let delivered: Vec<bool> = items().map(|item| item.delivered).collect();
+        set("item_delivered", shaped(py, &shape(n, &[]), delivered)?)?;
+    }
+    Ok(())
+}
+
+/// `flat` as a numpy array of `shape`.
+fn shaped<'py, T: numpy::Element>(
     py: Python<'py>,
-    values: impl Iterator<Item = [f32; N]>,
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let flat: Vec<f64> = values.flat_map(|row| row.map(f64::from)).collect();
-    let array = Array2::from_shape_vec((flat.len() / N, N), flat)
+    shape: &[usize],
+    flat: Vec<T>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let array = ArrayD::from_shape_vec(IxDyn(shape), flat)
         .map_err(|error| RunError::new_err(format!("internal: positions' shape: {error}")))?;
-    Ok(PyArray2::from_owned_array(py, array))
+    Ok(PyArrayDyn::from_owned_array(py, array).into_any())
 }
 
 /// The environments' state: the evaluator, one episode per lane, and each lane's seeds and
@@ -547,7 +595,7 @@ impl Env {
             .as_ref()
             .map_or(0, Episode::variant);
         info.set_item("variant", variant)?;
-        core.positions(0).set_info(&info)?;
+        set_positions_info(&info, &[core.positions(0)], false)?;
         Ok((frame_array(py, &core.frames[0]), info))
     }
 
@@ -577,7 +625,7 @@ impl Env {
             .map_err(RunError::new_err)?;
         let obs = frame_array(py, &core.frames[0]);
         let info = PyDict::new(py);
-        positions.set_info(&info)?;
+        set_positions_info(&info, &[positions], false)?;
         let Some(ended) = ended else {
             return Ok((obs, 0.0, false, false, info));
         };
@@ -635,6 +683,8 @@ struct VectorStep {
     ended: Vec<Ended>,
     /// Lanes that began an episode in this step (autoreset), with its sample and variant.
     started: Vec<(usize, Sample, u32)>,
+    /// Each lane's positions after the step (where its episode ended, or began).
+    positions: Vec<Positions>,
 }
 
 impl Core {
@@ -649,10 +699,14 @@ impl Core {
             truncated: vec![false; n_lanes],
             ended: Vec::new(),
             started: Vec::new(),
+            positions: Vec::with_capacity(n_lanes),
         };
         for (lane, &wheels) in actions.iter().enumerate() {
             if self.running(lane) {
-                if let Some(ended) = self.step(lane, wheels, None)? {
+                let mut positions = Positions::default();
+                let ended = self.step(lane, wheels, Some(&mut positions))?;
+                step.positions.push(positions);
+                if let Some(ended) = ended {
                     step.rewards[lane] = f64::from(ended.outcome.fitness);
                     (step.terminated[lane], step.truncated[lane]) = end_flags(ended.outcome.ending);
                     step.ended.push(ended);
@@ -663,6 +717,7 @@ impl Core {
                     .as_ref()
                     .map_or(0, Episode::variant);
                 step.started.push((lane, sample, variant));
+                step.positions.push(self.positions(lane));
             }
             step.obs.extend_from_slice(&self.frames[lane].inputs);
         }
@@ -759,7 +814,8 @@ impl VectorEnv {
     /// Starts an episode in every environment: `(observations, info)`. `seed` (an int: seed
     /// `seed + i` for environment i; or a list of `n_envs` seeds) restarts the episodes from
     /// those seeds; without it, each environment's next episode. info: `sample_seed` (uint64)
-    /// and `variant` (uint32), `(n_envs,)` each, with their masks `_sample_seed`, `_variant`.
+    /// and `variant` (uint32), `(n_envs,)` each, with their masks `_sample_seed`, `_variant`,
+    /// and the positions at the start (see `step`).
     #[pyo3(signature = (seed=None, options=None))]
     fn reset<'py>(
         &self,
@@ -813,6 +869,10 @@ impl VectorEnv {
             .map_err(|error| RunError::new_err(format!("internal: observation shape: {error}")))?;
         let info = PyDict::new(py);
         started_info(&info, self.num_envs, &started)?;
+        let positions: Vec<Positions> = (0..self.num_envs)
+            .map(|lane| core.positions(lane))
+            .collect();
+        set_positions_info(&info, &positions, true)?;
         Ok((PyArray2::from_owned_array(py, obs), info))
     }
 
@@ -821,7 +881,10 @@ impl VectorEnv {
     /// environments whose episode ended in this step, its outcome (`fitness`, `solved`,
     /// `collided`, `ending`, `stage`, `variant`, `cycles`, `sample_seed`), and for those that
     /// began one (autoreset), its `sample_seed` and `variant`; each key with its mask
-    /// (`_fitness`, ...), as Gymnasium's vector environments give infos. Empty when nothing
+    /// (`_fitness`, ...), as Gymnasium's vector environments give infos. In a scenario with a
+    /// team, movers, boxes or items, every info also holds each environment's positions (as
+    /// `Env`'s, with a leading `n_envs` axis, every mask set: where an episode ended, for one
+    /// that ended; where it began, for one that began); otherwise it is empty when nothing
     /// ended or began.
     #[allow(clippy::type_complexity)]
     fn step<'py>(
@@ -854,6 +917,7 @@ impl VectorEnv {
         } else if !step.started.is_empty() {
             started_info(&info, self.num_envs, &step.started)?;
         }
+        set_positions_info(&info, &step.positions, true)?;
         Ok((
             PyArray2::from_owned_array(py, obs),
             PyArray1::from_owned_array(py, Array1::from_vec(step.rewards)),

@@ -4,7 +4,8 @@ the movers, the boxes and the items are. Each shipped swarm scenario runs here w
 evolved copies); an episode driven with a controller's traced outputs must show, cycle by
 cycle, what the trace of the same sample recorded (`trace.poses`, and the `mover[i]_x`,
 `box[i]_x`, `item[i]_x`, ... columns of `trace.to_json()`), and at the end where everything
-ended. A scenario without such bodies has none of the keys."""
+ended. `VectorEnv`'s positions are its single environments', lane by lane. A scenario
+without such bodies has none of the keys."""
 
 import json
 
@@ -125,3 +126,26 @@ def test_info_has_no_positions_without_such_bodies(name):
     assert POSITION_KEYS.isdisjoint(info)
     _, _, _, _, info = env.step([0.5, 0.5])
     assert info == {}
+
+
+def test_a_vector_envs_positions_are_its_single_envs(repo, tmp_path):
+    task = wandering(repo, tmp_path, "foraging")
+    vector = hevo.VectorEnv(task, 2, seed=5)
+    singles = [hevo.Env(task, seed=5 + i) for i in range(2)]
+    keys = ["team_poses", "item_positions", "item_carried", "item_delivered"]
+    _, info = vector.reset()
+    single_infos = [env.reset()[1] for env in singles]
+    rng = np.random.default_rng(1)
+    for step in range(40):
+        for key in keys:
+            assert info[f"_{key}"].all(), key
+            assert info[key].shape[0] == 2
+            for i, single in enumerate(single_infos):
+                np.testing.assert_array_equal(info[key][i], single[key], f"{key}, step {step}")
+        assert "mover_positions" not in info
+        actions = rng.uniform(0, 1, (2, 2))
+        _, _, terminated, truncated, info = vector.step(actions)
+        single_infos = [env.step(action)[4] for env, action in zip(singles, actions)]
+        assert not (terminated.any() or truncated.any())
+    # The team moved: the positions are the cycle's, not the start's again.
+    assert not np.array_equal(info["team_poses"], vector.reset(seed=5)[1]["team_poses"])
