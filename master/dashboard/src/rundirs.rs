@@ -81,8 +81,10 @@ pub fn node_names(out_dir: &Path) -> Vec<String> {
     names
 }
 
-/// A finished node's best controller, replayed on `task` (or, without one, on the paper's
-/// settings of the task its summary names). `None` while the node runs.
+/// A finished node's best controller, replayed on `task`; without one, on the task the node
+/// recorded (`<node>/task.json`), else, for a run directory written before nodes recorded
+/// their task, on the paper's settings of the shipped task its summary names. `None` while
+/// the node runs.
 pub fn read_best(
     out_dir: &Path,
     node: &str,
@@ -101,16 +103,27 @@ pub fn read_best(
         .map_err(|e| SourceError::Failed(format!("{}: {e}", best_path.display())))?;
     let task = match task {
         Some(task) => task,
-        None => {
-            TaskConfig::shipped(&summary.task).ok_or_else(|| {
-                SourceError::Failed(format!(
-                    "node {node}: task {} is not a shipped scenario, and the run directory does not say its settings",
-                    summary.task
-                ))
-            })?
-        }
+        None => recorded_task(&node_dir, node, &summary.task)?,
     };
     Ok(Some(BestController { file, task }))
+}
+
+/// The task a node recorded, or the shipped task its summary names; else an error naming the
+/// missing file.
+fn recorded_task(node_dir: &Path, node: &str, task_name: &str) -> Result<TaskConfig, SourceError> {
+    let task_path = node_dir.join(rundir::TASK);
+    match read_json::<TaskConfig>(&task_path) {
+        Ok(Some(task)) => Ok(task),
+        Ok(None) => TaskConfig::shipped(task_name).ok_or_else(|| {
+            SourceError::Failed(format!(
+                "node {node}: task {task_name} is not a shipped scenario, and {} is missing \
+                 (run directories written before nodes recorded their task lack it; \
+                 `hevo run` of the experiment with this --out writes it without evolving again)",
+                task_path.display()
+            ))
+        }),
+        Err(error) => Err(SourceError::Failed(error.to_string())),
+    }
 }
 
 /// A fingerprint of what the pages show of a run directory: the size and modification time of
@@ -385,6 +398,77 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!(best.task.name(), "turn_left");
+    }
+
+    /// Runs a one-generation experiment on a copy of the phototaxis scenario file, which is no
+    /// shipped scenario, through local mode as `hevo run` does; returns the output directory.
+    fn run_scenario_file(dir: &Path) -> PathBuf {
+        use hevo_engine::local::{local_dispatcher, run_local};
+        use hevo_engine::runner::{Overrides, Progress, ProgressEvent, RunSettings};
+        struct Quiet;
+        impl Progress for Quiet {
+            fn event(&self, _: &ProgressEvent) {}
+        }
+        std::fs::write(
+            dir.join("beacon.toml"),
+            include_str!("../../../scenarios/examples/phototaxis.toml"),
+        )
+        .unwrap();
+        let experiment_path = dir.join("beacon-run.toml");
+        let text = r#"
+[experiment]
+name = "beacon"
+seed = 5
+
+[evolution]
+population = 4
+elites = 1
+post_evaluation_samples = 1
+
+[[node]]
+name = "beacon"
+kind = "primitive"
+inputs = ["ir", "light"]
+hidden = 1
+scenario = "beacon.toml"
+samples = 1
+cycles = 30
+generations = 1
+runs = 1
+"#;
+        let experiment = hevo_engine::Experiment::parse(text, &experiment_path).unwrap();
+        let settings = RunSettings {
+            out_dir: dir.join("out"),
+            overrides: Overrides::default(),
+            job: "beacon".into(),
+        };
+        run_local(local_dispatcher(1), 1, async |dispatcher| {
+            hevo_engine::run_experiment(&experiment, &settings, dispatcher, &Quiet).await
+        })
+        .unwrap()
+        .unwrap();
+        settings.out_dir
+    }
+
+    #[test]
+    fn a_local_run_of_a_scenario_file_replays_on_its_recorded_task() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = run_scenario_file(dir.path());
+        let source = RunDirSource::new(std::slice::from_ref(&out)).unwrap();
+        let job = &source.jobs()[0];
+        let best = source.best_controller(&job.id, "beacon").unwrap().unwrap();
+        assert_eq!(best.task.name(), "phototaxis");
+        assert!(TaskConfig::shipped(best.task.name()).is_none());
+        let figures = crate::replay::replays("beacon", &best, 1).unwrap();
+        assert!(!figures.is_empty());
+
+        // Without the file, as run directories written before it were: the error names it.
+        std::fs::remove_file(out.join("beacon").join(rundir::TASK)).unwrap();
+        let error = source
+            .best_controller(&job.id, "beacon")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("task.json"), "{error}");
     }
 
     #[test]

@@ -13,8 +13,8 @@ use crate::dispatch::{DispatchError, Dispatcher, EvaluationRequest, RequestShare
 use crate::experiment::{Experiment, NodePlan};
 use crate::post_evaluation;
 use crate::rundir::{
-    self, BEST, CHECKPOINT, CHECKPOINT_FORMAT, Checkpoint, FITNESS_CSV, FitnessRow, NodeSummary,
-    RunSummary, SUMMARY, parse_checkpoint, run_dir,
+    self, BEST, CHECKPOINT, CHECKPOINT_FORMAT, Checkpoint, CheckpointHeader, FITNESS_CSV,
+    FitnessRow, NodeSummary, RunSummary, SUMMARY, TASK, parse_checkpoint, run_dir,
 };
 use crate::store::{
     read_json, read_json_with, remove_leftover_temporaries, write_atomic, write_json_atomic,
@@ -24,9 +24,9 @@ use hevo_evolve::{Evaluation, seeds};
 use hevo_rundir::archive::{
     ARCHIVE_FORMAT, ARCHIVE_JSON, ArchiveElite, ArchiveFile, QD_CSV, QdRow, qd_csv,
 };
-use hevo_sim_core::task_content_hash;
 use hevo_sim_core::{ControllerFile, NodeSpec};
 use hevo_sim_core::{Sample, SampleSummary};
+use hevo_sim_core::{TaskConfig, task_content_hash};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -219,6 +219,17 @@ pub enum RunError {
         found: String,
         /// Expected.
         expected: String,
+    },
+    /// The node's recorded task is not the one being run.
+    #[error(
+        "{path} records another task than this node's (the scenario, its controller files or the task settings changed). \
+         Use another --out directory, or delete {node_dir} to start the node again."
+    )]
+    TaskChanged {
+        /// The node's task file.
+        path: PathBuf,
+        /// The node's directory.
+        node_dir: PathBuf,
     },
     /// A result file exists but cannot be read.
     #[error(transparent)]
@@ -422,6 +433,7 @@ async fn run_node(
     let template = node_template(plan, &settings.out_dir)?;
     let fingerprint_for = |generations| fingerprint(plan, &template, seed, generations);
     let fingerprint = fingerprint_for(generations);
+    let recorded_task = read_recorded_task(&node_dir, &plan.task)?;
 
     // A finished node is reused when it has at least the runs asked for: finished runs are
     // never thrown away, and throwing them away would change the node's best controller under
@@ -463,6 +475,11 @@ async fn run_node(
             run_summaries.extend(unlisted);
             return summarize_node(plan, &node_dir, fingerprint, run_summaries, progress);
         }
+        if !recorded_task {
+            // Finished before nodes recorded their task: its fingerprint, which holds the
+            // task's hash, just matched, so this is the task it was evolved on.
+            write_task(&node_dir, &plan.task)?;
+        }
         progress.event(&ProgressEvent::Note {
             message: format!(
                 "{name}: already finished, {} runs (skipped)",
@@ -470,6 +487,12 @@ async fn run_node(
             ),
         });
         return Ok(summary);
+    }
+    if !recorded_task {
+        // Only over results of this setup: a task file written beside another setup's results
+        // (refused below) would name the wrong task for them.
+        check_first_run_fingerprint(&node_dir, &fingerprint)?;
+        write_task(&node_dir, &plan.task)?;
     }
     progress.event(&ProgressEvent::NodeStarted {
         node: name.clone(),
@@ -498,6 +521,42 @@ async fn run_node(
     }
 
     summarize_node(plan, &node_dir, fingerprint, run_summaries, progress)
+}
+
+/// Whether the node directory records its task ([`TASK`]); a recorded task other than `task`
+/// (by content hash) is refused, as a changed fingerprint is.
+fn read_recorded_task(node_dir: &Path, task: &TaskConfig) -> Result<bool, RunError> {
+    let path = node_dir.join(TASK);
+    match read_json::<TaskConfig>(&path)? {
+        None => Ok(false),
+        Some(found) if task_content_hash(&found) == task_content_hash(task) => Ok(true),
+        Some(_) => Err(RunError::TaskChanged {
+            path,
+            node_dir: node_dir.to_path_buf(),
+        }),
+    }
+}
+
+/// Records the node's task ([`TASK`]) atomically, as the other run-directory files are.
+fn write_task(node_dir: &Path, task: &TaskConfig) -> Result<(), RunError> {
+    let path = node_dir.join(TASK);
+    write_json_atomic(&path, task).map_err(|e| io_error(&path, e))
+}
+
+/// Refuses a node whose first run holds another setup's summary or checkpoint: the check
+/// `run_one` makes, made before the node's task is recorded beside them. Runs are evolved in
+/// order, so a node with results has a first run.
+fn check_first_run_fingerprint(node_dir: &Path, fingerprint: &str) -> Result<(), RunError> {
+    let first = run_dir(node_dir, 0);
+    let summary_path = first.join(SUMMARY);
+    if let Some(found) = read_json::<RunSummary>(&summary_path)? {
+        return check_fingerprint(&summary_path, &found.fingerprint, fingerprint);
+    }
+    let checkpoint_path = first.join(CHECKPOINT);
+    if let Some(found) = read_json::<CheckpointHeader>(&checkpoint_path)? {
+        return check_fingerprint(&checkpoint_path, &found.fingerprint, fingerprint);
+    }
+    Ok(())
 }
 
 /// Refuses a file written under another setup than the one being run: resuming or reusing it

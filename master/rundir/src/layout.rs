@@ -5,6 +5,7 @@
 //! ```text
 //! <out>/<node>/best.json            the node's chosen controller (its best run's)
 //! <out>/<node>/summary.json         NodeSummary: every run's post-evaluation, the best run
+//! <out>/<node>/task.json            the task the node is evolved on (TaskConfig's wire form)
 //! <out>/<node>/run-<k>/fitness.csv  one FitnessRow per generation
 //! <out>/<node>/run-<k>/checkpoint.json   the runner's checkpoint, while the run is in progress
 //! <out>/<node>/run-<k>/best.json    the run's best controller
@@ -22,6 +23,11 @@ use std::path::{Path, PathBuf};
 pub const BEST: &str = "best.json";
 /// A node's [`NodeSummary`] or a run's [`RunSummary`].
 pub const SUMMARY: &str = "summary.json";
+/// A node's task: `hevo_sim_core::TaskConfig` in its wire form (the scenario's text and the
+/// controller files its groups run, or a paper task's name, with every number in force),
+/// written when the node starts, so a replay needs neither the experiment nor its files.
+/// Run directories written before it existed lack it.
+pub const TASK: &str = "task.json";
 /// A run's checkpoint (the runner's format; [`CheckpointHeader`] is its head); removed once
 /// the run is finished.
 pub const CHECKPOINT: &str = "checkpoint.json";
@@ -36,7 +42,7 @@ pub const QD_CSV: &str = "qd.csv";
 /// archive's two only for MAP-Elites runs).
 pub const FINISHED_RUN_FILES: [&str; 5] = [FITNESS_CSV, BEST, SUMMARY, ARCHIVE_JSON, QD_CSV];
 /// The files a finished node keeps beside its runs.
-pub const FINISHED_NODE_FILES: [&str; 2] = [BEST, SUMMARY];
+pub const FINISHED_NODE_FILES: [&str; 3] = [BEST, SUMMARY, TASK];
 
 /// The directory of a node under a run output directory.
 pub fn node_dir(out_dir: &Path, node: &str) -> PathBuf {
