@@ -154,7 +154,7 @@ mod tests {
 
     use super::*;
     use crate::experiment::Experiment;
-    use crate::rundir::{BEST, FITNESS_CSV, SUMMARY, run_dir};
+    use crate::rundir::{BEST, FITNESS_CSV, SUMMARY, TASK, run_dir};
     use crate::runner::{Overrides, Progress, ProgressEvent, RunSettings, run_experiment};
 
     struct Quiet;
@@ -188,6 +188,64 @@ generations = 3
 runs = 1
 "#
         )
+    }
+
+    /// Runs `text` (an experiment) into `out`, as `hevo run --out` does.
+    fn run_into(text: &str, dir: &std::path::Path, out: &std::path::Path) -> Result<(), String> {
+        let experiment = Experiment::parse(text, &dir.join("tiny.toml")).unwrap();
+        let settings = RunSettings {
+            out_dir: out.to_path_buf(),
+            overrides: Overrides::default(),
+            job: "tiny".into(),
+        };
+        run_local(local_dispatcher(1), 1, async |dispatcher| {
+            run_experiment(&experiment, &settings, dispatcher, &Quiet).await
+        })
+        .unwrap()
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_node_records_its_task_and_a_changed_task_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let node = out.join("exit_room");
+        let experiment = tiny_experiment("population = 4\nelites = 1");
+        run_into(&experiment, dir.path(), &out).unwrap();
+        let recorded = std::fs::read_to_string(node.join(TASK)).unwrap();
+        let task = Experiment::parse(&experiment, &dir.path().join("tiny.toml"))
+            .unwrap()
+            .nodes[0]
+            .task
+            .clone();
+        let read: hevo_sim_core::TaskConfig = serde_json::from_str(&recorded).unwrap();
+        assert_eq!(read, task);
+
+        // A node finished before nodes recorded their task gains the file when run again,
+        // without evolving again.
+        let log = std::fs::read_to_string(run_dir(&node, 0).join(FITNESS_CSV)).unwrap();
+        std::fs::remove_file(node.join(TASK)).unwrap();
+        run_into(&experiment, dir.path(), &out).unwrap();
+        assert_eq!(std::fs::read_to_string(node.join(TASK)).unwrap(), recorded);
+        let log_after = std::fs::read_to_string(run_dir(&node, 0).join(FITNESS_CSV)).unwrap();
+        assert_eq!(log_after, log);
+
+        // Another task over the recorded one is refused, naming the file.
+        let changed = experiment.replace("cycles = 40", "cycles = 41");
+        let error = run_into(&changed, dir.path(), &out).unwrap_err();
+        assert!(error.contains("records another task"), "{error}");
+        assert!(
+            error.contains(&node.join(TASK).display().to_string()),
+            "{error}"
+        );
+
+        // Without the file, another setup is refused by its fingerprint before any file is
+        // written: the task file never names a task the node's results were not made on.
+        std::fs::remove_file(node.join(TASK)).unwrap();
+        let error = run_into(&changed, dir.path(), &out).unwrap_err();
+        assert!(error.contains("fingerprint"), "{error}");
+        assert!(!node.join(TASK).exists());
     }
 
     #[test]
