@@ -14,7 +14,7 @@ use hevo_sim_core::InputGroup;
 use hevo_sim_core::NamedRegion;
 use hevo_sim_core::Pose;
 use hevo_sim_core::RectKind;
-use hevo_sim_core::{Ending, ITEM_RADIUS, Trace};
+use hevo_sim_core::{CycleItem, Ending, ITEM_RADIUS, Trace};
 use std::collections::BTreeMap;
 
 /// One IR sensor's cone as `Evaluator::ir_cones` gives it: the sensor's position, the
@@ -1751,6 +1751,8 @@ fn draw_animation(
         num_with(ANIMATION_PAUSE_SECONDS, 3)
     );
     let team_begin = format!("{ANIMATION_ID}.begin");
+    // Under the robots, as the dashboard's slider draws them.
+    draw_animated_bodies(doc, trace, transform, seconds, &team_begin);
     for group in team {
         for member in group.members.clone() {
             let member_poses = team_member_poses(trace, member);
@@ -1809,30 +1811,15 @@ fn draw_animated_robot(
             .into_iter()
             .map(|d| -d)
             .collect();
-    let translate_values: Vec<String> = positions
-        .iter()
-        .map(|p| format!("{},{}", crate::svg::num(p[0]), crate::svg::num(p[1])))
-        .collect();
     let rotate_values: Vec<String> = rotations.iter().map(|r| crate::svg::num(*r)).collect();
     let duration = format!("{}s", num_with(seconds, 3));
-    doc.open(
-        Tag::new("g")
-            .class(marker.class)
-            .attr("transform", format!("translate({})", translate_values[0])),
-    );
-    let mut translate = Tag::new("animateTransform");
-    if let Some(id) = marker.id {
-        translate = translate.attr("id", id);
-    }
-    doc.leaf(
-        translate
-            .attr("attributeName", "transform")
-            .attr("type", "translate")
-            .attr("calcMode", "linear")
-            .attr("values", translate_values.join(";"))
-            .attr("dur", &duration)
-            .attr("begin", marker.begin)
-            .attr("fill", "freeze"),
+    open_moving_group(
+        doc,
+        marker.class,
+        &positions,
+        &duration,
+        marker.begin,
+        marker.id,
     );
     doc.open(Tag::new("g").attr("transform", format!("rotate({})", rotate_values[0])));
     doc.leaf(
@@ -1868,6 +1855,162 @@ fn draw_animated_robot(
     );
     doc.close();
     doc.close();
+}
+
+/// Opens a group of `class` that moves through `positions` (pixels, evenly spaced over
+/// `duration`) from `begin`, held at the last between loops: the shared shape of every animated
+/// marker. Its move has the id `id` when given. The caller draws the marker and closes it.
+fn open_moving_group(
+    doc: &mut SvgDocument,
+    class: &str,
+    positions: &[[f64; 2]],
+    duration: &str,
+    begin: &str,
+    id: Option<&str>,
+) {
+    let values: Vec<String> = positions
+        .iter()
+        .map(|p| format!("{},{}", crate::svg::num(p[0]), crate::svg::num(p[1])))
+        .collect();
+    doc.open(
+        Tag::new("g")
+            .class(class)
+            .attr("transform", format!("translate({})", values[0])),
+    );
+    let mut translate = Tag::new("animateTransform");
+    if let Some(id) = id {
+        translate = translate.attr("id", id);
+    }
+    doc.leaf(
+        translate
+            .attr("attributeName", "transform")
+            .attr("type", "translate")
+            .attr("calcMode", "linear")
+            .attr("values", values.join(";"))
+            .attr("dur", duration)
+            .attr("begin", begin)
+            .attr("fill", "freeze"),
+    );
+}
+
+/// An animated item's look in one cycle: on the floor, carried or delivered, as the letters
+/// `f`, `c` and `d` of the dashboard's tracks.
+fn item_look(carried: bool, delivered: bool) -> (&'static str, &'static str) {
+    match (carried, delivered) {
+        (_, true) => (DELIVERED_COLOUR, "none"),
+        (true, false) => (ITEM_COLOUR, "#000000"),
+        (false, false) => (ITEM_COLOUR, "none"),
+    }
+}
+
+/// The movers, boxes and items of a sample, each moving in step with the focal robot (one
+/// place per cycle and its end, over `seconds`, from `begin`) and looking as the dashboard's
+/// slider draws them: a mover a blue-grey diamond, a box a brown square, an item an orange
+/// disc, outlined black while carried and green once delivered. A body or item whose places
+/// are not all finite, or that a cycle lacks, is left out.
+fn draw_animated_bodies(
+    doc: &mut SvgDocument,
+    trace: &Trace,
+    transform: &SceneTransform,
+    seconds: f64,
+    begin: &str,
+) {
+    let duration = format!("{}s", num_with(seconds, 3));
+    let track = |places: Option<Vec<[f32; 2]>>| -> Option<Vec<[f64; 2]>> {
+        let places = places?;
+        places
+            .iter()
+            .all(|&p| finite(p))
+            .then(|| places.iter().map(|&p| transform.apply(p)).collect())
+    };
+    let body_places = |index: usize, end: [f32; 2]| {
+        trace
+            .cycles
+            .iter()
+            .map(|c| c.bodies.get(index).copied())
+            .chain(std::iter::once(Some(end)))
+            .collect::<Option<Vec<[f32; 2]>>>()
+    };
+    let bodies = trace
+        .movers
+        .iter()
+        .map(|m| ("animated-mover", MOVER_COLOUR, m.radius, m.end, 45.0))
+        .chain(
+            trace
+                .boxes
+                .iter()
+                .map(|b| ("animated-box", BOX_COLOUR, b.radius, b.end, 0.0)),
+        );
+    for (index, (class, colour, radius, end, turn)) in bodies.enumerate() {
+        let Some(positions) = track(body_places(index, end)) else {
+            continue;
+        };
+        if !radius.is_finite() {
+            continue;
+        }
+        let half = transform.length(f64::from(radius)).max(3.0);
+        open_moving_group(doc, class, &positions, &duration, begin, None);
+        doc.leaf(
+            Tag::new("rect")
+                .num("x", -half)
+                .num("y", -half)
+                .num("width", 2.0 * half)
+                .num("height", 2.0 * half)
+                .attr("transform", format!("rotate({turn})"))
+                .attr("fill", colour)
+                .attr("fill-opacity", "0.45")
+                .attr("stroke", colour)
+                .num("stroke-width", 2.0),
+        );
+        doc.close();
+    }
+    let item_radius = transform.length(f64::from(ITEM_RADIUS)).max(3.0);
+    for (index, item) in trace.items.iter().enumerate() {
+        let cycles: Option<Vec<CycleItem>> = trace
+            .cycles
+            .iter()
+            .map(|c| c.items.get(index).copied())
+            .collect();
+        let Some(cycles) = cycles else { continue };
+        let places = cycles.iter().map(|c| c.at).chain([item.end]).collect();
+        let Some(positions) = track(Some(places)) else {
+            continue;
+        };
+        let looks: Vec<(&str, &str)> = cycles
+            .iter()
+            .map(|c| item_look(c.carried, c.delivered))
+            .chain([item_look(item.carried, item.delivered)])
+            .collect();
+        open_moving_group(doc, "animated-item", &positions, &duration, begin, None);
+        let (fill, stroke) = looks[0];
+        doc.open(
+            Tag::new("circle")
+                .num("r", item_radius)
+                .attr("fill", fill)
+                .attr("stroke", stroke)
+                .num("stroke-width", 1.5),
+        );
+        // Its look changes only when it is picked up or delivered: one discrete animation per
+        // attribute, left out when the look never changes.
+        if looks.iter().any(|look| *look != looks[0]) {
+            for (attribute, values) in [
+                ("fill", looks.iter().map(|l| l.0).collect::<Vec<_>>()),
+                ("stroke", looks.iter().map(|l| l.1).collect()),
+            ] {
+                doc.leaf(
+                    Tag::new("animate")
+                        .attr("attributeName", attribute)
+                        .attr("calcMode", "discrete")
+                        .attr("values", values.join(";"))
+                        .attr("dur", &duration)
+                        .attr("begin", begin)
+                        .attr("fill", "freeze"),
+                );
+            }
+        }
+        doc.close();
+        doc.close();
+    }
 }
 
 /// One entry of the symbol key under the legend.
@@ -2966,6 +3109,130 @@ mod tests {
             .filter(|a| a.get("begin") == "replay-move.begin")
             .collect();
         assert_eq!(led.len(), animations.len() - 1);
+    }
+
+    /// The movers, boxes and items of an animated replay move in step with the focal robot, a
+    /// place per cycle and one for the end, and an item's look follows its state.
+    #[test]
+    fn an_animated_replay_moves_every_mover_box_and_item() {
+        let animated = ReplayOptions {
+            animate: true,
+            ..ReplayOptions::default()
+        };
+        for (text, class, count) in [
+            (
+                include_str!("../../../scenarios/swarm/crossing.toml"),
+                "animated-mover",
+                3,
+            ),
+            (
+                include_str!("../../../scenarios/swarm/box_pushing.toml"),
+                "animated-box",
+                4,
+            ),
+            (
+                include_str!("../../../scenarios/swarm/foraging.toml"),
+                "animated-item",
+                10,
+            ),
+        ] {
+            let (trace, evaluator) = swarm_trace(text, 1);
+            let (_, elements) = render(&trace, &evaluator, &animated);
+            assert_eq!(with_class(&elements, class).len(), count, "{class}");
+            let focal = elements
+                .iter()
+                .find(|e| e.attributes.get("id").map(String::as_str) == Some(ANIMATION_ID))
+                .unwrap();
+            // Each marker's group is followed by its move.
+            let moves: Vec<&Element> = elements
+                .windows(2)
+                .filter(|pair| pair[0].get("class") == class)
+                .map(|pair| &pair[1])
+                .collect();
+            assert_eq!(moves.len(), count, "{class}");
+            let attributes = scene_attributes(&elements);
+            let ends: Vec<[f32; 2]> = match class {
+                "animated-mover" => trace.movers.iter().map(|m| m.end).collect(),
+                "animated-box" => trace.boxes.iter().map(|b| b.end).collect(),
+                _ => trace.items.iter().map(|i| i.end).collect(),
+            };
+            for (moved, end) in moves.iter().zip(ends) {
+                assert_eq!(moved.name, "animateTransform", "{class}");
+                assert_eq!(moved.get("begin"), "replay-move.begin");
+                assert_eq!(moved.get("dur"), focal.get("dur"));
+                let values: Vec<&str> = moved.get("values").split(';').collect();
+                assert_eq!(values.len(), trace.cycles.len() + 1, "{class}");
+                let (x, y) = values.last().unwrap().split_once(',').unwrap();
+                let expected = expected_pixel(attributes, end);
+                assert!(
+                    (x.parse::<f64>().unwrap() - expected[0]).abs() < 0.01,
+                    "{class}"
+                );
+                assert!(
+                    (y.parse::<f64>().unwrap() - expected[1]).abs() < 0.01,
+                    "{class}"
+                );
+            }
+            // An item whose look changes gets a discrete animation of its fill and outline.
+            let changing = trace
+                .items
+                .iter()
+                .enumerate()
+                .filter(|(index, item)| {
+                    trace
+                        .cycles
+                        .iter()
+                        .map(|c| (c.items[*index].carried, c.items[*index].delivered))
+                        .chain([(item.carried, item.delivered)])
+                        .any(|state| state != (false, false))
+                })
+                .count();
+            let looks = elements.iter().filter(|e| e.name == "animate").count();
+            assert_eq!(looks, 2 * changing, "{class}");
+            // Without --animate, nothing moves.
+            let (_, still) = render(&trace, &evaluator, &ReplayOptions::default());
+            assert!(with_class(&still, class).is_empty(), "{class}");
+        }
+    }
+
+    /// An item picked up halfway through is outlined black from then on.
+    #[test]
+    fn an_animated_item_is_outlined_while_carried() {
+        let (mut trace, evaluator) =
+            swarm_trace(include_str!("../../../scenarios/swarm/foraging.toml"), 1);
+        for cycle in &mut trace.cycles {
+            for item in &mut cycle.items {
+                (item.carried, item.delivered) = (false, false);
+            }
+        }
+        for item in &mut trace.items {
+            (item.carried, item.delivered) = (false, false);
+        }
+        let half = trace.cycles.len() / 2;
+        for cycle in &mut trace.cycles[half..] {
+            cycle.items[0].carried = true;
+        }
+        trace.items[0].carried = true;
+        let animated = ReplayOptions {
+            animate: true,
+            ..ReplayOptions::default()
+        };
+        let (_, elements) = render(&trace, &evaluator, &animated);
+        let looks: Vec<&Element> = elements.iter().filter(|e| e.name == "animate").collect();
+        assert_eq!(looks.len(), 2);
+        let strokes: Vec<&str> = looks[1].get("values").split(';').collect();
+        assert_eq!(looks[1].get("attributeName"), "stroke");
+        assert_eq!(strokes.len(), trace.cycles.len() + 1);
+        assert!(strokes[..half].iter().all(|s| *s == "none"));
+        assert!(strokes[half..].iter().all(|s| *s == "#000000"));
+        assert!(looks[0].get("values").split(';').all(|f| f == ITEM_COLOUR));
+    }
+
+    #[test]
+    fn an_item_looks_as_the_dashboard_draws_it() {
+        assert_eq!(item_look(false, false), (ITEM_COLOUR, "none"));
+        assert_eq!(item_look(true, false), (ITEM_COLOUR, "#000000"));
+        assert_eq!(item_look(false, true), (DELIVERED_COLOUR, "none"));
     }
 
     #[test]
