@@ -459,6 +459,11 @@ async fn run_node(
     if let Some(summary) = read_json::<NodeSummary>(&summary_path)?
         && reusable(&summary)
     {
+        if !recorded_task {
+            // Finished before nodes recorded their task: its fingerprint, which holds the
+            // task's hash, just matched, so this is the task it was evolved on.
+            write_task(&node_dir, &plan.task)?;
+        }
         // A `--runs` extension stopped after some of its runs finished leaves finished runs the
         // summary does not list. They are results, and may hold the node's best controller, so
         // they are folded in before any parent composes from `best.json`.
@@ -474,11 +479,6 @@ async fn run_node(
             let mut run_summaries = summary.runs;
             run_summaries.extend(unlisted);
             return summarize_node(plan, &node_dir, fingerprint, run_summaries, progress);
-        }
-        if !recorded_task {
-            // Finished before nodes recorded their task: its fingerprint, which holds the
-            // task's hash, just matched, so this is the task it was evolved on.
-            write_task(&node_dir, &plan.task)?;
         }
         progress.event(&ProgressEvent::Note {
             message: format!(
