@@ -7,9 +7,9 @@
 
 use crate::BestController;
 use crate::html::escape;
-use hevo_sim_core::{Controller, CycleItem, ITEM_RADIUS, Trace};
+use hevo_sim_core::{Controller, Trace};
 use hevo_sim_core::{Evaluator, Pose, Sample};
-use hevo_viz::replay::SceneTransform;
+use hevo_viz::replay::{BodyKind, SceneTransform, body_paths};
 use hevo_viz::svg::num_with;
 use serde::Serialize;
 
@@ -33,18 +33,6 @@ pub struct ReplayFigure {
     pub radius: f64,
     /// How the sample ended, in words.
     pub ending: String,
-}
-
-/// What a [`BodyTrack`] follows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum BodyKind {
-    /// A mover (`[[movers]]`).
-    Mover,
-    /// A box robots push (`[[boxes]]`).
-    Box,
-    /// An item (`[[objects]]`).
-    Item,
 }
 
 /// One mover, box or item of a replay, as the page's script reads it (`data-bodies`).
@@ -138,59 +126,26 @@ fn picture_poses(transform: &SceneTransform, poses: impl Iterator<Item = Pose>) 
         .collect()
 }
 
-/// Each mover, box and item of `trace`, cycle by cycle and then where it ended, in picture
-/// coordinates. The cycles record the movers then the boxes (`bodies`) and the items (`items`)
-/// in the order of the trace's `movers`, `boxes` and `items`.
+/// Each mover, box and item of `trace` ([`body_paths`]), in picture coordinates.
 fn body_tracks(trace: &Trace, transform: &SceneTransform) -> Vec<BodyTrack> {
-    let n_movers = trace.movers.len();
-    let track = |kind, radius: f32, at: Vec<[f32; 2]>, states: String| BodyTrack {
-        kind,
-        radius: round2(transform.length(f64::from(radius))),
-        at: at
-            .into_iter()
-            .map(|point| transform.apply(point).map(round2))
-            .collect(),
-        states,
-    };
-    let recorded = |body: usize| trace.cycles.iter().filter_map(move |c| c.bodies.get(body));
-    let movers = trace.movers.iter().enumerate().map(|(idx, mover)| {
-        let at = recorded(idx).copied().chain([mover.end]).collect();
-        track(BodyKind::Mover, mover.radius, at, String::new())
-    });
-    let boxes = trace.boxes.iter().enumerate().map(|(idx, traced)| {
-        let at = recorded(n_movers + idx)
-            .copied()
-            .chain([traced.end])
-            .collect();
-        track(BodyKind::Box, traced.radius, at, String::new())
-    });
-    let items = trace.items.iter().enumerate().map(|(idx, traced)| {
-        let end = CycleItem {
-            at: traced.end,
-            carried: traced.carried,
-            delivered: traced.delivered,
-        };
-        let places: Vec<CycleItem> = trace
-            .cycles
-            .iter()
-            .filter_map(|c| c.items.get(idx))
-            .copied()
-            .chain([end])
-            .collect();
-        let states = places.iter().map(item_state_letter).collect();
-        let at = places.iter().map(|place| place.at).collect();
-        track(BodyKind::Item, ITEM_RADIUS, at, states)
-    });
-    movers
-        .chain(boxes)
-        .chain(items)
-        .filter(|track| track.at.iter().flatten().all(|v| v.is_finite()))
+    body_paths(trace)
+        .into_iter()
+        .map(|path| BodyTrack {
+            kind: path.kind,
+            radius: round2(transform.length(f64::from(path.radius))),
+            at: path
+                .places
+                .into_iter()
+                .map(|point| transform.apply(point).map(round2))
+                .collect(),
+            states: path.item_states.iter().map(item_state_letter).collect(),
+        })
         .collect()
 }
 
 /// An item's state as [`BodyTrack::states`] spells it.
-fn item_state_letter(place: &CycleItem) -> char {
-    match (place.carried, place.delivered) {
+fn item_state_letter(&(carried, delivered): &(bool, bool)) -> char {
+    match (carried, delivered) {
         (_, true) => 'd',
         (true, false) => 'c',
         (false, false) => 'f',

@@ -1903,11 +1903,86 @@ fn item_look(carried: bool, delivered: bool) -> (&'static str, &'static str) {
     }
 }
 
-/// The movers, boxes and items of a sample, each moving in step with the focal robot (one
-/// place per cycle and its end, over `seconds`, from `begin`) and looking as the dashboard's
-/// slider draws them: a mover a blue-grey diamond, a box a brown square, an item an orange
-/// disc, outlined black while carried and green once delivered. A body or item whose places
-/// are not all finite, or that a cycle lacks, is left out.
+/// What a [`BodyPath`] follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BodyKind {
+    /// A mover (`[[movers]]`).
+    Mover,
+    /// A box robots push (`[[boxes]]`).
+    Box,
+    /// An item (`[[objects]]`).
+    Item,
+}
+
+/// One mover, box or item of a trace: its centre at the start of each cycle and where it
+/// ended, in metres, and for an item its state at each of those.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyPath {
+    /// What it is.
+    pub kind: BodyKind,
+    /// Its radius, metres.
+    pub radius: f32,
+    /// Its centre at the start of each cycle, then at the end.
+    pub places: Vec<[f32; 2]>,
+    /// An item's `(carried, delivered)` at each place; empty for movers and boxes.
+    pub item_states: Vec<(bool, bool)>,
+}
+
+/// Every mover, then box, then item of `trace`, cycle by cycle and then where it ended: what
+/// an animated replay and the dashboard's slider move. A body that a cycle lacks, or whose
+/// places or radius are not all finite, is left out.
+pub fn body_paths(trace: &Trace) -> Vec<BodyPath> {
+    let bodies = trace
+        .movers
+        .iter()
+        .map(|m| (BodyKind::Mover, m.radius, m.end))
+        .chain(trace.boxes.iter().map(|b| (BodyKind::Box, b.radius, b.end)));
+    let movers_and_boxes = bodies
+        .enumerate()
+        .filter_map(|(index, (kind, radius, end))| {
+            let places = trace
+                .cycles
+                .iter()
+                .map(|c| c.bodies.get(index).copied())
+                .chain([Some(end)])
+                .collect::<Option<Vec<[f32; 2]>>>()?;
+            Some(BodyPath {
+                kind,
+                radius,
+                places,
+                item_states: Vec::new(),
+            })
+        });
+    let items = trace.items.iter().enumerate().filter_map(|(index, item)| {
+        let end = CycleItem {
+            at: item.end,
+            carried: item.carried,
+            delivered: item.delivered,
+        };
+        let cycles = trace
+            .cycles
+            .iter()
+            .map(|c| c.items.get(index).copied())
+            .chain([Some(end)])
+            .collect::<Option<Vec<CycleItem>>>()?;
+        Some(BodyPath {
+            kind: BodyKind::Item,
+            radius: ITEM_RADIUS,
+            places: cycles.iter().map(|c| c.at).collect(),
+            item_states: cycles.iter().map(|c| (c.carried, c.delivered)).collect(),
+        })
+    });
+    movers_and_boxes
+        .chain(items)
+        .filter(|path| path.radius.is_finite() && path.places.iter().all(|&p| finite(p)))
+        .collect()
+}
+
+/// The movers, boxes and items of a sample ([`body_paths`]), each moving in step with the
+/// focal robot (one place per cycle and its end, over `seconds`, from `begin`) and looking as
+/// the dashboard's slider draws them: a mover a blue-grey diamond, a box a brown square, an
+/// item an orange disc, outlined black while carried and green once delivered.
 fn draw_animated_bodies(
     doc: &mut SvgDocument,
     trace: &Trace,
@@ -1916,76 +1991,40 @@ fn draw_animated_bodies(
     begin: &str,
 ) {
     let duration = format!("{}s", num_with(seconds, 3));
-    let track = |places: Option<Vec<[f32; 2]>>| -> Option<Vec<[f64; 2]>> {
-        let places = places?;
-        places
-            .iter()
-            .all(|&p| finite(p))
-            .then(|| places.iter().map(|&p| transform.apply(p)).collect())
-    };
-    let body_places = |index: usize, end: [f32; 2]| {
-        trace
-            .cycles
-            .iter()
-            .map(|c| c.bodies.get(index).copied())
-            .chain(std::iter::once(Some(end)))
-            .collect::<Option<Vec<[f32; 2]>>>()
-    };
-    let bodies = trace
-        .movers
-        .iter()
-        .map(|m| ("animated-mover", MOVER_COLOUR, m.radius, m.end, 45.0))
-        .chain(
-            trace
-                .boxes
-                .iter()
-                .map(|b| ("animated-box", BOX_COLOUR, b.radius, b.end, 0.0)),
-        );
-    for (index, (class, colour, radius, end, turn)) in bodies.enumerate() {
-        let Some(positions) = track(body_places(index, end)) else {
-            continue;
+    for path in body_paths(trace) {
+        let positions: Vec<[f64; 2]> = path.places.iter().map(|&p| transform.apply(p)).collect();
+        let half = transform.length(f64::from(path.radius)).max(3.0);
+        let (class, colour, turn) = match path.kind {
+            BodyKind::Mover => ("animated-mover", MOVER_COLOUR, 45.0),
+            BodyKind::Box => ("animated-box", BOX_COLOUR, 0.0),
+            BodyKind::Item => ("animated-item", ITEM_COLOUR, 0.0),
         };
-        if !radius.is_finite() {
+        open_moving_group(doc, class, &positions, &duration, begin, None);
+        if path.kind != BodyKind::Item {
+            doc.leaf(
+                Tag::new("rect")
+                    .num("x", -half)
+                    .num("y", -half)
+                    .num("width", 2.0 * half)
+                    .num("height", 2.0 * half)
+                    .attr("transform", format!("rotate({turn})"))
+                    .attr("fill", colour)
+                    .attr("fill-opacity", "0.45")
+                    .attr("stroke", colour)
+                    .num("stroke-width", 2.0),
+            );
+            doc.close();
             continue;
         }
-        let half = transform.length(f64::from(radius)).max(3.0);
-        open_moving_group(doc, class, &positions, &duration, begin, None);
-        doc.leaf(
-            Tag::new("rect")
-                .num("x", -half)
-                .num("y", -half)
-                .num("width", 2.0 * half)
-                .num("height", 2.0 * half)
-                .attr("transform", format!("rotate({turn})"))
-                .attr("fill", colour)
-                .attr("fill-opacity", "0.45")
-                .attr("stroke", colour)
-                .num("stroke-width", 2.0),
-        );
-        doc.close();
-    }
-    let item_radius = transform.length(f64::from(ITEM_RADIUS)).max(3.0);
-    for (index, item) in trace.items.iter().enumerate() {
-        let cycles: Option<Vec<CycleItem>> = trace
-            .cycles
+        let looks: Vec<(&str, &str)> = path
+            .item_states
             .iter()
-            .map(|c| c.items.get(index).copied())
+            .map(|&(carried, delivered)| item_look(carried, delivered))
             .collect();
-        let Some(cycles) = cycles else { continue };
-        let places = cycles.iter().map(|c| c.at).chain([item.end]).collect();
-        let Some(positions) = track(Some(places)) else {
-            continue;
-        };
-        let looks: Vec<(&str, &str)> = cycles
-            .iter()
-            .map(|c| item_look(c.carried, c.delivered))
-            .chain([item_look(item.carried, item.delivered)])
-            .collect();
-        open_moving_group(doc, "animated-item", &positions, &duration, begin, None);
         let (fill, stroke) = looks[0];
         doc.open(
             Tag::new("circle")
-                .num("r", item_radius)
+                .num("r", half)
                 .attr("fill", fill)
                 .attr("stroke", stroke)
                 .num("stroke-width", 1.5),
